@@ -1,0 +1,23 @@
+# Helpers that keep every areomap target built the same way.
+
+# Compiler flags shared by all areomap code (libraries, apps, tests, benches).
+add_library(areomap_build_flags INTERFACE)
+target_compile_options(areomap_build_flags INTERFACE
+  -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wconversion -Wno-sign-conversion
+  $<$<BOOL:${AREOMAP_WERROR}>:-Werror>
+  $<$<BOOL:${AREOMAP_SANITIZE}>:-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined>)
+target_link_options(areomap_build_flags INTERFACE
+  $<$<BOOL:${AREOMAP_SANITIZE}>:-fsanitize=address,undefined>)
+
+# areomap_add_library(NAME <module> ALIAS <alias> SOURCES ... PUBLIC_LINK_LIBS ... PRIVATE_LINK_LIBS ...)
+# Creates a static library with public headers in <dir>/include, visible layering through
+# PUBLIC_LINK_LIBS (COLMAP_ADD_LIBRARY style).
+function(areomap_add_library)
+  cmake_parse_arguments(ARG "" "NAME;ALIAS" "SOURCES;PUBLIC_LINK_LIBS;PRIVATE_LINK_LIBS" ${ARGN})
+  add_library(${ARG_NAME} STATIC ${ARG_SOURCES})
+  add_library(${ARG_ALIAS} ALIAS ${ARG_NAME})
+  target_include_directories(${ARG_NAME} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+  target_link_libraries(${ARG_NAME}
+    PUBLIC ${ARG_PUBLIC_LINK_LIBS}
+    PRIVATE areomap_build_flags ${ARG_PRIVATE_LINK_LIBS})
+endfunction()

@@ -1,0 +1,13 @@
+// Progress reporting from libraries (which never print, STYLE.md #16).
+#pragma once
+
+#include <functional>
+#include <string_view>
+
+namespace areomap {
+
+// Called with the fraction done in [0, 1] and a short stage name. Return false to ask the
+// operation to stop early; it then throws areomap::Error("cancelled ...").
+using ProgressCallback = std::function<bool(double fraction, std::string_view stage)>;
+
+}  // namespace areomap
