@@ -83,6 +83,7 @@ CrsDescription DescribeSrs(const OGRSpatialReference& srs) {
   d.is_mars = (a >= kMarsMinRadius && a <= kMarsMaxRadius) ||
               Lower(d.ellipsoid_name).find("mars") != std::string::npos;
   d.is_projected = srs.IsProjected();
+  d.is_geocentric = srs.IsGeocentric();
   std::unique_ptr<OGRSpatialReference> geographic(srs.CloneGeogCS());
   if (geographic != nullptr) {
     d.latitude_type = IsPlanetocentric(*geographic, d.body) ? LatitudeType::kPlanetocentric
@@ -116,7 +117,8 @@ std::string GeographicCrsWkt(const Body& body) {
   if (body == Body::Mars2000()) return ExportWkt2(FromInputOrThrow("IAU_2015:49902", "CRS"));
   internal::EnsureGdalInitialized();
   OGRSpatialReference srs;
-  srs.SetGeogCS((body.name + " (planetographic)").c_str(), ("D_" + body.name).c_str(),
+  const std::string name = body.IsSphere() ? body.name : body.name + " (planetographic)";
+  srs.SetGeogCS(name.c_str(), ("D_" + body.name).c_str(),
                 body.name.c_str(), body.a, body.InverseFlattening(), "Reference_Meridian", 0.0);
   return ExportWkt2(srs);
 }

@@ -105,6 +105,7 @@ ProductGeometry ParseProductGeometry(const nlohmann::json& label, std::string_vi
       throw Error(std::string(source) + ": " + group +
                   ".ORIGIN_ROTATION_QUATERNION is not a unit quaternion");
     }
+    frame.label_quaternion_wxyz = {q[0], q[1], q[2], q[3]};
     frame.reference_from_frame =
         Rigid3d(rotation, Eigen::Vector3d(offset[0], offset[1], offset[2]));
     out.frames.push_back(std::move(frame));

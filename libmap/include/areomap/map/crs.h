@@ -36,6 +36,8 @@ struct CrsDescription {
   Body body;                       // Radii of the CRS's ellipsoid or sphere.
   bool is_mars = false;            // Radii within Mars's range (local radii included).
   bool is_projected = false;
+  bool is_geocentric = false;      // Cartesian body-fixed CRS.
+  bool IsGeographic() const { return !is_projected && !is_geocentric; }
   LatitudeType latitude_type = LatitudeType::kPlanetographic;
   LongitudeDirection longitude_direction = LongitudeDirection::kEast;
   std::string projection_method;   // Empty for a geographic CRS.

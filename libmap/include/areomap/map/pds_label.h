@@ -7,6 +7,7 @@
 // ROVER_COORDINATE_SYSTEM group referenced to SITE_FRAME is `site_from_rover`.
 #pragma once
 
+#include <array>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -36,7 +37,8 @@ struct CoordinateFrameLabel {
   std::string name;             // COORDINATE_SYSTEM_NAME, e.g. "ROVER_FRAME".
   std::string reference_frame;  // REFERENCE_COORD_SYSTEM_NAME, e.g. "SITE_FRAME".
   std::vector<int> index;       // COORDINATE_SYSTEM_INDEX (site, drive, ...), may be empty.
-  Rigid3d reference_from_frame;
+  std::array<double, 4> label_quaternion_wxyz{};  // As written in the label (not normalized).
+  Rigid3d reference_from_frame;                    // Normalized rotation + offset.
 };
 
 struct ProductGeometry {

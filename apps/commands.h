@@ -1,0 +1,15 @@
+// Registration of the subcommands on the CLI11 application. Each command parses its options
+// into the library's option structs and calls one library function.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include "cli_common.h"
+
+namespace areomap::cli {
+
+void AddInfoCommand(CLI::App& app, const GlobalOptions& global);
+void AddCoordsCommand(CLI::App& app, const GlobalOptions& global);
+void AddSampleCommand(CLI::App& app, const GlobalOptions& global);
+
+}  // namespace areomap::cli

@@ -1,0 +1,112 @@
+// areomap coords --from A --to B: converts points read one per line on stdin.
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+#include <string>
+
+#include "areomap/map/coordinate_system.h"
+#include "areomap/map/error.h"
+#include "commands.h"
+
+namespace areomap::cli {
+namespace {
+
+struct CoordsOptions {
+  std::string from;
+  std::string to;
+  std::string body = "mars2000";
+  std::string origin;  // "LAT,LON[,H]", planetocentric degrees and metres.
+};
+
+// Parses 2 or 3 numbers separated by blanks or commas; `#` starts a comment.
+Eigen::Vector3d ParseLine(const std::string& line) {
+  std::string cleaned = line.substr(0, line.find('#'));
+  for (char& c : cleaned) {
+    if (c == ',' || c == '\t') c = ' ';
+  }
+  std::istringstream in(cleaned);
+  std::vector<double> values;
+  std::string token;
+  while (in >> token) {
+    try {
+      size_t used = 0;
+      values.push_back(std::stod(token, &used));
+      if (used != token.size()) throw std::invalid_argument(token);
+    } catch (const std::exception&) {
+      throw Error("'" + token + "' is not a number");
+    }
+  }
+  if (values.size() < 2 || values.size() > 3) {
+    throw Error("expected 2 or 3 numbers, got " + std::to_string(values.size()));
+  }
+  return {values[0], values[1], values.size() == 3 ? values[2] : 0.0};
+}
+
+std::optional<Geographic> ParseOrigin(const std::string& text) {
+  if (text.empty()) return std::nullopt;
+  Eigen::Vector3d v;
+  try {
+    v = ParseLine(text);
+  } catch (const Error& e) {
+    throw Error("--origin '" + text + "': " + e.what() + ": expected LAT,LON[,H]");
+  }
+  if (std::abs(v.x()) > 90.0) {
+    throw Error("--origin latitude " + std::to_string(v.x()) + " is outside [-90, 90] degrees");
+  }
+  return Geographic{RadFromDeg(v.x()), RadFromDeg(v.y()), v.z()};
+}
+
+int RunCoords(const CoordsOptions& options) {
+  CoordinateSystemContext context;
+  context.body = Body::FromName(options.body);
+  context.origin = ParseOrigin(options.origin);
+  const CoordinateSystem from = CoordinateSystem::Parse(options.from, context);
+  const CoordinateSystem to = CoordinateSystem::Parse(options.to, context);
+  std::string line;
+  int line_number = 0;
+  int failures = 0;
+  while (std::getline(std::cin, line)) {
+    ++line_number;
+    if (line.find_first_not_of(" \t\r") == std::string::npos || line.front() == '#') continue;
+    try {
+      const Eigen::Vector3d out = to.FromMbf(from.ToMbf(ParseLine(line)));
+      std::printf("%.*f %.*f %.*f\n", to.Decimals(0), out.x(), to.Decimals(1), out.y(),
+                  to.Decimals(2), out.z());
+    } catch (const Error& e) {
+      ++failures;
+      std::printf("nan nan nan\n");
+      std::fprintf(stderr, "error: stdin line %d: %s\n", line_number, e.what());
+    }
+    std::fflush(stdout);
+  }
+  return failures == 0 ? 0 : 1;
+}
+
+}  // namespace
+
+void AddCoordsCommand(CLI::App& app, const GlobalOptions& /*global*/) {
+  auto options = std::make_shared<CoordsOptions>();
+  auto* cmd = app.add_subcommand(
+      "coords",
+      "Convert coordinates read one point per line on stdin (2 or 3 numbers per line).\n"
+      "Systems: mbf (X Y Z m) | planetocentric[,west][,360] (lat lon [h], deg, m above the "
+      "ellipsoid) | planetographic[,west][,360] | spherical (lat lon radius) | enu | site (MER "
+      "site frame: X north, Y east, Z down; need --origin) | raster:FILE (map x y [h]) | "
+      "pixel:FILE (col row [h], pixel centres at +0.5) | any CRS GDAL knows, e.g. "
+      "IAU_2015:49910 (x/lon first)");
+  cmd->add_option("--from", options->from, "Input coordinate system")->required();
+  cmd->add_option("--to", options->to, "Output coordinate system")->required();
+  cmd->add_option("--body", options->body,
+                  "Body of the geographic and local systems: mars2000 (IAU 2000 ellipsoid "
+                  "3396190/3376200 m), mars-sphere (3396190 m), mola-sphere (3396000 m)")
+      ->capture_default_str();
+  cmd->add_option("--origin", options->origin,
+                  "Origin of enu/site frames: LAT,LON[,H] in planetocentric degrees east, "
+                  "metres above the ellipsoid");
+  cmd->callback([options] {
+    const int status = RunCoords(*options);
+    if (status != 0) throw CLI::RuntimeError(status);
+  });
+}
+
+}  // namespace areomap::cli

@@ -1,0 +1,36 @@
+// areomap: Mars orbital-ground registration and mapping. One binary, one subcommand per job.
+#include <cstdio>
+#include <exception>
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+
+#include "areomap/map/error.h"
+#include "commands.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"areomap: register Mars rover data to orbital data and make maps from both"};
+  app.set_version_flag("--version", std::string("areomap ") + AREOMAP_VERSION);
+  app.require_subcommand(1);
+  areomap::cli::GlobalOptions global;
+  app.add_flag("--quiet", global.quiet, "No progress bar and no human summary");
+  areomap::cli::AddInfoCommand(app, global);
+  areomap::cli::AddCoordsCommand(app, global);
+  areomap::cli::AddSampleCommand(app, global);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::RuntimeError& e) {
+    return e.get_exit_code();  // The command reported its own failures (e.g. coords lines).
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
+    std::fprintf(stderr, "error: %s\nRun with --help for more information.\n", e.what());
+    return e.get_exit_code();
+  } catch (const areomap::Error& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: internal: %s\n", e.what());
+    return 2;
+  }
+  return 0;
+}

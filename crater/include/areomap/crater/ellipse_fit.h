@@ -1,0 +1,114 @@
+// Fitting ellipses to crater-rim edge points and measuring how well they fit.
+//
+// Points and results share one 2D frame: pixel coordinates of an image or map coordinates
+// [m] of a georeferenced raster (see ellipse.h); distances, residuals and their 1-sigma are
+// in that frame's unit, angles in radians.
+//
+// - FitEllipseDirect: Fitzgibbon's direct least-squares ellipse fit (cv::fitEllipseDirect),
+//   an algebraic fit that always returns an ellipse but is biased toward small ellipses on
+//   partial arcs. Use it to start RefineEllipseGeometric.
+// - RefineEllipseGeometric: orthogonal-distance (geometric) least squares with Ceres, the
+//   maximum-likelihood fit for isotropic edge noise, with 1-sigma from the covariance.
+// - EllipseFitSimilarity: the dissertation's quality figure (eq. 2.1); EdgeCoverage: how much
+//   of the rim the points cover.
+//
+// Per-fit failures (too few points, degenerate geometry, no convergence) are reported as
+// std::nullopt or a flag, never as an exception; only bad options throw areomap::Error.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "areomap/crater/ellipse.h"
+
+namespace areomap {
+
+// Direct least-squares ellipse fit of cv::fitEllipseDirect (Fitzgibbon, Pilu and Fisher
+// 1999). The points are centred and scaled to unit RMS radius before OpenCV sees them (it
+// works in float), so the result is accurate to about 1e-7 of the point spread wherever the
+// points lie. Non-finite points are ignored. nullopt for fewer than 5 finite points or a
+// degenerate result (collinear points, non-finite or non-positive axes, axis ratio > 1e6).
+std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& points);
+
+enum class RobustLoss {
+  kNone,    // plain least squares
+  kHuber,   // quadratic below loss_scale, linear above
+  kCauchy,  // log(1 + (r/loss_scale)^2): strong down-weighting of far outliers
+};
+
+struct GeometricFitOptions {
+  RobustLoss loss = RobustLoss::kHuber;
+  // Residual where the robust loss departs from least squares [point unit, px for image
+  // points]; about 2-3 times the edge noise (1 px suits sub-pixel Canny edges).
+  double loss_scale = 1.0;
+  int max_num_iterations = 100;      // Levenberg-Marquardt iterations (> 0)
+  double function_tolerance = 1e-12; // relative cost change that counts as converged (> 0)
+  double parameter_tolerance = 1e-12;  // relative step size that counts as converged (> 0)
+  bool compute_covariance = true;    // fill the summary's covariance and 1-sigma
+  int num_threads = 1;               // Ceres threads (> 0); 1 keeps runs reproducible
+
+  // Throws areomap::Error naming the first field that breaks its rule.
+  void Check() const;
+};
+
+struct EllipseFitSummary {
+  Ellipse ellipse;  // refined and Normalized(); the initial ellipse when the fit failed
+  int num_points = 0;      // finite points used
+  int num_iterations = 0;  // Ceres iterations
+  bool converged = false;  // Ceres reported convergence and the result is a valid ellipse
+  std::string message;     // why the fit stopped (Ceres' message or the failed precondition)
+
+  double initial_rms_residual = 0.0;  // RMS orthogonal distance of the initial ellipse
+  double rms_residual = 0.0;          // RMS orthogonal distance after the fit [point unit]
+  // A-posteriori standard deviation of unit weight: sqrt(2 * robust cost / (N - 5)); equals
+  // the RMS orthogonal residual (with N - 5 degrees of freedom) when no point is down-weighted.
+  double sigma0 = 0.0;
+
+  // Covariance of (center.x, center.y, semi_major, semi_minor, angle): Ceres' (J^T J)^-1 at
+  // the solution times sigma0^2. NaN where not computed. When the angle is unobservable (a
+  // circle within numerical precision) the other four come from a fit with the angle held,
+  // and the angle's variance is +inf.
+  Eigen::Matrix<double, 5, 5> covariance;
+  bool covariance_valid = false;
+  double center_x_sigma = 0.0;    // 1-sigma [point unit]
+  double center_y_sigma = 0.0;    // 1-sigma [point unit]
+  double semi_major_sigma = 0.0;  // 1-sigma [point unit]
+  double semi_minor_sigma = 0.0;  // 1-sigma [point unit]
+  double angle_sigma = 0.0;       // 1-sigma [rad]
+
+  // One line: points, convergence, iterations, RMS before/after, sigma0 and 1-sigma values.
+  std::string BriefReport() const;
+};
+
+// Orthogonal-distance least squares: minimises sum_k rho(d_k^2) over (center, a, b, angle),
+// where d_k is the exact orthogonal distance of point k to the current ellipse
+// (Ellipse::SignedDistance) and rho the chosen robust loss. The Jacobian is analytic (Ellipse::SignedDistanceGradient,
+// exact by the envelope theorem), so each point costs one distance solve per evaluation.
+// Needs >= 5 finite points (non-finite ones are ignored) and an initial ellipse with positive
+// finite axes, e.g. from FitEllipseDirect; otherwise returns converged = false, the initial
+// ellipse and a message. Throws areomap::Error only for invalid options.
+EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
+                                         const std::vector<Eigen::Vector2d>& points,
+                                         const GeometricFitOptions& options = {});
+
+// Ellipse-Fit-Similarity, eq. 2.1 of the dissertation (ch. 2.2.1):
+//   EFS = (1/N) sum_k Dis_k / R_avg,  Dis_k = |p_k - center|,  R_avg = (a + b) / 2.
+// It is exactly 1 for points on a circle fitted by that circle and close to 1 for a good fit
+// of a near-circular rim (Victoria crater: 0.9987). It is not bounded by 1: points outside
+// the ellipse push it above 1, and for an elongated ellipse even perfect points give a value
+// below 1 (the mean centre distance of points spread evenly in eccentric anomaly is smaller
+// than (a + b)/2). It measures radial agreement only; use rms_residual or EdgeCoverage for
+// shape and completeness. NaN for no points or an ellipse without positive axes.
+double EllipseFitSimilarity(const Ellipse& e, const std::vector<Eigen::Vector2d>& points);
+
+// Fraction in [0, 1] of `bins` equal sectors of eccentric anomaly around the ellipse
+// (ClosestParameter) that hold at least one point within max_distance [point unit] of the
+// curve: 1 for a complete rim, about 0.5 for a half arc. 0 for no points or an ellipse without
+// positive axes. Throws areomap::Error for bins < 1 or a negative or non-finite max_distance.
+double EdgeCoverage(const Ellipse& e, const std::vector<Eigen::Vector2d>& points,
+                    double max_distance, int bins = 36);
+
+}  // namespace areomap

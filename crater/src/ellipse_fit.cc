@@ -1,0 +1,327 @@
+#include "areomap/crater/ellipse_fit.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <memory>
+#include <numbers>
+#include <sstream>
+#include <utility>
+
+#include <ceres/ceres.h>
+#include <opencv2/imgproc.hpp>
+
+#include "areomap/map/error.h"
+
+namespace areomap {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Direct fits with a larger axis ratio, or a major axis this many times the point spread,
+// come from (nearly) collinear points.
+constexpr double kMaxAxisRatio = 1e6;
+
+bool HasPositiveAxes(const Ellipse& e) {
+  return e.center.allFinite() && std::isfinite(e.angle) && std::isfinite(e.semi_major) &&
+         std::isfinite(e.semi_minor) && e.semi_major > 0.0 && e.semi_minor > 0.0;
+}
+
+std::vector<Eigen::Vector2d> FinitePoints(const std::vector<Eigen::Vector2d>& points) {
+  std::vector<Eigen::Vector2d> finite;
+  finite.reserve(points.size());
+  for (const Eigen::Vector2d& p : points) {
+    if (p.allFinite()) finite.push_back(p);
+  }
+  return finite;
+}
+
+double RmsDistance(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
+  if (points.empty()) return kNaN;
+  double sum = 0.0;
+  for (const Eigen::Vector2d& p : points) {
+    const double d = e.SignedDistance(p);
+    sum += d * d;
+  }
+  return std::sqrt(sum / static_cast<double>(points.size()));
+}
+
+// Orthogonal distance of one point; parameters are (cx, cy, a, b) and (angle).
+class OrthogonalDistanceCost : public ceres::SizedCostFunction<1, 4, 1> {
+ public:
+  explicit OrthogonalDistanceCost(const Eigen::Vector2d& point) : point_(point) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    Ellipse e;
+    e.center = Eigen::Vector2d(parameters[0][0], parameters[0][1]);
+    e.semi_major = parameters[0][2];
+    e.semi_minor = parameters[0][3];
+    e.angle = parameters[1][0];
+    if (!HasPositiveAxes(e)) return false;  // Ceres rejects the step
+    residuals[0] = e.SignedDistance(point_);
+    if (!std::isfinite(residuals[0])) return false;
+    if (jacobians != nullptr) {
+      const Eigen::Matrix<double, 5, 1> gradient = e.SignedDistanceGradient(point_);
+      if (jacobians[0] != nullptr) {
+        for (int i = 0; i < 4; ++i) jacobians[0][i] = gradient(i);
+      }
+      if (jacobians[1] != nullptr) jacobians[1][0] = gradient(4);
+    }
+    return true;
+  }
+
+ private:
+  Eigen::Vector2d point_;
+};
+
+ceres::LossFunction* MakeLoss(const GeometricFitOptions& options) {
+  switch (options.loss) {
+    case RobustLoss::kNone:
+      return nullptr;
+    case RobustLoss::kHuber:
+      return new ceres::HuberLoss(options.loss_scale);
+    case RobustLoss::kCauchy:
+      return new ceres::CauchyLoss(options.loss_scale);
+  }
+  return nullptr;
+}
+
+// Fills summary->covariance (unscaled) from Ceres; false when even the 4-parameter
+// covariance is singular.
+bool ComputeCovariance(ceres::Problem* problem, double* shape, double* angle, int num_threads,
+                       Eigen::Matrix<double, 5, 5>* covariance) {
+  ceres::Covariance::Options cov_options;
+  cov_options.algorithm_type = ceres::DENSE_SVD;
+  cov_options.num_threads = num_threads;
+  covariance->setConstant(kNaN);
+  Eigen::Matrix<double, 4, 4, Eigen::RowMajor> shape_shape;
+  {
+    ceres::Covariance full(cov_options);
+    const std::vector<std::pair<const double*, const double*>> blocks = {
+        {shape, shape}, {shape, angle}, {angle, angle}};
+    if (full.Compute(blocks, problem)) {
+      Eigen::Matrix<double, 4, 1> shape_angle;
+      double angle_angle = kNaN;
+      full.GetCovarianceBlock(shape, shape, shape_shape.data());
+      full.GetCovarianceBlock(shape, angle, shape_angle.data());
+      full.GetCovarianceBlock(angle, angle, &angle_angle);
+      covariance->topLeftCorner<4, 4>() = shape_shape;
+      covariance->block<4, 1>(0, 4) = shape_angle;
+      covariance->block<1, 4>(4, 0) = shape_angle.transpose();
+      (*covariance)(4, 4) = angle_angle;
+      return true;
+    }
+  }
+  // The angle of a circle is unobservable: hold it and report the rest.
+  problem->SetParameterBlockConstant(angle);
+  ceres::Covariance reduced(cov_options);
+  const std::vector<std::pair<const double*, const double*>> blocks = {{shape, shape}};
+  if (!reduced.Compute(blocks, problem)) return false;
+  reduced.GetCovarianceBlock(shape, shape, shape_shape.data());
+  covariance->topLeftCorner<4, 4>() = shape_shape;
+  (*covariance)(4, 4) = kInf;
+  return true;
+}
+
+}  // namespace
+
+std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& points) {
+  const std::vector<Eigen::Vector2d> finite = FinitePoints(points);
+  if (finite.size() < 5) return std::nullopt;
+
+  // OpenCV takes float points: centre and scale them so float keeps ~7 significant digits
+  // of the shape whatever the coordinates' magnitude (map eastings reach 1e6 m).
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2d& p : finite) mean += p;
+  mean /= static_cast<double>(finite.size());
+  double spread = 0.0;
+  for (const Eigen::Vector2d& p : finite) spread += (p - mean).squaredNorm();
+  spread = std::sqrt(spread / static_cast<double>(finite.size()));
+  if (!(spread > 0.0) || !std::isfinite(spread)) return std::nullopt;
+
+  std::vector<cv::Point2f> scaled;
+  scaled.reserve(finite.size());
+  for (const Eigen::Vector2d& p : finite) {
+    const Eigen::Vector2d q = (p - mean) / spread;
+    scaled.emplace_back(static_cast<float>(q.x()), static_cast<float>(q.y()));
+  }
+  cv::RotatedRect box;
+  try {
+    box = cv::fitEllipseDirect(scaled);
+  } catch (const cv::Exception&) {
+    return std::nullopt;
+  }
+
+  // RotatedRect: full axes; `angle` [deg] turns the width axis from +x toward +y.
+  const double half_width = 0.5 * static_cast<double>(box.size.width);
+  const double half_height = 0.5 * static_cast<double>(box.size.height);
+  const double width_angle = static_cast<double>(box.angle) * std::numbers::pi / 180.0;
+  Ellipse e;
+  e.center = mean + spread * Eigen::Vector2d(box.center.x, box.center.y);
+  if (half_width >= half_height) {
+    e.semi_major = spread * half_width;
+    e.semi_minor = spread * half_height;
+    e.angle = WrapAxisAngle(width_angle);
+  } else {
+    e.semi_major = spread * half_height;
+    e.semi_minor = spread * half_width;
+    e.angle = WrapAxisAngle(width_angle + 0.5 * std::numbers::pi);
+  }
+  if (!e.IsValid() || e.semi_minor * kMaxAxisRatio < e.semi_major ||
+      e.semi_major > kMaxAxisRatio * spread) {
+    return std::nullopt;
+  }
+  return e;
+}
+
+void GeometricFitOptions::Check() const {
+  if (!(std::isfinite(loss_scale) && loss_scale > 0.0)) {
+    throw Error("GeometricFitOptions.loss_scale must be a positive finite distance, got " +
+                std::to_string(loss_scale));
+  }
+  if (max_num_iterations <= 0) {
+    throw Error("GeometricFitOptions.max_num_iterations must be > 0, got " +
+                std::to_string(max_num_iterations));
+  }
+  if (!(std::isfinite(function_tolerance) && function_tolerance > 0.0)) {
+    throw Error("GeometricFitOptions.function_tolerance must be > 0, got " +
+                std::to_string(function_tolerance));
+  }
+  if (!(std::isfinite(parameter_tolerance) && parameter_tolerance > 0.0)) {
+    throw Error("GeometricFitOptions.parameter_tolerance must be > 0, got " +
+                std::to_string(parameter_tolerance));
+  }
+  if (num_threads <= 0) {
+    throw Error("GeometricFitOptions.num_threads must be > 0, got " + std::to_string(num_threads));
+  }
+}
+
+std::string EllipseFitSummary::BriefReport() const {
+  std::ostringstream out;
+  out << std::setprecision(6) << "Ellipse fit: " << num_points << " points, "
+      << (converged ? "converged" : "NOT converged") << " after " << num_iterations
+      << " iterations; rms " << initial_rms_residual << " -> " << rms_residual
+      << ", sigma0 " << sigma0 << "; center (" << ellipse.center.x() << ", "
+      << ellipse.center.y() << ") +- (" << center_x_sigma << ", " << center_y_sigma
+      << "), a " << ellipse.semi_major << " +- " << semi_major_sigma << ", b "
+      << ellipse.semi_minor << " +- " << semi_minor_sigma << ", angle " << ellipse.angle
+      << " +- " << angle_sigma << " rad";
+  if (!converged && !message.empty()) out << " (" << message << ")";
+  return out.str();
+}
+
+EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
+                                         const std::vector<Eigen::Vector2d>& points,
+                                         const GeometricFitOptions& options) {
+  options.Check();
+  EllipseFitSummary summary;
+  summary.ellipse = initial;
+  summary.covariance.setConstant(kNaN);
+  summary.initial_rms_residual = kNaN;
+  summary.rms_residual = kNaN;
+  summary.sigma0 = kNaN;
+  summary.center_x_sigma = summary.center_y_sigma = kNaN;
+  summary.semi_major_sigma = summary.semi_minor_sigma = summary.angle_sigma = kNaN;
+
+  const std::vector<Eigen::Vector2d> finite = FinitePoints(points);
+  summary.num_points = static_cast<int>(finite.size());
+  if (!HasPositiveAxes(initial)) {
+    summary.message = "initial ellipse needs finite fields and positive axes";
+    return summary;
+  }
+  summary.initial_rms_residual = RmsDistance(initial, finite);
+  if (finite.size() < 5) {
+    summary.message = "need at least 5 finite points, got " + std::to_string(finite.size());
+    return summary;
+  }
+
+  double shape[4] = {initial.center.x(), initial.center.y(), initial.semi_major,
+                     initial.semi_minor};
+  double angle[1] = {initial.angle};
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  const std::unique_ptr<ceres::LossFunction> loss(MakeLoss(options));
+  for (const Eigen::Vector2d& p : finite) {
+    problem.AddResidualBlock(new OrthogonalDistanceCost(p), loss.get(), shape, angle);
+  }
+
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.max_num_iterations = options.max_num_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.parameter_tolerance = options.parameter_tolerance;
+  solver_options.num_threads = options.num_threads;
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
+  ceres::Solver::Summary ceres_summary;
+  ceres::Solve(solver_options, &problem, &ceres_summary);
+
+  Ellipse fitted;
+  fitted.center = Eigen::Vector2d(shape[0], shape[1]);
+  fitted.semi_major = shape[2];
+  fitted.semi_minor = shape[3];
+  fitted.angle = angle[0];
+  const bool swapped = fitted.semi_minor > fitted.semi_major;
+  fitted = fitted.Normalized();
+  summary.num_iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;
+  summary.message = ceres_summary.message;
+  if (!fitted.IsValid()) {
+    summary.message = "fit diverged to an invalid ellipse (" + ceres_summary.message + ")";
+    return summary;
+  }
+  summary.ellipse = fitted;
+  summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
+  summary.rms_residual = RmsDistance(fitted, finite);
+
+  const double dof = static_cast<double>(finite.size()) - 5.0;
+  if (dof > 0.0) summary.sigma0 = std::sqrt(2.0 * ceres_summary.final_cost / dof);
+  if (!options.compute_covariance || !(dof > 0.0)) return summary;
+
+  Eigen::Matrix<double, 5, 5> covariance;
+  if (!ComputeCovariance(&problem, shape, angle, options.num_threads, &covariance)) {
+    return summary;
+  }
+  if (swapped) {  // Normalized() exchanged the axes
+    covariance.row(2).swap(covariance.row(3));
+    covariance.col(2).swap(covariance.col(3));
+  }
+  summary.covariance = covariance * (summary.sigma0 * summary.sigma0);
+  summary.covariance_valid = true;
+  summary.center_x_sigma = std::sqrt(summary.covariance(0, 0));
+  summary.center_y_sigma = std::sqrt(summary.covariance(1, 1));
+  summary.semi_major_sigma = std::sqrt(summary.covariance(2, 2));
+  summary.semi_minor_sigma = std::sqrt(summary.covariance(3, 3));
+  summary.angle_sigma = std::sqrt(summary.covariance(4, 4));
+  return summary;
+}
+
+double EllipseFitSimilarity(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
+  if (points.empty() || !HasPositiveAxes(e)) return kNaN;
+  double sum = 0.0;
+  for (const Eigen::Vector2d& p : points) sum += (p - e.center).norm();
+  return sum / static_cast<double>(points.size()) / e.MeanRadius();
+}
+
+double EdgeCoverage(const Ellipse& e, const std::vector<Eigen::Vector2d>& points,
+                    double max_distance, int bins) {
+  if (bins < 1) throw Error("EdgeCoverage: bins must be >= 1, got " + std::to_string(bins));
+  if (!(std::isfinite(max_distance) && max_distance >= 0.0)) {
+    throw Error("EdgeCoverage: max_distance must be a finite distance >= 0, got " +
+                std::to_string(max_distance));
+  }
+  if (!HasPositiveAxes(e)) return 0.0;
+  std::vector<bool> hit(static_cast<size_t>(bins), false);
+  for (const Eigen::Vector2d& p : points) {
+    if (!p.allFinite() || !(std::abs(e.SignedDistance(p)) <= max_distance)) continue;
+    const double t = e.ClosestParameter(p);  // [0, 2 pi)
+    const int bin = std::clamp(static_cast<int>(t / (2.0 * std::numbers::pi) * bins), 0, bins - 1);
+    hit[static_cast<size_t>(bin)] = true;
+  }
+  return static_cast<double>(std::count(hit.begin(), hit.end(), true)) / bins;
+}
+
+}  // namespace areomap

@@ -1,0 +1,62 @@
+// Named coordinate systems for converting point lists (what `areomap coords` reads), all
+// connected through Mars body-fixed XYZ (MBF), which is exact across bodies and CRSs.
+//
+// Specs (case-sensitive):
+//   mbf                                X Y Z [m]
+//   planetocentric[,west][,360]        lat lon [h]: degrees, h [m] above the body's ellipsoid
+//   planetographic[,west][,360]        same, planetographic latitude (ISIS/MOC style with west)
+//   spherical                          lat lon radius: planetocentric of the point itself, [m]
+//   enu | site                         local frame at the origin (x y z [m]); site = MER site
+//                                      frame (x north, y east, z down)
+//   raster:PATH                        x y [h] map coordinates in PATH's CRS
+//   pixel:PATH                         col row [h] pixel coordinates of PATH (centre = +0.5)
+//   anything else                      a CRS GDAL/PROJ knows, e.g. IAU_2015:49910, in
+//                                      traditional GIS order (x/lon first), degrees/metres
+// ",west" means longitude positive west; ",360" writes longitudes in [0, 360) (input may be in
+// either domain). Heights default to 0 when a line omits them.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include <Eigen/Core>
+
+#include "areomap/map/body.h"
+#include "areomap/map/geodesy.h"
+
+namespace areomap {
+
+struct CoordinateSystemContext {
+  Body body = Body::Mars2000();  // For the geographic and local systems.
+  // Origin of enu/site frames: planetocentric latitude, east longitude [rad], h [m].
+  std::optional<Geographic> origin;
+};
+
+class CoordinateSystem {
+ public:
+  // Throws areomap::Error for an unknown spec, an unreadable raster, a non-Mars CRS, or a
+  // local frame without an origin.
+  static CoordinateSystem Parse(std::string_view spec, const CoordinateSystemContext& context);
+  ~CoordinateSystem();
+  CoordinateSystem(CoordinateSystem&&) noexcept;
+  CoordinateSystem& operator=(CoordinateSystem&&) noexcept;
+
+  // Converts one input triple to MBF. Throws areomap::Error with a message naming the value
+  // and the rule it broke (latitude outside [-90, 90], NaN, outside the projection).
+  Eigen::Vector3d ToMbf(const Eigen::Vector3d& value) const;
+  // Converts MBF to this system. Throws areomap::Error if the point cannot be represented.
+  Eigen::Vector3d FromMbf(const Eigen::Vector3d& p_in_mbf) const;
+  // printf-style precision per component for output (degrees get 12 decimals, metres 6).
+  int Decimals(int component) const;
+  const std::string& spec() const { return spec_; }
+
+ private:
+  struct Impl;
+  CoordinateSystem(std::unique_ptr<Impl> impl, std::string spec);
+  std::unique_ptr<Impl> impl_;
+  std::string spec_;
+};
+
+}  // namespace areomap

@@ -1,0 +1,536 @@
+#include "areomap/registration/masked_ncc.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+
+#include "areomap/map/error.h"
+
+namespace areomap {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Sums of squared deviations below this fraction of the image's energy are FFT round-off
+// (double-precision FFT error is ~1e-13 of the energy at the sizes used here).
+constexpr double kRelativeVarianceFloor = 1e-10;
+
+[[noreturn]] void ThrowField(const std::string& field, double value, const std::string& rule) {
+  std::ostringstream msg;
+  msg << field << " = " << value << " is invalid: expected " << rule;
+  throw Error(msg.str());
+}
+
+void CheckImage(const cv::Mat& image, const std::string& name) {
+  if (image.empty()) {
+    throw Error("masked NCC: the " + name + " image is empty; expected a CV_32FC1 image");
+  }
+  if (image.type() != CV_32FC1) {
+    throw Error("masked NCC: the " + name + " image has type " + cv::typeToString(image.type()) +
+                "; expected CV_32FC1");
+  }
+}
+
+void CheckMask(const cv::Mat& mask, const cv::Mat& image, const std::string& name) {
+  if (mask.empty()) return;
+  if (mask.type() != CV_8UC1 || mask.size() != image.size()) {
+    std::ostringstream msg;
+    msg << "masked NCC: the " << name << " mask is " << mask.rows << "x" << mask.cols << " "
+        << cv::typeToString(mask.type()) << "; expected an empty Mat or CV_8UC1 of the "
+        << name << " image's size " << image.rows << "x" << image.cols;
+    throw Error(msg.str());
+  }
+}
+
+// One image restricted to the pixels that take part, as the FFT and the naive sum use it:
+// values centred on the mean of the valid pixels (NCC does not change, cancellation in the
+// variance terms does) and zero where invalid, their squares, and validity as 0/1.
+struct PreparedImage {
+  cv::Mat value;     // CV_64F, centred, 0 where invalid.
+  cv::Mat value_sq;  // CV_64F, value^2.
+  cv::Mat valid;     // CV_64F, 1 where valid, 0 elsewhere.
+  double energy = 0.0;
+  int valid_count = 0;
+};
+
+PreparedImage PrepareImage(const cv::Mat& image, const cv::Mat& mask, const cv::Rect& roi) {
+  PreparedImage out;
+  out.value.create(roi.height, roi.width, CV_64F);
+  out.valid.create(roi.height, roi.width, CV_64F);
+  double sum = 0.0;
+  for (int r = 0; r < roi.height; ++r) {
+    const float* in = image.ptr<float>(r + roi.y) + roi.x;
+    const std::uint8_t* m = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(r + roi.y) + roi.x;
+    double* val = out.value.ptr<double>(r);
+    double* ok = out.valid.ptr<double>(r);
+    for (int c = 0; c < roi.width; ++c) {
+      const bool is_valid = std::isfinite(in[c]) && (m == nullptr || m[c] != 0);
+      ok[c] = is_valid ? 1.0 : 0.0;
+      val[c] = is_valid ? static_cast<double>(in[c]) : 0.0;
+      if (is_valid) {
+        sum += val[c];
+        ++out.valid_count;
+      }
+    }
+  }
+  const double mean = out.valid_count > 0 ? sum / out.valid_count : 0.0;
+  out.value_sq.create(roi.height, roi.width, CV_64F);
+  for (int r = 0; r < roi.height; ++r) {
+    double* val = out.value.ptr<double>(r);
+    double* sq = out.value_sq.ptr<double>(r);
+    const double* ok = out.valid.ptr<double>(r);
+    for (int c = 0; c < roi.width; ++c) {
+      if (ok[c] != 0.0) val[c] -= mean;
+      sq[c] = val[c] * val[c];
+      out.energy += sq[c];
+    }
+  }
+  return out;
+}
+
+// Everything both implementations share: the inputs checked and prepared, the shifts to
+// compute, and the thresholds.
+struct Problem {
+  PreparedImage fixed;   // The fixed image cropped to the pixels the shifts can reach.
+  PreparedImage moving;  // The whole template.
+  int crop_x = 0;        // Crop origin in the fixed image [px].
+  int crop_y = 0;
+  int shift_x0 = 0;  // Shifts to compute [px].
+  int shift_y0 = 0;
+  int rows = 0;
+  int cols = 0;
+  double min_overlap = 0.0;
+  double min_sq_dev_per_pixel = 0.0;  // min_stddev^2.
+  double fixed_floor = 0.0;           // Round-off floors on the sums of squared deviations.
+  double moving_floor = 0.0;
+};
+
+Problem MakeProblem(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
+                    const cv::Mat& moving_mask, const MaskedNccOptions& options) {
+  options.Check();
+  CheckImage(fixed, "fixed");
+  CheckImage(moving, "moving");
+  CheckMask(fixed_mask, fixed, "fixed");
+  CheckMask(moving_mask, moving, "moving");
+
+  Problem p;
+  // Every shift at which the template overlaps the fixed image at all.
+  int x0 = -(moving.cols - 1);
+  int x1 = fixed.cols - 1;
+  int y0 = -(moving.rows - 1);
+  int y1 = fixed.rows - 1;
+  if (options.search_window) {
+    const ShiftWindow& w = *options.search_window;
+    x0 = std::max(x0, w.min_shift_x);
+    x1 = std::min(x1, w.max_shift_x);
+    y0 = std::max(y0, w.min_shift_y);
+    y1 = std::min(y1, w.max_shift_y);
+  }
+  if (x0 > x1 || y0 > y1) return p;  // rows = cols = 0: nothing to compute.
+  p.shift_x0 = x0;
+  p.shift_y0 = y0;
+  p.cols = x1 - x0 + 1;
+  p.rows = y1 - y0 + 1;
+  // Fixed pixels the template can cover at these shifts.
+  p.crop_x = std::max(0, x0);
+  p.crop_y = std::max(0, y0);
+  const int crop_x1 = std::min(fixed.cols - 1, x1 + moving.cols - 1);
+  const int crop_y1 = std::min(fixed.rows - 1, y1 + moving.rows - 1);
+  const cv::Rect crop(p.crop_x, p.crop_y, crop_x1 - p.crop_x + 1, crop_y1 - p.crop_y + 1);
+
+  p.fixed = PrepareImage(fixed, fixed_mask, crop);
+  p.moving = PrepareImage(moving, moving_mask, cv::Rect(0, 0, moving.cols, moving.rows));
+  p.min_overlap = std::max(static_cast<double>(options.min_overlap_pixels),
+                           std::ceil(options.min_overlap_fraction * p.moving.valid_count));
+  p.min_sq_dev_per_pixel = options.min_stddev * options.min_stddev;
+  p.fixed_floor = kRelativeVarianceFloor * p.fixed.energy;
+  p.moving_floor = kRelativeVarianceFloor * p.moving.energy;
+  return p;
+}
+
+// The NCC from the six sums over the overlap (n pairs); NaN where undefined.
+float Score(double n, double sum_f, double sum_m, double sum_ff, double sum_mm, double sum_fm,
+            const Problem& p) {
+  if (n < p.min_overlap) return std::numeric_limits<float>::quiet_NaN();
+  const double sq_dev_f = sum_ff - sum_f * sum_f / n;
+  const double sq_dev_m = sum_mm - sum_m * sum_m / n;
+  const double min_sq_dev = n * p.min_sq_dev_per_pixel;
+  if (sq_dev_f <= std::max(min_sq_dev, p.fixed_floor) ||
+      sq_dev_m <= std::max(min_sq_dev, p.moving_floor)) {
+    return std::numeric_limits<float>::quiet_NaN();
+  }
+  const double ncc = (sum_fm - sum_f * sum_m / n) / std::sqrt(sq_dev_f * sq_dev_m);
+  return static_cast<float>(std::clamp(ncc, -1.0, 1.0));
+}
+
+MaskedNccSurface EmptySurface(const Problem& p) {
+  MaskedNccSurface s;
+  s.ncc.create(p.rows, p.cols, CV_32F);
+  s.overlap.create(p.rows, p.cols, CV_32S);
+  s.shift_x0 = p.shift_x0;
+  s.shift_y0 = p.shift_y0;
+  return s;
+}
+
+}  // namespace
+
+ShiftWindow ShiftWindow::Around(int x, int y, int radius) {
+  if (radius < 0) ThrowField("ShiftWindow::Around radius", radius, ">= 0 [px]");
+  return ShiftWindow{x - radius, x + radius, y - radius, y + radius};
+}
+
+void MaskedNccOptions::Check() const {
+  if (min_overlap_pixels < 2) {
+    ThrowField("MaskedNccOptions.min_overlap_pixels", min_overlap_pixels, ">= 2 [px]");
+  }
+  if (!(min_overlap_fraction >= 0.0 && min_overlap_fraction <= 1.0)) {
+    ThrowField("MaskedNccOptions.min_overlap_fraction", min_overlap_fraction,
+               "a fraction in [0, 1]");
+  }
+  if (!(std::isfinite(min_stddev) && min_stddev >= 0.0)) {
+    ThrowField("MaskedNccOptions.min_stddev", min_stddev, "a finite value >= 0");
+  }
+  if (search_window) {
+    const ShiftWindow& w = *search_window;
+    if (w.min_shift_x > w.max_shift_x) {
+      ThrowField("MaskedNccOptions.search_window.min_shift_x", w.min_shift_x,
+                 "<= search_window.max_shift_x (" + std::to_string(w.max_shift_x) + ")");
+    }
+    if (w.min_shift_y > w.max_shift_y) {
+      ThrowField("MaskedNccOptions.search_window.min_shift_y", w.min_shift_y,
+                 "<= search_window.max_shift_y (" + std::to_string(w.max_shift_y) + ")");
+    }
+  }
+}
+
+MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
+                           const cv::Mat& moving_mask, const MaskedNccOptions& options) {
+  const Problem p = MakeProblem(fixed, fixed_mask, moving, moving_mask, options);
+  MaskedNccSurface surface = EmptySurface(p);
+  if (p.rows == 0) return surface;
+
+  const cv::Size crop = p.fixed.value.size();
+  const cv::Size tmpl = p.moving.value.size();
+  // Linear correlation of the crop with the template covers (crop + template - 1) shifts per
+  // axis; padding to at least that avoids wrap-around. The fixed arrays are placed at offset
+  // (template - 1) so that correlation index s is shift s - (template - 1) relative to the
+  // crop, i.e. all needed outputs are in the first rows and columns.
+  const int full_rows = crop.height + tmpl.height - 1;
+  const int full_cols = crop.width + tmpl.width - 1;
+  const int dft_rows = cv::getOptimalDFTSize(full_rows);
+  const int dft_cols = cv::getOptimalDFTSize(full_cols);
+  const cv::Point fixed_offset(tmpl.width - 1, tmpl.height - 1);
+
+  // Forward real DFTs (CCS-packed) of the six inputs.
+  auto forward = [&](const cv::Mat& src, cv::Point offset, cv::Mat* spectrum) {
+    cv::Mat padded = cv::Mat::zeros(dft_rows, dft_cols, CV_64F);
+    src.copyTo(padded(cv::Rect(offset, src.size())));
+    cv::dft(padded, *spectrum, 0, offset.y + src.rows);
+  };
+  cv::Mat f_valid, f_value, f_sq, m_valid, m_value, m_sq;
+  tbb::parallel_invoke([&] { forward(p.fixed.valid, fixed_offset, &f_valid); },
+                       [&] { forward(p.fixed.value, fixed_offset, &f_value); },
+                       [&] { forward(p.fixed.value_sq, fixed_offset, &f_sq); },
+                       [&] { forward(p.moving.valid, cv::Point(0, 0), &m_valid); },
+                       [&] { forward(p.moving.value, cv::Point(0, 0), &m_value); },
+                       [&] { forward(p.moving.value_sq, cv::Point(0, 0), &m_sq); });
+
+  // corr(a, b)(s) = sum_x a(x + s) b(x): spectrum product with b conjugated, inverse DFT. Only
+  // the first full_rows output rows are needed.
+  auto correlate = [&](const cv::Mat& a, const cv::Mat& b, cv::Mat* out) {
+    cv::Mat product;
+    cv::mulSpectrums(a, b, product, 0, /*conjB=*/true);
+    cv::dft(product, *out, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT, full_rows);
+  };
+  cv::Mat n, sum_f, sum_m, sum_ff, sum_mm, sum_fm;
+  tbb::parallel_invoke([&] { correlate(f_valid, m_valid, &n); },
+                       [&] { correlate(f_value, m_valid, &sum_f); },
+                       [&] { correlate(f_valid, m_value, &sum_m); },
+                       [&] { correlate(f_sq, m_valid, &sum_ff); },
+                       [&] { correlate(f_valid, m_sq, &sum_mm); },
+                       [&] { correlate(f_value, m_value, &sum_fm); });
+
+  // Surface (r, c) is shift (shift_x0 + c, shift_y0 + r); relative to the crop that is
+  // correlation index shift - crop + (template - 1).
+  const int s_row0 = p.shift_y0 - p.crop_y + tmpl.height - 1;
+  const int s_col0 = p.shift_x0 - p.crop_x + tmpl.width - 1;
+  tbb::parallel_for(tbb::blocked_range<int>(0, p.rows), [&](const tbb::blocked_range<int>& range) {
+    for (int r = range.begin(); r != range.end(); ++r) {
+      const int s = s_row0 + r;
+      const double* pn = n.ptr<double>(s) + s_col0;
+      const double* pf = sum_f.ptr<double>(s) + s_col0;
+      const double* pm = sum_m.ptr<double>(s) + s_col0;
+      const double* pff = sum_ff.ptr<double>(s) + s_col0;
+      const double* pmm = sum_mm.ptr<double>(s) + s_col0;
+      const double* pfm = sum_fm.ptr<double>(s) + s_col0;
+      float* out = surface.ncc.ptr<float>(r);
+      std::int32_t* count = surface.overlap.ptr<std::int32_t>(r);
+      for (int c = 0; c < p.cols; ++c) {
+        const double pairs = std::round(pn[c]);  // An integer up to FFT round-off.
+        count[c] = static_cast<std::int32_t>(pairs);
+        out[c] = pairs > 0.0 ? Score(pairs, pf[c], pm[c], pff[c], pmm[c], pfm[c], p)
+                             : std::numeric_limits<float>::quiet_NaN();
+      }
+    }
+  });
+  return surface;
+}
+
+MaskedNccSurface MaskedNccNaive(const cv::Mat& fixed, const cv::Mat& fixed_mask,
+                                const cv::Mat& moving, const cv::Mat& moving_mask,
+                                const MaskedNccOptions& options) {
+  const Problem p = MakeProblem(fixed, fixed_mask, moving, moving_mask, options);
+  MaskedNccSurface surface = EmptySurface(p);
+  if (p.rows == 0) return surface;
+
+  const int crop_rows = p.fixed.value.rows;
+  const int crop_cols = p.fixed.value.cols;
+  const int tmpl_rows = p.moving.value.rows;
+  const int tmpl_cols = p.moving.value.cols;
+  tbb::parallel_for(tbb::blocked_range<int>(0, p.rows), [&](const tbb::blocked_range<int>& range) {
+    for (int r = range.begin(); r != range.end(); ++r) {
+      const int dy = p.shift_y0 + r - p.crop_y;  // Shift relative to the crop.
+      const int i0 = std::max(0, -dy);
+      const int i1 = std::min(tmpl_rows, crop_rows - dy);
+      for (int c = 0; c < p.cols; ++c) {
+        const int dx = p.shift_x0 + c - p.crop_x;
+        const int j0 = std::max(0, -dx);
+        const int j1 = std::min(tmpl_cols, crop_cols - dx);
+        double n = 0.0, sum_f = 0.0, sum_m = 0.0, sum_ff = 0.0, sum_mm = 0.0, sum_fm = 0.0;
+        for (int i = i0; i < i1; ++i) {
+          const double* f_ok = p.fixed.valid.ptr<double>(i + dy) + dx;
+          const double* f_val = p.fixed.value.ptr<double>(i + dy) + dx;
+          const double* m_ok = p.moving.valid.ptr<double>(i);
+          const double* m_val = p.moving.value.ptr<double>(i);
+          for (int j = j0; j < j1; ++j) {
+            if (f_ok[j] == 0.0 || m_ok[j] == 0.0) continue;
+            n += 1.0;
+            sum_f += f_val[j];
+            sum_m += m_val[j];
+            sum_ff += f_val[j] * f_val[j];
+            sum_mm += m_val[j] * m_val[j];
+            sum_fm += f_val[j] * m_val[j];
+          }
+        }
+        surface.overlap.at<std::int32_t>(r, c) = static_cast<std::int32_t>(n);
+        surface.ncc.at<float>(r, c) =
+            n > 0.0 ? Score(n, sum_f, sum_m, sum_ff, sum_mm, sum_fm, p)
+                    : std::numeric_limits<float>::quiet_NaN();
+      }
+    }
+  });
+  return surface;
+}
+
+void PeakOptions::Check() const {
+  if (!(std::isfinite(exclusion_radius) && exclusion_radius >= 0.0)) {
+    ThrowField("PeakOptions.exclusion_radius", exclusion_radius, "a finite value >= 0 [px]");
+  }
+  if (!(min_peak >= -1.0 && min_peak <= 1.0)) {
+    ThrowField("PeakOptions.min_peak", min_peak, "an NCC value in [-1, 1]");
+  }
+  if (!(min_peak_ratio >= 1.0)) {
+    ThrowField("PeakOptions.min_peak_ratio", min_peak_ratio, "a ratio >= 1");
+  }
+  if (!(std::isfinite(min_sharpness) && min_sharpness >= 0.0)) {
+    ThrowField("PeakOptions.min_sharpness", min_sharpness, "a finite NCC drop >= 0");
+  }
+}
+
+namespace {
+
+// Value at (r, c) of the surface, NaN outside it.
+double At(const cv::Mat& ncc, int r, int c) {
+  if (r < 0 || c < 0 || r >= ncc.rows || c >= ncc.cols) return kNaN;
+  return ncc.at<float>(r, c);
+}
+
+// Vertex of the parabola through (-1, left), (0, centre), (1, right), limited to +-0.5;
+// nullopt-like NaN if it cannot be fitted (missing neighbour, not a maximum).
+double ParabolaOffset(double left, double centre, double right) {
+  const double curvature = left - 2.0 * centre + right;
+  if (!std::isfinite(left) || !std::isfinite(right) || !(curvature < 0.0)) return kNaN;
+  return std::clamp((left - right) / (2.0 * curvature), -0.5, 0.5);
+}
+
+bool IsLocalMax(const cv::Mat& ncc, int r, int c, float value) {
+  for (int dr = -1; dr <= 1; ++dr) {
+    for (int dc = -1; dc <= 1; ++dc) {
+      if (dr == 0 && dc == 0) continue;
+      const double v = At(ncc, r + dr, c + dc);
+      if (std::isfinite(v) && v > value) return false;
+    }
+  }
+  return true;
+}
+
+void RefineSubpixel(const cv::Mat& ncc, int r, int c, SubpixelFit fit, NccPeak* peak) {
+  double v[3][3];
+  bool all_finite = true;
+  for (int dr = -1; dr <= 1; ++dr) {
+    for (int dc = -1; dc <= 1; ++dc) {
+      v[dr + 1][dc + 1] = At(ncc, r + dr, c + dc);
+      all_finite = all_finite && std::isfinite(v[dr + 1][dc + 1]);
+    }
+  }
+  double offset_x = kNaN;
+  double offset_y = kNaN;
+  if (fit == SubpixelFit::kQuadratic2d && all_finite) {
+    // Taylor expansion at the centre from central differences: gradient g, Hessian H; the
+    // vertex is -H^-1 g when H is negative definite.
+    const double gx = 0.5 * (v[1][2] - v[1][0]);
+    const double gy = 0.5 * (v[2][1] - v[0][1]);
+    const double hxx = v[1][2] - 2.0 * v[1][1] + v[1][0];
+    const double hyy = v[2][1] - 2.0 * v[1][1] + v[0][1];
+    const double hxy = 0.25 * (v[2][2] - v[2][0] - v[0][2] + v[0][0]);
+    const double det = hxx * hyy - hxy * hxy;
+    if (hxx < 0.0 && det > 0.0) {
+      const double ox = -(hyy * gx - hxy * gy) / det;
+      const double oy = -(hxx * gy - hxy * gx) / det;
+      if (std::abs(ox) <= 1.0 && std::abs(oy) <= 1.0) {
+        offset_x = std::clamp(ox, -0.5, 0.5);
+        offset_y = std::clamp(oy, -0.5, 0.5);
+      }
+    }
+  }
+  if (!std::isfinite(offset_x) || !std::isfinite(offset_y)) {
+    offset_x = ParabolaOffset(v[1][0], v[1][1], v[1][2]);
+    offset_y = ParabolaOffset(v[0][1], v[1][1], v[2][1]);
+  }
+  peak->subpixel_refined = std::isfinite(offset_x) || std::isfinite(offset_y);
+  peak->subpixel_x = peak->shift_x + (std::isfinite(offset_x) ? offset_x : 0.0);
+  peak->subpixel_y = peak->shift_y + (std::isfinite(offset_y) ? offset_y : 0.0);
+}
+
+}  // namespace
+
+NccPeak FindPeak(const MaskedNccSurface& surface, const PeakOptions& options) {
+  options.Check();
+  NccPeak peak;
+  const cv::Mat& ncc = surface.ncc;
+  if (surface.empty()) {
+    peak.reason = "empty correlation surface (the search window misses the fixed image)";
+    return peak;
+  }
+  CV_Assert(ncc.type() == CV_32FC1 && surface.overlap.type() == CV_32SC1 &&
+            surface.overlap.size() == ncc.size());
+
+  // Best finite score; the first in row-major order on ties, for determinism.
+  int best_r = -1;
+  int best_c = -1;
+  float best = -std::numeric_limits<float>::infinity();
+  for (int r = 0; r < ncc.rows; ++r) {
+    const float* row = ncc.ptr<float>(r);
+    for (int c = 0; c < ncc.cols; ++c) {
+      if (std::isfinite(row[c]) && row[c] > best) {
+        best = row[c];
+        best_r = r;
+        best_c = c;
+      }
+    }
+  }
+  if (best_r < 0) {
+    peak.reason = "no finite NCC score (too little overlap or texture at every shift)";
+    return peak;
+  }
+  peak.found = true;
+  peak.value = best;
+  peak.shift_x = surface.shift_x0 + best_c;
+  peak.shift_y = surface.shift_y0 + best_r;
+  peak.overlap = surface.overlap.at<std::int32_t>(best_r, best_c);
+  peak.on_border =
+      best_r == 0 || best_c == 0 || best_r == ncc.rows - 1 || best_c == ncc.cols - 1;
+
+  double drop_sum = 0.0;
+  int drop_count = 0;
+  for (int dr = -1; dr <= 1; ++dr) {
+    for (int dc = -1; dc <= 1; ++dc) {
+      const double v = At(ncc, best_r + dr, best_c + dc);
+      if ((dr != 0 || dc != 0) && std::isfinite(v)) {
+        drop_sum += peak.value - v;
+        ++drop_count;
+      }
+    }
+  }
+  peak.sharpness = drop_count > 0 ? drop_sum / drop_count : 0.0;
+  RefineSubpixel(ncc, best_r, best_c, options.subpixel_fit, &peak);
+
+  // Runner-up: the highest local maximum outside the exclusion radius.
+  const double radius_sq = options.exclusion_radius * options.exclusion_radius;
+  float second = -std::numeric_limits<float>::infinity();
+  for (int r = 0; r < ncc.rows; ++r) {
+    const float* row = ncc.ptr<float>(r);
+    const double dr = r - best_r;
+    for (int c = 0; c < ncc.cols; ++c) {
+      if (!std::isfinite(row[c]) || row[c] <= second) continue;
+      const double dc = c - best_c;
+      if (dr * dr + dc * dc <= radius_sq || !IsLocalMax(ncc, r, c, row[c])) continue;
+      second = row[c];
+      peak.has_second = true;
+      peak.second_x = surface.shift_x0 + c;
+      peak.second_y = surface.shift_y0 + r;
+    }
+  }
+  if (peak.has_second) {
+    peak.second_value = second;
+    peak.peak_difference = peak.value - peak.second_value;
+    peak.peak_ratio = peak.second_value > 0.0 ? peak.value / peak.second_value : kInf;
+  } else {
+    peak.peak_difference = kInf;
+    peak.peak_ratio = kInf;
+  }
+
+  std::ostringstream why;
+  auto fail = [&why](const std::string& text) { why << (why.tellp() > 0 ? "; " : "") << text; };
+  if (peak.value < options.min_peak) {
+    fail("peak NCC " + std::to_string(peak.value) + " < min_peak " +
+         std::to_string(options.min_peak));
+  }
+  if (peak.peak_ratio < options.min_peak_ratio) {
+    fail("peak/second ratio " + std::to_string(peak.peak_ratio) + " < min_peak_ratio " +
+         std::to_string(options.min_peak_ratio));
+  }
+  if (peak.sharpness < options.min_sharpness) {
+    fail("sharpness " + std::to_string(peak.sharpness) + " < min_sharpness " +
+         std::to_string(options.min_sharpness));
+  }
+  if (options.reject_border_peaks && peak.on_border) {
+    fail("peak on the edge of the surface (the maximum may lie outside the search window)");
+  }
+  peak.reason = why.str();
+  peak.confident = peak.reason.empty();
+  return peak;
+}
+
+std::string NccPeak::BriefReport() const {
+  std::ostringstream out;
+  if (!found) {
+    out << "no match: " << reason;
+    return out.str();
+  }
+  out.setf(std::ios::fixed);
+  out.precision(2);
+  out << "shift (" << subpixel_x << ", " << subpixel_y << ") px";
+  out.precision(3);
+  out << ", NCC " << value << ", overlap " << overlap << " px";
+  if (has_second) {
+    out << ", second " << second_value << " (ratio " << peak_ratio << ")";
+  } else {
+    out << ", no second peak";
+  }
+  out << ", sharpness " << sharpness << ", ";
+  out << (confident ? "confident" : "not confident: " + reason);
+  return out.str();
+}
+
+}  // namespace areomap
