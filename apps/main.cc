@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   CLI::App app{"areomap: register Mars rover data to orbital data and make maps from both"};
   app.set_version_flag("--version", std::string("areomap ") + AREOMAP_VERSION);
   app.require_subcommand(1);
+  app.fallthrough();  // Global options (--quiet) may follow the subcommand.
   areomap::cli::GlobalOptions global;
   app.add_flag("--quiet", global.quiet, "No progress bar and no human summary");
   areomap::cli::AddInfoCommand(app, global);

@@ -114,6 +114,17 @@ RasterDataset RasterDataset::Open(const std::filesystem::path& path) {
   if (dataset->GetRasterCount() < 1) {
     throw Error(path.string() + ": has no raster bands: expected an image");
   }
+  // A truncated file usually opens (headers come first) but its last block is missing: read the
+  // last pixel of the last band (one block) so the failure shows here, naming the file.
+  {
+    GDALRasterBand* last = dataset->GetRasterBand(dataset->GetRasterCount());
+    double probe = 0.0;
+    if (last->RasterIO(GF_Read, dataset->GetRasterXSize() - 1, dataset->GetRasterYSize() - 1, 1,
+                       1, &probe, 1, 1, GDT_Float64, 0, 0, nullptr) != CE_None) {
+      throw Error(path.string() + ": truncated or corrupt raster (its last block cannot be "
+                  "read): " + internal::LastGdalError());
+    }
+  }
   RasterInfo info;
   info.path = path;
   info.driver = dataset->GetDriver() != nullptr ? dataset->GetDriver()->GetDescription() : "";

@@ -1,0 +1,85 @@
+#include "areomap/map/coordinate_system.h"
+
+#include <gtest/gtest.h>
+
+#include "areomap/map/error.h"
+#include "areomap/map/projection.h"
+#include "areomap/map/raster.h"
+#include "test_support.h"
+
+namespace areomap {
+namespace {
+
+std::string ErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(CoordinateSystem, ConvertsBetweenGeographicTypesThroughMbf) {
+  const CoordinateSystemContext context;
+  const auto ocentric = CoordinateSystem::Parse("planetocentric", context);
+  const auto ographic_west = CoordinateSystem::Parse("planetographic,west,360", context);
+  const Eigen::Vector3d in(45.0, 10.0, 0.0);
+  const Eigen::Vector3d out = ographic_west.FromMbf(ocentric.ToMbf(in));
+  EXPECT_NEAR(out.x(), 45.338231953381, 1e-9);  // cs2cs IAU_2015:49902 -> 49901.
+  EXPECT_NEAR(out.y(), 350.0, 1e-9);
+  EXPECT_NEAR(out.z(), 0.0, 1e-6);
+}
+
+TEST(CoordinateSystem, IauCrsUsesLongitudeFirstAndMatchesGeographic) {
+  const CoordinateSystemContext context;
+  const auto iau = CoordinateSystem::Parse("IAU_2015:49902", context);
+  const auto ocentric = CoordinateSystem::Parse("planetocentric", context);
+  EXPECT_LT((iau.ToMbf({10.0, 45.0, 100.0}) - ocentric.ToMbf({45.0, 10.0, 100.0})).norm(), 1e-6);
+}
+
+TEST(CoordinateSystem, SiteFrameNeedsAnOriginAndPutsItAtZero) {
+  CoordinateSystemContext context;
+  EXPECT_NE(ErrorOf([&] { CoordinateSystem::Parse("site", context); }).find("--origin"),
+            std::string::npos);
+  context.origin = Geographic{RadFromDeg(-14.5), RadFromDeg(175.5), -1900.0};
+  const auto site = CoordinateSystem::Parse("site", context);
+  const auto ocentric = CoordinateSystem::Parse("planetocentric", context);
+  EXPECT_LT(site.FromMbf(ocentric.ToMbf({-14.5, 175.5, -1900.0})).norm(), 1e-6);
+}
+
+TEST(CoordinateSystem, RejectsBadLinesAndNames) {
+  const CoordinateSystemContext context;
+  const auto ocentric = CoordinateSystem::Parse("planetocentric", context);
+  EXPECT_NE(ErrorOf([&] { ocentric.ToMbf({91.0, 0.0, 0.0}); }).find("latitude 91 is outside"),
+            std::string::npos);
+  EXPECT_THROW(ocentric.ToMbf({std::nan(""), 0.0, 0.0}), Error);
+  EXPECT_NE(ErrorOf([&] { CoordinateSystem::Parse("planetocentric,sideways", context); })
+                .find("unknown modifier 'sideways'"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { CoordinateSystem::Parse("EPSG:4326", context); }).find("not on Mars"),
+            std::string::npos);
+}
+
+TEST(CoordinateSystem, PixelAndRasterSystemsFollowTheFilesGeoreference) {
+  testing::TempDir dir;
+  const MapProjection projection =
+      MapProjection::Equirectangular(Body::MarsSphere(), 0.0, RadFromDeg(175.0));
+  GeoRaster raster;
+  raster.bands = {cv::Mat::zeros(10, 10, CV_32F)};
+  raster.geotransform = GeoTransform::NorthUp(-5.0, 5.0, 1.0, 1.0);
+  raster.crs_wkt = projection.Wkt();
+  WriteGeoTiff(dir.path() / "r.tif", raster);
+  const CoordinateSystemContext context;
+  const auto pixel = CoordinateSystem::Parse("pixel:" + (dir.path() / "r.tif").string(), context);
+  const auto map = CoordinateSystem::Parse("raster:" + (dir.path() / "r.tif").string(), context);
+  const auto ocentric = CoordinateSystem::Parse("planetocentric", context);
+  // The centre of the raster (pixel 5, 5) is the projection's origin: lat 0, lon 175.
+  const Eigen::Vector3d centre = ocentric.FromMbf(pixel.ToMbf({5.0, 5.0, 0.0}));
+  EXPECT_NEAR(centre.x(), 0.0, 1e-9);
+  EXPECT_NEAR(centre.y(), 175.0, 1e-9);
+  EXPECT_LT((map.FromMbf(pixel.ToMbf({0.5, 0.5, 0.0})) - Eigen::Vector3d(-4.5, 4.5, 0.0)).norm(),
+            1e-6);
+}
+
+}  // namespace
+}  // namespace areomap

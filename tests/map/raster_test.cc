@@ -1,0 +1,176 @@
+#include "areomap/map/raster.h"
+
+#include <fstream>
+#include <regex>
+
+#include <gtest/gtest.h>
+
+#include "areomap/map/error.h"
+#include "areomap/map/projection.h"
+#include "areomap/map/raster_description.h"
+#include "proj_oracle.h"
+
+namespace areomap {
+namespace {
+
+using testing::RunCommand;
+using testing::SharedDataDir;
+using testing::TempDir;
+
+GeoRaster MakeRaster() {
+  cv::Mat band(300, 200, CV_32F);
+  cv::randu(band, cv::Scalar(-100), cv::Scalar(100));
+  band.at<float>(5, 7) = -9999.0f;
+  const MapProjection projection =
+      MapProjection::Equirectangular(Body::MarsSphere(), RadFromDeg(-14.57), RadFromDeg(175.47));
+  GeoRaster raster;
+  raster.bands = {band};
+  raster.geotransform = GeoTransform::NorthUp(1000.0, -864000.0, 0.25, 0.25);
+  raster.crs_wkt = projection.Wkt();
+  raster.nodata = -9999.0;
+  return raster;
+}
+
+std::string ErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(GeoTransform, MapsPixelCornersAndInverts) {
+  const GeoTransform t = GeoTransform::NorthUp(100.0, 200.0, 2.0, 3.0);
+  EXPECT_EQ(t.PixelToMap(0, 0), Eigen::Vector2d(100.0, 200.0));
+  EXPECT_EQ(t.PixelToMap(0.5, 0.5), Eigen::Vector2d(101.0, 198.5));  // First pixel's centre.
+  EXPECT_LT((t.MapToPixel(107.0, 170.0) - Eigen::Vector2d(3.5, 10.0)).norm(), 1e-12);
+}
+
+TEST(Raster, GeoTiffRoundTripKeepsPixelsGeoreferenceAndMarsCrs) {
+  TempDir dir;
+  const GeoRaster raster = MakeRaster();
+  const auto path = dir.path() / "dtm.tif";
+  WriteGeoTiff(path, raster);
+  const RasterDataset dataset = RasterDataset::Open(path);
+  EXPECT_EQ(dataset.info().width, 200);
+  EXPECT_EQ(dataset.info().height, 300);
+  EXPECT_EQ(dataset.info().data_type, "Float32");
+  ASSERT_TRUE(dataset.info().nodata.has_value());
+  EXPECT_EQ(*dataset.info().nodata, -9999.0);
+  ASSERT_TRUE(dataset.info().geotransform.has_value());
+  EXPECT_EQ(dataset.info().geotransform->c, raster.geotransform.c);
+  const cv::Mat read = dataset.ReadWindow(1, dataset.FullWindow());
+  EXPECT_EQ(cv::norm(read, raster.bands[0], cv::NORM_INF), 0.0);
+  EXPECT_TRUE(Crs::FromWkt(dataset.info().crs_wkt, path.string()).Describe().is_mars);
+  // gdalinfo (what GIS users run) shows the Mars CRS and tiling.
+  const std::string gdalinfo = RunCommand("gdalinfo " + path.string());
+  EXPECT_NE(gdalinfo.find("Mars (2015) - Sphere"), std::string::npos) << gdalinfo;
+  EXPECT_NE(gdalinfo.find("Block=256x256"), std::string::npos) << gdalinfo;
+  EXPECT_NE(gdalinfo.find("COMPRESSION=DEFLATE"), std::string::npos) << gdalinfo;
+}
+
+TEST(Raster, WindowedReadMatchesTheFullRead) {
+  TempDir dir;
+  const GeoRaster raster = MakeRaster();
+  WriteGeoTiff(dir.path() / "a.tif", raster);
+  const RasterDataset dataset = RasterDataset::Open(dir.path() / "a.tif");
+  const PixelWindow window{17, 250, 31, 40};
+  const cv::Mat part = dataset.ReadWindow(1, window);
+  const cv::Mat expected = raster.bands[0](cv::Rect(17, 250, 31, 40));
+  EXPECT_EQ(cv::norm(part, expected, cv::NORM_INF), 0.0);
+  const cv::Mat as_float = dataset.ReadWindowFloat(1, {0, 0, 10, 10});
+  EXPECT_TRUE(std::isnan(as_float.at<float>(5, 7)));  // nodata -> NaN
+  EXPECT_EQ(as_float.at<float>(0, 0), raster.bands[0].at<float>(0, 0));
+  const std::string message = ErrorOf([&] { dataset.ReadWindow(1, {190, 0, 20, 5}); });
+  EXPECT_NE(message.find("outside the raster (200x300)"), std::string::npos) << message;
+  EXPECT_THROW(dataset.ReadWindow(2, window), Error);
+}
+
+TEST(Raster, BadFilesGiveErrorsThatNameThem) {
+  TempDir dir;
+  EXPECT_NE(ErrorOf([&] { RasterDataset::Open(dir.path() / "missing.tif"); })
+                .find("missing.tif: no such file"),
+            std::string::npos);
+  const auto text = dir.path() / "notes.txt";
+  std::ofstream(text) << "this is not a raster\n";
+  EXPECT_NE(ErrorOf([&] { RasterDataset::Open(text); }).find("not a readable raster"),
+            std::string::npos);
+  // A truncated GeoTIFF: either opening or reading fails with an error naming the file.
+  WriteGeoTiff(dir.path() / "full.tif", MakeRaster(), {16, "NONE"});
+  const auto truncated = dir.path() / "truncated.tif";
+  std::filesystem::copy_file(dir.path() / "full.tif", truncated);
+  std::filesystem::resize_file(truncated, std::filesystem::file_size(truncated) / 3);
+  const std::string message = ErrorOf([&] {
+    const RasterDataset dataset = RasterDataset::Open(truncated);
+    dataset.ReadWindow(1, dataset.FullWindow());
+  });
+  EXPECT_NE(message.find("truncated.tif"), std::string::npos) << message;
+}
+
+TEST(Raster, FailedWriteLeavesNothingBehind) {
+  TempDir dir;
+  GeoRaster raster = MakeRaster();
+  raster.crs_wkt = "not a crs";
+  EXPECT_THROW(WriteGeoTiff(dir.path() / "bad.tif", raster), Error);
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
+  const std::string message =
+      ErrorOf([&] { WriteGeoTiff(dir.path() / "no" / "such" / "x.tif", MakeRaster()); });
+  EXPECT_NE(message.find("does not exist"), std::string::npos) << message;
+}
+
+// Corner coordinates against GDAL/PROJ: gdalinfo's geotransform corners, converted to geographic by
+// cs2cs with the file's own PROJ definition (as gdalinfo does, at full precision).
+TEST(RasterDescription, CornersOfRealCubesAgreeWithGdalAndProj) {
+  SKIP_WITHOUT_SHARED_DATA();
+  int checked = 0;
+  for (const auto& folder : {"moc", "isis"}) {
+    for (const auto& entry : std::filesystem::directory_iterator(SharedDataDir() / folder)) {
+      const RasterDescription d = DescribeRaster(entry.path());
+      ASSERT_TRUE(d.crs.has_value()) << entry.path();
+      EXPECT_TRUE(d.crs->is_mars);
+      std::string proj = RunCommand("gdalsrsinfo -o proj4 " + entry.path().string());
+      proj.erase(std::remove(proj.begin(), proj.end(), '\n'), proj.end());
+      proj.erase(std::remove(proj.begin(), proj.end(), '\''), proj.end());
+      std::vector<Eigen::Vector3d> corners;
+      for (const auto& c : d.corners) corners.push_back({c.map.x(), c.map.y(), 0.0});
+      const auto expected = testing::RunProjTool("cs2cs -f %.12f " + proj, corners);
+      for (size_t i = 0; i < d.corners.size(); ++i) {
+        ASSERT_TRUE(d.corners[i].own_lon_lat_deg.has_value());
+        EXPECT_NEAR(d.corners[i].own_lon_lat_deg->x(), expected[i].x(), 1e-6) << entry.path();
+        EXPECT_NEAR(d.corners[i].own_lon_lat_deg->y(), expected[i].y(), 1e-6) << entry.path();
+        // These cubes are on spheres, so planetocentric latitude equals the CRS's own.
+        EXPECT_NEAR(DegFromRad(d.corners[i].planetocentric->lat), expected[i].y(), 1e-6);
+      }
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 5);
+}
+
+TEST(RasterDescription, MerProductHasCameraModelAndFrames) {
+  SKIP_WITHOUT_SHARED_DATA();
+  const RasterDescription d =
+      DescribeRaster(SharedDataDir() / "mer" / "1N491020376ILFCNY9P0706L0M1.IMG");
+  EXPECT_FALSE(d.crs.has_value());
+  ASSERT_TRUE(d.product.has_value());
+  EXPECT_EQ(d.product->instrument_id, "NAVCAM_LEFT");
+  ASSERT_TRUE(d.product->camera.has_value());
+  EXPECT_EQ(d.product->camera->model_type, "CAHVOR");
+  EXPECT_EQ(d.product->camera->reference_frame, "ROVER_FRAME");
+  EXPECT_EQ(d.product->camera->components.at("C"),
+            (std::vector<double>{0.442604, -0.0611635, -1.25106}));
+  EXPECT_EQ(d.product->camera->components.at("R"),
+            (std::vector<double>{0.00096, -0.002183, 0.018547}));
+  const auto rover = std::find_if(d.product->frames.begin(), d.product->frames.end(),
+                                  [](const auto& f) { return f.name == "ROVER_FRAME"; });
+  ASSERT_NE(rover, d.product->frames.end());
+  EXPECT_EQ(rover->reference_frame, "SITE_FRAME");
+  EXPECT_EQ(rover->label_quaternion_wxyz,
+            (std::array<double, 4>{0.580525, 0.0333603, -0.128929, 0.803278}));
+  EXPECT_EQ(rover->index.front(), 195);  // Site 195.
+  EXPECT_NEAR(rover->reference_from_frame.translation.x(), 73.9193, 1e-12);
+}
+
+}  // namespace
+}  // namespace areomap
