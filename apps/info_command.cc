@@ -97,7 +97,8 @@ std::string Text(const RasterDescription& d, LongitudeDomain domain) {
         << ToString(c.longitude_direction) << "\n";
     if (c.is_projected) {
       out << "    projection: " << c.projection_method;
-      for (const auto& [name, value] : c.projection_parameters) out << ", " << name << " = " << value;
+      for (const auto& [name, value] : c.projection_parameters)
+        out << ", " << name << " = " << value;
       out << "\n";
     }
     if (d.info.geotransform) {
@@ -122,7 +123,8 @@ std::string Text(const RasterDescription& d, LongitudeDomain domain) {
     }
   }
   if (d.product) {
-    if (!d.product->instrument_id.empty()) out << "  instrument: " << d.product->instrument_id << "\n";
+    if (!d.product->instrument_id.empty())
+      out << "  instrument: " << d.product->instrument_id << "\n";
     if (d.product->camera) {
       out << "  camera model " << d.product->camera->model_type << " in "
           << d.product->camera->reference_frame << ":\n";
@@ -136,8 +138,8 @@ std::string Text(const RasterDescription& d, LongitudeDomain domain) {
       const auto& q = f.label_quaternion_wxyz;
       const auto& t = f.reference_from_frame.translation;
       out << "  frame " << f.name << " -> " << f.reference_frame << ": q(wxyz) = " << q[0] << " "
-          << q[1] << " " << q[2] << " " << q[3] << ", offset = " << t.x() << " " << t.y()
-          << " " << t.z() << " m\n";
+          << q[1] << " " << q[2] << " " << q[3] << ", offset = " << t.x() << " " << t.y() << " "
+          << t.z() << " m\n";
     }
   }
   return out.str();

@@ -48,8 +48,8 @@ void AddSampleCommand(CLI::App& app, const GlobalOptions& global) {
     progress(1.0, "done");
     if (!global.quiet) {
       std::cout << "wrote " << dtm_path.string() << " (" << options->size_px << " x "
-                << options->size_px << " px at " << options->posting_m << " m, elevation "
-                << min_z << " .. " << max_z << " m)\n";
+                << options->size_px << " px at " << options->posting_m << " m, elevation " << min_z
+                << " .. " << max_z << " m)\n";
     }
   });
 }

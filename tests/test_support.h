@@ -16,12 +16,12 @@ namespace areomap::testing {
 // ../shared/data beside the checkout; tests that need it call SKIP_WITHOUT_SHARED_DATA().
 inline std::filesystem::path SharedDataDir() { return AREOMAP_SHARED_DATA_DIR; }
 
-#define SKIP_WITHOUT_SHARED_DATA()                                                       \
-  do {                                                                                   \
-    if (!std::filesystem::is_directory(::areomap::testing::SharedDataDir())) {           \
-      GTEST_SKIP() << "real sample data not found at "                                   \
-                   << ::areomap::testing::SharedDataDir() << " (../shared/data)";        \
-    }                                                                                    \
+#define SKIP_WITHOUT_SHARED_DATA()                                                            \
+  do {                                                                                        \
+    if (!std::filesystem::is_directory(::areomap::testing::SharedDataDir())) {                \
+      GTEST_SKIP() << "real sample data not found at " << ::areomap::testing::SharedDataDir() \
+                   << " (../shared/data)";                                                    \
+    }                                                                                         \
   } while (0)
 
 // Runs a shell command and returns its standard output; fails the test on a non-zero exit.
@@ -34,7 +34,8 @@ inline std::string RunCommand(const std::string& command) {
   }
   std::array<char, 4096> buffer{};
   size_t n = 0;
-  while ((n = fread(buffer.data(), 1, buffer.size(), pipe.get())) > 0) output.append(buffer.data(), n);
+  while ((n = fread(buffer.data(), 1, buffer.size(), pipe.get())) > 0)
+    output.append(buffer.data(), n);
   const int status = pclose(pipe.release());
   EXPECT_EQ(status, 0) << "command failed: " << command;
   return output;

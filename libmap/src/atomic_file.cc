@@ -21,8 +21,8 @@ AtomicFile::AtomicFile(std::filesystem::path final_path) : final_path_(std::move
     throw Error(final_path_.string() + ": cannot write: folder '" + folder.string() +
                 "' is not writable");
   }
-  temp_path_ = folder / (".tmp-" + std::to_string(::getpid()) + "-" +
-                         final_path_.filename().string());
+  temp_path_ =
+      folder / (".tmp-" + std::to_string(::getpid()) + "-" + final_path_.filename().string());
 }
 
 AtomicFile::~AtomicFile() {
@@ -36,8 +36,8 @@ void AtomicFile::Commit() {
   std::error_code ec;
   std::filesystem::rename(temp_path_, final_path_, ec);
   if (ec) {
-    throw Error(final_path_.string() + ": cannot move the finished file into place: " +
-                ec.message());
+    throw Error(final_path_.string() +
+                ": cannot move the finished file into place: " + ec.message());
   }
   committed_ = true;
 }

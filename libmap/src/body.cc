@@ -11,9 +11,7 @@ namespace areomap {
 Body Body::Mars2000() { return Body{"Mars2000", 3396190.0, 3376200.0}; }
 Body Body::MarsSphere() { return Body{"MarsSphere", 3396190.0, 3396190.0}; }
 Body Body::MolaSphere() { return Body{"MolaSphere", 3396000.0, 3396000.0}; }
-Body Body::Sphere(double radius, std::string name) {
-  return Body{std::move(name), radius, radius};
-}
+Body Body::Sphere(double radius, std::string name) { return Body{std::move(name), radius, radius}; }
 
 std::vector<std::string> Body::Names() { return {"mars2000", "mars-sphere", "mola-sphere"}; }
 

@@ -91,8 +91,8 @@ CoordinateSystem CoordinateSystem::Parse(std::string_view spec,
       } else if (parts[i] == "360" || parts[i] == "180") {
         impl->convention.domain = LongitudeDomainFromString(parts[i]);
       } else {
-        throw Error("coordinate system '" + std::string(spec) + "': unknown modifier '" +
-                    parts[i] + "': expected west, east, 360 or 180");
+        throw Error("coordinate system '" + std::string(spec) + "': unknown modifier '" + parts[i] +
+                    "': expected west, east, 360 or 180");
       }
     }
   } else if (head == "spherical") {

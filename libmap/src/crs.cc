@@ -118,8 +118,8 @@ std::string GeographicCrsWkt(const Body& body) {
   internal::EnsureGdalInitialized();
   OGRSpatialReference srs;
   const std::string name = body.IsSphere() ? body.name : body.name + " (planetographic)";
-  srs.SetGeogCS(name.c_str(), ("D_" + body.name).c_str(),
-                body.name.c_str(), body.a, body.InverseFlattening(), "Reference_Meridian", 0.0);
+  srs.SetGeogCS(name.c_str(), ("D_" + body.name).c_str(), body.name.c_str(), body.a,
+                body.InverseFlattening(), "Reference_Meridian", 0.0);
   return ExportWkt2(srs);
 }
 
@@ -211,8 +211,8 @@ CrsTransform::CrsTransform(const Crs& crs) : impl_(std::make_unique<Impl>()) {
     impl_->from_geographic.reset(
         OGRCreateCoordinateTransformation(impl_->geographic.get(), &impl_->srs));
     if (impl_->to_geographic == nullptr || impl_->from_geographic == nullptr) {
-      throw Error(crs.source() + ": PROJ cannot invert this projection: " +
-                  internal::LastGdalError());
+      throw Error(crs.source() +
+                  ": PROJ cannot invert this projection: " + internal::LastGdalError());
     }
   }
 }

@@ -22,7 +22,7 @@ QuietGdalErrors::~QuietGdalErrors() { CPLPopErrorHandler(); }
 std::string LastGdalError() {
   const char* message = CPLGetLastErrorMsg();
   return (message != nullptr && *message != '\0') ? std::string(message)
-                                                   : std::string("no detail from GDAL");
+                                                  : std::string("no detail from GDAL");
 }
 
 }  // namespace areomap::internal

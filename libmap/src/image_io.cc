@@ -12,8 +12,8 @@ cv::Mat ReadImage(const std::filesystem::path& path) {
   if (!std::filesystem::exists(path, ec)) throw Error(path.string() + ": no such file");
   auto input = OIIO::ImageInput::open(path.string());
   if (!input) {
-    throw Error(path.string() + ": not a readable image (expected PNG, TIFF or JPEG): " +
-                OIIO::geterror());
+    throw Error(path.string() +
+                ": not a readable image (expected PNG, TIFF or JPEG): " + OIIO::geterror());
   }
   const OIIO::ImageSpec& spec = input->spec();
   if (spec.nchannels < 1 || spec.nchannels > 4) {
@@ -22,8 +22,7 @@ cv::Mat ReadImage(const std::filesystem::path& path) {
   }
   const bool eight_bit = spec.format == OIIO::TypeDesc::UINT8;
   const OIIO::TypeDesc read_type = eight_bit ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16;
-  cv::Mat image(spec.height, spec.width,
-                CV_MAKETYPE(eight_bit ? CV_8U : CV_16U, spec.nchannels));
+  cv::Mat image(spec.height, spec.width, CV_MAKETYPE(eight_bit ? CV_8U : CV_16U, spec.nchannels));
   if (!input->read_image(0, 0, 0, spec.nchannels, read_type, image.data)) {
     throw Error(path.string() + ": read failed (truncated file?): " + input->geterror());
   }

@@ -96,8 +96,8 @@ ProductGeometry ParseProductGeometry(const nlohmann::json& label, std::string_vi
         frame.index.push_back(idx->get<int>());
       }
     }
-    const auto offset = NumberList(RequireKey(value, "ORIGIN_OFFSET_VECTOR", source, group),
-                                   source, group + ".ORIGIN_OFFSET_VECTOR", 3);
+    const auto offset = NumberList(RequireKey(value, "ORIGIN_OFFSET_VECTOR", source, group), source,
+                                   group + ".ORIGIN_OFFSET_VECTOR", 3);
     const auto q = NumberList(RequireKey(value, "ORIGIN_ROTATION_QUATERNION", source, group),
                               source, group + ".ORIGIN_ROTATION_QUATERNION", 4);
     const Eigen::Quaterniond rotation(q[0], q[1], q[2], q[3]);  // Scalar first in PDS labels.

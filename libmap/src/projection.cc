@@ -51,8 +51,8 @@ std::string ToString(ProjectionType type) {
   return "unknown";
 }
 
-MapProjection MapProjection::Equirectangular(const Body& body, double center_lat,
-                                             double center_lon, EquirectangularRadius radius) {
+MapProjection MapProjection::Equirectangular(const Body& body, double center_lat, double center_lon,
+                                             EquirectangularRadius radius) {
   body.Check();
   CheckLatitude(center_lat, "centre latitude");
   CheckLongitude(center_lon, "centre longitude");

@@ -107,7 +107,8 @@ RasterDataset RasterDataset::Open(const std::filesystem::path& path) {
   internal::QuietGdalErrors quiet;
   GdalDatasetPtr dataset(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
   if (dataset == nullptr) {
-    throw Error(path.string() + ": not a readable raster (expected GeoTIFF, PDS3/PDS4, ISIS3 "
+    throw Error(path.string() +
+                ": not a readable raster (expected GeoTIFF, PDS3/PDS4, ISIS3 "
                 "cube, VICAR, JPEG 2000, PNG or another GDAL format): " +
                 internal::LastGdalError());
   }
@@ -119,10 +120,12 @@ RasterDataset RasterDataset::Open(const std::filesystem::path& path) {
   {
     GDALRasterBand* last = dataset->GetRasterBand(dataset->GetRasterCount());
     double probe = 0.0;
-    if (last->RasterIO(GF_Read, dataset->GetRasterXSize() - 1, dataset->GetRasterYSize() - 1, 1,
-                       1, &probe, 1, 1, GDT_Float64, 0, 0, nullptr) != CE_None) {
-      throw Error(path.string() + ": truncated or corrupt raster (its last block cannot be "
-                  "read): " + internal::LastGdalError());
+    if (last->RasterIO(GF_Read, dataset->GetRasterXSize() - 1, dataset->GetRasterYSize() - 1, 1, 1,
+                       &probe, 1, 1, GDT_Float64, 0, 0, nullptr) != CE_None) {
+      throw Error(path.string() +
+                  ": truncated or corrupt raster (its last block cannot be "
+                  "read): " +
+                  internal::LastGdalError());
     }
   }
   RasterInfo info;
@@ -166,8 +169,8 @@ cv::Mat RasterDataset::ReadWindow(int band_index, const PixelWindow& w) const {
     throw Error(info_.path.string() + ": band " + std::to_string(band_index) +
                 " does not exist: expected 1.." + std::to_string(info_.band_count));
   }
-  if (w.width <= 0 || w.height <= 0 || w.col0 < 0 || w.row0 < 0 ||
-      w.col0 + w.width > info_.width || w.row0 + w.height > info_.height) {
+  if (w.width <= 0 || w.height <= 0 || w.col0 < 0 || w.row0 < 0 || w.col0 + w.width > info_.width ||
+      w.row0 + w.height > info_.height) {
     throw Error(info_.path.string() + ": window col " + std::to_string(w.col0) + " row " +
                 std::to_string(w.row0) + " size " + std::to_string(w.width) + "x" +
                 std::to_string(w.height) + " is outside the raster (" +
@@ -181,8 +184,8 @@ cv::Mat RasterDataset::ReadWindow(int band_index, const PixelWindow& w) const {
       band->RasterIO(GF_Read, w.col0, w.row0, w.width, w.height, out.data, w.width, w.height,
                      mapping.gdal, 0, static_cast<GSpacing>(out.step[0]), nullptr);
   if (err != CE_None) {
-    throw Error(info_.path.string() + ": read failed (truncated or corrupt file?): " +
-                internal::LastGdalError());
+    throw Error(info_.path.string() +
+                ": read failed (truncated or corrupt file?): " + internal::LastGdalError());
   }
   return out;
 }
@@ -222,7 +225,8 @@ void WriteGeoTiff(const std::filesystem::path& path, const GeoRaster& raster,
   const cv::Mat& first = raster.bands.front();
   for (const cv::Mat& band : raster.bands) {
     if (band.size() != first.size() || band.type() != first.type() || band.channels() != 1) {
-      throw Error(path.string() + ": bands differ in size or type: expected single-channel "
+      throw Error(path.string() +
+                  ": bands differ in size or type: expected single-channel "
                   "bands of one size and type");
     }
   }

@@ -20,8 +20,11 @@ RasterDescription DescribeRaster(const std::filesystem::path& path) {
   const double w = out.info.width;
   const double h = out.info.height;
   const std::vector<std::pair<std::string, Eigen::Vector2d>> corners = {
-      {"upper_left", {0.0, 0.0}},  {"lower_left", {0.0, h}},      {"upper_right", {w, 0.0}},
-      {"lower_right", {w, h}},     {"center", {w / 2.0, h / 2.0}}};
+      {"upper_left", {0.0, 0.0}},
+      {"lower_left", {0.0, h}},
+      {"upper_right", {w, 0.0}},
+      {"lower_right", {w, h}},
+      {"center", {w / 2.0, h / 2.0}}};
   for (const auto& [name, pixel] : corners) {
     CornerCoordinate corner;
     corner.name = name;

@@ -38,8 +38,7 @@ void SampleTerrainOptions::Check() const {
   Require(std::abs(center_lat_deg) < 85.0, "center_lat_deg", "|lat| < 85 deg", center_lat_deg);
   Require(std::isfinite(center_lon_deg), "center_lon_deg", "a finite longitude", center_lon_deg);
   Require(size_px >= 16 && size_px <= 8192, "size_px", "16..8192", size_px);
-  Require(posting_m > 0.0 && posting_m <= 1000.0, "posting_m", "0 < posting <= 1000 m",
-          posting_m);
+  Require(posting_m > 0.0 && posting_m <= 1000.0, "posting_m", "0 < posting <= 1000 m", posting_m);
   Require(crater_diameter_m > 0.0, "crater_diameter_m", "> 0", crater_diameter_m);
   Require(crater_depth_m > rim_height_m, "crater_depth_m", "> rim_height_m", crater_depth_m);
   Require(rim_height_m >= 0.0, "rim_height_m", ">= 0", rim_height_m);
@@ -88,8 +87,8 @@ GeoRaster MakeSampleTerrain(const SampleTerrainOptions& o) {
   GeoRaster out;
   out.bands = {dtm};
   out.band_names = {"elevation_m"};
-  out.geotransform = GeoTransform::NorthUp(center_xy.x() - half, center_xy.y() + half,
-                                           o.posting_m, o.posting_m);
+  out.geotransform =
+      GeoTransform::NorthUp(center_xy.x() - half, center_xy.y() + half, o.posting_m, o.posting_m);
   out.crs_wkt = projection.Wkt();
   out.nodata = -3.4028227e+38;
   return out;

@@ -50,11 +50,14 @@ TEST(CoordinateSystem, SiteFrameNeedsAnOriginAndPutsItAtZero) {
 TEST(CoordinateSystem, RejectsBadLinesAndNames) {
   const CoordinateSystemContext context;
   const auto ocentric = CoordinateSystem::Parse("planetocentric", context);
-  EXPECT_NE(ErrorOf([&] { ocentric.ToMbf({91.0, 0.0, 0.0}); }).find("latitude 91 is outside"),
+  EXPECT_NE(ErrorOf([&] {
+              ocentric.ToMbf({91.0, 0.0, 0.0});
+            }).find("latitude 91 is outside"),
             std::string::npos);
   EXPECT_THROW(ocentric.ToMbf({std::nan(""), 0.0, 0.0}), Error);
-  EXPECT_NE(ErrorOf([&] { CoordinateSystem::Parse("planetocentric,sideways", context); })
-                .find("unknown modifier 'sideways'"),
+  EXPECT_NE(ErrorOf([&] {
+              CoordinateSystem::Parse("planetocentric,sideways", context);
+            }).find("unknown modifier 'sideways'"),
             std::string::npos);
   EXPECT_NE(ErrorOf([&] { CoordinateSystem::Parse("EPSG:4326", context); }).find("not on Mars"),
             std::string::npos);

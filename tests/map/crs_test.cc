@@ -50,8 +50,7 @@ TEST(Crs, UnknownNameIsAnErrorThatQuotesIt) {
 }
 
 TEST(Crs, ProjectedTransformRoundTripsThroughMbf) {
-  const MapProjection projection =
-      MapProjection::Sinusoidal(Body::Mars2000(), RadFromDeg(141.5));
+  const MapProjection projection = MapProjection::Sinusoidal(Body::Mars2000(), RadFromDeg(141.5));
   const CrsTransform transform(Crs::FromWkt(projection.Wkt(), "test"));
   EXPECT_EQ(transform.description().latitude_type, LatitudeType::kPlanetocentric);
   const Geographic g{RadFromDeg(34.27), RadFromDeg(141.57), 120.0};

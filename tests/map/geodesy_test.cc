@@ -53,18 +53,16 @@ TEST(Geodesy, PlanetocentricToPlanetographicWestAgreesWithProj) {
   std::vector<Eigen::Vector3d> input;
   for (const auto& g : points) input.push_back({DegFromRad(g.lat), DegFromRad(g.lon), 0.0});
   // IAU_2015:49902 is planetocentric east, 49901 planetographic west; both lat first.
-  const auto expected =
-      RunProjTool("cs2cs -f %.15f IAU_2015:49902 IAU_2015:49901", input);
+  const auto expected = RunProjTool("cs2cs -f %.15f IAU_2015:49902 IAU_2015:49901", input);
   const GeographicConvention ocentric_east;
-  const GeographicConvention ographic_west{LatitudeType::kPlanetographic,
-                                           LongitudeDirection::kWest,
+  const GeographicConvention ographic_west{LatitudeType::kPlanetographic, LongitudeDirection::kWest,
                                            LongitudeDomain::kPlusMinus180};
   ASSERT_EQ(expected.size(), points.size());
   for (size_t i = 0; i < points.size(); ++i) {
     const Geographic got = ConvertGeographic(mars, points[i], ocentric_east, ographic_west);
     EXPECT_NEAR(DegFromRad(got.lat), expected[i].x(), kDegTolerance) << i;
-    const double dlon = DegFromRad(WrapLongitude(
-        got.lon - RadFromDeg(expected[i].y()), LongitudeDomain::kPlusMinus180));
+    const double dlon = DegFromRad(
+        WrapLongitude(got.lon - RadFromDeg(expected[i].y()), LongitudeDomain::kPlusMinus180));
     EXPECT_NEAR(dlon, 0.0, kDegTolerance) << i;
   }
 }
@@ -75,11 +73,9 @@ TEST(Geodesy, MbfAgreesWithProjForBothLatitudeTypes) {
   std::vector<Eigen::Vector3d> input;
   for (const auto& g : points) input.push_back({DegFromRad(g.lon), DegFromRad(g.lat), g.h});
   const std::string ellipsoid = " +a=3396190 +b=3376200";
-  const auto ographic = RunProjTool(
-      "cct -d 9 +proj=pipeline +step +proj=cart" + ellipsoid, input);
+  const auto ographic = RunProjTool("cct -d 9 +proj=pipeline +step +proj=cart" + ellipsoid, input);
   const auto ocentric = RunProjTool(
-      "cct -d 9 +proj=pipeline +step +inv +proj=geoc" + ellipsoid + " +step +proj=cart" +
-          ellipsoid,
+      "cct -d 9 +proj=pipeline +step +inv +proj=geoc" + ellipsoid + " +step +proj=cart" + ellipsoid,
       input);
   const GeographicConvention graphic{LatitudeType::kPlanetographic};
   for (size_t i = 0; i < points.size(); ++i) {
@@ -115,7 +111,8 @@ TEST(Geodesy, SphericalCoordinatesRoundTrip) {
 TEST(Geodesy, EnuAgreesWithProjTopocentric) {
   const Body mars = Body::Mars2000();
   const Geographic origin{RadFromDeg(-14.5692), RadFromDeg(175.4729), -1900.0};
-  const Geographic origin_graphic = ConvertGeographic(mars, origin, {}, {LatitudeType::kPlanetographic});
+  const Geographic origin_graphic =
+      ConvertGeographic(mars, origin, {}, {LatitudeType::kPlanetographic});
   const Rigid3d enu_from_mbf = EnuFromMbf(mars, origin);
   std::mt19937 rng(4);
   std::uniform_real_distribution<double> offset(-0.02, 0.02);  // ~1 km around the origin.
@@ -123,10 +120,10 @@ TEST(Geodesy, EnuAgreesWithProjTopocentric) {
   std::vector<Geographic> points;
   std::vector<Eigen::Vector3d> input;
   for (int i = 0; i < kPoints; ++i) {
-    points.push_back({origin_graphic.lat + offset(rng), origin_graphic.lon + offset(rng),
-                      height(rng)});
-    input.push_back({DegFromRad(points.back().lon), DegFromRad(points.back().lat),
-                     points.back().h});
+    points.push_back(
+        {origin_graphic.lat + offset(rng), origin_graphic.lon + offset(rng), height(rng)});
+    input.push_back(
+        {DegFromRad(points.back().lon), DegFromRad(points.back().lat), points.back().h});
   }
   char origin_args[256];
   std::snprintf(origin_args, sizeof(origin_args), " +lat_0=%.15f +lon_0=%.15f +h_0=%.9f",

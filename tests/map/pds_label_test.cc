@@ -23,9 +23,9 @@ TEST(PdsLabel, MissingOrMalformedKeywordsAreNamed) {
                                  "MODEL_TYPE"),
             std::string::npos)
       << ErrorOf(camera);
-  nlohmann::json frame = {{"ROVER_COORDINATE_SYSTEM",
-                           {{"ORIGIN_OFFSET_VECTOR", {1, 2, 3}},
-                            {"ORIGIN_ROTATION_QUATERNION", {1, 0, 0}}}}};
+  nlohmann::json frame = {
+      {"ROVER_COORDINATE_SYSTEM",
+       {{"ORIGIN_OFFSET_VECTOR", {1, 2, 3}}, {"ORIGIN_ROTATION_QUATERNION", {1, 0, 0}}}}};
   EXPECT_NE(ErrorOf(frame).find("ROVER_COORDINATE_SYSTEM.ORIGIN_ROTATION_QUATERNION is invalid: "
                                 "expected 4 numbers"),
             std::string::npos)
@@ -42,7 +42,8 @@ TEST(PdsLabel, FrameQuaternionIsScalarFirstAndMapsFrameToReference) {
                                   {"ORIGIN_ROTATION_QUATERNION", {s, 0, 0, s}}}}};
   const ProductGeometry geometry = ParseProductGeometry(label, "x");
   ASSERT_EQ(geometry.frames.size(), 1u);
-  const Eigen::Vector3d p_in_site = geometry.frames[0].reference_from_frame * Eigen::Vector3d(1, 0, 0);
+  const Eigen::Vector3d p_in_site =
+      geometry.frames[0].reference_from_frame * Eigen::Vector3d(1, 0, 0);
   EXPECT_LT((p_in_site - Eigen::Vector3d(10, 21, 0)).norm(), 1e-12);
 }
 

@@ -89,8 +89,9 @@ TEST(Raster, WindowedReadMatchesTheFullRead) {
 
 TEST(Raster, BadFilesGiveErrorsThatNameThem) {
   TempDir dir;
-  EXPECT_NE(ErrorOf([&] { RasterDataset::Open(dir.path() / "missing.tif"); })
-                .find("missing.tif: no such file"),
+  EXPECT_NE(ErrorOf([&] {
+              RasterDataset::Open(dir.path() / "missing.tif");
+            }).find("missing.tif: no such file"),
             std::string::npos);
   const auto text = dir.path() / "notes.txt";
   std::ofstream(text) << "this is not a raster\n";

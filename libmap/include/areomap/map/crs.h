@@ -30,17 +30,17 @@ std::string ProjectedCrsWkt(const Body& body, std::string_view method,
 
 // A CRS described in Mars terms.
 struct CrsDescription {
-  std::string name;                // The CRS's own name.
-  std::string authority;           // e.g. "IAU_2015:49910", empty if none.
+  std::string name;       // The CRS's own name.
+  std::string authority;  // e.g. "IAU_2015:49910", empty if none.
   std::string ellipsoid_name;
-  Body body;                       // Radii of the CRS's ellipsoid or sphere.
-  bool is_mars = false;            // Radii within Mars's range (local radii included).
+  Body body;             // Radii of the CRS's ellipsoid or sphere.
+  bool is_mars = false;  // Radii within Mars's range (local radii included).
   bool is_projected = false;
-  bool is_geocentric = false;      // Cartesian body-fixed CRS.
+  bool is_geocentric = false;  // Cartesian body-fixed CRS.
   bool IsGeographic() const { return !is_projected && !is_geocentric; }
   LatitudeType latitude_type = LatitudeType::kPlanetographic;
   LongitudeDirection longitude_direction = LongitudeDirection::kEast;
-  std::string projection_method;   // Empty for a geographic CRS.
+  std::string projection_method;                        // Empty for a geographic CRS.
   std::map<std::string, double> projection_parameters;  // Name -> value as WKT gives it.
 };
 

@@ -38,7 +38,7 @@ struct CoordinateFrameLabel {
   std::string reference_frame;  // REFERENCE_COORD_SYSTEM_NAME, e.g. "SITE_FRAME".
   std::vector<int> index;       // COORDINATE_SYSTEM_INDEX (site, drive, ...), may be empty.
   std::array<double, 4> label_quaternion_wxyz{};  // As written in the label (not normalized).
-  Rigid3d reference_from_frame;                    // Normalized rotation + offset.
+  Rigid3d reference_from_frame;                   // Normalized rotation + offset.
 };
 
 struct ProductGeometry {

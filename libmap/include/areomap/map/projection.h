@@ -37,9 +37,9 @@ std::string ToString(ProjectionType type);
 class MapProjection {
  public:
   // center_lat: latitude of true scale [rad]; center_lon: central meridian [rad, east].
-  static MapProjection Equirectangular(const Body& body, double center_lat, double center_lon,
-                                       EquirectangularRadius radius =
-                                           EquirectangularRadius::kEquatorial);
+  static MapProjection Equirectangular(
+      const Body& body, double center_lat, double center_lon,
+      EquirectangularRadius radius = EquirectangularRadius::kEquatorial);
   static MapProjection Sinusoidal(const Body& body, double center_lon);
   // latitude_of_true_scale [rad] must lie in the pole's hemisphere (e.g. +-pi/2 for k0 = 1).
   static MapProjection PolarStereographic(const Body& body, Pole pole, double center_lon,
@@ -63,7 +63,10 @@ class MapProjection {
  private:
   MapProjection(ProjectionType type, const Body& body, const Body& surface, double center_lat,
                 double center_lon)
-      : type_(type), body_(body), surface_(surface), center_lat_(center_lat),
+      : type_(type),
+        body_(body),
+        surface_(surface),
+        center_lat_(center_lat),
         center_lon_(center_lon) {}
 
   ProjectionType type_;

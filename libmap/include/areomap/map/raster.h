@@ -48,7 +48,7 @@ struct RasterInfo {
   int band_count = 0;
   std::string data_type;  // GDAL name of band 1's type, e.g. "Float32".
   std::optional<double> nodata;
-  double scale = 1.0;   // physical = scale * stored + offset
+  double scale = 1.0;  // physical = scale * stored + offset
   double offset = 0.0;
   std::optional<GeoTransform> geotransform;  // None for plain images.
   std::string crs_wkt;                       // Empty when the raster has no CRS.
