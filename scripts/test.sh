@@ -5,6 +5,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset="${AREOMAP_PRESET:-release}"
+# Paths relative to the checkout, so ccache hits across clones (CI builds a fresh one).
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}"
 
 bash scripts/install-deps.sh
 cmake --preset "$preset" >/dev/null

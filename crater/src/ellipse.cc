@@ -11,8 +11,9 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Bisection halts earlier, when the midpoint equals an end (about 60 steps in double).
-constexpr int kMaxBisections = 256;
+// Bisection halts earlier, when the midpoint equals an end (at most ~1100 steps in double,
+// typically 50-120).
+constexpr int kMaxBisections = 1100;
 
 // Largest axis ratio FromConic accepts; beyond it the conic is numerically a parabola.
 constexpr double kMinConicEigenRatio = 1e-12;  // lambda_min / lambda_max = (b/a)^2
@@ -22,34 +23,35 @@ bool HasPositiveAxes(const Ellipse& e) {
          e.semi_minor > 0.0 && e.center.allFinite() && std::isfinite(e.angle);
 }
 
-// Root s of (r0 z0 / (s + r0))^2 + (z1 / (s + 1))^2 - 1 = 0 on [z1 - 1, |(r0 z0, z1)| - 1]
-// (Eberly's GetRoot for 2D).
-double GetRoot(double r0, double z0, double z1, double g) {
+// Root u > 0 of G(u) = (r0 z0 / (u + r0 - 1))^2 + (z1 / u)^2 - 1, which is decreasing in u,
+// by bisection on [z1, 1] (point inside) or [z1, |(r0 z0, z1)|] (outside). This is Eberly's
+// GetRoot with his s shifted to u = s + 1, so that u, and with it x1 = y1 / u, keeps full
+// relative precision for points close to the major axis (z1 -> 0).
+double GetRoot(double r0, double r0_minus_1, double z0, double z1, double g) {
   const double n0 = r0 * z0;
-  double s0 = z1 - 1.0;
-  double s1 = g < 0.0 ? 0.0 : std::hypot(n0, z1) - 1.0;
-  double s = 0.0;
+  double u0 = z1;
+  double u1 = g < 0.0 ? 1.0 : std::hypot(n0, z1);
+  double u = u1;
   for (int i = 0; i < kMaxBisections; ++i) {
-    s = 0.5 * (s0 + s1);
-    if (s == s0 || s == s1) break;
-    const double ratio0 = n0 / (s + r0);
-    const double ratio1 = z1 / (s + 1.0);
-    g = ratio0 * ratio0 + ratio1 * ratio1 - 1.0;
-    if (g > 0.0) {
-      s0 = s;
-    } else if (g < 0.0) {
-      s1 = s;
+    u = 0.5 * (u0 + u1);
+    if (u == u0 || u == u1) break;
+    const double ratio0 = n0 / (u + r0_minus_1);
+    const double ratio1 = z1 / u;
+    const double value = ratio0 * ratio0 + ratio1 * ratio1 - 1.0;
+    if (value > 0.0) {
+      u0 = u;
+    } else if (value < 0.0) {
+      u1 = u;
     } else {
       break;
     }
   }
-  return s;
+  return u;
 }
 
 // Closest point (x0, x1) of the ellipse (x/e0)^2 + (y/e1)^2 = 1 with e0 >= e1 > 0 to the
 // first-quadrant point (y0, y1), y0, y1 >= 0; returns the unsigned distance.
-double DistanceFirstQuadrant(double e0, double e1, double y0, double y1, double* x0,
-                             double* x1) {
+double DistanceFirstQuadrant(double e0, double e1, double y0, double y1, double* x0, double* x1) {
   if (y1 > 0.0) {
     if (y0 > 0.0) {
       const double z0 = y0 / e0;
@@ -57,9 +59,10 @@ double DistanceFirstQuadrant(double e0, double e1, double y0, double y1, double*
       const double g = z0 * z0 + z1 * z1 - 1.0;
       if (g != 0.0) {
         const double r0 = (e0 / e1) * (e0 / e1);
-        const double sbar = GetRoot(r0, z0, z1, g);
-        *x0 = r0 * y0 / (sbar + r0);
-        *x1 = y1 / (sbar + 1.0);
+        const double r0_minus_1 = ((e0 - e1) * (e0 + e1)) / (e1 * e1);
+        const double u = GetRoot(r0, r0_minus_1, z0, z1, g);
+        *x0 = r0 * y0 / (u + r0_minus_1);
+        *x1 = y1 / u;
         return std::hypot(*x0 - y0, *x1 - y1);
       }
       *x0 = y0;
@@ -86,8 +89,8 @@ double DistanceFirstQuadrant(double e0, double e1, double y0, double y1, double*
 }
 
 struct CanonicalNearest {
-  Eigen::Vector2d point;    // closest curve point in the ellipse frame
-  double signed_distance;   // negative inside
+  Eigen::Vector2d point;   // closest curve point in the ellipse frame
+  double signed_distance;  // negative inside
 };
 
 // q is in the ellipse's frame (centre at the origin, major axis along x); any a, b > 0.
@@ -218,8 +221,8 @@ double Ellipse::SignedDistance(const Eigen::Vector2d& p) const {
 
 Eigen::Vector2d Ellipse::ClosestPoint(const Eigen::Vector2d& p) const {
   if (!HasPositiveAxes(*this) || !p.allFinite()) return Eigen::Vector2d::Constant(kNaN);
-  return FromCanonical(*this,
-                       NearestInCanonicalFrame(semi_major, semi_minor, ToCanonical(*this, p)).point);
+  return FromCanonical(
+      *this, NearestInCanonicalFrame(semi_major, semi_minor, ToCanonical(*this, p)).point);
 }
 
 double Ellipse::ClosestParameter(const Eigen::Vector2d& p) const {

@@ -2,14 +2,18 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <iomanip>
 #include <limits>
 #include <memory>
 #include <numbers>
 #include <sstream>
+#include <string>
 #include <utility>
+#include <vector>
 
 #include <ceres/ceres.h>
+#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
@@ -89,16 +93,31 @@ ceres::LossFunction* MakeLoss(const GeometricFitOptions& options) {
   return nullptr;
 }
 
-// Fills summary->covariance (unscaled) from Ceres; false when even the 4-parameter
-// covariance is singular.
+// Whether J^T J of the distances in (center, a, b, angle) is safely regular. Ceres'
+// DENSE_SVD covariance fails below a reciprocal condition number of 1e-14 and logs an error
+// through glog; a circle's angle is the usual culprit. This test keeps a margin of 100.
+bool AngleObservable(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
+  Eigen::Matrix<double, 5, 5> jtj = Eigen::Matrix<double, 5, 5>::Zero();
+  for (const Eigen::Vector2d& p : points) {
+    const Eigen::Matrix<double, 5, 1> g = e.SignedDistanceGradient(p);
+    if (g.allFinite()) jtj.noalias() += g * g.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 5, 5>> solver(jtj);
+  if (solver.info() != Eigen::Success) return false;
+  const Eigen::Matrix<double, 5, 1>& values = solver.eigenvalues();  // ascending
+  return values(4) > 0.0 && values(0) > 1e-12 * values(4);
+}
+
+// Fills *covariance (unscaled) from Ceres; false when even the 4-parameter covariance is
+// singular. When the angle is not observable it is held and its variance is +inf.
 bool ComputeCovariance(ceres::Problem* problem, double* shape, double* angle, int num_threads,
-                       Eigen::Matrix<double, 5, 5>* covariance) {
+                       bool angle_observable, Eigen::Matrix<double, 5, 5>* covariance) {
   ceres::Covariance::Options cov_options;
   cov_options.algorithm_type = ceres::DENSE_SVD;
   cov_options.num_threads = num_threads;
   covariance->setConstant(kNaN);
   Eigen::Matrix<double, 4, 4, Eigen::RowMajor> shape_shape;
-  {
+  if (angle_observable) {
     ceres::Covariance full(cov_options);
     const std::vector<std::pair<const double*, const double*>> blocks = {
         {shape, shape}, {shape, angle}, {angle, angle}};
@@ -126,35 +145,10 @@ bool ComputeCovariance(ceres::Problem* problem, double* shape, double* angle, in
   return true;
 }
 
-}  // namespace
-
-std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& points) {
-  const std::vector<Eigen::Vector2d> finite = FinitePoints(points);
-  if (finite.size() < 5) return std::nullopt;
-
-  // OpenCV takes float points: centre and scale them so float keeps ~7 significant digits
-  // of the shape whatever the coordinates' magnitude (map eastings reach 1e6 m).
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  for (const Eigen::Vector2d& p : finite) mean += p;
-  mean /= static_cast<double>(finite.size());
-  double spread = 0.0;
-  for (const Eigen::Vector2d& p : finite) spread += (p - mean).squaredNorm();
-  spread = std::sqrt(spread / static_cast<double>(finite.size()));
-  if (!(spread > 0.0) || !std::isfinite(spread)) return std::nullopt;
-
-  std::vector<cv::Point2f> scaled;
-  scaled.reserve(finite.size());
-  for (const Eigen::Vector2d& p : finite) {
-    const Eigen::Vector2d q = (p - mean) / spread;
-    scaled.emplace_back(static_cast<float>(q.x()), static_cast<float>(q.y()));
-  }
-  cv::RotatedRect box;
-  try {
-    box = cv::fitEllipseDirect(scaled);
-  } catch (const cv::Exception&) {
-    return std::nullopt;
-  }
-
+// RotatedRect fitted to points scaled as (p - mean) / spread -> Ellipse in the point frame;
+// nullopt when degenerate.
+std::optional<Ellipse> FromRotatedRect(const cv::RotatedRect& box, const Eigen::Vector2d& mean,
+                                       double spread) {
   // RotatedRect: full axes; `angle` [deg] turns the width axis from +x toward +y.
   const double half_width = 0.5 * static_cast<double>(box.size.width);
   const double half_height = 0.5 * static_cast<double>(box.size.height);
@@ -175,6 +169,67 @@ std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& poin
     return std::nullopt;
   }
   return e;
+}
+
+}  // namespace
+
+std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& points) {
+  const std::vector<Eigen::Vector2d> finite = FinitePoints(points);
+  if (finite.size() < 5) return std::nullopt;
+
+  // OpenCV takes float points: centre and scale them so float keeps ~7 significant digits
+  // of the shape whatever the coordinates' magnitude (map eastings reach 1e6 m).
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2d& p : finite) mean += p;
+  mean /= static_cast<double>(finite.size());
+  double spread = 0.0;
+  for (const Eigen::Vector2d& p : finite) spread += (p - mean).squaredNorm();
+  spread = std::sqrt(spread / static_cast<double>(finite.size()));
+  if (!(spread > 0.0) || !std::isfinite(spread)) return std::nullopt;
+  Eigen::Matrix2d scatter = Eigen::Matrix2d::Zero();
+  for (const Eigen::Vector2d& p : finite) scatter.noalias() += (p - mean) * (p - mean).transpose();
+  const Eigen::Vector2d scatter_values =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(scatter).eigenvalues();
+  if (!(scatter_values(0) > 1e-12 * scatter_values(1))) return std::nullopt;  // collinear
+  std::vector<cv::Point2f> scaled;
+  scaled.reserve(finite.size());
+  for (const Eigen::Vector2d& p : finite) {
+    const Eigen::Vector2d q = (p - mean) / spread;
+    scaled.emplace_back(static_cast<float>(q.x()), static_cast<float>(q.y()));
+  }
+
+  // Some OpenCV versions jitter near-singular inputs with the thread's global RNG: seed it
+  // for reproducible fits and give the caller's state back.
+  cv::RNG& rng = cv::theRNG();
+  const uint64_t saved_state = rng.state;
+  std::optional<Ellipse> best;
+  double best_rms = std::numeric_limits<double>::infinity();
+  // OpenCV 4.6's fitEllipseDirect is the preferred fit, but it tests its reduced scatter
+  // matrix against an absolute determinant threshold in coordinates scaled by ~1/n, so for
+  // more than ~150 points it silently returns cv::fitEllipse's unconstrained fit instead,
+  // and for near-exact points its eigenvector is inaccurate (1e-3 of the size). Its two
+  // siblings are tried as well and the candidate with the smallest RMS orthogonal distance
+  // wins (the direct fit on ties).
+  for (int method = 0; method < 3; ++method) {
+    rng.state = 0x6172656f6d6170ULL;  // fixed seed: "areomap"
+    cv::RotatedRect box;
+    try {
+      box = method == 0   ? cv::fitEllipseDirect(scaled)
+            : method == 1 ? cv::fitEllipseAMS(scaled)
+                          : cv::fitEllipse(scaled);
+    } catch (const cv::Exception&) {
+      continue;
+    }
+    const std::optional<Ellipse> candidate = FromRotatedRect(box, mean, spread);
+    if (!candidate.has_value()) continue;
+    const double rms = RmsDistance(*candidate, finite);
+    if (rms < best_rms) {
+      best_rms = rms;
+      best = candidate;
+    }
+  }
+  rng.state = saved_state;
+  return best;
 }
 
 void GeometricFitOptions::Check() const {
@@ -203,12 +258,11 @@ std::string EllipseFitSummary::BriefReport() const {
   std::ostringstream out;
   out << std::setprecision(6) << "Ellipse fit: " << num_points << " points, "
       << (converged ? "converged" : "NOT converged") << " after " << num_iterations
-      << " iterations; rms " << initial_rms_residual << " -> " << rms_residual
-      << ", sigma0 " << sigma0 << "; center (" << ellipse.center.x() << ", "
-      << ellipse.center.y() << ") +- (" << center_x_sigma << ", " << center_y_sigma
-      << "), a " << ellipse.semi_major << " +- " << semi_major_sigma << ", b "
-      << ellipse.semi_minor << " +- " << semi_minor_sigma << ", angle " << ellipse.angle
-      << " +- " << angle_sigma << " rad";
+      << " iterations; rms " << initial_rms_residual << " -> " << rms_residual << ", sigma0 "
+      << sigma0 << "; center (" << ellipse.center.x() << ", " << ellipse.center.y() << ") +- ("
+      << center_x_sigma << ", " << center_y_sigma << "), a " << ellipse.semi_major << " +- "
+      << semi_major_sigma << ", b " << ellipse.semi_minor << " +- " << semi_minor_sigma
+      << ", angle " << ellipse.angle << " +- " << angle_sigma << " rad";
   if (!converged && !message.empty()) out << " (" << message << ")";
   return out.str();
 }
@@ -282,7 +336,13 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
   if (!options.compute_covariance || !(dof > 0.0)) return summary;
 
   Eigen::Matrix<double, 5, 5> covariance;
-  if (!ComputeCovariance(&problem, shape, angle, options.num_threads, &covariance)) {
+  Ellipse at_solution;  // un-normalized, as the parameter blocks hold it
+  at_solution.center = Eigen::Vector2d(shape[0], shape[1]);
+  at_solution.semi_major = shape[2];
+  at_solution.semi_minor = shape[3];
+  at_solution.angle = angle[0];
+  if (!ComputeCovariance(&problem, shape, angle, options.num_threads,
+                         AngleObservable(at_solution, finite), &covariance)) {
     return summary;
   }
   if (swapped) {  // Normalized() exchanged the axes
@@ -290,6 +350,7 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
     covariance.col(2).swap(covariance.col(3));
   }
   summary.covariance = covariance * (summary.sigma0 * summary.sigma0);
+  if (std::isinf(covariance(4, 4))) summary.covariance(4, 4) = kInf;  // even when sigma0 = 0
   summary.covariance_valid = true;
   summary.center_x_sigma = std::sqrt(summary.covariance(0, 0));
   summary.center_y_sigma = std::sqrt(summary.covariance(1, 1));

@@ -6,12 +6,12 @@
 #include <limits>
 #include <sstream>
 #include <string>
-#include <vector>
 
-#include <opencv2/core.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
+#include <tbb/task_group.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
 
@@ -46,8 +46,8 @@ void CheckMask(const cv::Mat& mask, const cv::Mat& image, const std::string& nam
   if (mask.type() != CV_8UC1 || mask.size() != image.size()) {
     std::ostringstream msg;
     msg << "masked NCC: the " << name << " mask is " << mask.rows << "x" << mask.cols << " "
-        << cv::typeToString(mask.type()) << "; expected an empty Mat or CV_8UC1 of the "
-        << name << " image's size " << image.rows << "x" << image.cols;
+        << cv::typeToString(mask.type()) << "; expected an empty Mat or CV_8UC1 of the " << name
+        << " image's size " << image.rows << "x" << image.cols;
     throw Error(msg.str());
   }
 }
@@ -221,58 +221,88 @@ MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, cons
 
   const cv::Size crop = p.fixed.value.size();
   const cv::Size tmpl = p.moving.value.size();
-  // Linear correlation of the crop with the template covers (crop + template - 1) shifts per
-  // axis; padding to at least that avoids wrap-around. The fixed arrays are placed at offset
-  // (template - 1) so that correlation index s is shift s - (template - 1) relative to the
-  // crop, i.e. all needed outputs are in the first rows and columns.
-  const int full_rows = crop.height + tmpl.height - 1;
-  const int full_cols = crop.width + tmpl.width - 1;
-  const int dft_rows = cv::getOptimalDFTSize(full_rows);
-  const int dft_cols = cv::getOptimalDFTSize(full_cols);
-  const cv::Point fixed_offset(tmpl.width - 1, tmpl.height - 1);
+  // The fixed arrays sit at offset o = -(first shift relative to the crop) >= 0 in the padded
+  // buffer, the template at 0, so that circular correlation index s is surface index s. An
+  // index x + s (template pixel x) past the buffer end P wraps to x + s - P; that must land in
+  // the zeros before the crop (< o), which needs P >= template + shifts - 1 - o; the crop must
+  // fit, P >= o + crop. For all shifts this is the usual crop + template - 1; for shifts where
+  // the template lies inside the image it is just the image size.
+  const cv::Point fixed_offset(p.crop_x - p.shift_x0, p.crop_y - p.shift_y0);
+  const int dft_rows = cv::getOptimalDFTSize(
+      std::max(fixed_offset.y + crop.height, tmpl.height + p.rows - 1 - fixed_offset.y));
+  const int dft_cols = cv::getOptimalDFTSize(
+      std::max(fixed_offset.x + crop.width, tmpl.width + p.cols - 1 - fixed_offset.x));
 
-  // Forward real DFTs (CCS-packed) of the six inputs.
+  // Forward real DFTs (CCS-packed, in place) and corr(a, b)(s) = sum_x a(x + s) b(x) as the
+  // spectrum product with b conjugated, inverse DFT in place (only the first p.rows output
+  // rows are needed).
   auto forward = [&](const cv::Mat& src, cv::Point offset, cv::Mat* spectrum) {
-    cv::Mat padded = cv::Mat::zeros(dft_rows, dft_cols, CV_64F);
-    src.copyTo(padded(cv::Rect(offset, src.size())));
-    cv::dft(padded, *spectrum, 0, offset.y + src.rows);
+    *spectrum = cv::Mat::zeros(dft_rows, dft_cols, CV_64F);
+    src.copyTo((*spectrum)(cv::Rect(offset, src.size())));
+    cv::dft(*spectrum, *spectrum, 0, offset.y + src.rows);
   };
-  cv::Mat f_valid, f_value, f_sq, m_valid, m_value, m_sq;
-  tbb::parallel_invoke([&] { forward(p.fixed.valid, fixed_offset, &f_valid); },
-                       [&] { forward(p.fixed.value, fixed_offset, &f_value); },
-                       [&] { forward(p.fixed.value_sq, fixed_offset, &f_sq); },
-                       [&] { forward(p.moving.valid, cv::Point(0, 0), &m_valid); },
-                       [&] { forward(p.moving.value, cv::Point(0, 0), &m_value); },
-                       [&] { forward(p.moving.value_sq, cv::Point(0, 0), &m_sq); });
-
-  // corr(a, b)(s) = sum_x a(x + s) b(x): spectrum product with b conjugated, inverse DFT. Only
-  // the first full_rows output rows are needed.
   auto correlate = [&](const cv::Mat& a, const cv::Mat& b, cv::Mat* out) {
-    cv::Mat product;
-    cv::mulSpectrums(a, b, product, 0, /*conjB=*/true);
-    cv::dft(product, *out, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT, full_rows);
+    cv::mulSpectrums(a, b, *out, 0, /*conjB=*/true);
+    cv::dft(*out, *out, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT, p.rows);
   };
-  cv::Mat n, sum_f, sum_m, sum_ff, sum_mm, sum_fm;
-  tbb::parallel_invoke([&] { correlate(f_valid, m_valid, &n); },
-                       [&] { correlate(f_value, m_valid, &sum_f); },
-                       [&] { correlate(f_valid, m_value, &sum_m); },
-                       [&] { correlate(f_sq, m_valid, &sum_ff); },
-                       [&] { correlate(f_valid, m_sq, &sum_mm); },
-                       [&] { correlate(f_value, m_value, &sum_fm); });
+  // With no invalid pixel in the crop (the usual orbital image), the three correlations
+  // with the fixed validity are sums of template quantities over the overlap rectangle:
+  // integral images replace one forward and three inverse DFTs, exactly.
+  const bool fixed_all_valid = p.fixed.valid_count == crop.area();
+  auto overlap_sums = [&](const cv::Mat& src, cv::Mat* out) {
+    cv::Mat integral;
+    cv::integral(src, integral, CV_64F);
+    out->create(p.rows, p.cols, CV_64F);
+    for (int r = 0; r < p.rows; ++r) {
+      const int dy = p.shift_y0 + r - p.crop_y;  // Shift relative to the crop.
+      const int i0 = std::max(0, -dy);
+      const int i1 = std::min(tmpl.height, crop.height - dy);
+      const double* top = integral.ptr<double>(i0);
+      const double* bottom = integral.ptr<double>(i1);
+      double* dst = out->ptr<double>(r);
+      for (int c = 0; c < p.cols; ++c) {
+        const int dx = p.shift_x0 + c - p.crop_x;
+        const int j0 = std::max(0, -dx);
+        const int j1 = std::min(tmpl.width, crop.width - dx);
+        dst[c] = bottom[j1] - bottom[j0] - top[j1] + top[j0];
+      }
+    }
+  };
 
-  // Surface (r, c) is shift (shift_x0 + c, shift_y0 + r); relative to the crop that is
-  // correlation index shift - crop + (template - 1).
-  const int s_row0 = p.shift_y0 - p.crop_y + tmpl.height - 1;
-  const int s_col0 = p.shift_x0 - p.crop_x + tmpl.width - 1;
+  cv::Mat f_valid, f_value, f_sq, m_valid, m_value, m_sq;
+  cv::Mat n, sum_f, sum_m, sum_ff, sum_mm, sum_fm;
+  tbb::task_group tasks;
+  tasks.run([&] { forward(p.fixed.value, fixed_offset, &f_value); });
+  tasks.run([&] { forward(p.fixed.value_sq, fixed_offset, &f_sq); });
+  tasks.run([&] { forward(p.moving.valid, cv::Point(0, 0), &m_valid); });
+  tasks.run([&] { forward(p.moving.value, cv::Point(0, 0), &m_value); });
+  if (fixed_all_valid) {
+    tasks.run([&] { overlap_sums(p.moving.valid, &n); });
+    tasks.run([&] { overlap_sums(p.moving.value, &sum_m); });
+    tasks.run([&] { overlap_sums(p.moving.value_sq, &sum_mm); });
+  } else {
+    tasks.run([&] { forward(p.fixed.valid, fixed_offset, &f_valid); });
+    tasks.run([&] { forward(p.moving.value_sq, cv::Point(0, 0), &m_sq); });
+  }
+  tasks.wait();
+  tasks.run([&] { correlate(f_value, m_valid, &sum_f); });
+  tasks.run([&] { correlate(f_sq, m_valid, &sum_ff); });
+  tasks.run([&] { correlate(f_value, m_value, &sum_fm); });
+  if (!fixed_all_valid) {
+    tasks.run([&] { correlate(f_valid, m_valid, &n); });
+    tasks.run([&] { correlate(f_valid, m_value, &sum_m); });
+    tasks.run([&] { correlate(f_valid, m_sq, &sum_mm); });
+  }
+  tasks.wait();
+
   tbb::parallel_for(tbb::blocked_range<int>(0, p.rows), [&](const tbb::blocked_range<int>& range) {
     for (int r = range.begin(); r != range.end(); ++r) {
-      const int s = s_row0 + r;
-      const double* pn = n.ptr<double>(s) + s_col0;
-      const double* pf = sum_f.ptr<double>(s) + s_col0;
-      const double* pm = sum_m.ptr<double>(s) + s_col0;
-      const double* pff = sum_ff.ptr<double>(s) + s_col0;
-      const double* pmm = sum_mm.ptr<double>(s) + s_col0;
-      const double* pfm = sum_fm.ptr<double>(s) + s_col0;
+      const double* pn = n.ptr<double>(r);
+      const double* pf = sum_f.ptr<double>(r);
+      const double* pm = sum_m.ptr<double>(r);
+      const double* pff = sum_ff.ptr<double>(r);
+      const double* pmm = sum_mm.ptr<double>(r);
+      const double* pfm = sum_fm.ptr<double>(r);
       float* out = surface.ncc.ptr<float>(r);
       std::int32_t* count = surface.overlap.ptr<std::int32_t>(r);
       for (int c = 0; c < p.cols; ++c) {
@@ -323,9 +353,8 @@ MaskedNccSurface MaskedNccNaive(const cv::Mat& fixed, const cv::Mat& fixed_mask,
           }
         }
         surface.overlap.at<std::int32_t>(r, c) = static_cast<std::int32_t>(n);
-        surface.ncc.at<float>(r, c) =
-            n > 0.0 ? Score(n, sum_f, sum_m, sum_ff, sum_mm, sum_fm, p)
-                    : std::numeric_limits<float>::quiet_NaN();
+        surface.ncc.at<float>(r, c) = n > 0.0 ? Score(n, sum_f, sum_m, sum_ff, sum_mm, sum_fm, p)
+                                              : std::numeric_limits<float>::quiet_NaN();
       }
     }
   });
@@ -448,8 +477,7 @@ NccPeak FindPeak(const MaskedNccSurface& surface, const PeakOptions& options) {
   peak.shift_x = surface.shift_x0 + best_c;
   peak.shift_y = surface.shift_y0 + best_r;
   peak.overlap = surface.overlap.at<std::int32_t>(best_r, best_c);
-  peak.on_border =
-      best_r == 0 || best_c == 0 || best_r == ncc.rows - 1 || best_c == ncc.cols - 1;
+  peak.on_border = best_r == 0 || best_c == 0 || best_r == ncc.rows - 1 || best_c == ncc.cols - 1;
 
   double drop_sum = 0.0;
   int drop_count = 0;

@@ -4,9 +4,8 @@
 // [m] of a georeferenced raster (see ellipse.h); distances, residuals and their 1-sigma are
 // in that frame's unit, angles in radians.
 //
-// - FitEllipseDirect: Fitzgibbon's direct least-squares ellipse fit (cv::fitEllipseDirect),
-//   an algebraic fit that always returns an ellipse but is biased toward small ellipses on
-//   partial arcs. Use it to start RefineEllipseGeometric.
+// - FitEllipseDirect: algebraic fit through OpenCV (cv::fitEllipseDirect and siblings), fast
+//   and closed-form but biased on partial arcs. Use it to start RefineEllipseGeometric.
 // - RefineEllipseGeometric: orthogonal-distance (geometric) least squares with Ceres, the
 //   maximum-likelihood fit for isotropic edge noise, with 1-sigma from the covariance.
 // - EllipseFitSimilarity: the dissertation's quality figure (eq. 2.1); EdgeCoverage: how much
@@ -26,11 +25,19 @@
 
 namespace areomap {
 
-// Direct least-squares ellipse fit of cv::fitEllipseDirect (Fitzgibbon, Pilu and Fisher
-// 1999). The points are centred and scaled to unit RMS radius before OpenCV sees them (it
-// works in float), so the result is accurate to about 1e-7 of the point spread wherever the
-// points lie. Non-finite points are ignored. nullopt for fewer than 5 finite points or a
-// degenerate result (collinear points, non-finite or non-positive axes, axis ratio > 1e6).
+// Algebraic ellipse fit through OpenCV: cv::fitEllipseDirect (Fitzgibbon, Pilu and Fisher
+// 1999, always an ellipse), guarded against OpenCV 4.6's defects: its singularity test is
+// not scale-invariant, so beyond ~150 points it silently returns cv::fitEllipse's
+// unconstrained fit, and on near-exact points its eigenvector is off by ~1e-3 of the size.
+// cv::fitEllipseAMS and cv::fitEllipse are therefore run too, and the valid candidate with
+// the smallest RMS orthogonal distance is returned (the direct fit on ties). Points are
+// centred and scaled to unit RMS radius before OpenCV sees them (it works in float), so
+// noise-free points give the ellipse to ~1e-7 of its size wherever it lies. Algebraic fits
+// are biased toward small ellipses on partial, noisy arcs: use the result to start
+// RefineEllipseGeometric. Deterministic (OpenCV's global RNG is seeded, then restored).
+// Non-finite points are ignored. nullopt for fewer than 5 finite points or when no
+// candidate is a proper ellipse (collinear points, non-finite or non-positive axes, axis
+// ratio > 1e6, major axis > 1e6 times the point spread).
 std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& points);
 
 enum class RobustLoss {
@@ -44,18 +51,18 @@ struct GeometricFitOptions {
   // Residual where the robust loss departs from least squares [point unit, px for image
   // points]; about 2-3 times the edge noise (1 px suits sub-pixel Canny edges).
   double loss_scale = 1.0;
-  int max_num_iterations = 100;      // Levenberg-Marquardt iterations (> 0)
-  double function_tolerance = 1e-12; // relative cost change that counts as converged (> 0)
+  int max_num_iterations = 100;        // Levenberg-Marquardt iterations (> 0)
+  double function_tolerance = 1e-12;   // relative cost change that counts as converged (> 0)
   double parameter_tolerance = 1e-12;  // relative step size that counts as converged (> 0)
-  bool compute_covariance = true;    // fill the summary's covariance and 1-sigma
-  int num_threads = 1;               // Ceres threads (> 0); 1 keeps runs reproducible
+  bool compute_covariance = true;      // fill the summary's covariance and 1-sigma
+  int num_threads = 1;                 // Ceres threads (> 0); 1 keeps runs reproducible
 
   // Throws areomap::Error naming the first field that breaks its rule.
   void Check() const;
 };
 
 struct EllipseFitSummary {
-  Ellipse ellipse;  // refined and Normalized(); the initial ellipse when the fit failed
+  Ellipse ellipse;         // refined and Normalized(); the initial ellipse when the fit failed
   int num_points = 0;      // finite points used
   int num_iterations = 0;  // Ceres iterations
   bool converged = false;  // Ceres reported convergence and the result is a valid ellipse
@@ -70,7 +77,7 @@ struct EllipseFitSummary {
   // Covariance of (center.x, center.y, semi_major, semi_minor, angle): Ceres' (J^T J)^-1 at
   // the solution times sigma0^2. NaN where not computed. When the angle is unobservable (a
   // circle within numerical precision) the other four come from a fit with the angle held,
-  // and the angle's variance is +inf.
+  // and the angle's variance is +inf (its covariances with the others NaN).
   Eigen::Matrix<double, 5, 5> covariance;
   bool covariance_valid = false;
   double center_x_sigma = 0.0;    // 1-sigma [point unit]
@@ -85,11 +92,12 @@ struct EllipseFitSummary {
 
 // Orthogonal-distance least squares: minimises sum_k rho(d_k^2) over (center, a, b, angle),
 // where d_k is the exact orthogonal distance of point k to the current ellipse
-// (Ellipse::SignedDistance) and rho the chosen robust loss. The Jacobian is analytic (Ellipse::SignedDistanceGradient,
-// exact by the envelope theorem), so each point costs one distance solve per evaluation.
-// Needs >= 5 finite points (non-finite ones are ignored) and an initial ellipse with positive
-// finite axes, e.g. from FitEllipseDirect; otherwise returns converged = false, the initial
-// ellipse and a message. Throws areomap::Error only for invalid options.
+// (Ellipse::SignedDistance) and rho the chosen robust loss. The Jacobian is analytic
+// (Ellipse::SignedDistanceGradient, exact by the envelope theorem), so each point costs one
+// distance solve per evaluation. Needs >= 5 finite points (non-finite ones are ignored) and an
+// initial ellipse with positive finite axes, e.g. from FitEllipseDirect; otherwise returns
+// converged = false, the initial ellipse and a message. Throws areomap::Error only for invalid
+// options.
 EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
                                          const std::vector<Eigen::Vector2d>& points,
                                          const GeometricFitOptions& options = {});
@@ -98,10 +106,11 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
 //   EFS = (1/N) sum_k Dis_k / R_avg,  Dis_k = |p_k - center|,  R_avg = (a + b) / 2.
 // It is exactly 1 for points on a circle fitted by that circle and close to 1 for a good fit
 // of a near-circular rim (Victoria crater: 0.9987). It is not bounded by 1: points outside
-// the ellipse push it above 1, and for an elongated ellipse even perfect points give a value
-// below 1 (the mean centre distance of points spread evenly in eccentric anomaly is smaller
-// than (a + b)/2). It measures radial agreement only; use rms_residual or EdgeCoverage for
-// shape and completeness. NaN for no points or an ellipse without positive axes.
+// the ellipse push it above 1, points inside below, and for an elongated ellipse even points
+// exactly on the curve give a value off 1 that depends on how they spread around the rim
+// (+2.3e-4 for Victoria's axes with points evenly spaced in eccentric anomaly). It measures
+// radial agreement only, and errors of opposite sign cancel; use rms_residual for the
+// shape and EdgeCoverage for completeness. NaN for no points or an ellipse without positive axes.
 double EllipseFitSimilarity(const Ellipse& e, const std::vector<Eigen::Vector2d>& points);
 
 // Fraction in [0, 1] of `bins` equal sectors of eccentric anomaly around the ellipse

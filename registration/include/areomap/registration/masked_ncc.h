@@ -66,8 +66,8 @@ struct MaskedNccOptions {
 // window, it covers the window clipped to those shifts; it is empty (0 x 0) if the window
 // lies entirely outside them.
 struct MaskedNccSurface {
-  cv::Mat ncc;      // CV_32F, NaN where undefined.
-  cv::Mat overlap;  // CV_32S, number of valid pixel pairs [px].
+  cv::Mat ncc;       // CV_32F, NaN where undefined.
+  cv::Mat overlap;   // CV_32S, number of valid pixel pairs [px].
   int shift_x0 = 0;  // Shift in x [px] of column 0.
   int shift_y0 = 0;  // Shift in y [px] of row 0.
 
@@ -75,9 +75,12 @@ struct MaskedNccSurface {
 };
 
 // Masked NCC of `moving` (the template, e.g. the rover orthophoto) against `fixed` (e.g. the
-// orbital image) for all shifts, through FFTs (cv::dft on cv::getOptimalDFTSize sizes, in
-// double precision) with the six correlations run in parallel (TBB). Agrees with
-// MaskedNccNaive to ~1e-6. Cost O(P log P) with P = (fixed + template size) padded.
+// orbital image) for all shifts, or those of options.search_window. Through FFTs (cv::dft on
+// cv::getOptimalDFTSize sizes, in double precision, run as parallel TBB tasks): six
+// correlations, or three plus integral images where the fixed image has no invalid pixel in
+// reach. Agrees with MaskedNccNaive to ~1e-6 or better. Cost O(P log P) with P the padded
+// size, per axis at most shifts + template - 1: fixed + template - 1 for all shifts, the fixed
+// image's size for the shifts where the template lies inside it (cv::matchTemplate's).
 // Throws areomap::Error if an image is empty or not CV_32FC1, a mask is not an empty Mat or
 // CV_8UC1 of its image's size, or the options fail Check().
 MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
@@ -91,8 +94,8 @@ MaskedNccSurface MaskedNccNaive(const cv::Mat& fixed, const cv::Mat& fixed_mask,
                                 const MaskedNccOptions& options = {});
 
 enum class SubpixelFit {
-  kQuadratic2d,         // Full 2D quadratic (with cross term) through the 3x3 neighbourhood.
-  kSeparableParabola,   // Independent 1D parabolas through the row and the column.
+  kQuadratic2d,        // Full 2D quadratic (with cross term) through the 3x3 neighbourhood.
+  kSeparableParabola,  // Independent 1D parabolas through the row and the column.
 };
 
 struct PeakOptions {
@@ -100,7 +103,8 @@ struct PeakOptions {
   double exclusion_radius = 3.0;  // [px], >= 0.
   double min_peak = 0.4;          // Confident only if the peak NCC is >= this, [-1, 1].
   double min_peak_ratio = 1.2;    // Confident only if peak / second peak >= this, >= 1.
-  double min_sharpness = 0.0;     // Confident only if the mean drop to the 8 neighbours >= this [NCC], >= 0.
+  double min_sharpness =
+      0.0;  // Confident only if the mean drop to the 8 neighbours >= this [NCC], >= 0.
   // A peak on the edge of the surface (in practice: of a search window) may be the slope of a
   // maximum outside it; when true such a peak is never confident.
   bool reject_border_peaks = true;
@@ -117,7 +121,8 @@ struct NccPeak {
   bool confident = false;  // All PeakOptions thresholds pass; otherwise `reason` says which failed.
   int shift_x = 0;         // Best integer shift [px].
   int shift_y = 0;
-  double subpixel_x = 0.0;  // Refined shift [px]; equals the integer shift where no fit was possible.
+  double subpixel_x =
+      0.0;  // Refined shift [px]; equals the integer shift where no fit was possible.
   double subpixel_y = 0.0;
   bool subpixel_refined = false;  // Whether a fit refined at least one axis.
   double value = 0.0;             // NCC at the best integer shift.
@@ -126,11 +131,11 @@ struct NccPeak {
   bool has_second = false;        // A second local maximum exists outside the exclusion radius.
   int second_x = 0;               // Its shift [px] (valid when has_second).
   int second_y = 0;
-  double second_value = 0.0;      // Its NCC (valid when has_second).
-  double peak_ratio = 0.0;        // value / second_value; +inf without a positive second peak.
-  double peak_difference = 0.0;   // value - second_value; +inf without a second peak.
-  double sharpness = 0.0;         // Mean of value - neighbour over the finite 8 neighbours [NCC].
-  std::string reason;             // Why the peak is not confident; empty when it is.
+  double second_value = 0.0;     // Its NCC (valid when has_second).
+  double peak_ratio = 0.0;       // value / second_value; +inf without a positive second peak.
+  double peak_difference = 0.0;  // value - second_value; +inf without a second peak.
+  double sharpness = 0.0;        // Mean of value - neighbour over the finite 8 neighbours [NCC].
+  std::string reason;            // Why the peak is not confident; empty when it is.
 
   // One line: shift, value, ratio, sharpness, confidence.
   std::string BriefReport() const;
