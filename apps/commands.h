@@ -11,5 +11,6 @@ namespace areomap::cli {
 void AddInfoCommand(CLI::App& app, const GlobalOptions& global);
 void AddCoordsCommand(CLI::App& app, const GlobalOptions& global);
 void AddSampleCommand(CLI::App& app, const GlobalOptions& global);
+void AddSimulateCommand(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace areomap::cli

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   areomap::cli::AddInfoCommand(app, global);
   areomap::cli::AddCoordsCommand(app, global);
   areomap::cli::AddSampleCommand(app, global);
+  areomap::cli::AddSimulateCommand(app, global);
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

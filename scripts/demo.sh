@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Quick start, first command: install what is missing, build (Release) and run the main job on
-# the built-in sample, writing everything under ./demo (or the folder given as $1).
+# the built-in demo mission, writing everything under ./demo (or the folder given as $1).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out="${1:-demo}"
@@ -11,18 +11,19 @@ cmake --preset release >/dev/null
 cmake --build --preset release --target areomap
 areomap=./build/release/apps/areomap
 
-echo "== areomap sample: a small georeferenced Mars DTM (Gusev, HiRISE-style projection)"
-"$areomap" sample --out "$out"
+echo "== areomap simulate: the demo mission (terrain, craters, rocks, HiRISE-like products, traverse)"
+"$areomap" simulate --preset demo --seed 1 --out "$out/mission"
 echo
-echo "== areomap info: where it is on Mars"
-"$areomap" info "$out/sample_dtm.tif"
+echo "== areomap info: where the orbital image is on Mars"
+"$areomap" info "$out/mission/orbital/hirise_ortho.tif"
 echo
-echo "== areomap coords: tile centre and a point 100 m north, planetocentric -> MER site frame"
-printf -- '-14.5692 175.4729 -1900\n-14.5675 175.4729 -1900\n' |
-  "$areomap" coords --from planetocentric --to site --origin -14.5692,175.4729,-1900
+echo "== areomap coords: the true sites (north, east, down in site 0's frame) -> lat, lon (0-360), h"
+origin=$(sed -n 2p "$out/mission/truth/sites.csv" | cut -d, -f6-8)  # Site 0: lat,lon,h.
+tail -n +2 "$out/mission/truth/sites.csv" | cut -d, -f2-4 |
+  "$areomap" coords --from site --origin "$origin" --to planetocentric,360
 echo
-echo "== areomap coords: DTM pixel (col row) -> planetocentric lat, east lon (0-360), height"
-printf '0.5 0.5\n128 128\n' |
-  "$areomap" coords --from "pixel:$out/sample_dtm.tif" --to planetocentric,360
+echo "== areomap coords: the same sites as orbital image pixels (col row)"
+tail -n +2 "$out/mission/truth/sites.csv" | cut -d, -f6-8 | awk -F, '{print $1, $2, $3}' |
+  "$areomap" coords --from planetocentric --to "pixel:$out/mission/orbital/hirise_ortho.tif"
 echo
-echo "outputs in $out/ (open sample_dtm.tif in QGIS; summary.json has the key figures)"
+echo "outputs in $out/mission (mission.json is the manifest; open orbital/*.tif in QGIS)"

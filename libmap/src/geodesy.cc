@@ -124,6 +124,17 @@ Eigen::Vector3d MbfFromSpherical(const Spherical& s) {
                                     std::cos(s.lat) * std::sin(s.lon), std::sin(s.lat));
 }
 
+Eigen::Vector3d MbfOnRadialLine(const Body& body, double lat, double lon, double h) {
+  Spherical s{lat, lon, body.RadiusAtPlanetocentricLatitude(lat) + h};
+  // Newton on the radius: the height grows with the radius at a rate cos(lat_g - lat_c) ~ 1.
+  for (int i = 0; i < 4; ++i) {
+    const double error = GeographicFromMbf(body, MbfFromSpherical(s)).h - h;
+    if (std::abs(error) < 1e-9) break;
+    s.radius -= error;
+  }
+  return MbfFromSpherical(s);
+}
+
 Rigid3d EnuFromMbf(const Body& body, const Geographic& origin) {
   const Geographic geodetic = ToGeodeticEast(body, origin, GeographicConvention{});
   // Geocentric::Forward's M (row-major) maps a vector in ENU at the point to MBF.

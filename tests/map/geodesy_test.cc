@@ -171,3 +171,22 @@ TEST(Rigid3d, ComposesAndInverts) {
 
 }  // namespace
 }  // namespace areomap
+
+namespace areomap {
+namespace {
+
+TEST(Geodesy, RadialLinePointHasTheRequestedSphericalLatitudeAndHeight) {
+  const Body mars = Body::Mars2000();
+  const double lat = RadFromDeg(-14.5692), lon = RadFromDeg(175.4729);
+  const Eigen::Vector3d p = MbfOnRadialLine(mars, lat, lon, -1900.0);
+  const Spherical s = SphericalFromMbf(p);
+  EXPECT_NEAR(s.lat, lat, 1e-14);
+  EXPECT_NEAR(s.lon, lon, 1e-14);
+  EXPECT_NEAR(GeographicFromMbf(mars, p).h, -1900.0, 1e-6);
+  // The foot-point convention puts the same (lat, lon, h) about 5.5 m away horizontally.
+  const double offset = (p - MbfFromGeographic(mars, {lat, lon, -1900.0})).norm();
+  EXPECT_NEAR(offset, 1900.0 * (PlanetographicFromPlanetocentric(mars, lat) - lat) * -1.0, 0.05);
+}
+
+}  // namespace
+}  // namespace areomap

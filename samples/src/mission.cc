@@ -1,0 +1,326 @@
+#include "areomap/samples/mission.h"
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <random>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "areomap/map/atomic_file.h"
+#include "areomap/map/error.h"
+#include "areomap/map/raster.h"
+
+namespace areomap {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+void Require(bool ok, const std::string& field, const std::string& rule) {
+  if (!ok) throw Error(field + " is invalid: expected " + rule);
+}
+
+void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
+  if (progress && !progress(fraction, stage)) throw Error("mission generation cancelled");
+}
+
+// Fixed-precision number formatting so that files are byte-identical across runs.
+std::string Fixed(double value, int decimals) {
+  if (std::abs(value) < 0.5 * std::pow(10.0, -decimals)) value = 0.0;  // No "-0.000".
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), "%.*f", decimals, value);
+  return buffer;
+}
+
+// ENU (x east, y north, z up) -> site frame of site 0 (x north, y east, z down).
+Eigen::Vector3d SiteFromEnu(const Eigen::Vector3d& enu, double ground_z0) {
+  return {enu.y(), enu.x(), -(enu.z() - ground_z0)};
+}
+
+struct CsvTable {
+  std::string text;
+  void Row(const std::vector<std::string>& cells) {
+    for (size_t i = 0; i < cells.size(); ++i) text += (i ? "," : "") + cells[i];
+    text += "\n";
+  }
+};
+
+}  // namespace
+
+void TraverseOptions::Check() const {
+  Require(site_count >= 1 && site_count <= 1000, "TraverseOptions.site_count", "1..1000");
+  Require(min_leg_m > 0.0, "TraverseOptions.min_leg_m", "a positive leg length [m]");
+  Require(max_leg_m >= min_leg_m, "TraverseOptions.max_leg_m", ">= min_leg_m");
+  Require(max_turn_deg >= 0.0 && max_turn_deg <= 180.0, "TraverseOptions.max_turn_deg",
+          "0..180 degrees");
+}
+
+void TelemetryErrorModel::Check() const {
+  Require(scale_sigma >= 0.0 && scale_sigma < 0.5, "TelemetryErrorModel.scale_sigma", "0..0.5");
+  Require(heading_drift_sigma_deg >= 0.0 && heading_drift_sigma_deg < 45.0,
+          "TelemetryErrorModel.heading_drift_sigma_deg", "0..45 degrees");
+}
+
+Traverse PlanTraverse(const TraverseOptions& options, const TelemetryErrorModel& errors,
+                      double half_extent_m, uint32_t seed) {
+  options.Check();
+  errors.Check();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  Traverse t;
+  const double margin = 0.75 * half_extent_m;
+  double heading = 2.0 * kPi * unit(rng);  // Clockwise from north.
+  Eigen::Vector2d truth_en(0.0, 0.0);       // (east, north)
+  Eigen::Vector2d measured_en(0.0, 0.0);
+  double heading_error = 0.0;
+  t.truth.push_back({0, Eigen::Vector3d::Zero(), heading});
+  t.telemetry.push_back({0, Eigen::Vector3d::Zero(), heading});
+  for (int site = 1; site < options.site_count; ++site) {
+    const double length =
+        options.min_leg_m + (options.max_leg_m - options.min_leg_m) * unit(rng);
+    double turn = RadFromDeg(options.max_turn_deg) * (2.0 * unit(rng) - 1.0);
+    Eigen::Vector2d step(std::sin(heading + turn), std::cos(heading + turn));
+    if ((truth_en + length * step).cwiseAbs().maxCoeff() > margin) {
+      // Head back toward the origin when the next site would leave the scene.
+      const Eigen::Vector2d home = -truth_en.normalized();
+      turn = std::atan2(home.x(), home.y()) - heading;
+      step = home;
+    }
+    heading += turn;
+    truth_en += length * step;
+    const double scale_error = errors.scale_sigma * gauss(rng);
+    const double drift = RadFromDeg(errors.heading_drift_sigma_deg) * gauss(rng);
+    heading_error += drift;
+    const Eigen::Rotation2Dd error_rotation(-heading_error);  // Clockwise heading error.
+    measured_en += (1.0 + scale_error) * (error_rotation * (length * step));
+    t.leg_scale_errors.push_back(scale_error);
+    t.leg_heading_errors.push_back(drift);
+    t.truth.push_back({site, Eigen::Vector3d(truth_en.y(), truth_en.x(), 0.0), heading});
+    t.telemetry.push_back(
+        {site, Eigen::Vector3d(measured_en.y(), measured_en.x(), 0.0), heading + heading_error});
+  }
+  return t;
+}
+
+MissionOptions MissionOptions::Preset(std::string_view name) {
+  MissionOptions o;
+  o.preset = std::string(name);
+  if (name == "demo") {
+    o.scene.half_extent_m = 160.0;
+    o.scene.crater_count = 10;
+    o.scene.crater_max_diameter_m = 60.0;
+    o.scene.rock_corridor_m = 30.0;
+    o.traverse.site_count = 5;
+    return o;
+  }
+  if (name == "long") {
+    o.scene.half_extent_m = 700.0;
+    o.scene.crater_count = 40;
+    o.scene.crater_max_diameter_m = 150.0;  // Up to Endurance size (Table 2.2).
+    o.scene.roughness_wavelength_m = 120.0;
+    o.scene.rock_corridor_m = 30.0;
+    o.scene.max_rocks = 60000;
+    o.orbital.supersample = 1;
+    o.traverse.site_count = 46;  // 45 legs of 20-30 m: ~1.1 km.
+    o.traverse.min_leg_m = 20.0;
+    o.traverse.max_leg_m = 30.0;
+    o.second_sun_image = true;
+    o.ctx_image = true;
+    return o;
+  }
+  throw Error("unknown preset '" + std::string(name) + "': expected demo or long");
+}
+
+void MissionOptions::Check() const {
+  Require(std::abs(site_lat_deg) < 80.0, "MissionOptions.site_lat_deg", "|lat| < 80 degrees");
+  Require(std::isfinite(site_lon_deg), "MissionOptions.site_lon_deg", "a finite longitude");
+  Require(orbital_dtm_posting_m >= orbital.gsd_m, "MissionOptions.orbital_dtm_posting_m",
+          ">= the orbital GSD");
+  scene.Check();
+  orbital.Check();
+  traverse.Check();
+  telemetry.Check();
+}
+
+MissionSummary GenerateMission(const MissionOptions& options, const std::filesystem::path& out_dir,
+                               const ProgressCallback& progress) {
+  options.Check();
+  for (const char* sub : {"", "orbital", "truth", "telemetry"}) {
+    std::error_code ec;
+    std::filesystem::create_directories(out_dir / sub, ec);
+    if (ec) throw Error((out_dir / sub).string() + ": cannot create folder: " + ec.message());
+  }
+  Report(progress, 0.0, "traverse");
+  const Traverse traverse =
+      PlanTraverse(options.traverse, options.telemetry, options.scene.half_extent_m, options.seed);
+  SceneOptions scene_options = options.scene;
+  scene_options.seed = options.seed;
+  for (const SitePose& s : traverse.truth) {
+    scene_options.rock_path.emplace_back(s.position.y(), s.position.x());  // (east, north)
+  }
+  Report(progress, 0.02, "scene");
+  const Scene scene(scene_options);
+
+  SceneGeoreference georef;
+  georef.origin = Geographic{RadFromDeg(options.site_lat_deg), RadFromDeg(options.site_lon_deg),
+                             scene.GroundHeightAt(0.0, 0.0)};
+  const double ground_z0 = georef.origin.h;
+
+  // Orbital products.
+  const auto stage = [&](double from, double to) -> ProgressCallback {
+    return [&, from, to](double f, std::string_view name) {
+      return progress ? progress(from + (to - from) * f, name) : true;
+    };
+  };
+  nlohmann::json orbital = nlohmann::json::array();
+  const double half = options.scene.half_extent_m;
+  OrbitalProducts hirise = RenderOrbitalProducts(scene, georef, half, options.orbital_dtm_posting_m,
+                                                 options.orbital, stage(0.05, 0.6));
+  WriteGeoTiff(out_dir / "orbital/hirise_ortho.tif", hirise.image);
+  WriteGeoTiff(out_dir / "orbital/hirise_dtm.tif", hirise.dtm);
+  const auto orbital_entry = [](const std::string& id, const std::string& kind,
+                                const std::string& path, double gsd,
+                                const OrbitalImageOptions* o) {
+    nlohmann::json j = {{"id", id}, {"kind", kind}, {"path", path}, {"gsd_m", gsd}};
+    if (o != nullptr) {
+      j["sun_azimuth_deg"] = o->sun_azimuth_deg;
+      j["sun_elevation_deg"] = o->sun_elevation_deg;
+      j["bits"] = o->bits;
+    }
+    return j;
+  };
+  orbital.push_back(orbital_entry("hirise", "image", "orbital/hirise_ortho.tif",
+                                  options.orbital.gsd_m, &options.orbital));
+  orbital.push_back(orbital_entry("hirise_dtm", "dtm", "orbital/hirise_dtm.tif",
+                                  options.orbital_dtm_posting_m, nullptr));
+  if (options.second_sun_image) {
+    OrbitalImageOptions other = options.orbital;
+    other.sun_azimuth_deg = std::fmod(options.orbital.sun_azimuth_deg + 140.0, 360.0);
+    other.sun_elevation_deg = 45.0;
+    other.seed = options.seed + 101u;
+    const OrbitalProducts second = RenderOrbitalProducts(
+        scene, georef, half, options.orbital_dtm_posting_m, other, stage(0.6, 0.8));
+    WriteGeoTiff(out_dir / "orbital/hirise_ortho_sun2.tif", second.image);
+    orbital.push_back(orbital_entry("hirise_sun2", "image", "orbital/hirise_ortho_sun2.tif",
+                                    other.gsd_m, &other));
+  }
+  if (options.ctx_image) {
+    OrbitalImageOptions ctx = options.orbital;
+    ctx.gsd_m = 6.0;
+    ctx.supersample = 4;
+    ctx.mtf_sigma_px = 0.6;
+    ctx.bits = 8;
+    ctx.full_well_dn = 200.0;
+    ctx.seed = options.seed + 202u;
+    const OrbitalProducts coarse =
+        RenderOrbitalProducts(scene, georef, half, 6.0, ctx, stage(0.8, 0.9));
+    WriteGeoTiff(out_dir / "orbital/ctx_ortho.tif", coarse.image);
+    orbital.push_back(orbital_entry("ctx", "image", "orbital/ctx_ortho.tif", 6.0, &ctx));
+  }
+  Report(progress, 0.9, "truth");
+
+  // Truth and telemetry tables.
+  const MapProjection projection = georef.Projection();
+  const Rigid3d mbf_from_enu = georef.EnuFromMbf().Inverse();
+  const auto to_geographic = [&](double east, double north, double up) {
+    return GeographicFromMbf(georef.body, mbf_from_enu * Eigen::Vector3d(east, north, up));
+  };
+  const GeoTransform& image_transform = hirise.image.geotransform;
+  CsvTable craters;
+  craters.Row({"id", "east_m", "north_m", "lat_deg", "lon_deg", "col_px", "row_px",
+               "semi_major_m", "semi_minor_m", "angle_deg", "depth_m", "rim_height_m",
+               "floor_fraction", "flat_floor"});
+  for (const Crater& c : scene.craters()) {
+    const Geographic g = to_geographic(c.center.x(), c.center.y(), 0.0);
+    const Spherical radial = SphericalFromMbf(mbf_from_enu * Eigen::Vector3d(c.center.x(), c.center.y(), 0.0));
+    const Eigen::Vector2d map = projection.Forward({radial.lat, radial.lon, 0.0});
+    const Eigen::Vector2d pixel = image_transform.MapToPixel(map.x(), map.y());
+    craters.Row({std::to_string(c.id), Fixed(c.center.x(), 4), Fixed(c.center.y(), 4),
+                 Fixed(DegFromRad(g.lat), 9), Fixed(DegFromRad(g.lon), 9), Fixed(pixel.x(), 3),
+                 Fixed(pixel.y(), 3), Fixed(c.semi_major, 4), Fixed(c.semi_minor, 4),
+                 Fixed(DegFromRad(c.angle), 4), Fixed(c.depth, 4), Fixed(c.rim_height, 4),
+                 Fixed(c.floor_fraction, 4), c.flat_floor ? "1" : "0"});
+  }
+  CsvTable rocks;
+  rocks.Row({"id", "shape", "east_m", "north_m", "ground_z_m", "height_m", "a_m", "b_m",
+             "azimuth_deg", "tilt_x_deg", "tilt_y_deg"});
+  for (const Rock& r : scene.rocks()) {
+    rocks.Row({std::to_string(r.id), ToString(r.shape), Fixed(r.center.x(), 4),
+               Fixed(r.center.y(), 4), Fixed(r.ground_z, 4), Fixed(r.height, 4), Fixed(r.a, 4),
+               Fixed(r.b, 4), Fixed(DegFromRad(r.azimuth), 3), Fixed(DegFromRad(r.tilt_x), 3),
+               Fixed(DegFromRad(r.tilt_y), 3)});
+  }
+  // Heights come from the terrain under the true sites (telemetry's vertical, from the
+  // inclinometers, is taken as exact; its horizontal error is what the model describes).
+  const auto site_table = [&](const std::vector<SitePose>& poses, bool with_geographic) {
+    CsvTable table;
+    std::vector<std::string> header = {"site", "north_m", "east_m", "down_m", "heading_deg"};
+    if (with_geographic) header.insert(header.end(), {"lat_deg", "lon_deg", "h_m"});
+    table.Row(header);
+    for (const SitePose& s : poses) {
+      const SitePose& truth = traverse.truth[static_cast<size_t>(s.site)];
+      const double east = s.position.y(), north = s.position.x();
+      const double up = scene.GroundHeightAt(truth.position.y(), truth.position.x());
+      const Eigen::Vector3d in_site = SiteFromEnu({east, north, up}, ground_z0);
+      std::vector<std::string> row = {std::to_string(s.site), Fixed(in_site.x(), 4),
+                                      Fixed(in_site.y(), 4), Fixed(in_site.z(), 4),
+                                      Fixed(DegFromRad(WrapLongitude(s.heading, LongitudeDomain::kZeroTo360)), 4)};
+      if (with_geographic) {
+        const Geographic g = to_geographic(east, north, up - ground_z0);
+        row.insert(row.end(), {Fixed(DegFromRad(g.lat), 10), Fixed(DegFromRad(g.lon), 10),
+                               Fixed(g.h, 4)});
+      }
+      table.Row(row);
+    }
+    return table;
+  };
+  WriteFileAtomically(out_dir / "truth/craters.csv", craters.text);
+  WriteFileAtomically(out_dir / "truth/rocks.csv", rocks.text);
+  WriteFileAtomically(out_dir / "truth/sites.csv", site_table(traverse.truth, true).text);
+  WriteFileAtomically(out_dir / "telemetry/sites.csv", site_table(traverse.telemetry, false).text);
+
+  MissionSummary summary;
+  summary.site_count = static_cast<int>(traverse.truth.size());
+  summary.crater_count = static_cast<int>(scene.craters().size());
+  summary.rock_count = static_cast<int>(scene.rocks().size());
+  for (size_t i = 1; i < traverse.truth.size(); ++i) {
+    summary.traverse_length_m +=
+        (traverse.truth[i].position - traverse.truth[i - 1].position).head<2>().norm();
+  }
+  summary.final_telemetry_error_m =
+      (traverse.truth.back().position - traverse.telemetry.back().position).head<2>().norm();
+  summary.orbital_size_px = hirise.image.bands.front().cols;
+
+  const nlohmann::json manifest = {
+      {"format", "areomap-mission"},
+      {"version", 1},
+      {"name", "synthetic-" + options.preset + "-seed" + std::to_string(options.seed)},
+      {"body", {{"name", georef.body.name}, {"a_m", georef.body.a}, {"b_m", georef.body.b}}},
+      {"origin",
+       {{"lat_deg", options.site_lat_deg},
+        {"lon_deg", options.site_lon_deg},
+        {"h_m", ground_z0},
+        {"latitude", "planetocentric"},
+        {"longitude", "east"}}},
+      {"site_frame", "MER site frame of site 0: x north, y east, z down [m], origin = origin"},
+      {"orbital", orbital},
+      {"telemetry",
+       {{"sites", "telemetry/sites.csv"},
+        {"model",
+         {{"scale_sigma", options.telemetry.scale_sigma},
+          {"heading_drift_sigma_deg", options.telemetry.heading_drift_sigma_deg}}}}},
+      {"truth",
+       {{"craters", "truth/craters.csv"},
+        {"rocks", "truth/rocks.csv"},
+        {"sites", "truth/sites.csv"},
+        {"dtm", "orbital/hirise_dtm.tif"}}},
+  };
+  summary.manifest = out_dir / "mission.json";
+  WriteFileAtomically(summary.manifest, manifest.dump(2) + "\n");
+  Report(progress, 1.0, "done");
+  return summary;
+}
+
+}  // namespace areomap
