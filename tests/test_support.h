@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include "areomap/map/error.h"
+
 namespace areomap::testing {
 
 // ../shared/data beside the checkout; tests that need it call SKIP_WITHOUT_SHARED_DATA().
@@ -39,6 +41,17 @@ inline std::string RunCommand(const std::string& command) {
   const int status = pclose(pipe.release());
   EXPECT_EQ(status, 0) << "command failed: " << command;
   return output;
+}
+
+// The message of the areomap::Error that `function` throws, or "" if it throws none.
+template <typename Function>
+std::string ErrorMessageOf(Function function) {
+  try {
+    function();
+  } catch (const ::areomap::Error& error) {
+    return error.what();
+  }
+  return "";
 }
 
 // A fresh, empty temporary folder removed at the end of the test.

@@ -10,15 +10,6 @@
 namespace areomap {
 namespace {
 
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
-
 TEST(CoordinateSystem, ConvertsBetweenGeographicTypesThroughMbf) {
   const CoordinateSystemContext context;
   const auto ocentric = CoordinateSystem::Parse("planetocentric", context);
@@ -39,8 +30,9 @@ TEST(CoordinateSystem, IauCrsUsesLongitudeFirstAndMatchesGeographic) {
 
 TEST(CoordinateSystem, SiteFrameNeedsAnOriginAndPutsItAtZero) {
   CoordinateSystemContext context;
-  EXPECT_NE(ErrorOf([&] { CoordinateSystem::Parse("site", context); }).find("--origin"),
-            std::string::npos);
+  EXPECT_NE(
+      testing::ErrorMessageOf([&] { CoordinateSystem::Parse("site", context); }).find("--origin"),
+      std::string::npos);
   context.origin = Geographic{RadFromDeg(-14.5), RadFromDeg(175.5), -1900.0};
   const auto site = CoordinateSystem::Parse("site", context);
   const auto ocentric = CoordinateSystem::Parse("planetocentric", context);
@@ -50,16 +42,18 @@ TEST(CoordinateSystem, SiteFrameNeedsAnOriginAndPutsItAtZero) {
 TEST(CoordinateSystem, RejectsBadLinesAndNames) {
   const CoordinateSystemContext context;
   const auto ocentric = CoordinateSystem::Parse("planetocentric", context);
-  EXPECT_NE(ErrorOf([&] {
+  EXPECT_NE(testing::ErrorMessageOf([&] {
               ocentric.ToMbf({91.0, 0.0, 0.0});
             }).find("latitude 91 is outside"),
             std::string::npos);
   EXPECT_THROW(ocentric.ToMbf({std::nan(""), 0.0, 0.0}), Error);
-  EXPECT_NE(ErrorOf([&] {
+  EXPECT_NE(testing::ErrorMessageOf([&] {
               CoordinateSystem::Parse("planetocentric,sideways", context);
             }).find("unknown modifier 'sideways'"),
             std::string::npos);
-  EXPECT_NE(ErrorOf([&] { CoordinateSystem::Parse("EPSG:4326", context); }).find("not on Mars"),
+  EXPECT_NE(testing::ErrorMessageOf([&] {
+              CoordinateSystem::Parse("EPSG:4326", context);
+            }).find("not on Mars"),
             std::string::npos);
 }
 

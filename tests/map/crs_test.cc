@@ -4,18 +4,10 @@
 
 #include "areomap/map/error.h"
 #include "areomap/map/projection.h"
+#include "test_support.h"
 
 namespace areomap {
 namespace {
-
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
 
 TEST(Crs, DescribesIauLatitudeTypesAndLongitudeDirections) {
   const CrsDescription ographic_west = Crs::FromUserInput("IAU_2015:49901").Describe();
@@ -39,13 +31,13 @@ TEST(Crs, DescribesIauLatitudeTypesAndLongitudeDirections) {
 TEST(Crs, EarthCrsIsRejectedWhereMarsIsRequired) {
   const Crs wgs84 = Crs::FromUserInput("EPSG:4326");
   EXPECT_FALSE(wgs84.Describe().is_mars);
-  const std::string message = ErrorOf([&] { wgs84.RequireMars(); });
+  const std::string message = testing::ErrorMessageOf([&] { wgs84.RequireMars(); });
   EXPECT_NE(message.find("is not on Mars"), std::string::npos) << message;
   EXPECT_NE(message.find("6378137"), std::string::npos) << message;
 }
 
 TEST(Crs, UnknownNameIsAnErrorThatQuotesIt) {
-  const std::string message = ErrorOf([] { Crs::FromUserInput("IAU_2015:12345"); });
+  const std::string message = testing::ErrorMessageOf([] { Crs::FromUserInput("IAU_2015:12345"); });
   EXPECT_NE(message.find("unknown CRS 'IAU_2015:12345'"), std::string::npos) << message;
 }
 

@@ -31,15 +31,6 @@ GeoRaster MakeRaster() {
   return raster;
 }
 
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
-
 TEST(GeoTransform, MapsPixelCornersAndInverts) {
   const GeoTransform t = GeoTransform::NorthUp(100.0, 200.0, 2.0, 3.0);
   EXPECT_EQ(t.PixelToMap(0, 0), Eigen::Vector2d(100.0, 200.0));
@@ -82,27 +73,30 @@ TEST(Raster, WindowedReadMatchesTheFullRead) {
   const cv::Mat as_float = dataset.ReadWindowFloat(1, {0, 0, 10, 10});
   EXPECT_TRUE(std::isnan(as_float.at<float>(5, 7)));  // nodata -> NaN
   EXPECT_EQ(as_float.at<float>(0, 0), raster.bands[0].at<float>(0, 0));
-  const std::string message = ErrorOf([&] { dataset.ReadWindow(1, {190, 0, 20, 5}); });
+  const std::string message = testing::ErrorMessageOf([&] {
+    dataset.ReadWindow(1, {190, 0, 20, 5});
+  });
   EXPECT_NE(message.find("outside the raster (200x300)"), std::string::npos) << message;
   EXPECT_THROW(dataset.ReadWindow(2, window), Error);
 }
 
 TEST(Raster, BadFilesGiveErrorsThatNameThem) {
   TempDir dir;
-  EXPECT_NE(ErrorOf([&] {
+  EXPECT_NE(testing::ErrorMessageOf([&] {
               RasterDataset::Open(dir.path() / "missing.tif");
             }).find("missing.tif: no such file"),
             std::string::npos);
   const auto text = dir.path() / "notes.txt";
   std::ofstream(text) << "this is not a raster\n";
-  EXPECT_NE(ErrorOf([&] { RasterDataset::Open(text); }).find("not a readable raster"),
-            std::string::npos);
+  EXPECT_NE(
+      testing::ErrorMessageOf([&] { RasterDataset::Open(text); }).find("not a readable raster"),
+      std::string::npos);
   // A truncated GeoTIFF: either opening or reading fails with an error naming the file.
   WriteGeoTiff(dir.path() / "full.tif", MakeRaster(), {16, "NONE"});
   const auto truncated = dir.path() / "truncated.tif";
   std::filesystem::copy_file(dir.path() / "full.tif", truncated);
   std::filesystem::resize_file(truncated, std::filesystem::file_size(truncated) / 3);
-  const std::string message = ErrorOf([&] {
+  const std::string message = testing::ErrorMessageOf([&] {
     const RasterDataset dataset = RasterDataset::Open(truncated);
     dataset.ReadWindow(1, dataset.FullWindow());
   });
@@ -115,8 +109,8 @@ TEST(Raster, FailedWriteLeavesNothingBehind) {
   raster.crs_wkt = "not a crs";
   EXPECT_THROW(WriteGeoTiff(dir.path() / "bad.tif", raster), Error);
   EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
-  const std::string message =
-      ErrorOf([&] { WriteGeoTiff(dir.path() / "no" / "such" / "x.tif", MakeRaster()); });
+  const std::string message = testing::ErrorMessageOf(
+      [&] { WriteGeoTiff(dir.path() / "no" / "such" / "x.tif", MakeRaster()); });
   EXPECT_NE(message.find("does not exist"), std::string::npos) << message;
 }
 

@@ -7,8 +7,10 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include "test_support.h"
 
 #include "areomap/map/error.h"
 
@@ -362,43 +364,33 @@ TEST(MaskedNcc, FlatOrTooSmallOverlapGivesNaN) {
   EXPECT_TRUE(std::isfinite(surface.ncc.at<float>(5 - surface.shift_y0, 25 - surface.shift_x0)));
 }
 
-template <typename Function>
-std::string ErrorMessage(Function function) {
-  try {
-    function();
-  } catch (const Error& error) {
-    return error.what();
-  }
-  return "";
-}
-
 TEST(MaskedNccOptions, CheckNamesTheFieldAndTheRule) {
   EXPECT_NO_THROW(MaskedNccOptions().Check());
   EXPECT_NO_THROW(PeakOptions().Check());
 
   MaskedNccOptions fraction;
   fraction.min_overlap_fraction = 1.5;
-  std::string message = ErrorMessage([&] { fraction.Check(); });
+  std::string message = testing::ErrorMessageOf([&] { fraction.Check(); });
   EXPECT_NE(message.find("min_overlap_fraction"), std::string::npos) << message;
   EXPECT_NE(message.find("[0, 1]"), std::string::npos) << message;
 
   MaskedNccOptions pixels;
   pixels.min_overlap_pixels = 1;
-  message = ErrorMessage([&] { pixels.Check(); });
+  message = testing::ErrorMessageOf([&] { pixels.Check(); });
   EXPECT_NE(message.find("min_overlap_pixels"), std::string::npos) << message;
 
   MaskedNccOptions window;
   window.search_window = ShiftWindow{5, 4, 0, 0};
-  message = ErrorMessage([&] { window.Check(); });
+  message = testing::ErrorMessageOf([&] { window.Check(); });
   EXPECT_NE(message.find("search_window.min_shift_x"), std::string::npos) << message;
   // MaskedNcc checks its options too.
   const cv::Mat image(8, 8, CV_32F, cv::Scalar(1.0f));
-  message = ErrorMessage([&] { MaskedNcc(image, {}, image, {}, window); });
+  message = testing::ErrorMessageOf([&] { MaskedNcc(image, {}, image, {}, window); });
   EXPECT_NE(message.find("search_window.min_shift_x"), std::string::npos) << message;
 
   PeakOptions ratio;
   ratio.min_peak_ratio = 0.5;
-  message = ErrorMessage([&] { ratio.Check(); });
+  message = testing::ErrorMessageOf([&] { ratio.Check(); });
   EXPECT_NE(message.find("min_peak_ratio"), std::string::npos) << message;
   EXPECT_THROW(FindPeak(MaskedNccSurface{}, ratio), Error);
 }
@@ -406,12 +398,12 @@ TEST(MaskedNccOptions, CheckNamesTheFieldAndTheRule) {
 TEST(MaskedNcc, RejectsWrongImageAndMaskTypes) {
   const cv::Mat image(8, 8, CV_32F, cv::Scalar(1.0f));
   const cv::Mat bytes(8, 8, CV_8U, cv::Scalar(1));
-  std::string message = ErrorMessage([&] { MaskedNcc(bytes, {}, image, {}); });
+  std::string message = testing::ErrorMessageOf([&] { MaskedNcc(bytes, {}, image, {}); });
   EXPECT_NE(message.find("fixed image"), std::string::npos) << message;
   EXPECT_NE(message.find("CV_32FC1"), std::string::npos) << message;
-  message = ErrorMessage([&] { MaskedNcc(image, {}, image, cv::Mat(4, 4, CV_8U)); });
+  message = testing::ErrorMessageOf([&] { MaskedNcc(image, {}, image, cv::Mat(4, 4, CV_8U)); });
   EXPECT_NE(message.find("moving mask"), std::string::npos) << message;
-  message = ErrorMessage([&] { MaskedNccNaive(image, {}, cv::Mat(), {}); });
+  message = testing::ErrorMessageOf([&] { MaskedNccNaive(image, {}, cv::Mat(), {}); });
   EXPECT_NE(message.find("moving image is empty"), std::string::npos) << message;
 }
 

@@ -81,7 +81,8 @@ TEST(Traverse, RebuildsTelemetryLegsFromTheRecordedErrors) {
   for (size_t i = 1; i < t.truth.size(); ++i) {
     heading_error += t.leg_heading_errors[i - 1];
     const Eigen::Vector2d truth_leg = (t.truth[i].position - t.truth[i - 1].position).head<2>();
-    const Eigen::Vector2d measured = (t.telemetry[i].position - t.telemetry[i - 1].position).head<2>();
+    const Eigen::Vector2d measured =
+        (t.telemetry[i].position - t.telemetry[i - 1].position).head<2>();
     // (north, east): a clockwise heading error is a rotation by +error in this frame.
     const Eigen::Vector2d expected =
         (1.0 + t.leg_scale_errors[i - 1]) * (Eigen::Rotation2Dd(heading_error) * truth_leg);
@@ -102,7 +103,8 @@ TEST(Scene, RockPeaksAreTheTrueMaxima) {
     // Skip rocks overlapped by a neighbour: their top may be someone else's.
     bool alone = true;
     for (const Rock& o : scene.rocks()) {
-      if (o.id != r.id && (o.center - r.center).norm() < r.FootprintRadius() + o.FootprintRadius()) {
+      if (o.id != r.id &&
+          (o.center - r.center).norm() < r.FootprintRadius() + o.FootprintRadius()) {
         alone = false;
       }
     }
@@ -169,8 +171,9 @@ TEST(Mission, CraterRimsInTheOrbitalDtmLieOnTheTrueEllipses) {
         const double c = col + r * std::cos(theta) / t.c[1];
         const double rr = row + r * std::sin(theta) / t.c[5];  // c[5] < 0: north is up.
         cv::Mat sample;
-        cv::getRectSubPix(z, cv::Size(1, 1), cv::Point2f(static_cast<float>(c - 0.5),
-                                                         static_cast<float>(rr - 0.5)), sample);
+        cv::getRectSubPix(z, cv::Size(1, 1),
+                          cv::Point2f(static_cast<float>(c - 0.5), static_cast<float>(rr - 0.5)),
+                          sample);
         if (sample.at<float>(0, 0) > best_z) {
           best_z = sample.at<float>(0, 0);
           best_r = r;
