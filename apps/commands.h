@@ -10,6 +10,7 @@ namespace areomap::cli {
 
 void AddInfoCommand(CLI::App& app, const GlobalOptions& global);
 void AddCoordsCommand(CLI::App& app, const GlobalOptions& global);
+void AddCameraCommand(CLI::App& app, const GlobalOptions& global);
 void AddSampleCommand(CLI::App& app, const GlobalOptions& global);
 void AddSimulateCommand(CLI::App& app, const GlobalOptions& global);
 

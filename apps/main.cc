@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   app.add_flag("--quiet", global.quiet, "No progress bar and no human summary");
   areomap::cli::AddInfoCommand(app, global);
   areomap::cli::AddCoordsCommand(app, global);
+  areomap::cli::AddCameraCommand(app, global);
   areomap::cli::AddSampleCommand(app, global);
   areomap::cli::AddSimulateCommand(app, global);
   try {
