@@ -6,9 +6,11 @@
 #include <random>
 #include <sstream>
 
-#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <tbb/parallel_for.h>
 
 #include "areomap/map/atomic_file.h"
+#include "areomap/map/image_io.h"
 #include "areomap/map/error.h"
 #include "areomap/map/raster.h"
 
@@ -46,7 +48,42 @@ struct CsvTable {
   }
 };
 
+// Rotation of the rover frame (x forward, y right, z down) into a level site frame (x north,
+// y east, z down) for a heading clockwise from north: a rotation about z (down).
+Eigen::Quaterniond SiteFromRoverRotation(double heading) {
+  return Eigen::Quaterniond(Eigen::AngleAxisd(heading, Eigen::Vector3d::UnitZ()));
+}
+
+nlohmann::json Vector(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
 }  // namespace
+
+nlohmann::json RoverImageLabel(const std::string& instrument_id, int site,
+                               const CahvorModel& camera, const Rigid3d& site_from_rover,
+                               int width, int height, int bits) {
+  const Eigen::Quaterniond& q = site_from_rover.rotation;
+  return {
+      {"INSTRUMENT_ID", instrument_id},
+      {"IMAGE", {{"LINES", height}, {"LINE_SAMPLES", width}, {"SAMPLE_BITS", bits}}},
+      {"GEOMETRIC_CAMERA_MODEL",
+       {{"MODEL_TYPE", "CAHVOR"},
+        {"MODEL_COMPONENT_ID", {"C", "A", "H", "V", "O", "R"}},
+        {"MODEL_COMPONENT_1", Vector(camera.c)},
+        {"MODEL_COMPONENT_2", Vector(camera.a)},
+        {"MODEL_COMPONENT_3", Vector(camera.h)},
+        {"MODEL_COMPONENT_4", Vector(camera.v)},
+        {"MODEL_COMPONENT_5", Vector(camera.o)},
+        {"MODEL_COMPONENT_6", Vector(camera.r)},
+        {"REFERENCE_COORD_SYSTEM_NAME", "ROVER_FRAME"}}},
+      {"ROVER_COORDINATE_SYSTEM",
+       {{"COORDINATE_SYSTEM_NAME", "ROVER_FRAME"},
+        {"COORDINATE_SYSTEM_INDEX", {site}},
+        {"ORIGIN_OFFSET_VECTOR", Vector(site_from_rover.translation)},
+        {"ORIGIN_ROTATION_QUATERNION", {q.w(), q.x(), q.y(), q.z()}},
+        {"REFERENCE_COORD_SYSTEM_NAME", "SITE_FRAME"},
+        {"REFERENCE_COORD_SYSTEM_INDEX", site}}},
+  };
+}
 
 void TraverseOptions::Check() const {
   Require(site_count >= 1 && site_count <= 1000, "TraverseOptions.site_count", "1..1000");
@@ -142,12 +179,17 @@ void MissionOptions::Check() const {
   orbital.Check();
   traverse.Check();
   telemetry.Check();
+  navcam.Check();
+  render.Check();
+  Require(navcam_pairs >= 0 && navcam_pairs <= 64, "MissionOptions.navcam_pairs", "0..64");
+  Require(navcam_elevation_deg > -90.0 && navcam_elevation_deg < 90.0,
+          "MissionOptions.navcam_elevation_deg", "in (-90, 90) degrees");
 }
 
 MissionSummary GenerateMission(const MissionOptions& options, const std::filesystem::path& out_dir,
                                const ProgressCallback& progress) {
   options.Check();
-  for (const char* sub : {"", "orbital", "truth", "telemetry"}) {
+  for (const char* sub : {"", "orbital", "truth", "telemetry", "sites"}) {
     std::error_code ec;
     std::filesystem::create_directories(out_dir / sub, ec);
     if (ec) throw Error((out_dir / sub).string() + ": cannot create folder: " + ec.message());
@@ -177,7 +219,7 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
   nlohmann::json orbital = nlohmann::json::array();
   const double half = options.scene.half_extent_m;
   OrbitalProducts hirise = RenderOrbitalProducts(scene, georef, half, options.orbital_dtm_posting_m,
-                                                 options.orbital, stage(0.05, 0.6));
+                                                 options.orbital, stage(0.05, 0.3));
   WriteGeoTiff(out_dir / "orbital/hirise_ortho.tif", hirise.image);
   WriteGeoTiff(out_dir / "orbital/hirise_dtm.tif", hirise.dtm);
   const auto orbital_entry = [](const std::string& id, const std::string& kind,
@@ -201,7 +243,7 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
     other.sun_elevation_deg = 45.0;
     other.seed = options.seed + 101u;
     const OrbitalProducts second = RenderOrbitalProducts(
-        scene, georef, half, options.orbital_dtm_posting_m, other, stage(0.6, 0.8));
+        scene, georef, half, options.orbital_dtm_posting_m, other, stage(0.3, 0.4));
     WriteGeoTiff(out_dir / "orbital/hirise_ortho_sun2.tif", second.image);
     orbital.push_back(orbital_entry("hirise_sun2", "image", "orbital/hirise_ortho_sun2.tif",
                                     other.gsd_m, &other));
@@ -215,11 +257,69 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
     ctx.full_well_dn = 200.0;
     ctx.seed = options.seed + 202u;
     const OrbitalProducts coarse =
-        RenderOrbitalProducts(scene, georef, half, 6.0, ctx, stage(0.8, 0.9));
+        RenderOrbitalProducts(scene, georef, half, 6.0, ctx, stage(0.4, 0.45));
     WriteGeoTiff(out_dir / "orbital/ctx_ortho.tif", coarse.image);
     orbital.push_back(orbital_entry("ctx", "image", "orbital/ctx_ortho.tif", 6.0, &ctx));
   }
-  Report(progress, 0.9, "truth");
+  // Rover images: a Navcam panorama per site, rendered from the true pose; the labels carry the
+  // telemetry heading, as flight products carry the onboard estimate.
+  nlohmann::json sites = nlohmann::json::array();
+  RenderOptions render = options.render;
+  render.sun_azimuth_deg = options.orbital.sun_azimuth_deg;
+  render.sun_elevation_deg = options.orbital.sun_elevation_deg;
+  const std::vector<StereoPointing> pointings =
+      Panorama(options.navcam_pairs, RadFromDeg(options.navcam_elevation_deg));
+  Eigen::Matrix3d enu_from_site_rotation;
+  enu_from_site_rotation << 0, 1, 0, 1, 0, 0, 0, 0, -1;
+  int rover_images = 0;
+  for (size_t k = 0; k < traverse.truth.size(); ++k) {
+    Report(progress, 0.45 + 0.5 * static_cast<double>(k) / static_cast<double>(traverse.truth.size()),
+           "rover images");
+    const SitePose& truth = traverse.truth[k];
+    const Eigen::Vector3d site_in_enu(truth.position.y(), truth.position.x(),
+                                      scene.GroundHeightAt(truth.position.y(), truth.position.x()));
+    char folder_name[32];
+    std::snprintf(folder_name, sizeof(folder_name), "sites/site_%03d", truth.site);
+    const std::filesystem::path folder = out_dir / folder_name;
+    std::filesystem::create_directories(folder);
+    nlohmann::json images = nlohmann::json::array();
+    if (!pointings.empty()) {
+      const SiteMesh mesh(scene, site_in_enu, render);
+      const Rigid3d enu_from_site(enu_from_site_rotation, site_in_enu);
+      const Rigid3d enu_from_rover =
+          enu_from_site * Rigid3d(SiteFromRoverRotation(truth.heading), Eigen::Vector3d::Zero());
+      const Rigid3d believed_site_from_rover(
+          SiteFromRoverRotation(traverse.telemetry[k].heading), Eigen::Vector3d::Zero());
+      std::vector<nlohmann::json> entries(2 * pointings.size());
+      tbb::parallel_for(size_t{0}, 2 * pointings.size(), [&](size_t index) {
+        const size_t pair = index / 2;
+        const int side = static_cast<int>(index % 2);
+        const CahvorModel camera = StereoCameras(options.navcam, pointings[pair])[side];
+        const SiteMesh::Image image =
+            mesh.Render(camera.Transformed(enu_from_rover), options.navcam.width,
+                        options.navcam.height,
+                        options.seed * 7919u + static_cast<uint32_t>(k * 1000 + index));
+        char name[64];
+        std::snprintf(name, sizeof(name), "navcam_p%02zu_%s", pair, side == 0 ? "left" : "right");
+        const std::string instrument = side == 0 ? "NAVCAM_LEFT" : "NAVCAM_RIGHT";
+        WriteImage(folder / (std::string(name) + ".png"), image.dn);
+        WriteFileAtomically(folder / (std::string(name) + ".json"),
+                            RoverImageLabel(instrument, truth.site, camera,
+                                            believed_site_from_rover, options.navcam.width,
+                                            options.navcam.height, render.bits)
+                                    .dump(2) +
+                                "\n");
+        entries[index] = {{"instrument", instrument},
+                          {"pair", pair},
+                          {"image", std::string(folder_name) + "/" + name + ".png"},
+                          {"label", std::string(folder_name) + "/" + name + ".json"}};
+      });
+      for (auto& entry : entries) images.push_back(std::move(entry));
+      rover_images += static_cast<int>(entries.size());
+    }
+    sites.push_back({{"site", truth.site}, {"images", images}});
+  }
+  Report(progress, 0.95, "truth");
 
   // Truth and telemetry tables.
   const MapProjection projection = georef.Projection();
@@ -292,6 +392,7 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
   summary.final_telemetry_error_m =
       (traverse.truth.back().position - traverse.telemetry.back().position).head<2>().norm();
   summary.orbital_size_px = hirise.image.bands.front().cols;
+  summary.rover_images = rover_images;
 
   const nlohmann::json manifest = {
       {"format", "areomap-mission"},
@@ -306,6 +407,7 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
         {"longitude", "east"}}},
       {"site_frame", "MER site frame of site 0: x north, y east, z down [m], origin = origin"},
       {"orbital", orbital},
+      {"sites", sites},
       {"telemetry",
        {{"sites", "telemetry/sites.csv"},
         {"model",

@@ -13,9 +13,11 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 
 #include "areomap/map/progress.h"
 #include "areomap/samples/orbital.h"
+#include "areomap/samples/rover.h"
 #include "areomap/samples/scene.h"
 
 namespace areomap {
@@ -68,6 +70,10 @@ struct MissionOptions {
   bool ctx_image = false;          // Also a CTX-like 6 m image.
   TraverseOptions traverse;
   TelemetryErrorModel telemetry;
+  StereoCameraOptions navcam;         // Table 1.1 Navcam.
+  int navcam_pairs = 10;              // Stereo pairs per site panorama (0 = no rover images).
+  double navcam_elevation_deg = -25;  // Panorama tilt [deg] (negative = down).
+  RenderOptions render;               // Mesh postings, sensor; the sun is the orbital one.
 
   // "demo" (small, about a minute) or "long" (~1.1 km traverse like the dissertation's test).
   // Throws areomap::Error naming the accepted presets.
@@ -83,7 +89,15 @@ struct MissionSummary {
   double traverse_length_m = 0.0;
   double final_telemetry_error_m = 0.0;
   int orbital_size_px = 0;
+  int rover_images = 0;
 };
+
+// The label of a synthetic rover image, laid out like the PDS3 label JSON GDAL gives for MER
+// products (GEOMETRIC_CAMERA_MODEL and ROVER_COORDINATE_SYSTEM groups), so ParseProductGeometry
+// reads both. `site_from_rover` is what the rover believed (telemetry heading).
+nlohmann::json RoverImageLabel(const std::string& instrument_id, int site,
+                               const CahvorModel& camera_in_rover, const Rigid3d& site_from_rover,
+                               int width, int height, int bits);
 
 // Generates the mission into `out_dir` (created if needed). Every file is written atomically.
 MissionSummary GenerateMission(const MissionOptions& options, const std::filesystem::path& out_dir,
