@@ -14,6 +14,8 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
     std::optional<double> lat, lon;
     std::optional<int> sites;
     std::optional<double> min_leg, max_leg;
+    std::optional<int> pairs;
+    std::optional<double> fov;
   };
   auto o = std::make_shared<Overrides>();
   auto* cmd = app.add_subcommand(
@@ -30,6 +32,9 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
   site->add_option("--sites", o->sites, "Number of sites");
   site->add_option("--min-leg", o->min_leg, "Shortest leg [m]");
   site->add_option("--max-leg", o->max_leg, "Longest leg [m]");
+  auto* rover = cmd->add_option_group("Rover cameras");
+  rover->add_option("--navcam-pairs", o->pairs, "Navcam stereo pairs per site (0: no images)");
+  rover->add_option("--navcam-fov", o->fov, "Navcam horizontal field of view [deg] (45.4)");
   cmd->callback([o, &global] {
     MissionOptions options = MissionOptions::Preset(o->preset);
     options.seed = o->seed;
@@ -38,6 +43,8 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
     if (o->sites) options.traverse.site_count = *o->sites;
     if (o->min_leg) options.traverse.min_leg_m = *o->min_leg;
     if (o->max_leg) options.traverse.max_leg_m = *o->max_leg;
+    if (o->pairs) options.navcam_pairs = *o->pairs;
+    if (o->fov) options.navcam.field_of_view_deg = *o->fov;
     options.Check();
     PrepareOutputFolder(o->out);
     const MissionSummary summary =
@@ -51,13 +58,15 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
                           {"rocks", summary.rock_count},
                           {"traverse_length_m", summary.traverse_length_m},
                           {"final_telemetry_error_m", summary.final_telemetry_error_m},
-                          {"orbital_size_px", summary.orbital_size_px}});
+                          {"orbital_size_px", summary.orbital_size_px},
+                          {"rover_images", summary.rover_images}});
     if (!global.quiet) {
       std::cout << "mission " << o->out << ": " << summary.site_count << " sites over "
                 << summary.traverse_length_m << " m (telemetry off by "
                 << summary.final_telemetry_error_m << " m at the end), " << summary.crater_count
                 << " craters, " << summary.rock_count << " rocks, orbital image "
-                << summary.orbital_size_px << " px square\n";
+                << summary.orbital_size_px << " px square, " << summary.rover_images
+                << " rover images\n";
     }
   });
 }

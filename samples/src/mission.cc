@@ -6,12 +6,13 @@
 #include <random>
 #include <sstream>
 
-#include <opencv2/core.hpp>
 #include <tbb/parallel_for.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "areomap/map/atomic_file.h"
-#include "areomap/map/image_io.h"
 #include "areomap/map/error.h"
+#include "areomap/map/image_io.h"
 #include "areomap/map/raster.h"
 
 namespace areomap {
@@ -59,8 +60,8 @@ nlohmann::json Vector(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; 
 }  // namespace
 
 nlohmann::json RoverImageLabel(const std::string& instrument_id, int site,
-                               const CahvorModel& camera, const Rigid3d& site_from_rover,
-                               int width, int height, int bits) {
+                               const CahvorModel& camera, const Rigid3d& site_from_rover, int width,
+                               int height, int bits) {
   const Eigen::Quaterniond& q = site_from_rover.rotation;
   return {
       {"INSTRUMENT_ID", instrument_id},
@@ -109,14 +110,13 @@ Traverse PlanTraverse(const TraverseOptions& options, const TelemetryErrorModel&
   Traverse t;
   const double margin = 0.75 * half_extent_m;
   double heading = 2.0 * kPi * unit(rng);  // Clockwise from north.
-  Eigen::Vector2d truth_en(0.0, 0.0);       // (east, north)
+  Eigen::Vector2d truth_en(0.0, 0.0);      // (east, north)
   Eigen::Vector2d measured_en(0.0, 0.0);
   double heading_error = 0.0;
   t.truth.push_back({0, Eigen::Vector3d::Zero(), heading});
   t.telemetry.push_back({0, Eigen::Vector3d::Zero(), heading});
   for (int site = 1; site < options.site_count; ++site) {
-    const double length =
-        options.min_leg_m + (options.max_leg_m - options.min_leg_m) * unit(rng);
+    const double length = options.min_leg_m + (options.max_leg_m - options.min_leg_m) * unit(rng);
     double turn = RadFromDeg(options.max_turn_deg) * (2.0 * unit(rng) - 1.0);
     Eigen::Vector2d step(std::sin(heading + turn), std::cos(heading + turn));
     if ((truth_en + length * step).cwiseAbs().maxCoeff() > margin) {
@@ -223,8 +223,7 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
   WriteGeoTiff(out_dir / "orbital/hirise_ortho.tif", hirise.image);
   WriteGeoTiff(out_dir / "orbital/hirise_dtm.tif", hirise.dtm);
   const auto orbital_entry = [](const std::string& id, const std::string& kind,
-                                const std::string& path, double gsd,
-                                const OrbitalImageOptions* o) {
+                                const std::string& path, double gsd, const OrbitalImageOptions* o) {
     nlohmann::json j = {{"id", id}, {"kind", kind}, {"path", path}, {"gsd_m", gsd}};
     if (o != nullptr) {
       j["sun_azimuth_deg"] = o->sun_azimuth_deg;
@@ -273,7 +272,8 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
   enu_from_site_rotation << 0, 1, 0, 1, 0, 0, 0, 0, -1;
   int rover_images = 0;
   for (size_t k = 0; k < traverse.truth.size(); ++k) {
-    Report(progress, 0.45 + 0.5 * static_cast<double>(k) / static_cast<double>(traverse.truth.size()),
+    Report(progress,
+           0.45 + 0.5 * static_cast<double>(k) / static_cast<double>(traverse.truth.size()),
            "rover images");
     const SitePose& truth = traverse.truth[k];
     const Eigen::Vector3d site_in_enu(truth.position.y(), truth.position.x(),
@@ -288,33 +288,48 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
       const Rigid3d enu_from_site(enu_from_site_rotation, site_in_enu);
       const Rigid3d enu_from_rover =
           enu_from_site * Rigid3d(SiteFromRoverRotation(truth.heading), Eigen::Vector3d::Zero());
-      const Rigid3d believed_site_from_rover(
-          SiteFromRoverRotation(traverse.telemetry[k].heading), Eigen::Vector3d::Zero());
+      const Rigid3d believed_site_from_rover(SiteFromRoverRotation(traverse.telemetry[k].heading),
+                                             Eigen::Vector3d::Zero());
       std::vector<nlohmann::json> entries(2 * pointings.size());
       tbb::parallel_for(size_t{0}, 2 * pointings.size(), [&](size_t index) {
         const size_t pair = index / 2;
         const int side = static_cast<int>(index % 2);
         const CahvorModel camera = StereoCameras(options.navcam, pointings[pair])[side];
-        const SiteMesh::Image image =
-            mesh.Render(camera.Transformed(enu_from_rover), options.navcam.width,
-                        options.navcam.height,
-                        options.seed * 7919u + static_cast<uint32_t>(k * 1000 + index));
+        const SiteMesh::Image image = mesh.Render(
+            camera.Transformed(enu_from_rover), options.navcam.width, options.navcam.height,
+            options.seed * 7919u + static_cast<uint32_t>(k * 1000 + index));
         char name[64];
         std::snprintf(name, sizeof(name), "navcam_p%02zu_%s", pair, side == 0 ? "left" : "right");
         const std::string instrument = side == 0 ? "NAVCAM_LEFT" : "NAVCAM_RIGHT";
         WriteImage(folder / (std::string(name) + ".png"), image.dn);
-        WriteFileAtomically(folder / (std::string(name) + ".json"),
-                            RoverImageLabel(instrument, truth.site, camera,
-                                            believed_site_from_rover, options.navcam.width,
-                                            options.navcam.height, render.bits)
-                                    .dump(2) +
-                                "\n");
+        WriteFileAtomically(
+            folder / (std::string(name) + ".json"),
+            RoverImageLabel(instrument, truth.site, camera, believed_site_from_rover,
+                            options.navcam.width, options.navcam.height, render.bits)
+                    .dump(2) +
+                "\n");
         entries[index] = {{"instrument", instrument},
                           {"pair", pair},
                           {"image", std::string(folder_name) + "/" + name + ".png"},
                           {"label", std::string(folder_name) + "/" + name + ".json"}};
       });
       for (auto& entry : entries) images.push_back(std::move(entry));
+      // A contact sheet of the left images for people: 8-bit, a quarter size, 5 per row.
+      const int columns = std::min<int>(5, static_cast<int>(pointings.size()));
+      const int rows = (static_cast<int>(pointings.size()) + columns - 1) / columns;
+      const int tile_w = options.navcam.width / 4, tile_h = options.navcam.height / 4;
+      cv::Mat sheet(rows * tile_h, columns * tile_w, CV_8U, cv::Scalar(0));
+      for (size_t pair = 0; pair < pointings.size(); ++pair) {
+        char name[64];
+        std::snprintf(name, sizeof(name), "navcam_p%02zu_left.png", pair);
+        cv::Mat tile;
+        cv::resize(ReadImage(folder / name), tile, cv::Size(tile_w, tile_h), 0, 0, cv::INTER_AREA);
+        const double max_dn = std::pow(2.0, render.bits) - 1.0;
+        tile.convertTo(tile, CV_8U, 255.0 / (0.7 * max_dn));
+        const int r = static_cast<int>(pair) / columns, c = static_cast<int>(pair) % columns;
+        tile.copyTo(sheet(cv::Rect(c * tile_w, r * tile_h, tile_w, tile_h)));
+      }
+      WriteImage(folder / "navcam_left_contact_sheet.png", sheet);
       rover_images += static_cast<int>(entries.size());
     }
     sites.push_back({{"site", truth.site}, {"images", images}});
@@ -329,12 +344,13 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
   };
   const GeoTransform& image_transform = hirise.image.geotransform;
   CsvTable craters;
-  craters.Row({"id", "east_m", "north_m", "lat_deg", "lon_deg", "col_px", "row_px",
-               "semi_major_m", "semi_minor_m", "angle_deg", "depth_m", "rim_height_m",
-               "floor_fraction", "flat_floor"});
+  craters.Row({"id", "east_m", "north_m", "lat_deg", "lon_deg", "col_px", "row_px", "semi_major_m",
+               "semi_minor_m", "angle_deg", "depth_m", "rim_height_m", "floor_fraction",
+               "flat_floor"});
   for (const Crater& c : scene.craters()) {
     const Geographic g = to_geographic(c.center.x(), c.center.y(), 0.0);
-    const Spherical radial = SphericalFromMbf(mbf_from_enu * Eigen::Vector3d(c.center.x(), c.center.y(), 0.0));
+    const Spherical radial =
+        SphericalFromMbf(mbf_from_enu * Eigen::Vector3d(c.center.x(), c.center.y(), 0.0));
     const Eigen::Vector2d map = projection.Forward({radial.lat, radial.lon, 0.0});
     const Eigen::Vector2d pixel = image_transform.MapToPixel(map.x(), map.y());
     craters.Row({std::to_string(c.id), Fixed(c.center.x(), 4), Fixed(c.center.y(), 4),
@@ -364,13 +380,14 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
       const double east = s.position.y(), north = s.position.x();
       const double up = scene.GroundHeightAt(truth.position.y(), truth.position.x());
       const Eigen::Vector3d in_site = SiteFromEnu({east, north, up}, ground_z0);
-      std::vector<std::string> row = {std::to_string(s.site), Fixed(in_site.x(), 4),
-                                      Fixed(in_site.y(), 4), Fixed(in_site.z(), 4),
-                                      Fixed(DegFromRad(WrapLongitude(s.heading, LongitudeDomain::kZeroTo360)), 4)};
+      std::vector<std::string> row = {
+          std::to_string(s.site), Fixed(in_site.x(), 4), Fixed(in_site.y(), 4),
+          Fixed(in_site.z(), 4),
+          Fixed(DegFromRad(WrapLongitude(s.heading, LongitudeDomain::kZeroTo360)), 4)};
       if (with_geographic) {
         const Geographic g = to_geographic(east, north, up - ground_z0);
-        row.insert(row.end(), {Fixed(DegFromRad(g.lat), 10), Fixed(DegFromRad(g.lon), 10),
-                               Fixed(g.h, 4)});
+        row.insert(row.end(),
+                   {Fixed(DegFromRad(g.lat), 10), Fixed(DegFromRad(g.lon), 10), Fixed(g.h, 4)});
       }
       table.Row(row);
     }

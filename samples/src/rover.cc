@@ -21,29 +21,27 @@ void Require(bool ok, const std::string& field, const std::string& rule) {
   if (!ok) throw Error(field + " is invalid: expected " + rule);
 }
 
-double FocalLengthPx(const StereoCameraOptions& o) {
-  return o.focal_length_mm * 1e-3 / (o.pixel_pitch_um * 1e-6);
-}
-
 // Rasterizes one triangle of projected vertices (u, v, range) into the buffers.
 void DrawTriangle(const Eigen::Vector3f& p0, const Eigen::Vector3f& p1, const Eigen::Vector3f& p2,
                   float i0, float i1, float i2, cv::Mat& range, cv::Mat& radiance) {
   const float area = (p1.x() - p0.x()) * (p2.y() - p0.y()) - (p2.x() - p0.x()) * (p1.y() - p0.y());
   if (std::abs(area) < 1e-12f) return;
   const int x0 = std::max(0, static_cast<int>(std::ceil(std::min({p0.x(), p1.x(), p2.x()}))));
-  const int x1 = std::min(range.cols - 1,
-                          static_cast<int>(std::floor(std::max({p0.x(), p1.x(), p2.x()}))));
+  const int x1 =
+      std::min(range.cols - 1, static_cast<int>(std::floor(std::max({p0.x(), p1.x(), p2.x()}))));
   const int y0 = std::max(0, static_cast<int>(std::ceil(std::min({p0.y(), p1.y(), p2.y()}))));
-  const int y1 = std::min(range.rows - 1,
-                          static_cast<int>(std::floor(std::max({p0.y(), p1.y(), p2.y()}))));
+  const int y1 =
+      std::min(range.rows - 1, static_cast<int>(std::floor(std::max({p0.y(), p1.y(), p2.y()}))));
   const float inverse_area = 1.0f / area;
   for (int y = y0; y <= y1; ++y) {
     float* range_row = range.ptr<float>(y);
     float* radiance_row = radiance.ptr<float>(y);
     for (int x = x0; x <= x1; ++x) {
       const float px = static_cast<float>(x), py = static_cast<float>(y);
-      const float w0 = ((p1.x() - px) * (p2.y() - py) - (p2.x() - px) * (p1.y() - py)) * inverse_area;
-      const float w1 = ((p2.x() - px) * (p0.y() - py) - (p0.x() - px) * (p2.y() - py)) * inverse_area;
+      const float w0 =
+          ((p1.x() - px) * (p2.y() - py) - (p2.x() - px) * (p1.y() - py)) * inverse_area;
+      const float w1 =
+          ((p2.x() - px) * (p0.y() - py) - (p0.x() - px) * (p2.y() - py)) * inverse_area;
       const float w2 = 1.0f - w0 - w1;
       if (w0 < 0.0f || w1 < 0.0f || w2 < 0.0f) continue;
       const float r = w0 * p0.z() + w1 * p1.z() + w2 * p2.z();
@@ -57,8 +55,14 @@ void DrawTriangle(const Eigen::Vector3f& p0, const Eigen::Vector3f& p1, const Ei
 
 }  // namespace
 
+double StereoCameraOptions::FocalLengthPx() const {
+  if (field_of_view_deg > 0.0) return 0.5 * width / std::tan(RadFromDeg(field_of_view_deg) / 2.0);
+  return focal_length_mm * 1e-3 / (pixel_pitch_um * 1e-6);
+}
+
 double StereoCameraOptions::FieldOfViewDeg() const {
-  return DegFromRad(2.0 * std::atan(0.5 * width / FocalLengthPx(*this)));
+  if (field_of_view_deg > 0.0) return field_of_view_deg;
+  return DegFromRad(2.0 * std::atan(0.5 * width / FocalLengthPx()));
 }
 
 void StereoCameraOptions::Check() const {
@@ -68,14 +72,14 @@ void StereoCameraOptions::Check() const {
   Require(focal_length_mm > 0.0, prefix + "focal_length_mm", "> 0");
   Require(pixel_pitch_um > 0.0, prefix + "pixel_pitch_um", "> 0");
   Require(baseline_m > 0.0 && baseline_m < 5.0, prefix + "baseline_m", "0 < b < 5 m");
-  Require(FieldOfViewDeg() < 180.0, prefix + "field of view", "< 180 degrees");
+  Require(field_of_view_deg >= 0.0 && field_of_view_deg < 180.0, prefix + "field_of_view_deg",
+          "0 (from the focal length) or a field of view below 180 degrees");
 }
 
 void RenderOptions::Check() const {
   Require(sun_elevation_deg > 0.0 && sun_elevation_deg < 90.0, "RenderOptions.sun_elevation_deg",
           "in (0, 90)");
-  Require(near_posting_m > 0.0 && mid_posting_m >= near_posting_m &&
-              far_posting_m >= mid_posting_m,
+  Require(near_posting_m > 0.0 && mid_posting_m >= near_posting_m && far_posting_m >= mid_posting_m,
           "RenderOptions postings", "0 < near <= mid <= far");
   Require(near_radius_m > 0.0 && mid_radius_m > near_radius_m, "RenderOptions radii",
           "0 < near < mid");
@@ -85,7 +89,7 @@ void RenderOptions::Check() const {
 std::array<CahvorModel, 2> StereoCameras(const StereoCameraOptions& o,
                                          const StereoPointing& pointing) {
   o.Check();
-  const double f = FocalLengthPx(o);
+  const double f = o.FocalLengthPx();
   const double cx = (o.width - 1) / 2.0, cy = (o.height - 1) / 2.0;
   const double ca = std::cos(pointing.azimuth), sa = std::sin(pointing.azimuth);
   const double ce = std::cos(pointing.elevation), se = std::sin(pointing.elevation);
@@ -120,10 +124,11 @@ SiteMesh::SiteMesh(const Scene& scene, const Eigen::Vector3d& site_in_enu,
   const double scene_half = scene.options().half_extent_m;
   // Coarse to fine: far ring over the whole scene, then mid and near squares at the site.
   const std::array<std::pair<double, double>, 3> rings = {
-      std::pair{options.far_posting_m, -1.0}, std::pair{options.mid_posting_m, options.mid_radius_m},
+      std::pair{options.far_posting_m, -1.0},
+      std::pair{options.mid_posting_m, options.mid_radius_m},
       std::pair{options.near_posting_m, options.near_radius_m}};
-  const Eigen::Vector3d sun = internal::SunDirection(options.sun_azimuth_deg,
-                                                     options.sun_elevation_deg);
+  const Eigen::Vector3d sun =
+      internal::SunDirection(options.sun_azimuth_deg, options.sun_elevation_deg);
   for (size_t k = 0; k < rings.size(); ++k) {
     Level level;
     level.posting = rings[k].first;
@@ -158,10 +163,10 @@ SiteMesh::SiteMesh(const Scene& scene, const Eigen::Vector3d& site_in_enu,
       for (int i = 0; i < n; ++i) {
         const size_t index = static_cast<size_t>(j) * n + i;
         const auto z = [&](int ii, int jj) {
-          return static_cast<double>(
-              level.points[static_cast<size_t>(std::clamp(jj, 0, n - 1)) * n +
-                           std::clamp(ii, 0, n - 1)]
-                  .z());
+          return static_cast<double>(level
+                                         .points[static_cast<size_t>(std::clamp(jj, 0, n - 1)) * n +
+                                                 std::clamp(ii, 0, n - 1)]
+                                         .z());
         };
         const Eigen::Vector3d normal(-(z(i + 1, j) - z(i - 1, j)) / (2.0 * level.posting),
                                      -(z(i, j + 1) - z(i, j - 1)) / (2.0 * level.posting), 1.0);
@@ -198,13 +203,13 @@ SiteMesh::Image SiteMesh::Render(const CahvorModel& camera, int width, int heigh
         const size_t index = static_cast<size_t>(j) * n + i;
         const Eigen::Vector3d p = level.points[index].cast<double>();
         const auto pixel = camera.Project(p);
-        if (!pixel || pixel->x() < -margin || pixel->y() < -margin ||
-            pixel->x() > width + margin || pixel->y() > height + margin) {
+        if (!pixel || pixel->x() < -margin || pixel->y() < -margin || pixel->x() > width + margin ||
+            pixel->y() > height + margin) {
           projected[index] = Eigen::Vector3f(kNaNf, kNaNf, kNaNf);
         } else {
-          projected[index] = Eigen::Vector3f(static_cast<float>(pixel->x()),
-                                             static_cast<float>(pixel->y()),
-                                             static_cast<float>((p - camera.c).norm()));
+          projected[index] =
+              Eigen::Vector3f(static_cast<float>(pixel->x()), static_cast<float>(pixel->y()),
+                              static_cast<float>((p - camera.c).norm()));
         }
       }
     });

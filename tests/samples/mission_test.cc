@@ -10,6 +10,8 @@
 #include "areomap/map/coordinate_system.h"
 #include "areomap/map/crs.h"
 #include "areomap/map/error.h"
+#include "areomap/map/image_io.h"
+#include "areomap/map/pds_label.h"
 #include "areomap/map/raster_description.h"
 #include "test_support.h"
 
@@ -53,6 +55,12 @@ MissionOptions SmallMission() {
   o.traverse.site_count = 3;
   o.traverse.min_leg_m = 8.0;
   o.traverse.max_leg_m = 10.0;
+  o.navcam_pairs = 1;
+  o.navcam.width = 256;
+  o.navcam.height = 256;
+  o.navcam.field_of_view_deg = 45.0;
+  o.render.near_radius_m = 2.0;  // Keep the test quick: small fine rings.
+  o.render.mid_radius_m = 8.0;
   return o;
 }
 
@@ -239,6 +247,32 @@ TEST(Mission, OrbitalProductsAreGeoreferencedAtTheSite) {
   cv::minMaxLoc(image.ReadWindow(1, image.FullWindow()), &min_dn, &max_dn);
   EXPECT_LE(max_dn, 1023.0);  // 10-bit.
   EXPECT_GT(max_dn - min_dn, 100.0);
+}
+
+TEST(Mission, ManifestListsEachSitesStereoImagesWithReadableLabels) {
+  testing::TempDir dir;
+  const MissionOptions options = SmallMission();
+  const MissionSummary summary = GenerateMission(options, dir.path());
+  EXPECT_EQ(summary.rover_images, 2 * options.navcam_pairs * options.traverse.site_count);
+  const nlohmann::json manifest = nlohmann::json::parse(ReadFile(dir.path() / "mission.json"));
+  ASSERT_EQ(manifest.at("sites").size(), static_cast<size_t>(options.traverse.site_count));
+  for (const auto& site : manifest.at("sites")) {
+    ASSERT_EQ(site.at("images").size(), 2u);
+    for (const auto& image : site.at("images")) {
+      const auto label_path = dir.path() / image.at("label").get<std::string>();
+      const ProductGeometry geometry =
+          ParseProductGeometry(nlohmann::json::parse(ReadFile(label_path)), label_path.string());
+      ASSERT_TRUE(geometry.camera.has_value());
+      EXPECT_EQ(geometry.camera->model_type, "CAHVOR");
+      EXPECT_EQ(geometry.frames.at(0).index.at(0), site.at("site").get<int>());
+      const cv::Mat pixels = ReadImage(dir.path() / image.at("image").get<std::string>());
+      EXPECT_EQ(pixels.type(), CV_16UC1);
+      EXPECT_EQ(pixels.cols, options.navcam.width);
+      double max_dn = 0.0;
+      cv::minMaxLoc(pixels, nullptr, &max_dn);
+      EXPECT_LE(max_dn, 4095.0);  // 12-bit (Table 1.1).
+    }
+  }
 }
 
 TEST(Mission, BadOptionsAreNamed) {

@@ -23,15 +23,17 @@ namespace areomap {
 // A stereo camera head on the mast (Table 1.1 defaults: Navcam).
 struct StereoCameraOptions {
   std::string name = "NAVCAM";
-  int width = 1024;                 // [px]
-  int height = 1024;                // [px]
+  int width = 1024;   // [px]
+  int height = 1024;  // [px]
   double focal_length_mm = 14.67;
-  double pixel_pitch_um = 12.0;     // MER CCD.
+  double pixel_pitch_um = 12.0;    // MER CCD.
+  double field_of_view_deg = 0.0;  // Horizontal FOV [deg]; if > 0 it sets the focal length.
   double baseline_m = 0.20;
-  Eigen::Vector3d mast_head_in_rover{0.45, 0.0, -1.5};  // Between the two cameras [m].
+  Eigen::Vector3d mast_head_in_rover{0.45, 0.0, -1.5};              // Between the two cameras [m].
   Eigen::Vector3d radial_distortion{0.00096, -0.002183, 0.018547};  // CAHVOR R (real Navcam).
   void Check() const;  // Throws areomap::Error naming the field; FOV must be < 180 deg.
   double FieldOfViewDeg() const;
+  double FocalLengthPx() const;
 };
 
 // One pointing of the stereo head: azimuth clockwise from the rover's forward axis and
@@ -81,8 +83,8 @@ class SiteMesh {
  private:
   struct Level {
     double posting = 0.0;
-    int size = 0;  // Vertices per side.
-    Eigen::Vector2d origin;  // ENU (x, y) of vertex (0, 0) (south-west corner).
+    int size = 0;                         // Vertices per side.
+    Eigen::Vector2d origin;               // ENU (x, y) of vertex (0, 0) (south-west corner).
     std::vector<Eigen::Vector3f> points;  // ENU, row-major from the south.
     std::vector<float> radiance;
     double inner_half = 0.0;  // Cells entirely inside this square are drawn by the finer level.
