@@ -14,7 +14,9 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
     std::optional<double> lat, lon;
     std::optional<int> sites;
     std::optional<double> min_leg, max_leg;
-    std::optional<int> pairs;
+    std::optional<int> pairs, pancam_pairs;
+    std::string landing_site = "gusev";
+    bool second_sun = false, ctx = false;
     std::optional<double> fov;
   };
   auto o = std::make_shared<Overrides>();
@@ -27,7 +29,9 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--seed", o->seed, "Seed of every random choice")->capture_default_str();
   cmd->add_option("--out", o->out, "Mission folder (created if needed)")->required();
   auto* site = cmd->add_option_group("Site and traverse");
-  site->add_option("--lat", o->lat, "Planetocentric latitude of site 0 [deg] (default Gusev)");
+  site->add_option("--landing-site", o->landing_site, "gusev (Spirit) or meridiani (Opportunity)")
+      ->capture_default_str();
+  site->add_option("--lat", o->lat, "Planetocentric latitude of site 0 [deg] (overrides)");
   site->add_option("--lon", o->lon, "East longitude of site 0 [deg]");
   site->add_option("--sites", o->sites, "Number of sites");
   site->add_option("--min-leg", o->min_leg, "Shortest leg [m]");
@@ -35,9 +39,17 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
   auto* rover = cmd->add_option_group("Rover cameras");
   rover->add_option("--navcam-pairs", o->pairs, "Navcam stereo pairs per site (0: no images)");
   rover->add_option("--navcam-fov", o->fov, "Navcam horizontal field of view [deg] (45.4)");
+  rover->add_option("--pancam-pairs", o->pancam_pairs, "Pancam stereo pairs per site (0)");
+  auto* orbital = cmd->add_option_group("Orbital products");
+  orbital->add_flag("--second-sun", o->second_sun, "Also an orthoimage under another sun");
+  orbital->add_flag("--ctx", o->ctx, "Also a CTX-like 6 m image");
   cmd->callback([o, &global] {
     MissionOptions options = MissionOptions::Preset(o->preset);
     options.seed = o->seed;
+    std::tie(options.site_lat_deg, options.site_lon_deg) = LandingSite(o->landing_site);
+    options.second_sun_image = options.second_sun_image || o->second_sun;
+    options.ctx_image = options.ctx_image || o->ctx;
+    if (o->pancam_pairs) options.pancam_pairs = *o->pancam_pairs;
     if (o->lat) options.site_lat_deg = *o->lat;
     if (o->lon) options.site_lon_deg = *o->lon;
     if (o->sites) options.traverse.site_count = *o->sites;

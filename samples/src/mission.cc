@@ -57,6 +57,77 @@ Eigen::Quaterniond SiteFromRoverRotation(double heading) {
 
 nlohmann::json Vector(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
+std::string Lower(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
+}
+
+struct Instrument {
+  const StereoCameraOptions* camera;
+  std::vector<StereoPointing> pointings;
+};
+
+// Writes a contact sheet of images for people: 8-bit, a quarter size, 5 per row.
+void WriteContactSheet(const std::vector<std::filesystem::path>& images, int width, int height,
+                       int bits, const std::filesystem::path& path) {
+  const int columns = std::min<int>(5, static_cast<int>(images.size()));
+  const int rows = (static_cast<int>(images.size()) + columns - 1) / columns;
+  const int tile_w = width / 4, tile_h = height / 4;
+  cv::Mat sheet(rows * tile_h, columns * tile_w, CV_8U, cv::Scalar(0));
+  const double max_dn = std::pow(2.0, bits) - 1.0;
+  for (size_t i = 0; i < images.size(); ++i) {
+    cv::Mat tile;
+    cv::resize(ReadImage(images[i]), tile, cv::Size(tile_w, tile_h), 0, 0, cv::INTER_AREA);
+    tile.convertTo(tile, CV_8U, 255.0 / (0.7 * max_dn));
+    const int r = static_cast<int>(i) / columns, c = static_cast<int>(i) % columns;
+    tile.copyTo(sheet(cv::Rect(c * tile_w, r * tile_h, tile_w, tile_h)));
+  }
+  WriteImage(path, sheet);
+}
+
+// Renders one instrument's stereo panorama at a site (both cameras of every pointing, in
+// parallel), writes images, labels and a contact sheet, and returns the manifest entries.
+std::vector<nlohmann::json> RenderPanorama(const SiteMesh& mesh, const Instrument& instrument,
+                                           const Rigid3d& enu_from_rover,
+                                           const Rigid3d& believed_site_from_rover, int site,
+                                           const std::filesystem::path& out_dir,
+                                           const std::string& folder_name, int bits,
+                                           uint32_t seed) {
+  const StereoCameraOptions& o = *instrument.camera;
+  const std::string prefix = Lower(o.name);
+  const size_t count = 2 * instrument.pointings.size();
+  std::vector<nlohmann::json> entries(count);
+  std::vector<std::filesystem::path> left_images;
+  tbb::parallel_for(size_t{0}, count, [&](size_t index) {
+    const size_t pair = index / 2;
+    const int side = static_cast<int>(index % 2);
+    const CahvorModel camera = StereoCameras(o, instrument.pointings[pair])[side];
+    const SiteMesh::Image image = mesh.Render(camera.Transformed(enu_from_rover), o.width, o.height,
+                                              seed + static_cast<uint32_t>(index));
+    char name[96];
+    std::snprintf(name, sizeof(name), "%s_p%02zu_%s", prefix.c_str(), pair,
+                  side == 0 ? "left" : "right");
+    const std::string instrument_id = o.name + (side == 0 ? "_LEFT" : "_RIGHT");
+    const std::string relative = folder_name + "/" + name;
+    WriteImage(out_dir / (relative + ".png"), image.dn);
+    WriteFileAtomically(out_dir / (relative + ".json"),
+                        RoverImageLabel(instrument_id, site, camera, believed_site_from_rover,
+                                        o.width, o.height, bits)
+                                .dump(2) +
+                            "\n");
+    entries[index] = {{"instrument", instrument_id},
+                      {"pair", pair},
+                      {"image", relative + ".png"},
+                      {"label", relative + ".json"}};
+  });
+  for (size_t index = 0; index < count; index += 2) {
+    left_images.push_back(out_dir / entries[index].at("image").get<std::string>());
+  }
+  WriteContactSheet(left_images, o.width, o.height, bits,
+                    out_dir / folder_name / (prefix + "_left_contact_sheet.png"));
+  return entries;
+}
+
 }  // namespace
 
 nlohmann::json RoverImageLabel(const std::string& instrument_id, int site,
@@ -141,6 +212,12 @@ Traverse PlanTraverse(const TraverseOptions& options, const TelemetryErrorModel&
   return t;
 }
 
+std::pair<double, double> LandingSite(std::string_view name) {
+  if (name == "gusev") return {-14.5692, 175.4729};     // Spirit (MER-A).
+  if (name == "meridiani") return {-1.9462, 354.4734};  // Opportunity (MER-B).
+  throw Error("unknown landing site '" + std::string(name) + "': expected gusev or meridiani");
+}
+
 MissionOptions MissionOptions::Preset(std::string_view name) {
   MissionOptions o;
   o.preset = std::string(name);
@@ -181,7 +258,11 @@ void MissionOptions::Check() const {
   telemetry.Check();
   navcam.Check();
   render.Check();
+  pancam.Check();
   Require(navcam_pairs >= 0 && navcam_pairs <= 64, "MissionOptions.navcam_pairs", "0..64");
+  Require(pancam_pairs >= 0 && pancam_pairs <= 64, "MissionOptions.pancam_pairs", "0..64");
+  Require(pancam_elevation_deg > -90.0 && pancam_elevation_deg < 90.0,
+          "MissionOptions.pancam_elevation_deg", "in (-90, 90) degrees");
   Require(navcam_elevation_deg > -90.0 && navcam_elevation_deg < 90.0,
           "MissionOptions.navcam_elevation_deg", "in (-90, 90) degrees");
 }
@@ -260,14 +341,15 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
     WriteGeoTiff(out_dir / "orbital/ctx_ortho.tif", coarse.image);
     orbital.push_back(orbital_entry("ctx", "image", "orbital/ctx_ortho.tif", 6.0, &ctx));
   }
-  // Rover images: a Navcam panorama per site, rendered from the true pose; the labels carry the
-  // telemetry heading, as flight products carry the onboard estimate.
+  // Rover images: a Navcam (and optionally Pancam) panorama per site, rendered from the true pose;
+  // the labels carry the telemetry heading, as flight products carry the onboard estimate.
   nlohmann::json sites = nlohmann::json::array();
   RenderOptions render = options.render;
   render.sun_azimuth_deg = options.orbital.sun_azimuth_deg;
   render.sun_elevation_deg = options.orbital.sun_elevation_deg;
-  const std::vector<StereoPointing> pointings =
-      Panorama(options.navcam_pairs, RadFromDeg(options.navcam_elevation_deg));
+  const std::vector<Instrument> instruments = {
+      {&options.navcam, Panorama(options.navcam_pairs, RadFromDeg(options.navcam_elevation_deg))},
+      {&options.pancam, Panorama(options.pancam_pairs, RadFromDeg(options.pancam_elevation_deg))}};
   Eigen::Matrix3d enu_from_site_rotation;
   enu_from_site_rotation << 0, 1, 0, 1, 0, 0, 0, 0, -1;
   int rover_images = 0;
@@ -283,54 +365,21 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
     const std::filesystem::path folder = out_dir / folder_name;
     std::filesystem::create_directories(folder);
     nlohmann::json images = nlohmann::json::array();
-    if (!pointings.empty()) {
+    if (options.navcam_pairs + options.pancam_pairs > 0) {
       const SiteMesh mesh(scene, site_in_enu, render);
       const Rigid3d enu_from_site(enu_from_site_rotation, site_in_enu);
       const Rigid3d enu_from_rover =
           enu_from_site * Rigid3d(SiteFromRoverRotation(truth.heading), Eigen::Vector3d::Zero());
       const Rigid3d believed_site_from_rover(SiteFromRoverRotation(traverse.telemetry[k].heading),
                                              Eigen::Vector3d::Zero());
-      std::vector<nlohmann::json> entries(2 * pointings.size());
-      tbb::parallel_for(size_t{0}, 2 * pointings.size(), [&](size_t index) {
-        const size_t pair = index / 2;
-        const int side = static_cast<int>(index % 2);
-        const CahvorModel camera = StereoCameras(options.navcam, pointings[pair])[side];
-        const SiteMesh::Image image = mesh.Render(
-            camera.Transformed(enu_from_rover), options.navcam.width, options.navcam.height,
-            options.seed * 7919u + static_cast<uint32_t>(k * 1000 + index));
-        char name[64];
-        std::snprintf(name, sizeof(name), "navcam_p%02zu_%s", pair, side == 0 ? "left" : "right");
-        const std::string instrument = side == 0 ? "NAVCAM_LEFT" : "NAVCAM_RIGHT";
-        WriteImage(folder / (std::string(name) + ".png"), image.dn);
-        WriteFileAtomically(
-            folder / (std::string(name) + ".json"),
-            RoverImageLabel(instrument, truth.site, camera, believed_site_from_rover,
-                            options.navcam.width, options.navcam.height, render.bits)
-                    .dump(2) +
-                "\n");
-        entries[index] = {{"instrument", instrument},
-                          {"pair", pair},
-                          {"image", std::string(folder_name) + "/" + name + ".png"},
-                          {"label", std::string(folder_name) + "/" + name + ".json"}};
-      });
-      for (auto& entry : entries) images.push_back(std::move(entry));
-      // A contact sheet of the left images for people: 8-bit, a quarter size, 5 per row.
-      const int columns = std::min<int>(5, static_cast<int>(pointings.size()));
-      const int rows = (static_cast<int>(pointings.size()) + columns - 1) / columns;
-      const int tile_w = options.navcam.width / 4, tile_h = options.navcam.height / 4;
-      cv::Mat sheet(rows * tile_h, columns * tile_w, CV_8U, cv::Scalar(0));
-      for (size_t pair = 0; pair < pointings.size(); ++pair) {
-        char name[64];
-        std::snprintf(name, sizeof(name), "navcam_p%02zu_left.png", pair);
-        cv::Mat tile;
-        cv::resize(ReadImage(folder / name), tile, cv::Size(tile_w, tile_h), 0, 0, cv::INTER_AREA);
-        const double max_dn = std::pow(2.0, render.bits) - 1.0;
-        tile.convertTo(tile, CV_8U, 255.0 / (0.7 * max_dn));
-        const int r = static_cast<int>(pair) / columns, c = static_cast<int>(pair) % columns;
-        tile.copyTo(sheet(cv::Rect(c * tile_w, r * tile_h, tile_w, tile_h)));
+      for (const Instrument& instrument : instruments) {
+        if (instrument.pointings.empty()) continue;
+        const std::vector<nlohmann::json> entries = RenderPanorama(
+            mesh, instrument, enu_from_rover, believed_site_from_rover, truth.site, out_dir,
+            folder_name, render.bits, options.seed * 7919u + static_cast<uint32_t>(k * 1000));
+        for (const auto& entry : entries) images.push_back(entry);
+        rover_images += static_cast<int>(entries.size());
       }
-      WriteImage(folder / "navcam_left_contact_sheet.png", sheet);
-      rover_images += static_cast<int>(entries.size());
     }
     sites.push_back({{"site", truth.site}, {"images", images}});
   }

@@ -55,6 +55,15 @@ void DrawTriangle(const Eigen::Vector3f& p0, const Eigen::Vector3f& p1, const Ei
 
 }  // namespace
 
+StereoCameraOptions PancamOptions() {
+  StereoCameraOptions o;
+  o.name = "PANCAM";
+  o.focal_length_mm = 43.0;
+  o.baseline_m = 0.30;
+  o.radial_distortion = Eigen::Vector3d::Zero();  // Pancam's distortion is negligible.
+  return o;
+}
+
 double StereoCameraOptions::FocalLengthPx() const {
   if (field_of_view_deg > 0.0) return 0.5 * width / std::tan(RadFromDeg(field_of_view_deg) / 2.0);
   return focal_length_mm * 1e-3 / (pixel_pitch_um * 1e-6);

@@ -59,6 +59,9 @@ MissionOptions SmallMission() {
   o.navcam.width = 256;
   o.navcam.height = 256;
   o.navcam.field_of_view_deg = 45.0;
+  o.pancam_pairs = 1;
+  o.pancam.width = 256;
+  o.pancam.height = 256;
   o.render.near_radius_m = 2.0;  // Keep the test quick: small fine rings.
   o.render.mid_radius_m = 8.0;
   return o;
@@ -253,11 +256,13 @@ TEST(Mission, ManifestListsEachSitesStereoImagesWithReadableLabels) {
   testing::TempDir dir;
   const MissionOptions options = SmallMission();
   const MissionSummary summary = GenerateMission(options, dir.path());
-  EXPECT_EQ(summary.rover_images, 2 * options.navcam_pairs * options.traverse.site_count);
+  EXPECT_EQ(summary.rover_images,
+            2 * (options.navcam_pairs + options.pancam_pairs) * options.traverse.site_count);
   const nlohmann::json manifest = nlohmann::json::parse(ReadFile(dir.path() / "mission.json"));
   ASSERT_EQ(manifest.at("sites").size(), static_cast<size_t>(options.traverse.site_count));
   for (const auto& site : manifest.at("sites")) {
-    ASSERT_EQ(site.at("images").size(), 2u);
+    ASSERT_EQ(site.at("images").size(), 4u);  // Navcam and Pancam, left and right.
+    EXPECT_EQ(site.at("images").at(2).at("instrument"), "PANCAM_LEFT");
     for (const auto& image : site.at("images")) {
       const auto label_path = dir.path() / image.at("label").get<std::string>();
       const ProductGeometry geometry =
@@ -267,12 +272,19 @@ TEST(Mission, ManifestListsEachSitesStereoImagesWithReadableLabels) {
       EXPECT_EQ(geometry.frames.at(0).index.at(0), site.at("site").get<int>());
       const cv::Mat pixels = ReadImage(dir.path() / image.at("image").get<std::string>());
       EXPECT_EQ(pixels.type(), CV_16UC1);
-      EXPECT_EQ(pixels.cols, options.navcam.width);
+      EXPECT_EQ(pixels.cols, 256);
       double max_dn = 0.0;
       cv::minMaxLoc(pixels, nullptr, &max_dn);
       EXPECT_LE(max_dn, 4095.0);  // 12-bit (Table 1.1).
     }
   }
+}
+
+TEST(Mission, LandingSitesAreGusevAndMeridiani) {
+  EXPECT_NEAR(LandingSite("gusev").first, -14.5692, 1e-9);
+  EXPECT_NEAR(LandingSite("meridiani").second, 354.4734, 1e-9);
+  EXPECT_NE(testing::ErrorMessageOf([] { LandingSite("jezero"); }).find("gusev or meridiani"),
+            std::string::npos);
 }
 
 TEST(Mission, BadOptionsAreNamed) {

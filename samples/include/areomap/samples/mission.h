@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -23,8 +24,8 @@
 namespace areomap {
 
 struct TraverseOptions {
-  int site_count = 5;          // Sites (panoramas), the first at the origin.
-  double min_leg_m = 15.0;     // Leg length range [m] (ch. 4: legs of 20-30 m typical).
+  int site_count = 5;       // Sites (panoramas), the first at the origin.
+  double min_leg_m = 15.0;  // Leg length range [m] (ch. 4: legs of 20-30 m typical).
   double max_leg_m = 25.0;
   double max_turn_deg = 35.0;  // Largest heading change between legs [deg].
   void Check() const;
@@ -43,20 +44,24 @@ struct TelemetryErrorModel {
 struct SitePose {
   int site = 0;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();  // In site 0's frame (N, E, D) [m].
-  double heading = 0.0;  // Rover yaw, clockwise from north [rad].
+  double heading = 0.0;                                // Rover yaw, clockwise from north [rad].
 };
 
 struct Traverse {
   std::vector<SitePose> truth;
   std::vector<SitePose> telemetry;
-  std::vector<double> leg_scale_errors;     // s per leg (truth of the error model).
-  std::vector<double> leg_heading_errors;   // Heading error increment per leg [rad].
+  std::vector<double> leg_scale_errors;    // s per leg (truth of the error model).
+  std::vector<double> leg_heading_errors;  // Heading error increment per leg [rad].
 };
 
 // Plans a traverse that stays inside the square of half side `half_extent_m` (ENU, 2D; z is
 // filled in later from the terrain). Throws areomap::Error for invalid options.
 Traverse PlanTraverse(const TraverseOptions& options, const TelemetryErrorModel& errors,
                       double half_extent_m, uint32_t seed);
+
+// Planetocentric latitude and east longitude [deg] of a MER landing site: "gusev" (Spirit) or
+// "meridiani" (Opportunity). Throws areomap::Error for other names.
+std::pair<double, double> LandingSite(std::string_view name);
 
 struct MissionOptions {
   std::string preset = "demo";
@@ -66,13 +71,16 @@ struct MissionOptions {
   SceneOptions scene;
   OrbitalImageOptions orbital;
   double orbital_dtm_posting_m = 1.0;
-  bool second_sun_image = false;   // Also render the orthoimage under another sun.
-  bool ctx_image = false;          // Also a CTX-like 6 m image.
+  bool second_sun_image = false;  // Also render the orthoimage under another sun.
+  bool ctx_image = false;         // Also a CTX-like 6 m image.
   TraverseOptions traverse;
   TelemetryErrorModel telemetry;
   StereoCameraOptions navcam;         // Table 1.1 Navcam.
   int navcam_pairs = 10;              // Stereo pairs per site panorama (0 = no rover images).
   double navcam_elevation_deg = -25;  // Panorama tilt [deg] (negative = down).
+  StereoCameraOptions pancam = PancamOptions();  // Table 1.1 Pancam.
+  int pancam_pairs = 0;               // Pancam stereo pairs per site (a full pan is ~27).
+  double pancam_elevation_deg = -12;  // Pancam panorama tilt [deg].
   RenderOptions render;               // Mesh postings, sensor; the sun is the orbital one.
 
   // "demo" (small, about a minute) or "long" (~1.1 km traverse like the dissertation's test).

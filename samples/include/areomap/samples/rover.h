@@ -36,6 +36,9 @@ struct StereoCameraOptions {
   double FocalLengthPx() const;
 };
 
+// Table 1.1 Pancam: 16.8 deg field of view (43 mm on 12 um pixels), 30 cm baseline.
+StereoCameraOptions PancamOptions();
+
 // One pointing of the stereo head: azimuth clockwise from the rover's forward axis and
 // elevation above the rover's horizontal plane (negative = looking down) [rad].
 struct StereoPointing {
