@@ -130,10 +130,10 @@ SiteMesh::SiteMesh(const Scene& scene, const Eigen::Vector3d& site_in_enu,
                    const RenderOptions& options)
     : center_(site_in_enu), options_(options) {
   options.Check();
-  const double scene_half = scene.options().half_extent_m;
-  // Coarse to fine: far ring over the whole scene, then mid and near squares at the site.
+  // Coarse to fine squares centred on the site (the terrain function extends beyond the scene's
+  // square, without craters or rocks there).
   const std::array<std::pair<double, double>, 3> rings = {
-      std::pair{options.far_posting_m, -1.0},
+      std::pair{options.far_posting_m, options.far_radius_m},
       std::pair{options.mid_posting_m, options.mid_radius_m},
       std::pair{options.near_posting_m, options.near_radius_m}};
   const Eigen::Vector3d sun =
@@ -141,11 +141,9 @@ SiteMesh::SiteMesh(const Scene& scene, const Eigen::Vector3d& site_in_enu,
   for (size_t k = 0; k < rings.size(); ++k) {
     Level level;
     level.posting = rings[k].first;
-    const double half = rings[k].second > 0.0 ? rings[k].second : scene_half;
-    const Eigen::Vector2d center =
-        rings[k].second > 0.0 ? Eigen::Vector2d(site_in_enu.head<2>()) : Eigen::Vector2d::Zero();
+    const double half = rings[k].second;
     level.size = static_cast<int>(std::floor(2.0 * half / level.posting)) + 1;
-    level.origin = center - Eigen::Vector2d::Constant(half);
+    level.origin = site_in_enu.head<2>() - Eigen::Vector2d::Constant(half);
     level.inner_half = k + 1 < rings.size() ? rings[k + 1].second : 0.0;
     const int n = level.size;
     level.points.resize(static_cast<size_t>(n) * n);
