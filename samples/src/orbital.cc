@@ -5,8 +5,8 @@
 #include <numeric>
 #include <random>
 
-#include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
+#include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
 #include "shading.h"
@@ -15,7 +15,8 @@ namespace areomap {
 namespace {
 
 void Require(bool ok, const char* field, const char* rule) {
-  if (!ok) throw Error(std::string("OrbitalImageOptions.") + field + " is invalid: expected " + rule);
+  if (!ok)
+    throw Error(std::string("OrbitalImageOptions.") + field + " is invalid: expected " + rule);
 }
 
 void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
@@ -109,8 +110,10 @@ OrbitalProducts RenderOrbitalProducts(const Scene& scene, const SceneGeoreferenc
     for (int c = 0; c < fine; ++c) {
       const int cl = std::max(c - 1, 0), cr = std::min(c + 1, fine - 1);
       const int ru = std::max(r - 1, 0), rd = std::min(r + 1, fine - 1);
-      const double dzdx = (heights.at<double>(r, cr) - heights.at<double>(r, cl)) / ((cr - cl) * cell);
-      const double dzdy = (heights.at<double>(ru, c) - heights.at<double>(rd, c)) / ((rd - ru) * cell);
+      const double dzdx =
+          (heights.at<double>(r, cr) - heights.at<double>(r, cl)) / ((cr - cl) * cell);
+      const double dzdy =
+          (heights.at<double>(ru, c) - heights.at<double>(rd, c)) / ((rd - ru) * cell);
       const Eigen::Vector3d normal = Eigen::Vector3d(-dzdx, -dzdy, 1.0).normalized();
       const double direct = shadow.at<uchar>(r, c) ? 0.0 : std::max(0.0, normal.dot(sun));
       radiance.at<double>(r, c) = albedo.at<double>(r, c) * (direct + o.ambient * normal.z());

@@ -38,10 +38,12 @@ cv::Mat ShadowMask(const cv::Mat& heights, double cell_m, const Eigen::Vector3d&
     const int r = index / cols, c = index % cols;
     const double pc = c + step_px * dir.x(), pr = r + step_px * dir.y();
     if (pc < 0.0 || pr < 0.0 || pc > cols - 1.0 || pr > rows - 1.0) continue;
-    const int c0 = std::min(static_cast<int>(pc), cols - 2), r0 = std::min(static_cast<int>(pr), rows - 2);
+    const int c0 = std::min(static_cast<int>(pc), cols - 2),
+              r0 = std::min(static_cast<int>(pr), rows - 2);
     const double fc = pc - c0, fr = pr - r0;
-    const double ahead = (1 - fr) * ((1 - fc) * surface.at<double>(r0, c0) + fc * surface.at<double>(r0, c0 + 1)) +
-                         fr * ((1 - fc) * surface.at<double>(r0 + 1, c0) + fc * surface.at<double>(r0 + 1, c0 + 1));
+    const double ahead =
+        (1 - fr) * ((1 - fc) * surface.at<double>(r0, c0) + fc * surface.at<double>(r0, c0 + 1)) +
+        fr * ((1 - fc) * surface.at<double>(r0 + 1, c0) + fc * surface.at<double>(r0 + 1, c0 + 1));
     const double ray = ahead - drop;
     double& here = surface.at<double>(r, c);
     if (ray > here) {
@@ -51,6 +53,5 @@ cv::Mat ShadowMask(const cv::Mat& heights, double cell_m, const Eigen::Vector3d&
   }
   return shadow;
 }
-
 
 }  // namespace areomap::internal

@@ -62,7 +62,7 @@ struct RenderOptions {
   double near_radius_m = 8.0;
   double mid_posting_m = 0.08;
   double mid_radius_m = 32.0;
-  double far_posting_m = 0.5;    // Out to `far_radius_m` (within the scene).
+  double far_posting_m = 0.5;  // Out to `far_radius_m` (within the scene).
   double far_radius_m = 160.0;
   double full_well_dn = 3500.0;  // DN of albedo 0.5 at normal incidence.
   double read_noise_dn = 2.0;
