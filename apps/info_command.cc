@@ -162,15 +162,24 @@ void AddInfoCommand(CLI::App& app, const GlobalOptions& /*global*/) {
   cmd->callback([files, json, domain] {
     const LongitudeDomain lon_domain = LongitudeDomainFromString(*domain);
     nlohmann::json all = nlohmann::json::array();
+    int failures = 0;
     for (const std::string& file : *files) {
-      const RasterDescription d = DescribeRaster(file);
-      if (*json) {
-        all.push_back(ToJson(d, lon_domain));
-      } else {
-        std::cout << Text(d, lon_domain);
+      try {
+        const RasterDescription d = DescribeRaster(file);
+        if (*json) {
+          all.push_back(ToJson(d, lon_domain));
+        } else {
+          std::cout << Text(d, lon_domain);
+        }
+      } catch (const Error& e) {
+        // One bad file does not hide the others; the exit status reports it.
+        if (files->size() == 1) throw;
+        std::fprintf(stderr, "error: %s\n", e.what());
+        ++failures;
       }
     }
     if (*json) std::cout << all.dump(2) << "\n";
+    if (failures > 0) throw CLI::RuntimeError(1);
   });
 }
 
