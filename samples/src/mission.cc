@@ -20,10 +20,6 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-void Require(bool ok, const std::string& field, const std::string& rule) {
-  if (!ok) throw Error(field + " is invalid: expected " + rule);
-}
-
 void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
   if (progress && !progress(fraction, stage)) throw Error("mission generation cancelled");
 }
@@ -158,17 +154,18 @@ nlohmann::json RoverImageLabel(const std::string& instrument_id, int site,
 }
 
 void TraverseOptions::Check() const {
-  Require(site_count >= 1 && site_count <= 1000, "TraverseOptions.site_count", "1..1000");
-  Require(min_leg_m > 0.0, "TraverseOptions.min_leg_m", "a positive leg length [m]");
-  Require(max_leg_m >= min_leg_m, "TraverseOptions.max_leg_m", ">= min_leg_m");
-  Require(max_turn_deg >= 0.0 && max_turn_deg <= 180.0, "TraverseOptions.max_turn_deg",
-          "0..180 degrees");
+  RequireOption(site_count >= 1 && site_count <= 1000, "TraverseOptions.site_count", "1..1000");
+  RequireOption(min_leg_m > 0.0, "TraverseOptions.min_leg_m", "a positive leg length [m]");
+  RequireOption(max_leg_m >= min_leg_m, "TraverseOptions.max_leg_m", ">= min_leg_m");
+  RequireOption(max_turn_deg >= 0.0 && max_turn_deg <= 180.0, "TraverseOptions.max_turn_deg",
+                "0..180 degrees");
 }
 
 void TelemetryErrorModel::Check() const {
-  Require(scale_sigma >= 0.0 && scale_sigma < 0.5, "TelemetryErrorModel.scale_sigma", "0..0.5");
-  Require(heading_drift_sigma_deg >= 0.0 && heading_drift_sigma_deg < 45.0,
-          "TelemetryErrorModel.heading_drift_sigma_deg", "0..45 degrees");
+  RequireOption(scale_sigma >= 0.0 && scale_sigma < 0.5, "TelemetryErrorModel.scale_sigma",
+                "0..0.5");
+  RequireOption(heading_drift_sigma_deg >= 0.0 && heading_drift_sigma_deg < 45.0,
+                "TelemetryErrorModel.heading_drift_sigma_deg", "0..45 degrees");
 }
 
 Traverse PlanTraverse(const TraverseOptions& options, const TelemetryErrorModel& errors,
@@ -248,10 +245,10 @@ MissionOptions MissionOptions::Preset(std::string_view name) {
 }
 
 void MissionOptions::Check() const {
-  Require(std::abs(site_lat_deg) < 80.0, "MissionOptions.site_lat_deg", "|lat| < 80 degrees");
-  Require(std::isfinite(site_lon_deg), "MissionOptions.site_lon_deg", "a finite longitude");
-  Require(orbital_dtm_posting_m >= orbital.gsd_m, "MissionOptions.orbital_dtm_posting_m",
-          ">= the orbital GSD");
+  RequireOption(std::abs(site_lat_deg) < 80.0, "MissionOptions.site_lat_deg", "|lat| < 80 degrees");
+  RequireOption(std::isfinite(site_lon_deg), "MissionOptions.site_lon_deg", "a finite longitude");
+  RequireOption(orbital_dtm_posting_m >= orbital.gsd_m, "MissionOptions.orbital_dtm_posting_m",
+                ">= the orbital GSD");
   scene.Check();
   orbital.Check();
   traverse.Check();
@@ -259,12 +256,12 @@ void MissionOptions::Check() const {
   navcam.Check();
   render.Check();
   pancam.Check();
-  Require(navcam_pairs >= 0 && navcam_pairs <= 64, "MissionOptions.navcam_pairs", "0..64");
-  Require(pancam_pairs >= 0 && pancam_pairs <= 64, "MissionOptions.pancam_pairs", "0..64");
-  Require(pancam_elevation_deg > -90.0 && pancam_elevation_deg < 90.0,
-          "MissionOptions.pancam_elevation_deg", "in (-90, 90) degrees");
-  Require(navcam_elevation_deg > -90.0 && navcam_elevation_deg < 90.0,
-          "MissionOptions.navcam_elevation_deg", "in (-90, 90) degrees");
+  RequireOption(navcam_pairs >= 0 && navcam_pairs <= 64, "MissionOptions.navcam_pairs", "0..64");
+  RequireOption(pancam_pairs >= 0 && pancam_pairs <= 64, "MissionOptions.pancam_pairs", "0..64");
+  RequireOption(pancam_elevation_deg > -90.0 && pancam_elevation_deg < 90.0,
+                "MissionOptions.pancam_elevation_deg", "in (-90, 90) degrees");
+  RequireOption(navcam_elevation_deg > -90.0 && navcam_elevation_deg < 90.0,
+                "MissionOptions.navcam_elevation_deg", "in (-90, 90) degrees");
 }
 
 MissionSummary GenerateMission(const MissionOptions& options, const std::filesystem::path& out_dir,

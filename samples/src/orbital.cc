@@ -14,11 +14,6 @@
 namespace areomap {
 namespace {
 
-void Require(bool ok, const char* field, const char* rule) {
-  if (!ok)
-    throw Error(std::string("OrbitalImageOptions.") + field + " is invalid: expected " + rule);
-}
-
 void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
   if (progress && !progress(fraction, stage)) throw Error("orbital rendering cancelled");
 }
@@ -33,15 +28,17 @@ MapProjection SceneGeoreference::Projection() const {
 Rigid3d SceneGeoreference::EnuFromMbf() const { return areomap::EnuFromMbf(body, origin); }
 
 void OrbitalImageOptions::Check() const {
-  Require(gsd_m > 0.0 && gsd_m <= 100.0, "gsd_m", "0 < gsd <= 100 m");
-  Require(sun_elevation_deg > 0.0 && sun_elevation_deg < 90.0, "sun_elevation_deg", "in (0, 90)");
-  Require(std::isfinite(sun_azimuth_deg), "sun_azimuth_deg", "a finite angle");
-  Require(ambient >= 0.0 && ambient < 1.0, "ambient", "in [0, 1)");
-  Require(supersample >= 1 && supersample <= 8, "supersample", "1..8");
-  Require(mtf_sigma_px >= 0.0, "mtf_sigma_px", ">= 0");
-  Require(read_noise_dn >= 0.0, "read_noise_dn", ">= 0");
-  Require(bits >= 8 && bits <= 16, "bits", "8..16");
-  Require(full_well_dn > 0.0, "full_well_dn", "> 0");
+  RequireOption(gsd_m > 0.0 && gsd_m <= 100.0, "OrbitalImageOptions.gsd_m", "0 < gsd <= 100 m");
+  RequireOption(sun_elevation_deg > 0.0 && sun_elevation_deg < 90.0,
+                "OrbitalImageOptions.sun_elevation_deg", "in (0, 90)");
+  RequireOption(std::isfinite(sun_azimuth_deg), "OrbitalImageOptions.sun_azimuth_deg",
+                "a finite angle");
+  RequireOption(ambient >= 0.0 && ambient < 1.0, "OrbitalImageOptions.ambient", "in [0, 1)");
+  RequireOption(supersample >= 1 && supersample <= 8, "OrbitalImageOptions.supersample", "1..8");
+  RequireOption(mtf_sigma_px >= 0.0, "OrbitalImageOptions.mtf_sigma_px", ">= 0");
+  RequireOption(read_noise_dn >= 0.0, "OrbitalImageOptions.read_noise_dn", ">= 0");
+  RequireOption(bits >= 8 && bits <= 16, "OrbitalImageOptions.bits", "8..16");
+  RequireOption(full_well_dn > 0.0, "OrbitalImageOptions.full_well_dn", "> 0");
 }
 
 OrbitalProducts RenderOrbitalProducts(const Scene& scene, const SceneGeoreference& georef,

@@ -17,10 +17,6 @@ namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
-void Require(bool ok, const std::string& field, const std::string& rule) {
-  if (!ok) throw Error(field + " is invalid: expected " + rule);
-}
-
 // Rasterizes one triangle of projected vertices (u, v, range) into the buffers.
 void DrawTriangle(const Eigen::Vector3f& p0, const Eigen::Vector3f& p1, const Eigen::Vector3f& p2,
                   float i0, float i1, float i2, cv::Mat& range, cv::Mat& radiance) {
@@ -76,23 +72,24 @@ double StereoCameraOptions::FieldOfViewDeg() const {
 
 void StereoCameraOptions::Check() const {
   const std::string prefix = "StereoCameraOptions(" + name + ").";
-  Require(width >= 16 && height >= 16 && width <= 8192 && height <= 8192, prefix + "width/height",
-          "16..8192 px");
-  Require(focal_length_mm > 0.0, prefix + "focal_length_mm", "> 0");
-  Require(pixel_pitch_um > 0.0, prefix + "pixel_pitch_um", "> 0");
-  Require(baseline_m > 0.0 && baseline_m < 5.0, prefix + "baseline_m", "0 < b < 5 m");
-  Require(field_of_view_deg >= 0.0 && field_of_view_deg < 180.0, prefix + "field_of_view_deg",
-          "0 (from the focal length) or a field of view below 180 degrees");
+  RequireOption(width >= 16 && height >= 16 && width <= 8192 && height <= 8192,
+                prefix + "width/height", "16..8192 px");
+  RequireOption(focal_length_mm > 0.0, prefix + "focal_length_mm", "> 0");
+  RequireOption(pixel_pitch_um > 0.0, prefix + "pixel_pitch_um", "> 0");
+  RequireOption(baseline_m > 0.0 && baseline_m < 5.0, prefix + "baseline_m", "0 < b < 5 m");
+  RequireOption(field_of_view_deg >= 0.0 && field_of_view_deg < 180.0, prefix + "field_of_view_deg",
+                "0 (from the focal length) or a field of view below 180 degrees");
 }
 
 void RenderOptions::Check() const {
-  Require(sun_elevation_deg > 0.0 && sun_elevation_deg < 90.0, "RenderOptions.sun_elevation_deg",
-          "in (0, 90)");
-  Require(near_posting_m > 0.0 && mid_posting_m >= near_posting_m && far_posting_m >= mid_posting_m,
-          "RenderOptions postings", "0 < near <= mid <= far");
-  Require(near_radius_m > 0.0 && mid_radius_m > near_radius_m, "RenderOptions radii",
-          "0 < near < mid");
-  Require(bits >= 8 && bits <= 16, "RenderOptions.bits", "8..16");
+  RequireOption(sun_elevation_deg > 0.0 && sun_elevation_deg < 90.0,
+                "RenderOptions.sun_elevation_deg", "in (0, 90)");
+  RequireOption(
+      near_posting_m > 0.0 && mid_posting_m >= near_posting_m && far_posting_m >= mid_posting_m,
+      "RenderOptions postings", "0 < near <= mid <= far");
+  RequireOption(near_radius_m > 0.0 && mid_radius_m > near_radius_m, "RenderOptions radii",
+                "0 < near < mid");
+  RequireOption(bits >= 8 && bits <= 16, "RenderOptions.bits", "8..16");
 }
 
 std::array<CahvorModel, 2> StereoCameras(const StereoCameraOptions& o,

@@ -14,10 +14,6 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-void Require(bool ok, const char* field, const std::string& rule) {
-  if (!ok) throw Error(std::string("SceneOptions.") + field + " is invalid: expected " + rule);
-}
-
 // Crater profile as a function of the normalised elliptical radius rho (1 at the rim crest),
 // relative to the surroundings [m].
 double CraterProfile(const Crater& c, double rho) {
@@ -135,23 +131,26 @@ double Rock::HeightAbove(const Eigen::Vector2d& p) const {
 }
 
 void SceneOptions::Check() const {
-  Require(half_extent_m > 0.0 && half_extent_m <= 20000.0, "half_extent_m", "0 < m <= 20000");
-  Require(roughness_m >= 0.0, "roughness_m", ">= 0");
-  Require(roughness_wavelength_m > 0.0, "roughness_wavelength_m", "> 0");
-  Require(crater_count >= 0, "crater_count", ">= 0");
-  Require(crater_min_diameter_m > 0.0 && crater_max_diameter_m >= crater_min_diameter_m,
-          "crater_min_diameter_m", "0 < min <= crater_max_diameter_m");
-  Require(rock_abundance_k > 0.0 && rock_abundance_k < 1.0, "rock_abundance_k", "0 < k < 1");
-  Require(rock_min_diameter_m > 0.0 && rock_max_diameter_m > rock_min_diameter_m,
-          "rock_min_diameter_m", "0 < min < rock_max_diameter_m");
-  Require(rock_max_tilt_deg >= 0.0 && rock_max_tilt_deg <= 45.0, "rock_max_tilt_deg",
-          "0..45 degrees");
-  Require(rock_corridor_m >= 0.0, "rock_corridor_m", ">= 0");
-  Require(max_rocks >= 0, "max_rocks", ">= 0");
+  RequireOption(half_extent_m > 0.0 && half_extent_m <= 20000.0, "SceneOptions.half_extent_m",
+                "0 < m <= 20000");
+  RequireOption(roughness_m >= 0.0, "SceneOptions.roughness_m", ">= 0");
+  RequireOption(roughness_wavelength_m > 0.0, "SceneOptions.roughness_wavelength_m", "> 0");
+  RequireOption(crater_count >= 0, "SceneOptions.crater_count", ">= 0");
+  RequireOption(crater_min_diameter_m > 0.0 && crater_max_diameter_m >= crater_min_diameter_m,
+                "SceneOptions.crater_min_diameter_m", "0 < min <= crater_max_diameter_m");
+  RequireOption(rock_abundance_k > 0.0 && rock_abundance_k < 1.0, "SceneOptions.rock_abundance_k",
+                "0 < k < 1");
+  RequireOption(rock_min_diameter_m > 0.0 && rock_max_diameter_m > rock_min_diameter_m,
+                "SceneOptions.rock_min_diameter_m", "0 < min < rock_max_diameter_m");
+  RequireOption(rock_max_tilt_deg >= 0.0 && rock_max_tilt_deg <= 45.0,
+                "SceneOptions.rock_max_tilt_deg", "0..45 degrees");
+  RequireOption(rock_corridor_m >= 0.0, "SceneOptions.rock_corridor_m", ">= 0");
+  RequireOption(max_rocks >= 0, "SceneOptions.max_rocks", ">= 0");
   for (const Crater& c : explicit_craters) {
-    Require(c.semi_major >= c.semi_minor && c.semi_minor > 0.0 && c.depth > c.rim_height &&
-                c.rim_height >= 0.0,
-            "explicit_craters", "semi_major >= semi_minor > 0 and depth > rim_height >= 0");
+    RequireOption(c.semi_major >= c.semi_minor && c.semi_minor > 0.0 && c.depth > c.rim_height &&
+                      c.rim_height >= 0.0,
+                  "SceneOptions.explicit_craters",
+                  "semi_major >= semi_minor > 0 and depth > rim_height >= 0");
   }
 }
 

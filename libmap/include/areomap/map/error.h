@@ -7,6 +7,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace areomap {
 
@@ -14,5 +15,9 @@ class Error : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// The one form of an option check: throws Error("<field> is invalid: expected <rule>") unless
+// `ok`. `field` names the struct and member, e.g. "TraverseOptions.min_leg_m".
+void RequireOption(bool ok, std::string_view field, std::string_view rule);
 
 }  // namespace areomap
