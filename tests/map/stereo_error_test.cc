@@ -80,3 +80,32 @@ TEST(StereoError, TriangulationRejectsParallelAndBackwardRays) {
 
 }  // namespace
 }  // namespace areomap
+
+#include "areomap/map/sparse_stereo.h"
+
+namespace areomap {
+namespace {
+
+TEST(SparseStereo, RejectsUnsupportedImagesAndNamesBadOptions) {
+  const cv::Mat sixteen_bit(64, 64, CV_16U, cv::Scalar(100));
+  CahvorModel camera;
+  camera.h = 100.0 * Eigen::Vector3d::UnitY() + 32.0 * camera.a;
+  camera.v = 100.0 * Eigen::Vector3d::UnitZ() + 32.0 * camera.a;
+  EXPECT_NE(testing::ErrorMessageOf([&] {
+              MatchPixel(sixteen_bit, sixteen_bit, camera, camera, {32, 32});
+            }).find("CV_8U or CV_32F"),
+            std::string::npos);
+  SparseStereoOptions options;
+  options.max_range_m = 0.5;
+  EXPECT_NE(
+      testing::ErrorMessageOf([&] { options.Check(); }).find("SparseStereoOptions.min_range_m"),
+      std::string::npos);
+  // A flat window is rejected by the texture filter, not matched.
+  const cv::Mat flat(64, 64, CV_32F, cv::Scalar(100));
+  const SparseStereoMatch match = MatchPixel(flat, flat, camera, camera, {32, 32});
+  EXPECT_FALSE(match.ok);
+  EXPECT_EQ(match.rejected_by, "texture");
+}
+
+}  // namespace
+}  // namespace areomap

@@ -8,6 +8,7 @@
 #include "areomap/map/error.h"
 #include "areomap/map/geodesy.h"
 #include "areomap/map/pds_label.h"
+#include "areomap/map/sparse_stereo.h"
 #include "areomap/samples/mission.h"
 #include "test_support.h"
 
@@ -81,58 +82,34 @@ TEST(SiteMesh, RenderedRangesLieOnTheTrueSurface) {
   EXPECT_LT(worst, 0.03);
 }
 
-// Sparse stereo with the true cameras: search the right image along each left pixel's
-// epipolar curve (0.25 px disparity steps, 11x11 NCC, parabola refinement), triangulate, and
-// compare with the rendered truth. Eq. 4.3: sigma_r = r^2 sigma_p / (b f), sigma_p = 0.5 px.
+// Sparse stereo with the true cameras (MatchPixel: epipolar search, 11x11 NCC, Table 4.5
+// filters), compared with the rendered truth. Eq. 4.3: sigma_r = r^2 sigma_p / (b f), with
+// sigma_p = 0.5 px.
 TEST(SiteMesh, StereoPairsTriangulateToTheTruthWithinTheRangeErrorModel) {
   const StereoFixture f(RadFromDeg(20.0));
+  const double baseline = 0.20, focal = f.cameras[0].FocalLengths().x();
   cv::Mat left, right;
   f.images[0].dn.convertTo(left, CV_32F);
   f.images[1].dn.convertTo(right, CV_32F);
-  const double baseline = 0.20, focal = f.cameras[0].FocalLengths().x();
-  const int half = 5;
-  const auto patch = [&](const cv::Mat& image, double x, double y) {
-    cv::Mat out;
-    cv::getRectSubPix(image, cv::Size(2 * half + 1, 2 * half + 1),
-                      cv::Point2f(static_cast<float>(x), static_cast<float>(y)), out);
-    return out;
-  };
-  const auto ncc = [](const cv::Mat& a, const cv::Mat& b) {
-    cv::Mat result;
-    cv::matchTemplate(a, b, result, cv::TM_CCOEFF_NORMED);
-    return static_cast<double>(result.at<float>(0, 0));
-  };
+  SparseStereoOptions options;
+  options.min_texture = 15.0;  // DN: a matcher skips flat windows.
   std::mt19937 rng(5);
   std::uniform_int_distribution<int> px(40, 983);
   std::vector<double> normalized_errors;
+  int rejected = 0;
   for (int trial = 0; trial < 3000 && normalized_errors.size() < 150; ++trial) {
     const int x = px(rng), y = px(rng);
     const double truth = f.images[0].range.at<float>(y, x);
     if (!std::isfinite(truth) || truth < 3.0 || truth > 25.0) continue;
-    const cv::Mat reference = patch(left, x, y);
-    cv::Scalar mean, stddev;
-    cv::meanStdDev(reference, mean, stddev);
-    if (stddev[0] < 15.0) continue;  // Textureless: a matcher would reject it too.
-    const Eigen::Vector3d ray = f.cameras[0].Unproject({x, y});
-    std::vector<double> disparities, scores;
-    for (double d = 6.0; d <= 110.0; d += 0.25) {
-      const auto q =
-          f.cameras[1].Project(Eigen::Vector3d(f.cameras[0].c + baseline * focal / d * ray));
-      if (!q || q->x() < half || q->y() < half || q->x() > 1023 - half || q->y() > 1023 - half) {
-        continue;
-      }
-      disparities.push_back(d);
-      scores.push_back(ncc(reference, patch(right, q->x(), q->y())));
+    const SparseStereoMatch match =
+        MatchPixel(left, right, f.cameras[0], f.cameras[1], Eigen::Vector2d(x, y), options);
+    if (!match.ok) {
+      if (match.rejected_by != "texture") ++rejected;
+      continue;
     }
-    if (scores.size() < 3) continue;
-    const auto best = std::max_element(scores.begin() + 1, scores.end() - 1) - scores.begin();
-    if (scores[best] < 0.85) continue;  // Table 4.5: correlation >= 0.85.
-    const double s0 = scores[best - 1], s1 = scores[best], s2 = scores[best + 1];
-    const double offset = 0.5 * (s0 - s2) / (s0 - 2.0 * s1 + s2);
-    const double disparity = disparities[best] + 0.25 * std::clamp(offset, -1.0, 1.0);
-    const double range = baseline * focal / disparity;
+    EXPECT_LT(std::abs(match.vertical_disparity_px), 4.0);
     const double sigma_r = truth * truth * 0.5 / (baseline * focal);
-    normalized_errors.push_back(std::abs(range - truth) / sigma_r);
+    normalized_errors.push_back(std::abs(match.range_m - truth) / sigma_r);
   }
   ASSERT_GE(normalized_errors.size(), 100u);
   std::sort(normalized_errors.begin(), normalized_errors.end());
@@ -140,10 +117,13 @@ TEST(SiteMesh, StereoPairsTriangulateToTheTruthWithinTheRangeErrorModel) {
   const double p95 = normalized_errors[normalized_errors.size() * 95 / 100];
   ::testing::Test::RecordProperty("median_abs_error_over_sigma_r", std::to_string(median));
   ::testing::Test::RecordProperty("p95_abs_error_over_sigma_r", std::to_string(p95));
-  ::testing::Test::RecordProperty("points", std::to_string(normalized_errors.size()));
+  ::testing::Test::RecordProperty("matched", std::to_string(normalized_errors.size()));
+  ::testing::Test::RecordProperty("rejected_by_filters", std::to_string(rejected));
   // |error| / sigma_r of a normal error has median 0.67 and 95th percentile 1.96.
   EXPECT_LT(median, 1.0) << "median |range error| / sigma_r";
   EXPECT_LT(p95, 3.0) << "95th percentile |range error| / sigma_r";
+  // The filters keep most textured points.
+  EXPECT_LT(rejected, static_cast<int>(normalized_errors.size()) / 2);
 }
 
 TEST(RoverImageLabel, ReadsBackThroughTheMerLabelParser) {
