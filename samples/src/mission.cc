@@ -63,20 +63,15 @@ struct Instrument {
   std::vector<StereoPointing> pointings;
 };
 
-// Writes a contact sheet of images for people: 8-bit, a quarter size, 5 per row.
-void WriteContactSheet(const std::vector<std::filesystem::path>& images, int width, int height,
-                       int bits, const std::filesystem::path& path) {
-  const int columns = std::min<int>(5, static_cast<int>(images.size()));
-  const int rows = (static_cast<int>(images.size()) + columns - 1) / columns;
-  const int tile_w = width / 4, tile_h = height / 4;
+// Writes a contact sheet for people: the given 8-bit tiles, 5 per row.
+void WriteContactSheet(const std::vector<cv::Mat>& tiles, const std::filesystem::path& path) {
+  const int columns = std::min<int>(5, static_cast<int>(tiles.size()));
+  const int rows = (static_cast<int>(tiles.size()) + columns - 1) / columns;
+  const int tile_w = tiles.front().cols, tile_h = tiles.front().rows;
   cv::Mat sheet(rows * tile_h, columns * tile_w, CV_8U, cv::Scalar(0));
-  const double max_dn = std::pow(2.0, bits) - 1.0;
-  for (size_t i = 0; i < images.size(); ++i) {
-    cv::Mat tile;
-    cv::resize(ReadImage(images[i]), tile, cv::Size(tile_w, tile_h), 0, 0, cv::INTER_AREA);
-    tile.convertTo(tile, CV_8U, 255.0 / (0.7 * max_dn));
+  for (size_t i = 0; i < tiles.size(); ++i) {
     const int r = static_cast<int>(i) / columns, c = static_cast<int>(i) % columns;
-    tile.copyTo(sheet(cv::Rect(c * tile_w, r * tile_h, tile_w, tile_h)));
+    tiles[i].copyTo(sheet(cv::Rect(c * tile_w, r * tile_h, tile_w, tile_h)));
   }
   WriteImage(path, sheet);
 }
@@ -93,7 +88,8 @@ std::vector<nlohmann::json> RenderPanorama(const SiteMesh& mesh, const Instrumen
   const std::string prefix = Lower(o.name);
   const size_t count = 2 * instrument.pointings.size();
   std::vector<nlohmann::json> entries(count);
-  std::vector<std::filesystem::path> left_images;
+  std::vector<cv::Mat> left_tiles(instrument.pointings.size());  // Quarter size, 8-bit.
+  const double max_dn = std::pow(2.0, bits) - 1.0;
   tbb::parallel_for(size_t{0}, count, [&](size_t index) {
     const size_t pair = index / 2;
     const int side = static_cast<int>(index % 2);
@@ -106,6 +102,11 @@ std::vector<nlohmann::json> RenderPanorama(const SiteMesh& mesh, const Instrumen
     const std::string instrument_id = o.name + (side == 0 ? "_LEFT" : "_RIGHT");
     const std::string relative = folder_name + "/" + name;
     WriteImage(out_dir / (relative + ".png"), image.dn);
+    if (side == 0) {
+      cv::Mat tile;
+      cv::resize(image.dn, tile, cv::Size(o.width / 4, o.height / 4), 0, 0, cv::INTER_AREA);
+      tile.convertTo(left_tiles[pair], CV_8U, 255.0 / (0.7 * max_dn));
+    }
     WriteFileAtomically(out_dir / (relative + ".json"),
                         RoverImageLabel(instrument_id, site, camera, believed_site_from_rover,
                                         o.width, o.height, bits)
@@ -116,11 +117,7 @@ std::vector<nlohmann::json> RenderPanorama(const SiteMesh& mesh, const Instrumen
                       {"image", relative + ".png"},
                       {"label", relative + ".json"}};
   });
-  for (size_t index = 0; index < count; index += 2) {
-    left_images.push_back(out_dir / entries[index].at("image").get<std::string>());
-  }
-  WriteContactSheet(left_images, o.width, o.height, bits,
-                    out_dir / folder_name / (prefix + "_left_contact_sheet.png"));
+  WriteContactSheet(left_tiles, out_dir / folder_name / (prefix + "_left_contact_sheet.png"));
   return entries;
 }
 
