@@ -32,11 +32,6 @@ std::string Fixed(double value, int decimals) {
   return buffer;
 }
 
-// ENU (x east, y north, z up) -> site frame of site 0 (x north, y east, z down).
-Eigen::Vector3d SiteFromEnu(const Eigen::Vector3d& enu, double ground_z0) {
-  return {enu.y(), enu.x(), -(enu.z() - ground_z0)};
-}
-
 struct CsvTable {
   std::string text;
   void Row(const std::vector<std::string>& cells) {
@@ -344,8 +339,7 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
   const std::vector<Instrument> instruments = {
       {&options.navcam, Panorama(options.navcam_pairs, RadFromDeg(options.navcam_elevation_deg))},
       {&options.pancam, Panorama(options.pancam_pairs, RadFromDeg(options.pancam_elevation_deg))}};
-  Eigen::Matrix3d enu_from_site_rotation;
-  enu_from_site_rotation << 0, 1, 0, 1, 0, 0, 0, 0, -1;
+  const Rigid3d site_from_enu_axes = SiteFromEnu();  // Axis permutation (N, E, D) <- (E, N, U).
   int rover_images = 0;
   for (size_t k = 0; k < traverse.truth.size(); ++k) {
     Report(progress,
@@ -361,7 +355,7 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
     nlohmann::json images = nlohmann::json::array();
     if (options.navcam_pairs + options.pancam_pairs > 0) {
       const SiteMesh mesh(scene, site_in_enu, render);
-      const Rigid3d enu_from_site(enu_from_site_rotation, site_in_enu);
+      const Rigid3d enu_from_site(site_from_enu_axes.rotation.conjugate(), site_in_enu);
       const Rigid3d enu_from_rover =
           enu_from_site * Rigid3d(SiteFromRoverRotation(truth.heading), Eigen::Vector3d::Zero());
       const Rigid3d believed_site_from_rover(SiteFromRoverRotation(traverse.telemetry[k].heading),
@@ -422,7 +416,8 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
       const SitePose& truth = traverse.truth[static_cast<size_t>(s.site)];
       const double east = s.position.y(), north = s.position.x();
       const double up = scene.GroundHeightAt(truth.position.y(), truth.position.x());
-      const Eigen::Vector3d in_site = SiteFromEnu({east, north, up}, ground_z0);
+      // Site 0's frame: origin on the ground at the ENU origin.
+      const Eigen::Vector3d in_site = SiteFromEnu() * Eigen::Vector3d(east, north, up - ground_z0);
       std::vector<std::string> row = {
           std::to_string(s.site), Fixed(in_site.x(), 4), Fixed(in_site.y(), 4),
           Fixed(in_site.z(), 4),
