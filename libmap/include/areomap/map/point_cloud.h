@@ -17,17 +17,17 @@
 namespace areomap {
 
 struct StereoPoint {
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();      // [m] in the cloud's frame.
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();    // [m^2] in the cloud's frame.
-  float intensity = 0.0f;      // Left-image value at the pixel, scaled to [0, 1].
-  float left_x = 0.0f;         // Left-image pixel (column, row), pixel centres at integers.
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();    // [m] in the cloud's frame.
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // [m^2] in the cloud's frame.
+  float intensity = 0.0f;  // Left-image value at the pixel, scaled to [0, 1].
+  float left_x = 0.0f;     // Left-image pixel (column, row), pixel centres at integers.
   float left_y = 0.0f;
-  uint16_t image_id = 0;       // Which stereo pair of the site the point came from.
+  uint16_t image_id = 0;  // Which stereo pair of the site the point came from.
 };
 
 struct PointCloud {
-  std::string frame = "SITE_FRAME";        // Free text, e.g. "SITE_FRAME site 3".
-  int site = -1;                           // Site index when the frame is a site frame.
+  std::string frame = "SITE_FRAME";  // Free text, e.g. "SITE_FRAME site 3".
+  int site = -1;                     // Site index when the frame is a site frame.
   Eigen::Vector3d camera_center = Eigen::Vector3d::Zero();  // Left camera centre [m].
   std::vector<StereoPoint> points;
 };

@@ -15,14 +15,14 @@ namespace areomap {
 
 // The same ground landmark (a rock peak, a model centre) measured by stereo at two sites.
 struct TiePoint {
-  std::string id;                                  // Unique within a run, e.g. "s003-s004-r12".
+  std::string id;  // Unique within a run, e.g. "s003-s004-r12".
   int site_a = -1;
   int site_b = -1;
   Eigen::Vector3d position_in_a = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance_in_a = Eigen::Matrix3d::Identity();
   Eigen::Vector3d position_in_b = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance_in_b = Eigen::Matrix3d::Identity();
-  std::string source = "rock";                     // "rock", "crater", "manual", ...
+  std::string source = "rock";  // "rock", "crater", "manual", ...
 };
 
 // A ground point of one site whose Mars body-fixed position is known from orbital data.
@@ -33,7 +33,7 @@ struct ControlPoint {
   Eigen::Matrix3d covariance_in_site = Eigen::Matrix3d::Identity();
   Eigen::Vector3d position_mbf = Eigen::Vector3d::Zero();
   Eigen::Matrix3d covariance_mbf = Eigen::Matrix3d::Identity();
-  std::string source = "orbital";                  // e.g. "hirise_ortho.tif ncc".
+  std::string source = "orbital";  // e.g. "hirise_ortho.tif ncc".
 };
 
 }  // namespace areomap
