@@ -11,6 +11,7 @@
 #include "areomap/map/crs.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
+#include "areomap/map/mission_manifest.h"
 #include "areomap/map/pds_label.h"
 #include "areomap/map/raster_description.h"
 #include "test_support.h"
@@ -299,6 +300,40 @@ TEST(Mission, BadOptionsAreNamed) {
   }
   options = MissionOptions::Preset("demo");
   EXPECT_THROW(GenerateMission(options, "/proc/areomap-unwritable"), Error);
+}
+
+}  // namespace
+}  // namespace areomap
+
+namespace areomap {
+namespace {
+
+TEST(MissionManifest, ReadsWhatTheGeneratorWrote) {
+  testing::TempDir dir;
+  const MissionOptions options = SmallMission();
+  GenerateMission(options, dir.path());
+  const MissionManifest mission = ReadMissionManifest(dir.path());
+  ASSERT_EQ(mission.sites.size(), 3u);
+  EXPECT_NEAR(DegFromRad(mission.origin.lat), options.site_lat_deg, 1e-12);
+  for (const MissionSite& site : mission.sites) {
+    ASSERT_EQ(site.pairs.size(), 2u);  // One Navcam and one Pancam pair.
+    EXPECT_EQ(site.pairs[0].instrument, "NAVCAM");
+    EXPECT_EQ(site.pairs[1].instrument, "PANCAM");
+    EXPECT_TRUE(std::filesystem::exists(site.pairs[1].right_label));
+  }
+  ASSERT_EQ(mission.telemetry.size(), 3u);
+  ASSERT_EQ(mission.truth_sites.size(), 3u);
+  EXPECT_EQ(mission.truth_sites[0].position, Eigen::Vector3d::Zero());
+  EXPECT_GT((mission.truth_sites[2].position - mission.telemetry[2].position).norm(), 0.0);
+  ASSERT_NE(mission.FirstOrbital("image"), nullptr);
+  EXPECT_TRUE(std::filesystem::exists(mission.FirstOrbital("dtm")->path));
+
+  // A missing image is reported, naming the manifest and the file, before any work.
+  std::filesystem::remove(mission.sites[1].pairs[0].left_image);
+  const std::string message = testing::ErrorMessageOf([&] { ReadMissionManifest(dir.path()); });
+  EXPECT_NE(message.find("mission.json"), std::string::npos) << message;
+  EXPECT_NE(message.find("navcam_p00_left.png, which does not exist"), std::string::npos)
+      << message;
 }
 
 }  // namespace

@@ -1,0 +1,221 @@
+#include "areomap/map/mission_manifest.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "areomap/map/error.h"
+
+namespace areomap {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr double kRadPerDeg = std::numbers::pi / 180.0;
+
+// Reads `key` of `object` as T, or throws naming the manifest and the key path.
+template <typename T>
+T Get(const json& object, const std::string& key, const std::string& where,
+      const fs::path& manifest) {
+  if (!object.is_object() || !object.contains(key)) {
+    throw Error(manifest.string() + ": missing key \"" + where + key + "\"");
+  }
+  try {
+    return object.at(key).get<T>();
+  } catch (const json::exception&) {
+    throw Error(manifest.string() + ": key \"" + where + key + "\" has the wrong type");
+  }
+}
+
+fs::path ExistingFile(const fs::path& root, const std::string& relative, const std::string& key,
+                      const fs::path& manifest) {
+  const fs::path path = root / relative;
+  if (!fs::is_regular_file(path)) {
+    throw Error(manifest.string() + ": " + key + " refers to " + path.string() +
+                ", which does not exist");
+  }
+  return path;
+}
+
+std::vector<std::string> SplitCsvLine(const std::string& line) {
+  std::vector<std::string> fields;
+  std::stringstream stream(line);
+  std::string field;
+  while (std::getline(stream, field, ',')) fields.push_back(field);
+  return fields;
+}
+
+double ParseNumber(const std::string& text, const fs::path& csv, int line, const std::string& col) {
+  try {
+    size_t used = 0;
+    const double value = std::stod(text, &used);
+    if (used == text.size() && std::isfinite(value)) return value;
+  } catch (const std::exception&) {
+  }
+  throw Error(csv.string() + ": line " + std::to_string(line) + ", column " + col +
+              ": expected a finite number, got \"" + text + "\"");
+}
+
+// Splits "NAVCAM_LEFT" into ("NAVCAM", "LEFT"); throws for other suffixes.
+std::pair<std::string, std::string> SplitInstrument(const std::string& id,
+                                                    const fs::path& manifest) {
+  const size_t underscore = id.rfind('_');
+  const std::string side = underscore == std::string::npos ? "" : id.substr(underscore + 1);
+  if (side != "LEFT" && side != "RIGHT") {
+    throw Error(manifest.string() + ": instrument \"" + id +
+                "\" is not a stereo camera; expected a name ending in _LEFT or _RIGHT");
+  }
+  return {id.substr(0, underscore), side};
+}
+
+MissionSite ReadSite(const json& entry, const fs::path& root, const fs::path& manifest) {
+  MissionSite site;
+  site.site = Get<int>(entry, "site", "sites[].", manifest);
+  const std::string where = "sites[" + std::to_string(site.site) + "].images[].";
+  // Keyed by (instrument, pair): a site may hold a Navcam and a Pancam panorama.
+  std::map<std::pair<std::string, int>, MissionStereoPair> pairs;
+  std::map<std::pair<std::string, int>, int> sides_seen;
+  for (const json& image : Get<json>(entry, "images", "sites[].", manifest)) {
+    const auto [instrument, side] =
+        SplitInstrument(Get<std::string>(image, "instrument", where, manifest), manifest);
+    const int index = Get<int>(image, "pair", where, manifest);
+    const std::pair<std::string, int> key(instrument, index);
+    MissionStereoPair& pair = pairs[key];
+    pair.pair = index;
+    pair.instrument = instrument;
+    const fs::path picture = ExistingFile(root, Get<std::string>(image, "image", where, manifest),
+                                          where + "image", manifest);
+    const fs::path label = ExistingFile(root, Get<std::string>(image, "label", where, manifest),
+                                        where + "label", manifest);
+    (side == "LEFT" ? pair.left_image : pair.right_image) = picture;
+    (side == "LEFT" ? pair.left_label : pair.right_label) = label;
+    sides_seen[key] |= side == "LEFT" ? 1 : 2;
+  }
+  for (const auto& [key, pair] : pairs) {
+    if (sides_seen[key] != 3) {
+      throw Error(manifest.string() + ": site " + std::to_string(site.site) + " " + key.first +
+                  " pair " + std::to_string(key.second) + " lacks its " +
+                  (sides_seen[key] == 1 ? "right" : "left") + " image");
+    }
+    site.pairs.push_back(pair);
+  }
+  return site;
+}
+
+}  // namespace
+
+const MissionOrbitalProduct* MissionManifest::FirstOrbital(const std::string& kind) const {
+  for (const MissionOrbitalProduct& product : orbital) {
+    if (product.kind == kind) return &product;
+  }
+  return nullptr;
+}
+
+std::vector<MissionSitePose> ReadSitePosesCsv(const fs::path& csv) {
+  std::ifstream in(csv);
+  if (!in) throw Error(csv.string() + ": cannot open the site poses CSV");
+  std::string line;
+  if (!std::getline(in, line)) throw Error(csv.string() + ": empty; expected a header row");
+  const std::vector<std::string> header = SplitCsvLine(line);
+  const std::vector<std::string> wanted = {"site", "north_m", "east_m", "down_m", "heading_deg"};
+  if (header.size() < wanted.size() || !std::equal(wanted.begin(), wanted.end(), header.begin())) {
+    throw Error(csv.string() + ": header must start with site,north_m,east_m,down_m,heading_deg");
+  }
+  std::vector<MissionSitePose> poses;
+  for (int line_number = 2; std::getline(in, line); ++line_number) {
+    if (line.empty()) continue;
+    const std::vector<std::string> f = SplitCsvLine(line);
+    if (f.size() < wanted.size()) {
+      throw Error(csv.string() + ": line " + std::to_string(line_number) + " has " +
+                  std::to_string(f.size()) + " fields; expected at least 5");
+    }
+    MissionSitePose pose;
+    pose.site = static_cast<int>(ParseNumber(f[0], csv, line_number, "site"));
+    pose.position = {ParseNumber(f[1], csv, line_number, "north_m"),
+                     ParseNumber(f[2], csv, line_number, "east_m"),
+                     ParseNumber(f[3], csv, line_number, "down_m")};
+    pose.heading = ParseNumber(f[4], csv, line_number, "heading_deg") * kRadPerDeg;
+    poses.push_back(pose);
+  }
+  return poses;
+}
+
+MissionManifest ReadMissionManifest(const fs::path& path) {
+  const fs::path manifest = fs::is_directory(path) ? path / "mission.json" : path;
+  std::ifstream in(manifest);
+  if (!in) throw Error(manifest.string() + ": cannot open the mission manifest");
+  const json root_json = json::parse(in, nullptr, false);
+  if (root_json.is_discarded()) throw Error(manifest.string() + ": not valid JSON");
+  if (Get<std::string>(root_json, "format", "", manifest) != "areomap-mission") {
+    throw Error(manifest.string() + ": \"format\" is not \"areomap-mission\"");
+  }
+  if (const int version = Get<int>(root_json, "version", "", manifest); version != 1) {
+    throw Error(manifest.string() + ": version " + std::to_string(version) +
+                " is not supported; expected 1");
+  }
+  MissionManifest mission;
+  mission.root = manifest.parent_path();
+  mission.name = root_json.value("name", std::string());
+  const json& body = Get<json>(root_json, "body", "", manifest);
+  mission.body.name = Get<std::string>(body, "name", "body.", manifest);
+  mission.body.a = Get<double>(body, "a_m", "body.", manifest);
+  mission.body.b = Get<double>(body, "b_m", "body.", manifest);
+  const json& origin = Get<json>(root_json, "origin", "", manifest);
+  mission.origin.lat = Get<double>(origin, "lat_deg", "origin.", manifest) * kRadPerDeg;
+  mission.origin.lon = Get<double>(origin, "lon_deg", "origin.", manifest) * kRadPerDeg;
+  mission.origin.h = Get<double>(origin, "h_m", "origin.", manifest);
+
+  for (const json& product : Get<json>(root_json, "orbital", "", manifest)) {
+    MissionOrbitalProduct p;
+    p.id = Get<std::string>(product, "id", "orbital[].", manifest);
+    p.kind = Get<std::string>(product, "kind", "orbital[].", manifest);
+    p.path = ExistingFile(mission.root, Get<std::string>(product, "path", "orbital[].", manifest),
+                          "orbital[" + p.id + "].path", manifest);
+    p.gsd_m = Get<double>(product, "gsd_m", "orbital[].", manifest);
+    if (product.contains("sun_azimuth_deg")) p.sun_azimuth_deg = product["sun_azimuth_deg"];
+    if (product.contains("sun_elevation_deg")) p.sun_elevation_deg = product["sun_elevation_deg"];
+    mission.orbital.push_back(p);
+  }
+  for (const json& site : Get<json>(root_json, "sites", "", manifest)) {
+    mission.sites.push_back(ReadSite(site, mission.root, manifest));
+  }
+  if (mission.sites.empty()) throw Error(manifest.string() + ": \"sites\" is empty");
+
+  const json& telemetry = Get<json>(root_json, "telemetry", "", manifest);
+  mission.telemetry = ReadSitePosesCsv(
+      ExistingFile(mission.root, Get<std::string>(telemetry, "sites", "telemetry.", manifest),
+                   "telemetry.sites", manifest));
+  for (size_t i = 0; i < mission.sites.size(); ++i) {
+    if (i >= mission.telemetry.size() || mission.telemetry[i].site != mission.sites[i].site) {
+      throw Error(manifest.string() + ": telemetry has no pose for site " +
+                  std::to_string(mission.sites[i].site) + " (row " + std::to_string(i + 1) + ")");
+    }
+  }
+  if (root_json.contains("truth")) {
+    const json& truth = root_json["truth"];
+    if (truth.contains("sites")) {
+      mission.truth_sites = ReadSitePosesCsv(
+          ExistingFile(mission.root, Get<std::string>(truth, "sites", "truth.", manifest),
+                       "truth.sites", manifest));
+    }
+    if (truth.contains("craters")) {
+      mission.truth_craters_csv =
+          ExistingFile(mission.root, Get<std::string>(truth, "craters", "truth.", manifest),
+                       "truth.craters", manifest);
+    }
+    if (truth.contains("rocks")) {
+      mission.truth_rocks_csv =
+          ExistingFile(mission.root, Get<std::string>(truth, "rocks", "truth.", manifest),
+                       "truth.rocks", manifest);
+    }
+  }
+  return mission;
+}
+
+}  // namespace areomap
