@@ -62,6 +62,8 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   cmd->add_flag("--rectified", o->write_rectified,
                 "Also write the rectified 8-bit pair (left_rectified.png, right_rectified.png)");
+  cmd->add_flag("!--no-align-rows", s.align_rows,
+                "Do not estimate the residual vertical disparity from tracked features");
   cmd->add_option("--image-id", s.image_id, "Pair id written into every point")
       ->capture_default_str();
   cmd->callback([o, &global] {
@@ -110,6 +112,9 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
                        {"overlap_pixels", m.overlap_pixels},
                        {"valid_pixels", m.valid_pixels},
                        {"valid_fraction", m.valid_fraction},
+                       {"row_shift_features", disparity.row_shift_features},
+                       {"vertical_disparity_rms_px_before", disparity.row_shift_before_rms_px},
+                       {"vertical_disparity_rms_px_after", disparity.row_shift_rms_px},
                        {"points", m.points},
                        {"dropped_beyond_range", m.beyond_range},
                        {"max_range_m", o->stereo.max_range_m},

@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
 
 #include "areomap/map/error.h"
 
@@ -39,6 +40,94 @@ double HighPercentile(const cv::Mat& a, const cv::Mat& b) {
   const size_t k = static_cast<size_t>(0.999 * static_cast<double>(values.size() - 1));
   std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
   return std::max(1.0, static_cast<double>(values[k]));
+}
+
+// Vertical disparity of corners tracked from left to right (pyramidal Lucas-Kanade with a
+// forward-backward check), as (x_right, y_right, dy).
+std::vector<Eigen::Vector3d> TrackVerticalDisparity(const cv::Mat& left8, const cv::Mat& right8,
+                                                    int cells) {
+  std::vector<cv::Point2f> left_points, right_points, back_points;
+  for (int cy = 0; cy < cells; ++cy) {  // The best corners of each cell, spread over the image.
+    for (int cx = 0; cx < cells; ++cx) {
+      const cv::Rect cell(cx * left8.cols / cells, cy * left8.rows / cells, left8.cols / cells,
+                          left8.rows / cells);
+      std::vector<cv::Point2f> corners;
+      cv::goodFeaturesToTrack(left8(cell), corners, 40, 0.02, 10.0);
+      for (const cv::Point2f& p : corners) {
+        left_points.emplace_back(p.x + static_cast<float>(cell.x),
+                                 p.y + static_cast<float>(cell.y));
+      }
+    }
+  }
+  std::vector<Eigen::Vector3d> out;
+  if (left_points.empty()) return out;
+  std::vector<uint8_t> status, back_status;
+  std::vector<float> error;
+  const cv::Size window(21, 21);
+  const cv::TermCriteria stop(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
+  cv::calcOpticalFlowPyrLK(left8, right8, left_points, right_points, status, error, window, 4,
+                           stop);
+  cv::calcOpticalFlowPyrLK(right8, left8, right_points, back_points, back_status, error, window, 4,
+                           stop);
+  for (size_t i = 0; i < left_points.size(); ++i) {
+    if (!status[i] || !back_status[i] || cv::norm(back_points[i] - left_points[i]) > 0.5) continue;
+    const cv::Point2f r = right_points[i];
+    out.emplace_back(r.x, r.y, static_cast<double>(r.y - left_points[i].y));
+  }
+  return out;
+}
+
+double Median(std::vector<double> values) {
+  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return *mid;
+}
+
+// The right image's vertical offset field: the median vertical disparity of the tracked corners
+// in each cell of a grid (cells with fewer than 5 take the global median), bilinearly
+// interpolated between cell centres. Leaves `out` untouched with fewer than 20 corners.
+void EstimateRowShift(const cv::Mat& left8, const cv::Mat& right8, DisparityResult* out) {
+  constexpr int kCells = 8;
+  const std::vector<Eigen::Vector3d> tracks = TrackVerticalDisparity(left8, right8, kCells);
+  if (tracks.size() < 20) return;
+  std::vector<double> all;
+  std::vector<std::vector<double>> per_cell(kCells * kCells);
+  for (const Eigen::Vector3d& t : tracks) {
+    const int cx = std::clamp(static_cast<int>(t.x() * kCells / left8.cols), 0, kCells - 1);
+    const int cy = std::clamp(static_cast<int>(t.y() * kCells / left8.rows), 0, kCells - 1);
+    per_cell[static_cast<size_t>(cy * kCells + cx)].push_back(t.z());
+    all.push_back(t.z());
+  }
+  const double global = Median(all);
+  cv::Mat cells(kCells, kCells, CV_32F);
+  for (int i = 0; i < kCells * kCells; ++i) {
+    const auto& v = per_cell[static_cast<size_t>(i)];
+    cells.at<float>(i / kCells, i % kCells) =
+        static_cast<float>(v.size() >= 5 ? Median(v) : global);
+  }
+  cv::resize(cells, out->row_shift, left8.size(), 0, 0, cv::INTER_LINEAR);
+  double before = 0.0, after = 0.0;
+  size_t inliers = 0;
+  for (const Eigen::Vector3d& t : tracks) {
+    const int x = std::clamp(static_cast<int>(std::lround(t.x())), 0, left8.cols - 1);
+    const int y = std::clamp(static_cast<int>(std::lround(t.y())), 0, left8.rows - 1);
+    const double residual = t.z() - out->row_shift.at<float>(y, x);
+    if (std::abs(residual) > 3.0) continue;  // A wrong track, not a calibration residual.
+    before += t.z() * t.z();
+    after += residual * residual;
+    ++inliers;
+  }
+  out->row_shift_features = inliers;
+  if (inliers > 0) {
+    out->row_shift_before_rms_px = std::sqrt(before / static_cast<double>(inliers));
+    out->row_shift_rms_px = std::sqrt(after / static_cast<double>(inliers));
+  }
+}
+
+double RowShiftAt(const cv::Mat& row_shift, double x, int y) {
+  if (row_shift.empty()) return 0.0;
+  const int column = std::clamp(static_cast<int>(std::lround(x)), 0, row_shift.cols - 1);
+  return row_shift.at<float>(y, column);
 }
 
 void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
@@ -141,6 +230,34 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
   left_rect.convertTo(disparity.left8, CV_8U, gain);
   right_rect.convertTo(disparity.right8, CV_8U, gain);
   disparity.valid_left = rect.left_map_x >= 0.0f;
+  cv::Mat right_map_x = rect.right_map_x, right_map_y = rect.right_map_y;
+  if (options.align_rows) {
+    EstimateRowShift(disparity.left8, disparity.right8, &disparity);
+    if (disparity.row_shift_features > 0) {
+      // Sample the common right model's maps at (x, y + dy(x, y)).
+      cv::Mat shift_x(rect.size.y(), rect.size.x(), CV_32F), shift_y(shift_x.size(), CV_32F);
+      for (int y = 0; y < shift_x.rows; ++y) {
+        for (int x = 0; x < shift_x.cols; ++x) {
+          shift_x.at<float>(y, x) = static_cast<float>(x);
+          shift_y.at<float>(y, x) = static_cast<float>(y) + disparity.row_shift.at<float>(y, x);
+        }
+      }
+      cv::remap(rect.right_map_x, right_map_x, shift_x, shift_y, cv::INTER_NEAREST,
+                cv::BORDER_CONSTANT, cv::Scalar(-1));
+      cv::remap(rect.right_map_y, right_map_y, shift_x, shift_y, cv::INTER_NEAREST,
+                cv::BORDER_CONSTANT, cv::Scalar(-1));
+      // Interpolate the maps where both neighbours are inside; nearest keeps -1 borders intact.
+      cv::Mat linear_x, linear_y;
+      cv::remap(rect.right_map_x, linear_x, shift_x, shift_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                cv::Scalar(-1));
+      cv::remap(rect.right_map_y, linear_y, shift_x, shift_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                cv::Scalar(-1));
+      linear_x.copyTo(right_map_x, (linear_x >= 0.0f) & (right_map_x >= 0.0f));
+      linear_y.copyTo(right_map_y, (linear_x >= 0.0f) & (right_map_x >= 0.0f));
+      RemapToRectified(right_grey, right_map_x, right_map_y)
+          .convertTo(disparity.right8, CV_8U, gain);
+    }
+  }
   const double max_disparity = rect.baseline_m * rect.focal_px / options.min_range_m;
   disparity.min_disparity = -options.disparity_margin_px;
   disparity.num_disparities = std::clamp(
@@ -151,7 +268,7 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
   disparity.disparity = ComputeDisparity(disparity.left8, disparity.right8, disparity.min_disparity,
                                          disparity.num_disparities, options);
   // Overlap: rectified left pixels whose right partner at infinity is inside the right image.
-  const cv::Mat overlap = disparity.valid_left & (rect.right_map_x >= 0.0f);
+  const cv::Mat overlap = disparity.valid_left & (right_map_x >= 0.0f);
   disparity.overlap_pixels = static_cast<size_t>(cv::countNonZero(overlap));
   const cv::Mat has_disparity = disparity.disparity == disparity.disparity;  // Not NaN.
   disparity.valid_pixels = static_cast<size_t>(cv::countNonZero(has_disparity & overlap));
@@ -177,8 +294,9 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
     for (int x = 0; x < rect.size.x(); ++x) {
       if (!(d[x] == d[x]) || in_overlap[x] == 0) continue;
       const Eigen::Vector3d d1 = rect.left.Unproject(Eigen::Vector2d(x, y));
+      const double xr = x - static_cast<double>(d[x]);
       const Eigen::Vector3d d2 =
-          rect.right.Unproject(Eigen::Vector2d(x - static_cast<double>(d[x]), y));
+          rect.right.Unproject(Eigen::Vector2d(xr, y + RowShiftAt(disparity.row_shift, xr, y)));
       const auto hit = TriangulateRays(rect.left.c, d1, rect.right.c, d2);
       if (!hit) {
         ++row.not_intersecting;

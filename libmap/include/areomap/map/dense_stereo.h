@@ -1,12 +1,15 @@
 // Dense stereo: rectified pair → disparity (OpenCV's semi-global matcher) → 3D points with
 // covariance (the stereo error model, eqs. 4.1-4.3) in the site frame.
 //
-// Steps: epipolar rectification (rectification.h); SGBM on 8-bit images (both scaled by one
-// gain: the 99.9th percentile of the pair); SGBM's own subpixel fit (1/16 px), uniqueness test and
-// speckle filter; an explicit left-right consistency check against a second SGBM run on the
-// mirrored pair (|d_left(x) - d_right(x - d_left)| <= lr_max_diff_px); ray triangulation
-// (TriangulateRays) of the rectified rays; points farther than max_range_m from the left camera
-// are dropped.
+// Steps: epipolar rectification (rectification.h); a residual row alignment: sparse features
+// (Shi-Tomasi corners tracked by pyramidal Lucas-Kanade, forward-backward checked) give the
+// vertical offset of the right image, the median dy of each cell of an 8 x 8 grid, interpolated,
+// shifts the right image's rows (real calibrations leave a few pixels, ASP's "affine epipolar"
+// idea); SGBM on 8-bit images (both scaled by one gain: the 99.9th percentile of the pair); SGBM's
+// own subpixel fit (1/16 px), uniqueness test and speckle filter; an explicit left-right
+// consistency check against a second SGBM run on the mirrored pair (|d_left(x) - d_right(x -
+// d_left)| <= lr_max_diff_px); ray triangulation (TriangulateRays) of the rectified rays; points
+// farther than max_range_m from the left camera are dropped.
 //
 // Frames: the two camera models must be in the same frame. When the left camera's file gives
 // the frame's pose in a site frame (the MER / generator ROVER_COORDINATE_SYSTEM group) the cloud
@@ -43,8 +46,9 @@ struct DenseStereoOptions {
   Eigen::Vector2i output_size = Eigen::Vector2i::Zero();  // Rectified size; zero: input size.
   double parallax_sigma_px = 0.5;                         // sigma_p of eq. 4.3 for the covariances.
   double azimuth_sigma_px = 1.0;                          // Across-track sigma [px] (ch. 4.1).
-  uint16_t image_id = 0;                                  // Written into every point.
-  void Check() const;                                     // Throws areomap::Error naming the field.
+  bool align_rows = true;  // Estimate and remove the residual vertical disparity.
+  uint16_t image_id = 0;   // Written into every point.
+  void Check() const;      // Throws areomap::Error naming the field.
 };
 
 // The 8-bit rectified pair and its disparity (CV_32F on the rectified left grid, NaN where
@@ -53,6 +57,12 @@ struct DisparityResult {
   cv::Mat left8, right8, disparity, valid_left;
   int min_disparity = 0;
   int num_disparities = 0;
+  // Right-image row shift applied before matching: right rectified pixel (x, y) shows what the
+  // common CAHV right model sees at (x, y + row_shift(y, x)) (CV_32F [px]; empty: none).
+  cv::Mat row_shift;
+  size_t row_shift_features = 0;         // Features the fit used (0: no correction).
+  double row_shift_rms_px = 0.0;         // Residual vertical disparity of those features.
+  double row_shift_before_rms_px = 0.0;  // Their vertical disparity before the correction.
   size_t overlap_pixels = 0;  // Left pixels whose right partner at min disparity is inside.
   size_t valid_pixels = 0;    // Overlap pixels with a disparity after all filters.
 };
