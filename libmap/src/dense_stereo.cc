@@ -86,6 +86,8 @@ double Median(std::vector<double> values) {
 // The right image's vertical offset field: the median vertical disparity of the tracked corners
 // in each cell of a grid (cells with fewer than 5 take the global median), bilinearly
 // interpolated between cell centres. Leaves `out` untouched with fewer than 20 corners.
+constexpr double kMinRowShiftRmsPx = 0.5;
+
 void EstimateRowShift(const cv::Mat& left8, const cv::Mat& right8, DisparityResult* out) {
   constexpr int kCells = 8;
   const std::vector<Eigen::Vector3d> tracks = TrackVerticalDisparity(left8, right8, kCells);
@@ -121,6 +123,13 @@ void EstimateRowShift(const cv::Mat& left8, const cv::Mat& right8, DisparityResu
   if (inliers > 0) {
     out->row_shift_before_rms_px = std::sqrt(before / static_cast<double>(inliers));
     out->row_shift_rms_px = std::sqrt(after / static_cast<double>(inliers));
+  }
+  // Below half a pixel the rows already agree (SGBM's windows absorb it): no correction, so
+  // tracking noise never moves a well-calibrated pair.
+  if (inliers == 0 || out->row_shift_before_rms_px < kMinRowShiftRmsPx) {
+    out->row_shift.release();
+    out->row_shift_rms_px = out->row_shift_before_rms_px;
+    out->row_shift_features = 0;
   }
 }
 

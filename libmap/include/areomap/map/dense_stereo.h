@@ -4,12 +4,13 @@
 // Steps: epipolar rectification (rectification.h); a residual row alignment: sparse features
 // (Shi-Tomasi corners tracked by pyramidal Lucas-Kanade, forward-backward checked) give the
 // vertical offset of the right image, the median dy of each cell of an 8 x 8 grid, interpolated,
-// shifts the right image's rows (real calibrations leave a few pixels, ASP's "affine epipolar"
-// idea); SGBM on 8-bit images (both scaled by one gain: the 99.9th percentile of the pair); SGBM's
-// own subpixel fit (1/16 px), uniqueness test and speckle filter; an explicit left-right
-// consistency check against a second SGBM run on the mirrored pair (|d_left(x) - d_right(x -
-// d_left)| <= lr_max_diff_px); ray triangulation (TriangulateRays) of the rectified rays; points
-// farther than max_range_m from the left camera are dropped.
+// applied when their RMS exceeds 0.5 px, shifts the right image's rows (real calibrations leave a
+// few pixels, ASP's "affine epipolar" idea); SGBM on 8-bit images (both scaled by one gain:
+// the 99.9th percentile of the pair); SGBM's own subpixel fit (1/16 px), uniqueness test and
+// speckle filter; an explicit left-right consistency check against a second SGBM run on the
+// mirrored pair (|d_left(x) - d_right(x - d_left)| <= lr_max_diff_px); ray triangulation
+// (TriangulateRays) of the rectified rays; points farther than max_range_m from the left camera are
+// dropped.
 //
 // Frames: the two camera models must be in the same frame. When the left camera's file gives
 // the frame's pose in a site frame (the MER / generator ROVER_COORDINATE_SYSTEM group) the cloud
