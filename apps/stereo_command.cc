@@ -1,0 +1,130 @@
+// areomap stereo LEFT RIGHT --out DIR: dense stereo of one pair into a point cloud (points.ply),
+// a disparity quick-look (disparity.png) and summary.json.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+
+#include <opencv2/core.hpp>
+
+#include "areomap/map/camera_models.h"
+#include "areomap/map/dense_stereo.h"
+#include "areomap/map/error.h"
+#include "areomap/map/image_io.h"
+#include "areomap/map/point_cloud_io.h"
+#include "areomap/map/raster.h"
+#include "commands.h"
+
+namespace areomap::cli {
+namespace {
+
+struct StereoCommandOptions {
+  std::string left, right, out;
+  std::string left_camera, right_camera;  // Default: the labels beside (or inside) the images.
+  bool write_rectified = false;
+  DenseStereoOptions stereo;
+};
+
+// PNG/TIFF through OpenImageIO; planetary products (MER .IMG) through GDAL.
+cv::Mat ReadStereoImage(const std::filesystem::path& path) {
+  const std::string extension = path.extension().string();
+  if (extension == ".png" || extension == ".PNG" || extension == ".tif" || extension == ".TIF" ||
+      extension == ".jpg") {
+    return ReadImage(path);
+  }
+  const RasterDataset dataset = RasterDataset::Open(path);
+  return dataset.ReadWindow(1, dataset.FullWindow());
+}
+
+}  // namespace
+
+void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
+  auto o = std::make_shared<StereoCommandOptions>();
+  auto* cmd = app.add_subcommand(
+      "stereo", "Dense stereo of a rectified pair into 3D points with covariance (points.ply)");
+  cmd->add_option("left", o->left, "Left image (PNG with a label beside it, or MER .IMG)")
+      ->required();
+  cmd->add_option("right", o->right, "Right image")->required();
+  cmd->add_option("--out", o->out, "Output folder")->required();
+  cmd->add_option("--left-camera", o->left_camera,
+                  "Left camera model (.json label, .tsai, or labelled product)");
+  cmd->add_option("--right-camera", o->right_camera, "Right camera model");
+  DenseStereoOptions& s = o->stereo;
+  cmd->add_option("--max-range", s.max_range_m, "Drop points beyond this range [m]")
+      ->capture_default_str();
+  cmd->add_option("--min-range", s.min_range_m, "Nearest range searched [m]")
+      ->capture_default_str();
+  cmd->add_option("--block-size", s.block_size, "SGBM window [px]")->capture_default_str();
+  cmd->add_option("--uniqueness", s.uniqueness_ratio, "SGBM uniqueness margin [%]")
+      ->capture_default_str();
+  cmd->add_option("--lr-max-diff", s.lr_max_diff_px, "Left-right consistency tolerance [px]")
+      ->capture_default_str();
+  cmd->add_option("--parallax-sigma", s.parallax_sigma_px, "sigma_p of eq. 4.3 [px]")
+      ->capture_default_str();
+  cmd->add_flag("--rectified", o->write_rectified,
+                "Also write the rectified 8-bit pair (left_rectified.png, right_rectified.png)");
+  cmd->add_flag("!--no-align-rows", s.align_rows,
+                "Do not estimate the residual vertical disparity from tracked features");
+  cmd->add_option("--image-id", s.image_id, "Pair id written into every point")
+      ->capture_default_str();
+  cmd->callback([o, &global] {
+    const auto start = std::chrono::steady_clock::now();
+    const CameraFile left =
+        o->left_camera.empty() ? ReadCameraForImage(o->left) : ReadCameraFile(o->left_camera);
+    const CameraFile right =
+        o->right_camera.empty() ? ReadCameraForImage(o->right) : ReadCameraFile(o->right_camera);
+    const cv::Mat left_image = ReadStereoImage(o->left);
+    const cv::Mat right_image = ReadStereoImage(o->right);
+    const DenseStereoResult result = RunDenseStereo(left_image, right_image, left, right, o->stereo,
+                                                    MakeProgressBar(global, "stereo"));
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+    // Everything computed: only now touch the output folder.
+    const std::filesystem::path out = o->out;
+    PrepareOutputFolder(out);
+    WritePointCloudPly(result.cloud, out / "points.ply");
+    cv::Mat quicklook;
+    const DisparityResult& disparity = result.disparity;
+    disparity.disparity.convertTo(
+        quicklook, CV_8U, 254.0 / disparity.num_disparities,
+        1.0 - 254.0 * disparity.min_disparity / disparity.num_disparities);  // NaN -> 0.
+    WriteImage(out / "disparity.png", quicklook);
+    if (o->write_rectified) {
+      WriteImage(out / "left_rectified.png", result.disparity.left8);
+      WriteImage(out / "right_rectified.png", result.disparity.right8);
+    }
+    const DenseStereoSummary& m = result.summary;
+    WriteSummary(out, {{"command", "stereo"},
+                       {"left", o->left},
+                       {"right", o->right},
+                       {"left_camera", left.source},
+                       {"right_camera", right.source},
+                       {"camera_model", left.model.TypeName()},
+                       {"frame", result.cloud.frame},
+                       {"site", result.cloud.site},
+                       {"camera_center_m",
+                        {result.cloud.camera_center.x(), result.cloud.camera_center.y(),
+                         result.cloud.camera_center.z()}},
+                       {"baseline_m", m.baseline_m},
+                       {"focal_px", m.focal_px},
+                       {"min_disparity", disparity.min_disparity},
+                       {"num_disparities", m.num_disparities},
+                       {"overlap_pixels", m.overlap_pixels},
+                       {"valid_pixels", m.valid_pixels},
+                       {"valid_fraction", m.valid_fraction},
+                       {"row_shift_features", disparity.row_shift_features},
+                       {"vertical_disparity_rms_px_before", disparity.row_shift_before_rms_px},
+                       {"vertical_disparity_rms_px_after", disparity.row_shift_rms_px},
+                       {"points", m.points},
+                       {"dropped_beyond_range", m.beyond_range},
+                       {"max_range_m", o->stereo.max_range_m},
+                       {"seconds", seconds}});
+    if (!global.quiet) {
+      std::printf("%zu points (%.1f%% of the overlap has a disparity), %zu beyond %.0f m -> %s\n",
+                  m.points, 100.0 * m.valid_fraction, m.beyond_range, o->stereo.max_range_m,
+                  (out / "points.ply").c_str());
+    }
+  });
+}
+
+}  // namespace areomap::cli

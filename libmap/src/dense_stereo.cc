@@ -1,0 +1,357 @@
+#include "areomap/map/dense_stereo.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <tbb/parallel_for.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include "areomap/map/error.h"
+
+namespace areomap {
+namespace {
+
+cv::Mat ToGrey(const cv::Mat& image) {
+  if (image.channels() == 1) return image;
+  cv::Mat grey;
+  cv::cvtColor(image, grey, image.channels() == 4 ? cv::COLOR_RGBA2GRAY : cv::COLOR_RGB2GRAY);
+  return grey;
+}
+
+// The value below which 99.9 % of the valid (non-zero) pixels of both images lie.
+double HighPercentile(const cv::Mat& a, const cv::Mat& b) {
+  std::vector<float> values;
+  for (const cv::Mat* m : {&a, &b}) {
+    cv::Mat f;
+    m->convertTo(f, CV_32F);
+    for (int y = 0; y < f.rows; y += 3) {
+      const float* row = f.ptr<float>(y);
+      for (int x = 0; x < f.cols; x += 3) {
+        if (row[x] > 0.0f) values.push_back(row[x]);
+      }
+    }
+  }
+  if (values.empty()) return 1.0;
+  const size_t k = static_cast<size_t>(0.999 * static_cast<double>(values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return std::max(1.0, static_cast<double>(values[k]));
+}
+
+// Vertical disparity of corners tracked from left to right (pyramidal Lucas-Kanade with a
+// forward-backward check), as (x_right, y_right, dy).
+std::vector<Eigen::Vector3d> TrackVerticalDisparity(const cv::Mat& left8, const cv::Mat& right8,
+                                                    int cells) {
+  std::vector<cv::Point2f> left_points, right_points, back_points;
+  for (int cy = 0; cy < cells; ++cy) {  // The best corners of each cell, spread over the image.
+    for (int cx = 0; cx < cells; ++cx) {
+      const cv::Rect cell(cx * left8.cols / cells, cy * left8.rows / cells, left8.cols / cells,
+                          left8.rows / cells);
+      std::vector<cv::Point2f> corners;
+      cv::goodFeaturesToTrack(left8(cell), corners, 40, 0.02, 10.0);
+      for (const cv::Point2f& p : corners) {
+        left_points.emplace_back(p.x + static_cast<float>(cell.x),
+                                 p.y + static_cast<float>(cell.y));
+      }
+    }
+  }
+  std::vector<Eigen::Vector3d> out;
+  if (left_points.empty()) return out;
+  std::vector<uint8_t> status, back_status;
+  std::vector<float> error;
+  const cv::Size window(21, 21);
+  const cv::TermCriteria stop(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
+  cv::calcOpticalFlowPyrLK(left8, right8, left_points, right_points, status, error, window, 4,
+                           stop);
+  cv::calcOpticalFlowPyrLK(right8, left8, right_points, back_points, back_status, error, window, 4,
+                           stop);
+  for (size_t i = 0; i < left_points.size(); ++i) {
+    if (!status[i] || !back_status[i] || cv::norm(back_points[i] - left_points[i]) > 0.5) continue;
+    const cv::Point2f r = right_points[i];
+    out.emplace_back(r.x, r.y, static_cast<double>(r.y - left_points[i].y));
+  }
+  return out;
+}
+
+double Median(std::vector<double> values) {
+  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return *mid;
+}
+
+// The right image's vertical offset field: the median vertical disparity of the tracked corners
+// in each cell of a grid (cells with fewer than 5 take the global median), bilinearly
+// interpolated between cell centres. Leaves `out` untouched with fewer than 20 corners.
+constexpr double kMinRowShiftRmsPx = 0.5;
+
+void EstimateRowShift(const cv::Mat& left8, const cv::Mat& right8, DisparityResult* out) {
+  constexpr int kCells = 8;
+  const std::vector<Eigen::Vector3d> tracks = TrackVerticalDisparity(left8, right8, kCells);
+  if (tracks.size() < 20) return;
+  std::vector<double> all;
+  std::vector<std::vector<double>> per_cell(kCells * kCells);
+  for (const Eigen::Vector3d& t : tracks) {
+    const int cx = std::clamp(static_cast<int>(t.x() * kCells / left8.cols), 0, kCells - 1);
+    const int cy = std::clamp(static_cast<int>(t.y() * kCells / left8.rows), 0, kCells - 1);
+    per_cell[static_cast<size_t>(cy * kCells + cx)].push_back(t.z());
+    all.push_back(t.z());
+  }
+  const double global = Median(all);
+  cv::Mat cells(kCells, kCells, CV_32F);
+  for (int i = 0; i < kCells * kCells; ++i) {
+    const auto& v = per_cell[static_cast<size_t>(i)];
+    cells.at<float>(i / kCells, i % kCells) =
+        static_cast<float>(v.size() >= 5 ? Median(v) : global);
+  }
+  cv::resize(cells, out->row_shift, left8.size(), 0, 0, cv::INTER_LINEAR);
+  double before = 0.0, after = 0.0;
+  size_t inliers = 0;
+  for (const Eigen::Vector3d& t : tracks) {
+    const int x = std::clamp(static_cast<int>(std::lround(t.x())), 0, left8.cols - 1);
+    const int y = std::clamp(static_cast<int>(std::lround(t.y())), 0, left8.rows - 1);
+    const double residual = t.z() - out->row_shift.at<float>(y, x);
+    if (std::abs(residual) > 3.0) continue;  // A wrong track, not a calibration residual.
+    before += t.z() * t.z();
+    after += residual * residual;
+    ++inliers;
+  }
+  out->row_shift_features = inliers;
+  if (inliers > 0) {
+    out->row_shift_before_rms_px = std::sqrt(before / static_cast<double>(inliers));
+    out->row_shift_rms_px = std::sqrt(after / static_cast<double>(inliers));
+  }
+  // Below half a pixel the rows already agree (SGBM's windows absorb it): no correction, so
+  // tracking noise never moves a well-calibrated pair.
+  if (inliers == 0 || out->row_shift_before_rms_px < kMinRowShiftRmsPx) {
+    out->row_shift.release();
+    out->row_shift_rms_px = out->row_shift_before_rms_px;
+    out->row_shift_features = 0;
+  }
+}
+
+double RowShiftAt(const cv::Mat& row_shift, double x, int y) {
+  if (row_shift.empty()) return 0.0;
+  const int column = std::clamp(static_cast<int>(std::lround(x)), 0, row_shift.cols - 1);
+  return row_shift.at<float>(y, column);
+}
+
+void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
+  if (progress && !progress(fraction, stage)) {
+    throw Error("stereo cancelled during " + std::string(stage));
+  }
+}
+
+}  // namespace
+
+void DenseStereoOptions::Check() const {
+  RequireOption(min_range_m > 0.0, "DenseStereoOptions.min_range_m", "a positive range [m]");
+  RequireOption(max_range_m > min_range_m, "DenseStereoOptions.max_range_m", "> min_range_m");
+  RequireOption(block_size >= 3 && block_size <= 11 && block_size % 2 == 1,
+                "DenseStereoOptions.block_size", "an odd window of 3..11 px");
+  RequireOption(uniqueness_ratio >= 0 && uniqueness_ratio <= 100,
+                "DenseStereoOptions.uniqueness_ratio", "0..100 %");
+  RequireOption(speckle_window_px >= 0, "DenseStereoOptions.speckle_window_px", ">= 0 px");
+  RequireOption(speckle_range_px >= 1, "DenseStereoOptions.speckle_range_px", ">= 1 px");
+  RequireOption(lr_max_diff_px >= 0.0, "DenseStereoOptions.lr_max_diff_px", ">= 0 px");
+  RequireOption(disparity_margin_px >= 0 && disparity_margin_px % 16 == 0,
+                "DenseStereoOptions.disparity_margin_px", "a multiple of 16 px, >= 0");
+  RequireOption(output_size.minCoeff() >= 0, "DenseStereoOptions.output_size",
+                "zero (the input size) or a positive width and height");
+  RequireOption(parallax_sigma_px > 0.0, "DenseStereoOptions.parallax_sigma_px", "> 0 px");
+  RequireOption(azimuth_sigma_px > 0.0, "DenseStereoOptions.azimuth_sigma_px", "> 0 px");
+}
+
+cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_disparity,
+                         int num_disparities, const DenseStereoOptions& options) {
+  const int b = options.block_size;
+  const cv::Ptr<cv::StereoSGBM> sgbm = cv::StereoSGBM::create(
+      min_disparity, num_disparities, b, 8 * b * b, 32 * b * b, /*disp12MaxDiff=*/-1,
+      /*preFilterCap=*/63, options.uniqueness_ratio, options.speckle_window_px,
+      options.speckle_range_px, cv::StereoSGBM::MODE_SGBM_3WAY);
+  cv::Mat left_disparity, right_disparity, left_flipped, right_flipped;
+  sgbm->compute(left8, right8, left_disparity);  // CV_16S, 1/16 px; < 16 min_disparity invalid.
+  // The right image's disparity: the same matcher on the mirrored pair.
+  cv::flip(left8, left_flipped, 1);
+  cv::flip(right8, right_flipped, 1);
+  sgbm->compute(right_flipped, left_flipped, right_disparity);
+  cv::flip(right_disparity, right_disparity, 1);
+
+  cv::Mat out(left8.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  const float tolerance = static_cast<float>(options.lr_max_diff_px);
+  const int invalid_below = 16 * min_disparity;
+  tbb::parallel_for(0, out.rows, [&](int y) {
+    const int16_t* dl = left_disparity.ptr<int16_t>(y);
+    const int16_t* dr = right_disparity.ptr<int16_t>(y);
+    float* d = out.ptr<float>(y);
+    for (int x = 0; x < out.cols; ++x) {
+      if (dl[x] < invalid_below) continue;
+      const float disparity = static_cast<float>(dl[x]) / 16.0f;
+      const int xr = static_cast<int>(std::lround(static_cast<float>(x) - disparity));
+      if (xr < 0 || xr >= out.cols || dr[xr] < invalid_below) continue;
+      if (std::abs(disparity - static_cast<float>(dr[xr]) / 16.0f) <= tolerance) d[x] = disparity;
+    }
+  });
+  return out;
+}
+
+DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right_image,
+                                 const CameraFile& left, const CameraFile& right,
+                                 const DenseStereoOptions& options,
+                                 const ProgressCallback& progress) {
+  options.Check();
+  if (left_image.empty() || right_image.empty()) {
+    throw Error("stereo pair: an image is empty (" + left.source + ", " + right.source + ")");
+  }
+  if (left_image.size() != right_image.size()) {
+    throw Error("stereo pair: image sizes differ: " + std::to_string(left_image.cols) + "x" +
+                std::to_string(left_image.rows) + " (left) vs " + std::to_string(right_image.cols) +
+                "x" + std::to_string(right_image.rows) + " (right): expected the same size");
+  }
+  if (left.frame != right.frame) {
+    throw Error("stereo pair: camera models in different frames: " + left.frame + " (" +
+                left.source + ") vs " + right.frame + " (" + right.source + ")");
+  }
+  for (const CameraFile* file : {&left, &right}) {
+    if (file->image_size &&
+        *file->image_size != Eigen::Vector2i(left_image.cols, left_image.rows)) {
+      throw Error(file->source + ": the label's image size " +
+                  std::to_string(file->image_size->x()) + "x" +
+                  std::to_string(file->image_size->y()) + " differs from the image's " +
+                  std::to_string(left_image.cols) + "x" + std::to_string(left_image.rows));
+    }
+  }
+  DenseStereoResult result;
+  Report(progress, 0.0, "rectify");
+  RectificationOptions rect_options;
+  rect_options.output_size = options.output_size;
+  result.rectification =
+      RectifyStereoPair(left.model, right.model, {left_image.cols, left_image.rows}, rect_options);
+  const StereoRectification& rect = result.rectification;
+  const cv::Mat left_grey = ToGrey(left_image), right_grey = ToGrey(right_image);
+  const cv::Mat left_rect = RemapToRectified(left_grey, rect.left_map_x, rect.left_map_y);
+  const cv::Mat right_rect = RemapToRectified(right_grey, rect.right_map_x, rect.right_map_y);
+  const double gain = 255.0 / HighPercentile(left_rect, right_rect);
+  DisparityResult& disparity = result.disparity;
+  left_rect.convertTo(disparity.left8, CV_8U, gain);
+  right_rect.convertTo(disparity.right8, CV_8U, gain);
+  disparity.valid_left = rect.left_map_x >= 0.0f;
+  cv::Mat right_map_x = rect.right_map_x, right_map_y = rect.right_map_y;
+  if (options.align_rows) {
+    EstimateRowShift(disparity.left8, disparity.right8, &disparity);
+    if (disparity.row_shift_features > 0) {
+      // Sample the common right model's maps at (x, y + dy(x, y)).
+      cv::Mat shift_x(rect.size.y(), rect.size.x(), CV_32F), shift_y(shift_x.size(), CV_32F);
+      for (int y = 0; y < shift_x.rows; ++y) {
+        for (int x = 0; x < shift_x.cols; ++x) {
+          shift_x.at<float>(y, x) = static_cast<float>(x);
+          shift_y.at<float>(y, x) = static_cast<float>(y) + disparity.row_shift.at<float>(y, x);
+        }
+      }
+      cv::remap(rect.right_map_x, right_map_x, shift_x, shift_y, cv::INTER_NEAREST,
+                cv::BORDER_CONSTANT, cv::Scalar(-1));
+      cv::remap(rect.right_map_y, right_map_y, shift_x, shift_y, cv::INTER_NEAREST,
+                cv::BORDER_CONSTANT, cv::Scalar(-1));
+      // Interpolate the maps where both neighbours are inside; nearest keeps -1 borders intact.
+      cv::Mat linear_x, linear_y;
+      cv::remap(rect.right_map_x, linear_x, shift_x, shift_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                cv::Scalar(-1));
+      cv::remap(rect.right_map_y, linear_y, shift_x, shift_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                cv::Scalar(-1));
+      linear_x.copyTo(right_map_x, (linear_x >= 0.0f) & (right_map_x >= 0.0f));
+      linear_y.copyTo(right_map_y, (linear_x >= 0.0f) & (right_map_x >= 0.0f));
+      RemapToRectified(right_grey, right_map_x, right_map_y)
+          .convertTo(disparity.right8, CV_8U, gain);
+    }
+  }
+  const double max_disparity = rect.baseline_m * rect.focal_px / options.min_range_m;
+  disparity.min_disparity = -options.disparity_margin_px;
+  disparity.num_disparities = std::clamp(
+      16 * static_cast<int>(std::ceil(max_disparity / 16.0)) + options.disparity_margin_px, 16,
+      std::max(16, (rect.size.x() / 2) / 16 * 16));
+
+  Report(progress, 0.1, "match");
+  disparity.disparity = ComputeDisparity(disparity.left8, disparity.right8, disparity.min_disparity,
+                                         disparity.num_disparities, options);
+  // Overlap: rectified left pixels whose right partner at infinity is inside the right image.
+  const cv::Mat overlap = disparity.valid_left & (right_map_x >= 0.0f);
+  disparity.overlap_pixels = static_cast<size_t>(cv::countNonZero(overlap));
+  const cv::Mat has_disparity = disparity.disparity == disparity.disparity;  // Not NaN.
+  disparity.valid_pixels = static_cast<size_t>(cv::countNonZero(has_disparity & overlap));
+
+  Report(progress, 0.8, "triangulate");
+  StereoErrorModel error_model;
+  error_model.baseline_m = rect.baseline_m;
+  error_model.focal_px = rect.focal_px;
+  error_model.parallax_sigma_px = options.parallax_sigma_px;
+  error_model.azimuth_sigma_px = options.azimuth_sigma_px;
+  error_model.Check();
+  const Rigid3d out_from_model = left.site_from_frame.value_or(Rigid3d());
+  const Eigen::Vector3d center_out = out_from_model * rect.left.c;
+  struct RowPoints {
+    std::vector<StereoPoint> points;
+    size_t beyond = 0, not_intersecting = 0;
+  };
+  std::vector<RowPoints> rows(static_cast<size_t>(rect.size.y()));
+  tbb::parallel_for(0, rect.size.y(), [&](int y) {
+    RowPoints& row = rows[static_cast<size_t>(y)];
+    const float* d = disparity.disparity.ptr<float>(y);
+    const uint8_t* in_overlap = overlap.ptr<uint8_t>(y);
+    for (int x = 0; x < rect.size.x(); ++x) {
+      if (!(d[x] == d[x]) || in_overlap[x] == 0) continue;
+      const Eigen::Vector3d d1 = rect.left.Unproject(Eigen::Vector2d(x, y));
+      const double xr = x - static_cast<double>(d[x]);
+      const Eigen::Vector3d d2 =
+          rect.right.Unproject(Eigen::Vector2d(xr, y + RowShiftAt(disparity.row_shift, xr, y)));
+      const auto hit = TriangulateRays(rect.left.c, d1, rect.right.c, d2);
+      if (!hit) {
+        ++row.not_intersecting;
+        continue;
+      }
+      if (hit->range_first_m > options.max_range_m) {
+        ++row.beyond;
+        continue;
+      }
+      StereoPoint p;
+      p.position = out_from_model * hit->point;
+      p.covariance = StereoPointCovariance(p.position, center_out, error_model);
+      p.intensity = static_cast<float>(disparity.left8.at<uint8_t>(y, x)) / 255.0f;
+      p.left_x = rect.left_map_x.at<float>(y, x);
+      p.left_y = rect.left_map_y.at<float>(y, x);
+      p.image_id = options.image_id;
+      row.points.push_back(p);
+    }
+  });
+  PointCloud& cloud = result.cloud;
+  cloud.camera_center = center_out;
+  if (left.site_from_frame) {
+    cloud.frame = "SITE_FRAME";
+    cloud.site = left.site;
+  } else {
+    cloud.frame = left.frame;
+    cloud.site = -1;
+  }
+  DenseStereoSummary& summary = result.summary;
+  for (RowPoints& row : rows) {
+    cloud.points.insert(cloud.points.end(), row.points.begin(), row.points.end());
+    summary.beyond_range += row.beyond;
+    summary.not_intersecting += row.not_intersecting;
+  }
+  summary.overlap_pixels = disparity.overlap_pixels;
+  summary.valid_pixels = disparity.valid_pixels;
+  summary.valid_fraction = disparity.overlap_pixels == 0
+                               ? 0.0
+                               : static_cast<double>(disparity.valid_pixels) /
+                                     static_cast<double>(disparity.overlap_pixels);
+  summary.points = cloud.points.size();
+  summary.baseline_m = rect.baseline_m;
+  summary.focal_px = rect.focal_px;
+  summary.num_disparities = disparity.num_disparities;
+  Report(progress, 1.0, "done");
+  return result;
+}
+
+}  // namespace areomap

@@ -1,0 +1,203 @@
+// Dense stereo on rendered pairs (the generator's terrain and cameras: known truth) and on bad
+// input. Thresholds come from eq. 4.3: sigma_r = r^2 sigma_p / (b f), sigma_p = 0.5 px.
+#include "areomap/map/dense_stereo.h"
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "areomap/map/error.h"
+#include "areomap/map/geodesy.h"
+#include "areomap/map/rectification.h"
+#include "areomap/samples/rover.h"
+#include "areomap/samples/scene.h"
+#include "test_support.h"
+
+namespace areomap {
+namespace {
+
+// A Navcam-like head (45 degree field of view) at `size` px looking `azimuth` from north, 15
+// degrees down, over a 60 m scene with rocks. The rover frame is the site frame (rover at the
+// site origin facing north), so the truth is the rendered range along each left pixel's ray.
+struct RenderedPair {
+  Scene scene;
+  std::array<CahvorModel, 2> cameras;  // Rover (= site) frame.
+  std::array<SiteMesh::Image, 2> images;
+
+  static SceneOptions Options() {
+    SceneOptions o;
+    o.half_extent_m = 60.0;
+    o.crater_count = 0;
+    o.roughness_m = 0.3;
+    o.rock_path = {{0.0, 0.0}, {0.0, 20.0}};
+    o.rock_corridor_m = 12.0;
+    return o;
+  }
+  RenderedPair(int size, double azimuth) : scene(Options()) {
+    RenderOptions render;
+    render.near_posting_m = 0.04;  // Coarser than the generator's 2 cm: a fast unit test.
+    render.far_radius_m = 50.0;
+    const SiteMesh mesh(scene, {0.0, 0.0, scene.GroundHeightAt(0.0, 0.0)}, render);
+    Eigen::Matrix3d enu_from_rover;  // Facing north: x -> north, y -> east, z -> down.
+    enu_from_rover << 0, 1, 0, 1, 0, 0, 0, 0, -1;
+    const Rigid3d enu_from_rover_pose(enu_from_rover,
+                                      Eigen::Vector3d(0, 0, scene.GroundHeightAt(0.0, 0.0)));
+    StereoCameraOptions head;
+    head.width = head.height = size;
+    head.field_of_view_deg = 45.0;
+    cameras = StereoCameras(head, {azimuth, RadFromDeg(-15.0)});
+    for (int i = 0; i < 2; ++i) {
+      images[i] = mesh.Render(cameras[i].Transformed(enu_from_rover_pose), size, size,
+                              21u + static_cast<uint32_t>(i));
+    }
+  }
+  CameraFile File(int i) const {
+    CameraFile file;
+    file.model = cameras[i];
+    file.frame = "ROVER_FRAME";
+    file.site_from_frame = Rigid3d();
+    file.site = 0;
+    file.source = i == 0 ? "left" : "right";
+    return file;
+  }
+};
+
+const RenderedPair& Pair() {
+  static const RenderedPair pair(512, RadFromDeg(15.0));
+  return pair;
+}
+
+TEST(Rectification, RowsAreEpipolarAndMapsInvertTheModels) {
+  const RenderedPair& f = Pair();
+  const StereoRectification rect =
+      RectifyStereoPair(f.cameras[0], f.cameras[1], {512, 512}, RectificationOptions{});
+  EXPECT_NEAR(rect.baseline_m, 0.20, 1e-12);
+  EXPECT_GT(rect.overlap_fraction, 0.8);
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d p =
+        f.cameras[0].c + 8.0 * f.cameras[0].a + 3.0 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+    const auto l = rect.left.Project(p), r = rect.right.Project(p);
+    ASSERT_TRUE(l && r);
+    EXPECT_NEAR(l->y(), r->y(), 1e-9);  // Same row.
+    EXPECT_GT(l->x() - r->x(), 0.0);    // Positive disparity in front.
+    // The map sends the rectified pixel to where the original model sees the point (up to the
+    // float maps and the model's radial distortion between pixel centres).
+    const int x = static_cast<int>(std::lround(l->x())), y = static_cast<int>(std::lround(l->y()));
+    if (x < 0 || y < 0 || x >= 512 || y >= 512 || rect.left_map_x.at<float>(y, x) < 0) continue;
+    const Eigen::Vector3d on_ray = rect.left.c + 10.0 * rect.left.Unproject(Eigen::Vector2d(x, y));
+    const Eigen::Vector2d original = *f.cameras[0].Project(on_ray);
+    EXPECT_NEAR(rect.left_map_x.at<float>(y, x), original.x(), 1e-3);
+    EXPECT_NEAR(rect.left_map_y.at<float>(y, x), original.y(), 1e-3);
+  }
+}
+
+TEST(DenseStereo, PointsMatchTheRenderedTruthWithinTheRangeErrorModel) {
+  const RenderedPair& f = Pair();
+  DenseStereoOptions options;
+  const DenseStereoResult result =
+      RunDenseStereo(f.images[0].dn, f.images[1].dn, f.File(0), f.File(1), options);
+  EXPECT_EQ(result.cloud.frame, "SITE_FRAME");
+  EXPECT_EQ(result.cloud.site, 0);
+  ASSERT_GT(result.summary.points, 50000u);
+  // Synthetic cameras are exact: tracked corners show no vertical disparity beyond tracking
+  // noise, so no row correction is applied.
+  EXPECT_LT(result.disparity.row_shift_before_rms_px, 0.5);
+  EXPECT_TRUE(result.disparity.row_shift.empty());
+  // Range error per bin over sigma_r (eq. 4.3, sigma_p = 0.5 px).
+  const double b = result.summary.baseline_m, focal = result.summary.focal_px;
+  const std::array<double, 5> edges = {0.0, 5.0, 10.0, 15.0, 25.0};
+  std::array<double, 4> sum_sq{}, sum_sigma_sq{};
+  std::array<int, 4> count{};
+  const cv::Mat& truth = f.images[0].range;
+  for (const StereoPoint& p : result.cloud.points) {
+    const int x = static_cast<int>(std::lround(p.left_x));
+    const int y = static_cast<int>(std::lround(p.left_y));
+    if (x < 1 || y < 1 || x >= truth.cols - 1 || y >= truth.rows - 1) continue;
+    cv::Mat patch = truth(cv::Rect(x - 1, y - 1, 3, 3));
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(patch, &lo, &hi);
+    // Skip occlusion edges (grazing ground changes range by a few % per pixel at 20 m).
+    if (!std::isfinite(lo) || !std::isfinite(hi) || hi - lo > 0.1 * lo) continue;
+    const Eigen::Vector3d ray = f.cameras[0].Unproject(Eigen::Vector2d(p.left_x, p.left_y));
+    cv::Mat sample;  // Bilinear truth at the point's own pixel.
+    cv::getRectSubPix(truth, cv::Size(1, 1), cv::Point2f(p.left_x, p.left_y), sample, CV_32F);
+    const double truth_range = sample.at<float>(0, 0);
+    const double range = (p.position - f.cameras[0].c).dot(ray);
+    for (int bin = 0; bin < 4; ++bin) {
+      if (truth_range >= edges[bin] && truth_range < edges[bin + 1]) {
+        const double sigma = truth_range * truth_range * 0.5 / (b * focal);
+        sum_sq[bin] += (range - truth_range) * (range - truth_range);
+        sum_sigma_sq[bin] += sigma * sigma;
+        ++count[bin];
+      }
+    }
+    // The covariance is eq. 4.3 along the line of sight.
+    const Eigen::Vector3d los = (p.position - result.cloud.camera_center).normalized();
+    const double r = (p.position - result.cloud.camera_center).norm();
+    EXPECT_NEAR(std::sqrt(los.dot(p.covariance * los)), r * r * 0.5 / (b * focal), 1e-9);
+  }
+  for (int bin = 0; bin < 4; ++bin) {
+    const double rms = std::sqrt(sum_sq[bin] / std::max(1, count[bin]));
+    const double sigma = std::sqrt(sum_sigma_sq[bin] / std::max(1, count[bin]));
+    ::testing::Test::RecordProperty("bin_" + std::to_string(bin) + "_points",
+                                    std::to_string(count[bin]));
+    ::testing::Test::RecordProperty("bin_" + std::to_string(bin) + "_rms_over_sigma",
+                                    std::to_string(rms / sigma));
+    std::printf(
+        "range %4.0f-%4.0f m: %7d points, RMS range error %.4f m, sigma_r %.4f m, "
+        "ratio %.2f\n",
+        edges[bin], edges[bin + 1], count[bin], rms, sigma, rms / sigma);
+    ASSERT_GT(count[bin], 300) << "bin " << bin;
+    EXPECT_LT(rms, 1.5 * sigma) << "range bin " << edges[bin] << "-" << edges[bin + 1] << " m";
+  }
+  for (const StereoPoint& p : result.cloud.points) {
+    ASSERT_LE((p.position - result.cloud.camera_center).norm(), options.max_range_m + 1e-9);
+  }
+}
+
+TEST(DenseStereo, BadPairsAreRejectedWithClearErrors) {
+  const RenderedPair& f = Pair();
+  const DenseStereoOptions options;
+  cv::Mat smaller;
+  cv::resize(f.images[1].dn, smaller, cv::Size(256, 256));
+  std::string message = testing::ErrorMessageOf(
+      [&] { RunDenseStereo(f.images[0].dn, smaller, f.File(0), f.File(1), options); });
+  EXPECT_NE(message.find("image sizes differ: 512x512 (left) vs 256x256 (right)"),
+            std::string::npos)
+      << message;
+
+  CameraFile away = f.File(1);  // The right camera turned 90 degrees: no common view.
+  const Rigid3d turn(Eigen::Matrix3d(Eigen::AngleAxisd(RadFromDeg(90.0), Eigen::Vector3d::UnitZ())),
+                     Eigen::Vector3d::Zero());
+  const Eigen::Vector3d c = f.cameras[1].c;
+  away.model =
+      CameraModel(f.cameras[1].Transformed(Rigid3d(Eigen::Quaterniond::Identity(), c) * turn *
+                                           Rigid3d(Eigen::Quaterniond::Identity(), -c)));
+  message = testing::ErrorMessageOf(
+      [&] { RunDenseStereo(f.images[0].dn, f.images[1].dn, f.File(0), away, options); });
+  EXPECT_NE(message.find("overlap"), std::string::npos) << message;
+
+  message = testing::ErrorMessageOf(
+      [&] { RunDenseStereo(f.images[1].dn, f.images[0].dn, f.File(1), f.File(0), options); });
+  EXPECT_NE(message.find("are the images swapped?"), std::string::npos) << message;
+
+  CameraFile other_frame = f.File(1);
+  other_frame.frame = "SITE_FRAME";
+  message = testing::ErrorMessageOf(
+      [&] { RunDenseStereo(f.images[0].dn, f.images[1].dn, f.File(0), other_frame, options); });
+  EXPECT_NE(message.find("different frames"), std::string::npos) << message;
+
+  DenseStereoOptions bad = options;
+  bad.block_size = 4;
+  message = testing::ErrorMessageOf(
+      [&] { RunDenseStereo(f.images[0].dn, f.images[1].dn, f.File(0), f.File(1), bad); });
+  EXPECT_NE(message.find("DenseStereoOptions.block_size"), std::string::npos) << message;
+}
+
+}  // namespace
+}  // namespace areomap
