@@ -16,25 +16,6 @@ void Report(const ProgressCallback& progress, double fraction, std::string_view 
   if (progress && !progress(fraction, stage)) throw Error("DTM cancelled");
 }
 
-// The window of `grid` holding [min, max], or std::nullopt if they do not meet.
-std::optional<GridSpec> WindowOf(const GridSpec& grid, const Eigen::Vector2d& min,
-                                 const Eigen::Vector2d& max) {
-  const int col0 =
-      std::max(0, static_cast<int>(std::floor((min.x() - grid.x_left) / grid.posting)));
-  const int col1 = std::min(grid.width - 1,
-                            static_cast<int>(std::floor((max.x() - grid.x_left) / grid.posting)));
-  const int row0 = std::max(0, static_cast<int>(std::floor((grid.y_top - max.y()) / grid.posting)));
-  const int row1 = std::min(grid.height - 1,
-                            static_cast<int>(std::floor((grid.y_top - min.y()) / grid.posting)));
-  if (col0 > col1 || row0 > row1) return std::nullopt;
-  GridSpec window = grid;
-  window.x_left = grid.x_left + col0 * grid.posting;
-  window.y_top = grid.y_top - row0 * grid.posting;
-  window.width = col1 - col0 + 1;
-  window.height = row1 - row0 + 1;
-  return window;
-}
-
 }  // namespace
 
 void DtmOptions::Check() const {
@@ -87,12 +68,8 @@ GriddedLayers MergeGriddedLayers(const std::vector<GriddedLayers>& sites, const 
   cv::Mat weighted(grid.height, grid.width, CV_64F, cv::Scalar(0.0));
   cv::Mat best_weight(grid.height, grid.width, CV_64F, cv::Scalar(0.0));
   for (const GriddedLayers& site : sites) {
-    const int col0 = static_cast<int>(std::lround((site.grid.x_left - grid.x_left) / grid.posting));
-    const int row0 = static_cast<int>(std::lround((grid.y_top - site.grid.y_top) / grid.posting));
-    if (std::abs(site.grid.posting - grid.posting) > 1e-9 * grid.posting || col0 < 0 || row0 < 0 ||
-        col0 + site.grid.width > grid.width || row0 + site.grid.height > grid.height) {
-      throw Error("DTM merge: a site's grid is not a window of the common grid");
-    }
+    const Eigen::Vector2i offset = site.grid.OffsetIn(grid);
+    const int col0 = offset.x(), row0 = offset.y();
     tbb::parallel_for(0, site.grid.height, [&](int r) {
       for (int c = 0; c < site.grid.width; ++c) {
         const int row = row0 + r, col = col0 + c;
@@ -151,7 +128,7 @@ Dtm MakeDtm(const std::vector<SiteCloud>& sites, const MapFrame& map, const DtmO
       options.grid ? *options.grid : GridSpec::Covering(min, max, options.posting_m);
   std::vector<GriddedLayers> layers;
   for (size_t s = 0; s < sites.size(); ++s) {
-    const std::optional<GridSpec> window = WindowOf(grid, bounds[s].first, bounds[s].second);
+    const std::optional<GridSpec> window = grid.Window(bounds[s].first, bounds[s].second);
     if (!window) continue;
     const double from = 0.1 + 0.8 * static_cast<double>(s) / static_cast<double>(sites.size());
     const double to = 0.1 + 0.8 * static_cast<double>(s + 1) / static_cast<double>(sites.size());

@@ -361,6 +361,34 @@ GeoTransform GridSpec::Transform() const {
   return GeoTransform::NorthUp(x_left, y_top, posting, posting);
 }
 
+std::optional<GridSpec> GridSpec::Window(const Eigen::Vector2d& min,
+                                         const Eigen::Vector2d& max) const {
+  const double col0 = std::max(0.0, std::floor((min.x() - x_left) / posting));
+  const double col1 = std::min(width - 1.0, std::floor((max.x() - x_left) / posting));
+  const double row0 = std::max(0.0, std::floor((y_top - max.y()) / posting));
+  const double row1 = std::min(height - 1.0, std::floor((y_top - min.y()) / posting));
+  if (!(col0 <= col1 && row0 <= row1)) return std::nullopt;
+  GridSpec window = *this;
+  window.x_left = x_left + col0 * posting;
+  window.y_top = y_top - row0 * posting;
+  window.width = static_cast<int>(col1 - col0) + 1;
+  window.height = static_cast<int>(row1 - row0) + 1;
+  return window;
+}
+
+Eigen::Vector2i GridSpec::OffsetIn(const GridSpec& parent) const {
+  const double col = (x_left - parent.x_left) / parent.posting;
+  const double row = (parent.y_top - y_top) / parent.posting;
+  const Eigen::Vector2i offset(static_cast<int>(std::lround(col)),
+                               static_cast<int>(std::lround(row)));
+  if (std::abs(posting - parent.posting) > 1e-9 * parent.posting ||
+      std::abs(col - offset.x()) > 1e-6 || std::abs(row - offset.y()) > 1e-6 || offset.x() < 0 ||
+      offset.y() < 0 || offset.x() + width > parent.width || offset.y() + height > parent.height) {
+    throw Error("grid: not a window of the common grid (posting or alignment differ)");
+  }
+  return offset;
+}
+
 Eigen::Vector2d GridSpec::CellCenter(int col, int row) const {
   return {x_left + (col + 0.5) * posting, y_top - (row + 0.5) * posting};
 }

@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include <gtest/gtest.h>
 
@@ -128,6 +129,88 @@ TEST(Dtm, TinErrorMatchesPropagatedSigmaPerRangeBin) {
     EXPECT_LT(rms_error, 1.5 * rms_sigma) << "bin " << b;
     EXPECT_GT(rms_error, rms_sigma / 1.5) << "bin " << b;
   }
+}
+
+// Two overlapping sites merged with inverse-variance weights: coverage is the union, and where
+// both see the ground the merged error is no worse than the better site's sigma allows.
+TEST(Dtm, MergesSitesWithInverseVarianceWeights) {
+  const SimulatedMission m;
+  const Eigen::Vector2d a(0.0, 0.0), b(12.0, 0.0);
+  const PointCloud cloud_a = SimulatedCloud(m, a, 0, 45.0, 135.0);
+  const PointCloud cloud_b = SimulatedCloud(m, b, 1, 225.0, 315.0);
+  DtmOptions options;
+  options.posting_m = 0.2;
+  const Dtm merged = MakeDtm({{&cloud_a, m.Site(a)}, {&cloud_b, m.Site(b)}}, m.map, options);
+  const Dtm only_a = MakeDtm({{&cloud_a, m.Site(a)}}, m.map, options);
+  const Dtm only_b = MakeDtm({{&cloud_b, m.Site(b)}}, m.map, options);
+  EXPECT_GT(merged.layers.known_cells, only_a.layers.known_cells);
+  EXPECT_GT(merged.layers.known_cells, only_b.layers.known_cells);
+  EXPECT_LE(merged.layers.known_cells, only_a.layers.known_cells + only_b.layers.known_cells);
+  double squared_error = 0.0, squared_sigma = 0.0;
+  int cells = 0;
+  const GriddedLayers& l = merged.layers;
+  for (int row = 0; row < l.grid.height; ++row) {
+    for (int col = 0; col < l.grid.width; ++col) {
+      const float z = l.elevation.at<float>(row, col);
+      if (!std::isfinite(z)) continue;
+      const double truth = m.Truth(l.grid.CellCenter(col, row), z).first;
+      squared_error += (z - truth) * (z - truth);
+      squared_sigma += l.sigma.at<float>(row, col) * l.sigma.at<float>(row, col);
+      ++cells;
+    }
+  }
+  ASSERT_GT(cells, 1000);
+  const double ratio = std::sqrt(squared_error / squared_sigma);
+  std::printf("merged: %d cells, RMS error / RMS sigma = %.2f\n", cells, ratio);
+  EXPECT_LT(ratio, 1.5);
+  EXPECT_GT(ratio, 1.0 / 1.5);
+  // The counts add up.
+  EXPECT_EQ(cv::sum(l.count)[0], cloud_a.points.size() + cloud_b.points.size());
+}
+
+TEST(Dtm, WritesAGeoTiffWithTheMarsCrsAndNodata) {
+  const SimulatedMission m;
+  const PointCloud cloud = SimulatedCloud(m, {0.0, 0.0}, 0, 80.0, 100.0);
+  DtmOptions options;
+  options.posting_m = 0.25;
+  const Dtm dtm = MakeDtm({{&cloud, m.Site({0.0, 0.0})}}, m.map, options);
+  testing::TempDir dir;
+  WriteDtm(dir.path() / "dtm.tif", dtm);
+  const RasterDataset dataset = RasterDataset::Open(dir.path() / "dtm.tif");
+  EXPECT_EQ(dataset.info().band_count, 4);
+  EXPECT_EQ(dataset.info().width, dtm.layers.grid.width);
+  ASSERT_TRUE(dataset.info().nodata.has_value());
+  EXPECT_TRUE(std::isnan(*dataset.info().nodata));
+  const CrsDescription crs = Crs::FromWkt(dataset.info().crs_wkt, "dtm.tif").Describe();
+  EXPECT_TRUE(crs.is_mars);
+  EXPECT_TRUE(crs.is_projected);
+  const cv::Mat elevation = dataset.ReadWindowFloat(1, dataset.FullWindow());
+  int known = 0;
+  for (int row = 0; row < elevation.rows; ++row) {
+    for (int col = 0; col < elevation.cols; ++col) {
+      known += std::isfinite(elevation.at<float>(row, col)) ? 1 : 0;
+    }
+  }
+  EXPECT_EQ(known, dtm.layers.known_cells);
+  EXPECT_LT(known, elevation.rows * elevation.cols);  // A 20 degree wedge leaves nodata.
+}
+
+TEST(Dtm, RejectsEmptyAndNonFiniteClouds) {
+  const SimulatedMission m;
+  PointCloud empty;
+  empty.frame = "SITE_FRAME site 4";
+  EXPECT_NE(testing::ErrorMessageOf([&] {
+              MakeDtm({{&empty, m.Site({0.0, 0.0})}}, m.map, DtmOptions{});
+            }).find("SITE_FRAME site 4"),
+            std::string::npos);
+  PointCloud bad = SimulatedCloud(m, {0.0, 0.0}, 0, 80.0, 82.0);
+  bad.points[3].position.y() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(testing::ErrorMessageOf([&] {
+              MakeDtm({{&bad, m.Site({0.0, 0.0})}}, m.map, DtmOptions{});
+            }),
+            "");
+  EXPECT_NE(testing::ErrorMessageOf([&] { MakeDtm({}, m.map, DtmOptions{}); }).find("no point"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -28,6 +28,7 @@
 // grid are ignored.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -55,6 +56,12 @@ struct GridSpec {
   // The smallest grid with cell edges on multiples of `posting` covering [min, max] (x, y).
   static GridSpec Covering(const Eigen::Vector2d& min, const Eigen::Vector2d& max, double posting);
   GeoTransform Transform() const;
+  // The window of this grid (same posting, aligned) holding the cells that meet [min, max],
+  // or std::nullopt if none does.
+  std::optional<GridSpec> Window(const Eigen::Vector2d& min, const Eigen::Vector2d& max) const;
+  // (col, row) of this grid's first cell in `parent`, which it must be a window of; throws
+  // areomap::Error otherwise.
+  Eigen::Vector2i OffsetIn(const GridSpec& parent) const;
   Eigen::Vector2d CellCenter(int col, int row) const;
   void Check() const;  // Throws areomap::Error naming the field.
 };
