@@ -515,7 +515,7 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
     const Level& last = levels.back();
     const int next_scale = last.scale * 2;
     if (kCoarseMinRadius * next_scale > max_radius * 1.25) break;
-    if (std::min(last.image.cols, last.image.rows) / 2 < 4 * static_cast<int>(kCoarseMinRadius)) {
+    if (std::min(last.image.cols, last.image.rows) / 2 < 3 * static_cast<int>(kCoarseMinRadius)) {
       break;
     }
     Level next;

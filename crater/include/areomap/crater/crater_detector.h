@@ -84,11 +84,13 @@ struct CraterDetectorOptions {
   double min_shading_contrast = 2.5;
   // Rim edges must be a sharp break: mean edge strength >= this x the high Canny threshold.
   double min_edge_contrast = 2.0;
-  double min_depth_ratio = 0.03;  // DTM: signature threshold [height unit / px]
-  double max_axis_ratio = 1.6;    // a / b
-  double dtm_posting = 1.0;       // DTM: ground size of a pixel in height units
-  int tile_size = 2048;           // DetectCratersInRaster: tile core edge [px]
-  int tile_overlap = 256;         // and margin [px]; bounds in-tile diameters
+  // DTM: signature threshold [height unit / px]; fresh simple craters have depth/diameter
+  // about 0.2, degraded ones down to about 0.05.
+  double min_depth_ratio = 0.06;
+  double max_axis_ratio = 1.6;  // a / b
+  double dtm_posting = 1.0;     // DTM: ground size of a pixel in height units
+  int tile_size = 2048;         // DetectCratersInRaster: tile core edge [px]
+  int tile_overlap = 256;       // and margin [px]; bounds in-tile diameters
 
   void Check() const;  // throws areomap::Error naming the bad field
 };
