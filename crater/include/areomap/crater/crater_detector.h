@@ -1,0 +1,116 @@
+// Multi-crater detection: rim edges -> arcs -> ellipse hypotheses -> robust fit -> validation.
+//
+// Pipeline (per pyramid level, each level halving the resolution by 2x2 box averaging):
+//  1. Rim edges (rim_edges.h): sub-pixel Canny edges with gradient direction for an image,
+//     curvature crests for a DTM.
+//  2. Arcs: 8-connected edge pixels whose normals lie within a 90 degree window (12 overlapping
+//     windows, so a rim falls into several arcs). Each arc estimates its circle centre as the
+//     least-squares intersection of its normals, its radius and its polarity (gradient pointing
+//     out of or into the circle). With a known sun, arcs whose polarity contradicts the shading
+//     of a bowl (brightness must rise towards the sun across the rim, ch. 2.2.1) are dropped:
+//     this removes the shadow edge on the floor and positive relief (mounds).
+//  3. Hypotheses: arcs whose centres and radii agree are grouped; the group's points seed
+//     FitEllipseDirect (OpenCV's direct least squares). A trimmed robust loop then gathers all
+//     edges near the ellipse with a normal aligned to it, refits, and repeats; the final fit is
+//     the orthogonal-distance fit with a Huber loss (RefineEllipseGeometric, Ceres).
+//  4. Validation: rim edge coverage (EdgeCoverage), fit residual, and the signature of a bowl:
+//     for an image with known sun azimuth the inner wall facing the sun must be brighter than
+//     the one facing away; for a DTM the interior must lie below the rim.
+//  5. Detections from coarse levels are refined down the pyramid on the finer levels' edges;
+//     duplicates (within or across levels) are suppressed keeping the most confident.
+//
+// Frame: pixel coordinates of the input, GDAL convention (pixel (col, row) covers
+// [col, col + 1) x [row, row + 1)), x right, y down; lengths in pixels, angles in radians from
+// +x towards +y. Sun azimuth: degrees clockwise from the image's up direction (north for a
+// north-up map), towards the sun.
+//
+// Failure: bad options throw areomap::Error naming the field. Image content never throws: an
+// image without craters, a constant image or one full of nodata gives an empty result.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "areomap/crater/ellipse.h"
+#include "areomap/crater/rim_edges.h"
+#include "areomap/map/progress.h"
+
+namespace areomap {
+
+enum class RimSource {
+  kImage,  // brightness: Canny edges, shading signature when the sun azimuth is known
+  kDtm,    // heights: curvature crests, depth signature
+};
+
+struct CraterDetection {
+  Ellipse ellipse;  // rim crest [px]
+  // 1-sigma from the geometric fit's covariance [px, rad]; NaN where not available.
+  double center_x_sigma = 0.0;
+  double center_y_sigma = 0.0;
+  double semi_major_sigma = 0.0;
+  double semi_minor_sigma = 0.0;
+  double angle_sigma = 0.0;
+  double rms_residual = 0.0;  // RMS orthogonal distance of the rim edges [px]
+  double efs = 0.0;           // Ellipse-Fit-Similarity, eq. 2.1
+  double coverage = 0.0;      // fraction of 36 rim sectors holding an edge within 1.5 px
+  // Image: (inner wall facing the sun - wall facing away) / surroundings' std; DTM: (mean rim
+  // height - mean height inside half the radius) / diameter [height unit per px]. NaN for an
+  // image without sun azimuth.
+  double signature = 0.0;
+  // Image with sun: correlation of the interior brightness with a bowl's shading pattern
+  // (-cos of the angle to the sun) in [-1, 1]; NaN otherwise.
+  double shading_correlation = 0.0;
+  double confidence = 0.0;  // in [0, 1]: coverage x signature strength x fit quality
+  bool partial = false;     // coverage < 0.6 or the rim leaves the raster
+  int num_edge_points = 0;
+  double edge_contrast = 0.0;  // mean strength of the rim edges / the high Canny threshold  //
+                               // edges used by the final fit
+  int pyramid_level = 0;       // level where the crater was found (0 = full resolution)
+
+  double Diameter() const { return ellipse.semi_major + ellipse.semi_minor; }  // [px]
+};
+
+struct CraterDetectorOptions {
+  double min_diameter_px = 8.0;           // rim diameter a + b [px], >= 4
+  double max_diameter_px = 0.0;           // 0: no limit besides the raster size
+  std::optional<double> sun_azimuth_deg;  // image only; enables the shading checks
+  EdgeOptions edges;
+  double min_coverage = 0.4;  // of 36 rim sectors
+  // Image with sun: signature threshold. A fresh crater's walls (slopes of 25-40 degrees) are
+  // several times brighter/darker than gently rolling plains; 2.5 keeps shallow depressions of
+  // the background out.
+  double min_shading_contrast = 2.5;
+  // Rim edges must be a sharp break: mean edge strength >= this x the high Canny threshold.
+  double min_edge_contrast = 2.0;
+  // DTM: signature threshold [height unit / px]; fresh simple craters have depth/diameter
+  // about 0.2, degraded ones down to about 0.05.
+  double min_depth_ratio = 0.06;
+  double max_axis_ratio = 1.6;  // a / b
+  double dtm_posting = 1.0;     // DTM: ground size of a pixel in height units
+  int tile_size = 2048;         // DetectCratersInRaster: tile core edge [px]
+  int tile_overlap = 256;       // and margin [px]; bounds in-tile diameters
+
+  void Check() const;  // throws areomap::Error naming the bad field
+};
+
+// Detects craters in one in-memory raster (single band, any depth, NaN = nodata). Sorted by
+// decreasing confidence. Progress per pyramid level; cancelling throws areomap::Error.
+std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource source,
+                                           const CraterDetectorOptions& options = {},
+                                           const ProgressCallback& progress = nullptr);
+
+// Re-fits one crater on `raster` starting from `initial` [px of `raster`]: edges near the
+// ellipse, trimmed direct fit, geometric fit, validation. nullopt when it does not validate.
+std::optional<CraterDetection> RefineCrater(const cv::Mat& raster, RimSource source,
+                                            const Ellipse& initial,
+                                            const CraterDetectorOptions& options = {});
+
+// Suppresses duplicates, keeping the more confident of two detections when their centres are
+// closer than half the smaller mean radius and their diameters agree within 30 %, or when one is
+// concentric (centre distance < 0.3 x the larger radius) with diameters within a factor 1.6 (the
+// floor or shadow edge inside a rim). Sorted by decreasing confidence.
+std::vector<CraterDetection> SuppressDuplicateCraters(std::vector<CraterDetection> detections);
+
+}  // namespace areomap

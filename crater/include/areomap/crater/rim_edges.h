@@ -1,0 +1,55 @@
+// Rim edge points for crater detection: sub-pixel Canny edges of an image (gradient direction
+// kept) and crest (ridge) points of a DTM from its curvature (Bue & Stepinski 2007, ch. 2.2.1).
+//
+// Frame: pixel coordinates of the input raster in GDAL's convention (pixel (col, row) covers
+// [col, col + 1) x [row, row + 1), its centre is (col + 0.5, row + 0.5)), x right, y down.
+// Non-finite input pixels (nodata holes) never produce edges, nor do pixels next to them.
+// Nothing here throws for image content; a constant or empty image gives no edges.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace areomap {
+
+struct RimEdgePoint {
+  float x = 0.0f;         // sub-pixel position [px]
+  float y = 0.0f;         // [px]
+  float nx = 0.0f;        // unit normal: image gradient direction (towards brighter), or for a DTM
+  float ny = 0.0f;        // crest the direction of strongest downward curvature (sign arbitrary)
+  float strength = 0.0f;  // gradient magnitude [DN/px] or -curvature [m/px^2]
+};
+
+struct RimEdges {
+  std::vector<RimEdgePoint> points;
+  cv::Mat index;          // CV_32S, raster size: index into `points` of the edge at that pixel, -1
+  bool signed_normals;    // true for image edges (polarity known), false for DTM crests
+  double high_threshold;  // automatic hysteresis thresholds used [strength unit]
+  double low_threshold;
+};
+
+struct EdgeOptions {
+  double smoothing_sigma_px = 0.8;  // Gaussian pre-smoothing [px] (> 0)
+  // Automatic hysteresis thresholds: high = max(high_quantile of the strength over valid pixels,
+  // noise_factor x the Rayleigh noise level from the median strength); low = low_ratio x high.
+  double high_quantile = 0.80;
+  double noise_factor = 2.5;
+  double low_ratio = 0.45;
+
+  void Check() const;  // throws areomap::Error naming the bad field
+};
+
+// Canny on a single-band image (any depth; NaN = nodata) with thresholds chosen from the
+// image's own gradient statistics, edges localised to sub-pixel along the gradient by a
+// parabola through the magnitude, gradient direction kept.
+RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& options = {});
+
+// Crest points of a DTM (heights, NaN = nodata): pixels where the Hessian's most negative
+// eigenvalue (profile curvature across a rim) is a local maximum of -curvature along its
+// eigenvector, above automatic hysteresis thresholds and on a slope break. `posting` only scales
+// `strength` into metres.
+RimEdges DetectDtmCrests(const cv::Mat& dtm, double posting, const EdgeOptions& options = {});
+
+}  // namespace areomap

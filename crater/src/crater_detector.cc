@@ -1,0 +1,592 @@
+#include "areomap/crater/crater_detector.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <unordered_map>
+
+#include <tbb/parallel_for.h>
+#include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
+
+#include "areomap/crater/ellipse_fit.h"
+#include "areomap/map/error.h"
+
+namespace areomap {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Radii [level px] searched at each pyramid level: level 0 from the minimum diameter, coarser
+// levels from kCoarseMinRadius; consecutive levels overlap (16-20 px at level 0 = 8-10 at 1).
+constexpr double kLevelMaxRadius = 20.0;
+constexpr double kCoarseMinRadius = 8.0;
+constexpr int kSectors = 12;   // 30 degree normal-direction sectors
+constexpr int kArcWindow = 3;  // sectors per arc window (90 degrees)
+constexpr int kMinArcPoints = 5;
+constexpr int kCoverageBins = 36;
+constexpr double kCoverageDistance = 1.5;  // [px]
+
+struct Level {
+  cv::Mat image;  // CV_32F, NaN = nodata
+  RimEdges edges;
+  int scale = 1;  // level px = scale full px
+};
+
+struct Arc {
+  Eigen::Vector2d center;
+  double radius = 0.0;
+  int polarity = 0;  // +1: normals point out of the circle
+  std::vector<int> points;
+};
+
+Eigen::Vector2d Pos(const RimEdgePoint& p) { return {p.x, p.y}; }
+Eigen::Vector2d Normal(const RimEdgePoint& p) { return {p.nx, p.ny}; }
+
+// Unit vector towards the sun in pixel coordinates (x right, y down), azimuth clockwise from up.
+std::optional<Eigen::Vector2d> SunVector(const CraterDetectorOptions& o, RimSource source) {
+  if (source != RimSource::kImage || !o.sun_azimuth_deg) return std::nullopt;
+  const double az = *o.sun_azimuth_deg * kPi / 180.0;
+  return Eigen::Vector2d(std::sin(az), -std::cos(az));
+}
+
+int SectorOf(const RimEdgePoint& p, bool signed_normals) {
+  double angle = std::atan2(p.ny, p.nx);
+  if (!signed_normals) angle = std::fmod(angle + 2.0 * kPi, kPi) * 2.0;  // fold to 180, spread
+  const int s = static_cast<int>(std::floor((angle + kPi) / (2.0 * kPi) * kSectors));
+  return std::clamp(s, 0, kSectors - 1);
+}
+
+std::optional<Arc> FitArc(const RimEdges& edges, std::vector<int> members, double r_lo, double r_hi,
+                          const std::optional<Eigen::Vector2d>& sun) {
+  Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d b = Eigen::Vector2d::Zero();
+  for (int i : members) {
+    const Eigen::Vector2d n = Normal(edges.points[i]);
+    const Eigen::Matrix2d projector = Eigen::Matrix2d::Identity() - n * n.transpose();
+    a += projector;
+    b += projector * Pos(edges.points[i]);
+  }
+  const double count = static_cast<double>(members.size());
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(a);
+  if (eig.eigenvalues()(0) / count < 0.02) return std::nullopt;  // arc spans < ~40 degrees
+  Arc arc;
+  arc.center = a.ldlt().solve(b);
+  double sum = 0.0, sum2 = 0.0, radial = 0.0;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (int i : members) {
+    const Eigen::Vector2d d = Pos(edges.points[i]) - arc.center;
+    const double r = d.norm();
+    sum += r;
+    sum2 += r * r;
+    radial += r > 0.0 ? Normal(edges.points[i]).dot(d) / r : 0.0;
+    mean += Pos(edges.points[i]);
+  }
+  arc.radius = sum / count;
+  const double spread = std::sqrt(std::max(0.0, sum2 / count - arc.radius * arc.radius));
+  radial /= count;
+  if (arc.radius < 0.7 * r_lo || arc.radius > 1.3 * r_hi) return std::nullopt;
+  if (spread > 0.15 * arc.radius + 0.5 || std::abs(radial) < 0.8) return std::nullopt;
+  arc.polarity = radial > 0.0 ? 1 : -1;
+  if (sun) {
+    const Eigen::Vector2d direction = (mean / count - arc.center).normalized();
+    // A bowl's rim is brighter on the sunward side of the edge everywhere.
+    if (arc.polarity * direction.dot(*sun) < -0.25) return std::nullopt;
+  }
+  arc.points = std::move(members);
+  return arc;
+}
+
+std::vector<Arc> ExtractArcs(const RimEdges& edges, double r_lo, double r_hi,
+                             const std::optional<Eigen::Vector2d>& sun) {
+  const int n = static_cast<int>(edges.points.size());
+  std::vector<int> sector(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) sector[i] = SectorOf(edges.points[i], edges.signed_normals);
+  std::vector<std::vector<Arc>> per_window(kSectors);
+  tbb::parallel_for(0, kSectors, [&](int window) {
+    const auto in_window = [&](int s) { return (s - window + kSectors) % kSectors < kArcWindow; };
+    std::vector<char> visited(static_cast<size_t>(n), 0);
+    std::vector<int> stack;
+    for (int seed = 0; seed < n; ++seed) {
+      if (visited[seed] || !in_window(sector[seed])) continue;
+      std::vector<int> members;
+      stack.assign(1, seed);
+      visited[seed] = 1;
+      while (!stack.empty()) {
+        const int i = stack.back();
+        stack.pop_back();
+        members.push_back(i);
+        const int col = static_cast<int>(edges.points[i].x);
+        const int row = static_cast<int>(edges.points[i].y);
+        for (int dr = -1; dr <= 1; ++dr) {
+          const int r = row + dr;
+          if (r < 0 || r >= edges.index.rows) continue;
+          const int* index = edges.index.ptr<int>(r);
+          for (int dc = -1; dc <= 1; ++dc) {
+            const int c = col + dc;
+            if (c < 0 || c >= edges.index.cols) continue;
+            const int j = index[c];
+            if (j < 0 || visited[j] || !in_window(sector[j])) continue;
+            visited[j] = 1;
+            stack.push_back(j);
+          }
+        }
+      }
+      if (static_cast<int>(members.size()) < kMinArcPoints) continue;
+      if (auto arc = FitArc(edges, std::move(members), r_lo, r_hi, sun)) {
+        per_window[window].push_back(std::move(*arc));
+      }
+    }
+  });
+  std::vector<Arc> arcs;
+  for (auto& w : per_window) {
+    for (Arc& a : w) arcs.push_back(std::move(a));
+  }
+  return arcs;
+}
+
+// Groups arcs whose circles agree; each group lists arc indices, seeds first.
+std::vector<std::vector<int>> GroupArcs(const std::vector<Arc>& arcs, double r_hi) {
+  std::vector<int> order(arcs.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::sort(order.begin(), order.end(),
+            [&](int x, int y) { return arcs[x].points.size() > arcs[y].points.size(); });
+  const double cell = 0.35 * r_hi + 2.0;
+  const auto key = [&](const Eigen::Vector2d& c) {
+    const int64_t gx = static_cast<int64_t>(std::floor(c.x() / cell));
+    const int64_t gy = static_cast<int64_t>(std::floor(c.y() / cell));
+    return (gx << 32) ^ (gy & 0xffffffff);
+  };
+  std::unordered_map<int64_t, std::vector<int>> grid;
+  for (size_t i = 0; i < arcs.size(); ++i) grid[key(arcs[i].center)].push_back(static_cast<int>(i));
+  std::vector<char> used(arcs.size(), 0);
+  std::vector<std::vector<int>> groups;
+  for (int seed : order) {
+    if (used[seed]) continue;
+    const Arc& s = arcs[seed];
+    std::vector<int> group{seed};
+    used[seed] = 1;
+    const double tolerance = 0.25 * s.radius + 1.5;
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        const auto it = grid.find(key(s.center + Eigen::Vector2d(dx * cell, dy * cell)));
+        if (it == grid.end()) continue;
+        for (int j : it->second) {
+          if (j == seed) continue;
+          const Arc& o = arcs[j];
+          if ((o.center - s.center).norm() > tolerance) continue;
+          if (std::abs(o.radius / s.radius - 1.0) > 0.25) continue;
+          group.push_back(j);
+          used[j] = 1;
+        }
+      }
+    }
+    groups.push_back(std::move(group));
+  }
+  return groups;
+}
+
+// Edges within `tolerance` of the ellipse whose normals are aligned with its normal and, with a
+// sun, whose polarity fits a bowl.
+std::vector<Eigen::Vector2d> GatherSupport(const RimEdges& edges, const Ellipse& e,
+                                           double tolerance,
+                                           const std::optional<Eigen::Vector2d>& sun,
+                                           double* mean_strength = nullptr) {
+  double strength_sum = 0.0;
+  std::vector<Eigen::Vector2d> support;
+  const double reach = e.semi_major + tolerance + 1.0;
+  const int c0 = std::max(0, static_cast<int>(std::floor(e.center.x() - reach)));
+  const int c1 = std::min(edges.index.cols - 1, static_cast<int>(std::ceil(e.center.x() + reach)));
+  const int r0 = std::max(0, static_cast<int>(std::floor(e.center.y() - reach)));
+  const int r1 = std::min(edges.index.rows - 1, static_cast<int>(std::ceil(e.center.y() + reach)));
+  const double cs = std::cos(e.angle), sn = std::sin(e.angle);
+  const double a2 = e.semi_major * e.semi_major, b2 = e.semi_minor * e.semi_minor;
+  for (int r = r0; r <= r1; ++r) {
+    const int* index = edges.index.ptr<int>(r);
+    for (int c = c0; c <= c1; ++c) {
+      if (index[c] < 0) continue;
+      const RimEdgePoint& p = edges.points[index[c]];
+      const Eigen::Vector2d d = Pos(p) - e.center;
+      const double u = cs * d.x() + sn * d.y(), v = -sn * d.x() + cs * d.y();
+      const double rho = std::sqrt(u * u / a2 + v * v / b2);
+      const double dist = d.norm();
+      if (rho <= 1e-9 || std::abs(dist - dist / rho) > tolerance) continue;
+      const Eigen::Vector2d g_local(u / a2, v / b2);
+      const Eigen::Vector2d g =
+          Eigen::Vector2d(cs * g_local.x() - sn * g_local.y(), sn * g_local.x() + cs * g_local.y())
+              .normalized();
+      const double alignment = Normal(p).dot(g);
+      if (std::abs(alignment) < 0.8) continue;
+      if (sun && (alignment > 0 ? 1.0 : -1.0) * (d / dist).dot(*sun) < -0.25) continue;
+      support.push_back(Pos(p));
+      strength_sum += p.strength;
+    }
+  }
+  if (mean_strength) {
+    *mean_strength = support.empty() ? 0.0 : strength_sum / static_cast<double>(support.size());
+  }
+  return support;
+}
+
+std::optional<Ellipse> SaneFit(const std::vector<Eigen::Vector2d>& points, const Ellipse& prior,
+                               double max_axis_ratio) {
+  const std::optional<Ellipse> fit = FitEllipseDirect(points);
+  if (!fit) return std::nullopt;
+  const double r = prior.MeanRadius();
+  if ((fit->center - prior.center).norm() > 0.35 * r + 1.0) return std::nullopt;
+  if (std::abs(fit->MeanRadius() / r - 1.0) > 0.35) return std::nullopt;
+  if (fit->semi_major > max_axis_ratio * fit->semi_minor) return std::nullopt;
+  return fit;
+}
+
+double SampleBilinear(const cv::Mat& m, double x, double y) {
+  // GDAL pixel coordinates -> OpenCV indices.
+  const double fx = x - 0.5, fy = y - 0.5;
+  const int c = static_cast<int>(std::floor(fx)), r = static_cast<int>(std::floor(fy));
+  if (c < 0 || r < 0 || c + 1 >= m.cols || r + 1 >= m.rows) return kNaN;
+  const double tx = fx - c, ty = fy - r;
+  const float* p0 = m.ptr<float>(r);
+  const float* p1 = m.ptr<float>(r + 1);
+  return (1 - ty) * ((1 - tx) * p0[c] + tx * p0[c + 1]) + ty * ((1 - tx) * p1[c] + tx * p1[c + 1]);
+}
+
+// Mean and std of `m` along ellipse rings at the given elliptical radii, split by weight sign.
+struct RingStats {
+  double sum = 0.0, sum2 = 0.0;
+  int n = 0;
+  void Add(double v) {
+    if (!std::isfinite(v)) return;
+    sum += v;
+    sum2 += v * v;
+    ++n;
+  }
+  double Mean() const { return n > 0 ? sum / n : kNaN; }
+  double Std() const { return n > 1 ? std::sqrt(std::max(0.0, sum2 / n - Mean() * Mean())) : kNaN; }
+};
+
+Eigen::Vector2d RingPoint(const Ellipse& e, double rho, double t) {
+  const Eigen::Vector2d local(rho * e.semi_major * std::cos(t), rho * e.semi_minor * std::sin(t));
+  const double cs = std::cos(e.angle), sn = std::sin(e.angle);
+  return e.center +
+         Eigen::Vector2d(cs * local.x() - sn * local.y(), sn * local.x() + cs * local.y());
+}
+
+// Image with sun: how well the interior's brightness follows a bowl lit from the sun side
+// (far wall bright, near wall dark): Pearson correlation of the samples at elliptical radii
+// 0.3-0.8 with -cos(angle to the sun), and the bright-dark contrast of the two walls over the
+// surroundings' standard deviation. DTM: (mean rim height - mean interior height) / diameter.
+struct SignatureValues {
+  double value = kNaN;        // contrast (image) or depth ratio (DTM)
+  double correlation = kNaN;  // image only
+};
+
+SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse& e,
+                          const std::optional<Eigen::Vector2d>& sun) {
+  constexpr int kSamples = 48;
+  SignatureValues out;
+  if (source == RimSource::kImage) {
+    if (!sun) return out;
+    RingStats toward, away, outside;
+    double sw = 0, sv = 0, sww = 0, svv = 0, swv = 0;
+    int n = 0;
+    for (double rho : {0.3, 0.45, 0.6, 0.75}) {
+      for (int k = 0; k < kSamples; ++k) {
+        const double t = 2.0 * kPi * k / kSamples;
+        const Eigen::Vector2d p = RingPoint(e, rho, t);
+        const double w = (p - e.center).normalized().dot(*sun);
+        const double v = SampleBilinear(raster, p.x(), p.y());
+        if (!std::isfinite(v)) continue;
+        if (w > 0.3) toward.Add(v);
+        if (w < -0.3) away.Add(v);
+        sw += -w;
+        sv += v;
+        sww += w * w;
+        svv += v * v;
+        swv += -w * v;
+        ++n;
+      }
+    }
+    for (double rho : {1.3, 1.6, 1.9}) {
+      for (int k = 0; k < kSamples; ++k) {
+        const Eigen::Vector2d p = RingPoint(e, rho, 2.0 * kPi * k / kSamples);
+        outside.Add(SampleBilinear(raster, p.x(), p.y()));
+      }
+    }
+    const double scale = outside.n > 4 ? outside.Std() : kNaN;
+    if (toward.n == 0 || away.n == 0 || !(scale > 0.0) || n < 8) return out;
+    out.value = (away.Mean() - toward.Mean()) / scale;
+    const double cov = swv / n - (sw / n) * (sv / n);
+    const double var_w = sww / n - (sw / n) * (sw / n), var_v = svv / n - (sv / n) * (sv / n);
+    out.correlation = var_w > 0 && var_v > 0 ? cov / std::sqrt(var_w * var_v) : kNaN;
+    return out;
+  }
+  RingStats rim, inner;
+  for (int k = 0; k < kSamples; ++k) {
+    const double t = 2.0 * kPi * k / kSamples;
+    const Eigen::Vector2d p = RingPoint(e, 1.0, t);
+    rim.Add(SampleBilinear(raster, p.x(), p.y()));
+    for (double rho : {0.0, 0.25, 0.5}) {
+      const Eigen::Vector2d q = RingPoint(e, rho, t);
+      inner.Add(SampleBilinear(raster, q.x(), q.y()));
+    }
+  }
+  if (rim.n == 0 || inner.n == 0) return out;
+  out.value = (rim.Mean() - inner.Mean()) / (2.0 * e.MeanRadius());
+  return out;
+}
+
+bool SignaturePasses(const SignatureValues& s, RimSource source, const CraterDetectorOptions& o) {
+  if (source == RimSource::kDtm) return s.value / o.dtm_posting >= o.min_depth_ratio;
+  if (!o.sun_azimuth_deg) return true;
+  return s.value >= o.min_shading_contrast;
+}
+
+// Fraction of 36 sectors of polar angle around the centre (in the ellipse's frame) holding a
+// point: EdgeCoverage without the distance solves, for points already near the curve.
+double AngularCoverage(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
+  std::array<bool, kCoverageBins> hit{};
+  const double cs = std::cos(e.angle), sn = std::sin(e.angle);
+  for (const Eigen::Vector2d& p : points) {
+    const Eigen::Vector2d d = p - e.center;
+    const double u = (cs * d.x() + sn * d.y()) / e.semi_major;
+    const double v = (-sn * d.x() + cs * d.y()) / e.semi_minor;
+    const double t = std::atan2(v, u) + kPi;
+    hit[static_cast<size_t>(std::clamp(static_cast<int>(t / (2.0 * kPi) * kCoverageBins), 0,
+                                       kCoverageBins - 1))] = true;
+  }
+  return static_cast<double>(std::count(hit.begin(), hit.end(), true)) / kCoverageBins;
+}
+
+// Trimmed robust loop on `edges` from `start`, then the geometric fit and validation.
+std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEdges& edges,
+                                              RimSource source, const Ellipse& start,
+                                              const CraterDetectorOptions& o) {
+  const std::optional<Eigen::Vector2d> sun = SunVector(o, source);
+  Ellipse e = start;
+  std::vector<Eigen::Vector2d> support;
+  for (int iteration = 0; iteration < 3; ++iteration) {
+    const double tolerance = std::max(1.5, (iteration == 0 ? 0.12 : 0.06) * e.MeanRadius());
+    support = GatherSupport(edges, e, tolerance, sun);
+    if (support.size() < 8) return std::nullopt;
+    const std::optional<Ellipse> fit = SaneFit(support, e, o.max_axis_ratio);
+    if (!fit) break;
+    e = *fit;
+  }
+  double mean_strength = 0.0;
+  support = GatherSupport(edges, e, std::max(1.5, 0.04 * e.MeanRadius()), sun, &mean_strength);
+  if (support.size() < 8) return std::nullopt;
+  // Cheap checks before the geometric fit: edge sharpness, bowl signature, sector coverage.
+  const double edge_contrast =
+      edges.high_threshold > 0.0 ? mean_strength / edges.high_threshold : 0.0;
+  if (edge_contrast < o.min_edge_contrast) return std::nullopt;
+  if (!SignaturePasses(Signature(raster, source, e, sun), source, o)) return std::nullopt;
+  if (AngularCoverage(e, support) < o.min_coverage) return std::nullopt;
+  GeometricFitOptions fit_options;
+  fit_options.loss = RobustLoss::kHuber;
+  fit_options.loss_scale = 0.7;
+  fit_options.max_num_iterations = 30;
+  const EllipseFitSummary summary = RefineEllipseGeometric(e, support, fit_options);
+  if (!summary.converged) return std::nullopt;
+  const Ellipse& fitted = summary.ellipse;
+  if (fitted.semi_major > o.max_axis_ratio * fitted.semi_minor) return std::nullopt;
+  if ((fitted.center - start.center).norm() > 0.4 * start.MeanRadius() + 1.0) return std::nullopt;
+  CraterDetection d;
+  d.ellipse = fitted;
+  d.center_x_sigma = summary.center_x_sigma;
+  d.center_y_sigma = summary.center_y_sigma;
+  d.semi_major_sigma = summary.semi_major_sigma;
+  d.semi_minor_sigma = summary.semi_minor_sigma;
+  d.angle_sigma = summary.angle_sigma;
+  d.rms_residual = summary.rms_residual;
+  d.num_edge_points = summary.num_points;
+  d.edge_contrast = edge_contrast;
+  d.efs = EllipseFitSimilarity(fitted, support);
+  d.coverage = EdgeCoverage(fitted, support, kCoverageDistance, kCoverageBins);
+  const SignatureValues signature = Signature(raster, source, fitted, sun);
+  d.signature = signature.value;
+  d.shading_correlation = signature.correlation;
+  if (d.coverage < o.min_coverage) return std::nullopt;
+  if (d.rms_residual > 0.08 * fitted.MeanRadius() + 0.6) return std::nullopt;
+  double strength = 1.0;
+  if (source == RimSource::kDtm) {
+    const double depth_ratio = d.signature / o.dtm_posting;
+    if (!(depth_ratio >= o.min_depth_ratio)) return std::nullopt;
+    strength = std::min(1.0, depth_ratio / (3.0 * o.min_depth_ratio));
+  } else if (sun) {
+    if (!(d.signature >= o.min_shading_contrast)) return std::nullopt;
+    strength = std::min(1.0, d.signature / (3.0 * o.min_shading_contrast));
+  }
+  const double fit_quality = std::exp(-d.rms_residual / (0.05 * fitted.MeanRadius() + 0.5));
+  d.confidence = std::clamp(d.coverage * strength * fit_quality, 0.0, 1.0);
+  const double reach = fitted.semi_major;
+  d.partial = d.coverage < 0.6 || fitted.center.x() - reach < 0 || fitted.center.y() - reach < 0 ||
+              fitted.center.x() + reach > raster.cols || fitted.center.y() + reach > raster.rows;
+  return d;
+}
+
+RimEdges EdgesOf(const cv::Mat& raster, RimSource source, const CraterDetectorOptions& o,
+                 int scale) {
+  return source == RimSource::kImage ? DetectImageEdges(raster, o.edges)
+                                     : DetectDtmCrests(raster, o.dtm_posting * scale, o.edges);
+}
+
+Ellipse Scaled(const Ellipse& e, double factor) {
+  Ellipse s = e;
+  s.center *= factor;
+  s.semi_major *= factor;
+  s.semi_minor *= factor;
+  return s;
+}
+
+void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
+  if (progress && !progress(fraction, stage)) throw Error("crater detection cancelled");
+}
+
+}  // namespace
+
+void CraterDetectorOptions::Check() const {
+  RequireOption(std::isfinite(min_diameter_px) && min_diameter_px >= 4.0,
+                "CraterDetectorOptions.min_diameter_px", ">= 4 px");
+  RequireOption(max_diameter_px == 0.0 ||
+                    (std::isfinite(max_diameter_px) && max_diameter_px >= min_diameter_px),
+                "CraterDetectorOptions.max_diameter_px", "0 (no limit) or >= min_diameter_px");
+  RequireOption(!sun_azimuth_deg || std::isfinite(*sun_azimuth_deg),
+                "CraterDetectorOptions.sun_azimuth_deg", "a finite angle in degrees");
+  edges.Check();
+  RequireOption(min_coverage >= 0.0 && min_coverage <= 1.0, "CraterDetectorOptions.min_coverage",
+                "in [0, 1]");
+  RequireOption(std::isfinite(min_shading_contrast), "CraterDetectorOptions.min_shading_contrast",
+                "finite");
+  RequireOption(std::isfinite(min_depth_ratio), "CraterDetectorOptions.min_depth_ratio", "finite");
+  RequireOption(std::isfinite(min_edge_contrast) && min_edge_contrast >= 0.0,
+                "CraterDetectorOptions.min_edge_contrast", ">= 0");
+  RequireOption(max_axis_ratio >= 1.0, "CraterDetectorOptions.max_axis_ratio", ">= 1");
+  RequireOption(std::isfinite(dtm_posting) && dtm_posting > 0.0,
+                "CraterDetectorOptions.dtm_posting", "> 0");
+  RequireOption(tile_size >= 256, "CraterDetectorOptions.tile_size", ">= 256 px");
+  RequireOption(tile_overlap >= 32 && tile_overlap <= tile_size,
+                "CraterDetectorOptions.tile_overlap", "in [32, tile_size] px");
+}
+
+std::vector<CraterDetection> SuppressDuplicateCraters(std::vector<CraterDetection> detections) {
+  std::sort(detections.begin(), detections.end(),
+            [](const CraterDetection& a, const CraterDetection& b) {
+              return a.confidence > b.confidence;
+            });
+  std::vector<CraterDetection> kept;
+  for (const CraterDetection& d : detections) {
+    const bool duplicate = std::any_of(kept.begin(), kept.end(), [&](const CraterDetection& k) {
+      const double rd = d.ellipse.MeanRadius(), rk = k.ellipse.MeanRadius();
+      const double distance = (d.ellipse.center - k.ellipse.center).norm();
+      const double lo = std::min(rd, rk), hi = std::max(rd, rk);
+      // The same rim, or a concentric inner edge (floor, shadow) of a more confident crater.
+      return (distance < 0.5 * lo && hi < 1.3 * lo) || (distance < 0.4 * hi && hi < 1.6 * lo);
+    });
+    if (!duplicate) kept.push_back(d);
+  }
+  return kept;
+}
+
+std::optional<CraterDetection> RefineCrater(const cv::Mat& raster, RimSource source,
+                                            const Ellipse& initial,
+                                            const CraterDetectorOptions& options) {
+  options.Check();
+  cv::Mat f;
+  raster.convertTo(f, CV_32F);
+  return FitAndValidate(f, EdgesOf(f, source, options, 1), source, initial, options);
+}
+
+std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource source,
+                                           const CraterDetectorOptions& o,
+                                           const ProgressCallback& progress) {
+  o.Check();
+  if (raster.channels() != 1) throw Error("crater detection: expected a single-band raster");
+  if (raster.empty()) return {};
+  const double max_radius =
+      0.5 * (o.max_diameter_px > 0.0 ? o.max_diameter_px
+                                     : static_cast<double>(std::max(raster.cols, raster.rows)));
+  const double min_radius = 0.5 * o.min_diameter_px;
+  std::vector<Level> levels;
+  levels.push_back({});
+  raster.convertTo(levels[0].image, CV_32F);
+  while (true) {
+    const Level& last = levels.back();
+    const int next_scale = last.scale * 2;
+    if (kCoarseMinRadius * next_scale > max_radius * 1.25) break;
+    if (std::min(last.image.cols, last.image.rows) / 2 < 3 * static_cast<int>(kCoarseMinRadius)) {
+      break;
+    }
+    Level next;
+    next.scale = next_scale;
+    // 2x2 box averaging keeps the GDAL pixel grid: level coordinates x 2 = finer coordinates.
+    // NaN holes stay NaN through the average.
+    const cv::Mat& src = last.image;
+    cv::Mat cropped = src(cv::Rect(0, 0, src.cols / 2 * 2, src.rows / 2 * 2));
+    cv::resize(cropped, next.image, cv::Size(src.cols / 2, src.rows / 2), 0, 0, cv::INTER_AREA);
+    levels.push_back(std::move(next));
+  }
+  const std::optional<Eigen::Vector2d> sun = SunVector(o, source);
+  std::vector<CraterDetection> all;
+  for (size_t li = 0; li < levels.size(); ++li) {
+    Level& level = levels[li];
+    level.edges = EdgesOf(level.image, source, o, level.scale);
+    const double r_lo = li == 0 ? min_radius : kCoarseMinRadius;
+    const double r_hi = std::min(kLevelMaxRadius, max_radius / level.scale * 1.1);
+    if (r_hi < r_lo * 0.8) continue;
+    const std::vector<Arc> arcs = ExtractArcs(level.edges, r_lo, r_hi, sun);
+    const std::vector<std::vector<int>> groups = GroupArcs(arcs, r_hi);
+    std::vector<std::optional<CraterDetection>> found(groups.size());
+    tbb::parallel_for(size_t{0}, groups.size(), [&](size_t g) {
+      const Arc& seed = arcs[groups[g][0]];
+      std::vector<int> indices;
+      for (int a : groups[g])
+        indices.insert(indices.end(), arcs[a].points.begin(), arcs[a].points.end());
+      std::sort(indices.begin(), indices.end());
+      indices.erase(std::unique(indices.begin(), indices.end()), indices.end());
+      std::vector<Eigen::Vector2d> points;
+      for (int i : indices) points.push_back(Pos(level.edges.points[i]));
+      const Ellipse circle{seed.center, seed.radius, seed.radius, 0.0};
+      Ellipse start = circle;
+      if (points.size() >= 12) {
+        if (auto fit = SaneFit(points, circle, o.max_axis_ratio)) start = *fit;
+      }
+      std::optional<CraterDetection> d = FitAndValidate(level.image, level.edges, source, start, o);
+      if (!d) return;
+      const double r = d->ellipse.MeanRadius();
+      if (r < 0.8 * r_lo || r > 1.25 * r_hi) return;
+      // Down the pyramid: refit on each finer level's edges.
+      for (int k = static_cast<int>(li) - 1; k >= 0 && d; --k) {
+        const Level& finer = levels[static_cast<size_t>(k)];
+        std::optional<CraterDetection> refined =
+            FitAndValidate(finer.image, finer.edges, source, Scaled(d->ellipse, 2.0), o);
+        if (!refined) {
+          d->ellipse = Scaled(d->ellipse, 2.0);  // keep the coarse fit, scaled
+          d->center_x_sigma *= 2.0;
+          d->center_y_sigma *= 2.0;
+          d->semi_major_sigma *= 2.0;
+          d->semi_minor_sigma *= 2.0;
+          d->rms_residual *= 2.0;
+        } else {
+          const double confidence = d->confidence;
+          d = refined;
+          d->confidence = std::max(confidence, d->confidence);
+        }
+      }
+      d->pyramid_level = static_cast<int>(li);
+      found[g] = d;
+    });
+    for (auto& d : found) {
+      if (d && d->Diameter() >= o.min_diameter_px * 0.9 &&
+          (o.max_diameter_px <= 0.0 || d->Diameter() <= o.max_diameter_px * 1.1)) {
+        all.push_back(*d);
+      }
+    }
+    Report(progress, static_cast<double>(li + 1) / static_cast<double>(levels.size()),
+           "craters: pyramid level");
+  }
+  return SuppressDuplicateCraters(std::move(all));
+}
+
+}  // namespace areomap

@@ -1,0 +1,226 @@
+#include "areomap/crater/rim_edges.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "areomap/map/error.h"
+
+namespace areomap {
+namespace {
+
+// Float copy with nodata filled by the mean of the valid pixels, and the mask of pixels whose
+// 5x5 neighbourhood is all valid (edges there see no filled values through a 3x3 operator on a
+// smoothed image).
+void PrepareInput(const cv::Mat& input, cv::Mat* filled, cv::Mat* usable) {
+  if (input.channels() != 1) throw Error("crater edges: expected a single-band raster");
+  input.convertTo(*filled, CV_32F);
+  cv::Mat valid;
+  cv::compare(*filled, *filled, valid, cv::CMP_EQ);  // NaN compares unequal to itself
+  cv::Mat finite = cv::abs(*filled) < std::numeric_limits<float>::infinity();
+  valid &= finite;
+  const double fill = cv::countNonZero(valid) > 0 ? cv::mean(*filled, valid)[0] : 0.0;
+  filled->setTo(fill, ~valid);
+  cv::erode(valid, *usable, cv::Mat::ones(5, 5, CV_8U), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT,
+            0);
+}
+
+float Bilinear(const cv::Mat& m, float x, float y) {
+  // (x, y) in OpenCV's index convention (pixel centre at integers), clamped inside.
+  x = std::clamp(x, 0.0f, static_cast<float>(m.cols - 1) - 1e-3f);
+  y = std::clamp(y, 0.0f, static_cast<float>(m.rows - 1) - 1e-3f);
+  const int c = static_cast<int>(x), r = static_cast<int>(y);
+  const float fx = x - static_cast<float>(c), fy = y - static_cast<float>(r);
+  const float* r0 = m.ptr<float>(r);
+  const float* r1 = m.ptr<float>(r + 1);
+  return (1 - fy) * ((1 - fx) * r0[c] + fx * r0[c + 1]) + fy * ((1 - fx) * r1[c] + fx * r1[c + 1]);
+}
+
+// Hysteresis thresholds from the strength statistics over usable pixels (every 3rd pixel).
+bool AutomaticThresholds(const cv::Mat& strength, const cv::Mat& usable, const EdgeOptions& o,
+                         double* high, double* low) {
+  std::vector<float> values;
+  values.reserve(static_cast<size_t>(strength.total() / 9 + 1));
+  for (int r = 0; r < strength.rows; r += 3) {
+    const float* s = strength.ptr<float>(r);
+    const uchar* u = usable.ptr<uchar>(r);
+    for (int c = 0; c < strength.cols; c += 3) {
+      if (u[c]) values.push_back(s[c]);
+    }
+  }
+  if (values.size() < 16) return false;
+  const auto quantile = [&](double q) {
+    auto it =
+        values.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
+    std::nth_element(values.begin(), it, values.end());
+    return static_cast<double>(*it);
+  };
+  const double median = quantile(0.5);
+  const double top = quantile(o.high_quantile);
+  // Rayleigh: median of |gradient| of pure noise = sigma sqrt(2 ln 2).
+  const double noise = median / std::sqrt(2.0 * std::log(2.0));
+  *high = std::max(top, o.noise_factor * noise);
+  *low = o.low_ratio * *high;
+  return *high > 1e-6 * (quantile(1.0) + 1e-30) && *high > 0.0;
+}
+
+RimEdgePoint SubPixel(const cv::Mat& strength, int r, int c, float nx, float ny) {
+  const float m0 = strength.at<float>(r, c);
+  const float fc = static_cast<float>(c), fr = static_cast<float>(r);
+  const float mm = Bilinear(strength, fc - nx, fr - ny);
+  const float mp = Bilinear(strength, fc + nx, fr + ny);
+  const float denom = mm - 2.0f * m0 + mp;
+  float delta = denom < 0.0f ? 0.5f * (mm - mp) / denom : 0.0f;
+  delta = std::clamp(delta, -0.5f, 0.5f);
+  RimEdgePoint p;
+  p.x = static_cast<float>(c) + 0.5f + delta * nx;
+  p.y = static_cast<float>(r) + 0.5f + delta * ny;
+  p.nx = nx;
+  p.ny = ny;
+  p.strength = m0;
+  return p;
+}
+
+RimEdges Collect(const cv::Mat& edge_mask, const cv::Mat& usable, const cv::Mat& strength,
+                 const cv::Mat& nx, const cv::Mat& ny, bool signed_normals, double high,
+                 double low) {
+  RimEdges out;
+  out.signed_normals = signed_normals;
+  out.high_threshold = high;
+  out.low_threshold = low;
+  out.index = cv::Mat(strength.size(), CV_32S, cv::Scalar(-1));
+  for (int r = 1; r + 1 < strength.rows; ++r) {
+    const uchar* e = edge_mask.ptr<uchar>(r);
+    const uchar* u = usable.ptr<uchar>(r);
+    int* index = out.index.ptr<int>(r);
+    for (int c = 1; c + 1 < strength.cols; ++c) {
+      if (!e[c] || !u[c]) continue;
+      index[c] = static_cast<int>(out.points.size());
+      out.points.push_back(SubPixel(strength, r, c, nx.at<float>(r, c), ny.at<float>(r, c)));
+    }
+  }
+  return out;
+}
+
+RimEdges Empty(const cv::Mat& input, bool signed_normals) {
+  RimEdges out;
+  out.signed_normals = signed_normals;
+  out.high_threshold = 0.0;
+  out.low_threshold = 0.0;
+  out.index = cv::Mat(input.size(), CV_32S, cv::Scalar(-1));
+  return out;
+}
+
+}  // namespace
+
+void EdgeOptions::Check() const {
+  RequireOption(smoothing_sigma_px > 0.0 && smoothing_sigma_px <= 10.0,
+                "EdgeOptions.smoothing_sigma_px", "in (0, 10]");
+  RequireOption(high_quantile > 0.0 && high_quantile < 1.0, "EdgeOptions.high_quantile",
+                "in (0, 1)");
+  RequireOption(noise_factor >= 0.0, "EdgeOptions.noise_factor", ">= 0");
+  RequireOption(low_ratio > 0.0 && low_ratio <= 1.0, "EdgeOptions.low_ratio", "in (0, 1]");
+}
+
+RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& o) {
+  o.Check();
+  if (image.rows < 8 || image.cols < 8) return Empty(image, true);
+  cv::Mat f, usable;
+  PrepareInput(image, &f, &usable);
+  cv::GaussianBlur(f, f, cv::Size(), o.smoothing_sigma_px);
+  cv::Mat gx, gy, mag;
+  cv::Sobel(f, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(f, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  cv::magnitude(gx, gy, mag);
+  double high = 0.0, low = 0.0;
+  if (!AutomaticThresholds(mag, usable, o, &high, &low)) return Empty(image, true);
+  double max_mag = 0.0;
+  cv::minMaxLoc(mag, nullptr, &max_mag, nullptr, nullptr, usable);
+  if (!(max_mag > high)) return Empty(image, true);
+  // Canny takes 16-bit gradients; with L2 magnitudes it squares them in int, so stay below
+  // 2^15 / sqrt(2) per component.
+  const double scale = 20000.0 / max_mag;
+  cv::Mat dx16, dy16, edges;
+  gx.convertTo(dx16, CV_16S, scale);
+  gy.convertTo(dy16, CV_16S, scale);
+  cv::Canny(dx16, dy16, edges, low * scale, high * scale, true);
+  cv::Mat nx, ny, safe_mag;
+  cv::max(mag, 1e-20, safe_mag);
+  cv::divide(gx, safe_mag, nx);
+  cv::divide(gy, safe_mag, ny);
+  return Collect(edges, usable, mag, nx, ny, true, high, low);
+}
+
+RimEdges DetectDtmCrests(const cv::Mat& dtm, double posting, const EdgeOptions& o) {
+  o.Check();
+  RequireOption(std::isfinite(posting) && posting > 0.0, "DetectDtmCrests.posting", "> 0");
+  if (dtm.rows < 8 || dtm.cols < 8) return Empty(dtm, false);
+  cv::Mat h, usable;
+  PrepareInput(dtm, &h, &usable);
+  cv::GaussianBlur(h, h, cv::Size(), o.smoothing_sigma_px);
+  cv::Mat hxx, hyy, hxy;
+  cv::Sobel(h, hxx, CV_32F, 2, 0, 3, 0.25);
+  cv::Sobel(h, hyy, CV_32F, 0, 2, 3, 0.25);
+  cv::Sobel(h, hxy, CV_32F, 1, 1, 3, 0.25);
+  cv::Mat strength(h.size(), CV_32F), nx(h.size(), CV_32F), ny(h.size(), CV_32F);
+  const float to_metres = static_cast<float>(1.0 / posting);
+  for (int r = 0; r < h.rows; ++r) {
+    for (int c = 0; c < h.cols; ++c) {
+      const float a = hxx.at<float>(r, c), b = hxy.at<float>(r, c), d = hyy.at<float>(r, c);
+      const float half_trace = 0.5f * (a + d);
+      const float disc = std::sqrt(0.25f * (a - d) * (a - d) + b * b);
+      const float lambda = half_trace - disc;  // most negative curvature
+      float vx = b, vy = lambda - a;
+      if (std::abs(vx) + std::abs(vy) < 1e-12f) {
+        vx = lambda - d;
+        vy = b;
+      }
+      float norm = std::hypot(vx, vy);
+      if (norm < 1e-20f) {
+        vx = 1.0f;
+        vy = 0.0f;
+        norm = 1.0f;
+      }
+      if (vx < 0.0f || (vx == 0.0f && vy < 0.0f)) norm = -norm;  // unsigned: fix a sign
+      nx.at<float>(r, c) = vx / norm;
+      ny.at<float>(r, c) = vy / norm;
+      strength.at<float>(r, c) = std::max(0.0f, -lambda) * to_metres;
+    }
+  }
+  double high = 0.0, low = 0.0;
+  if (!AutomaticThresholds(strength, usable, o, &high, &low)) return Empty(dtm, false);
+  // Non-maximum suppression along the curvature direction, then hysteresis.
+  cv::Mat weak(h.size(), CV_8U, cv::Scalar(0)), strong(h.size(), CV_8U, cv::Scalar(0));
+  for (int r = 1; r + 1 < h.rows; ++r) {
+    for (int c = 1; c + 1 < h.cols; ++c) {
+      const float s = strength.at<float>(r, c);
+      if (s < low) continue;
+      const float ux = nx.at<float>(r, c), uy = ny.at<float>(r, c);
+      const float fc = static_cast<float>(c), fr = static_cast<float>(r);
+      if (s < Bilinear(strength, fc + ux, fr + uy) || s < Bilinear(strength, fc - ux, fr - uy)) {
+        continue;
+      }
+      weak.at<uchar>(r, c) = 255;
+      if (s >= high) strong.at<uchar>(r, c) = 255;
+    }
+  }
+  cv::Mat labels;
+  const int n = cv::connectedComponents(weak, labels, 8, CV_32S);
+  std::vector<uchar> keep(static_cast<size_t>(n), 0);
+  for (int r = 0; r < h.rows; ++r) {
+    for (int c = 0; c < h.cols; ++c) {
+      if (strong.at<uchar>(r, c)) keep[static_cast<size_t>(labels.at<int>(r, c))] = 1;
+    }
+  }
+  cv::Mat edges(h.size(), CV_8U, cv::Scalar(0));
+  for (int r = 0; r < h.rows; ++r) {
+    for (int c = 0; c < h.cols; ++c) {
+      const int label = labels.at<int>(r, c);
+      if (label > 0 && keep[static_cast<size_t>(label)]) edges.at<uchar>(r, c) = 255;
+    }
+  }
+  return Collect(edges, usable, strength, nx, ny, false, high, low);
+}
+
+}  // namespace areomap
