@@ -14,5 +14,6 @@ void AddCameraCommand(CLI::App& app, const GlobalOptions& global);
 void AddSampleCommand(CLI::App& app, const GlobalOptions& global);
 void AddSimulateCommand(CLI::App& app, const GlobalOptions& global);
 void AddStereoCommand(CLI::App& app, const GlobalOptions& global);
+void AddErrorsCommand(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace areomap::cli

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   areomap::cli::AddSampleCommand(app, global);
   areomap::cli::AddSimulateCommand(app, global);
   areomap::cli::AddStereoCommand(app, global);
+  areomap::cli::AddErrorsCommand(app, global);
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

@@ -1,0 +1,92 @@
+// areomap errors simulate --out DIR: the localization error configuration study of ch. 4.1.2
+// (Figs. 4.1-4.5) as a CSV table and one plot per traverse length.
+#include <cstdio>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include "areomap/map/atomic_file.h"
+#include "areomap/map/image_io.h"
+#include "areomap/registration/localization_error.h"
+#include "areomap/registration/localization_error_plot.h"
+#include "commands.h"
+
+namespace areomap::cli {
+
+void AddErrorsCommand(CLI::App& app, const GlobalOptions& global) {
+  auto* errors = app.add_subcommand("errors", "Rover localization error analysis (ch. 4.1)");
+  errors->require_subcommand(1);
+  struct Options {
+    std::string out;
+    ConfigurationStudyOptions study;
+  };
+  auto o = std::make_shared<Options>();
+  auto* simulate = errors->add_subcommand(
+      "simulate",
+      "Relative localization error (eq. 4.9) against convergence angle for 2, 3, 4, 6, 9 "
+      "landmarks and several traverse lengths (Figs. 4.2-4.5): study.csv, re_<length>m.png");
+  simulate->add_option("--out", o->out, "Output folder (created if needed)")->required();
+  simulate->add_option("--lengths", o->study.traverse_lengths_m, "Traverse lengths [m]")
+      ->capture_default_str();
+  simulate->add_option("--landmarks", o->study.landmark_counts, "Landmark counts (2 3 4 6 9)")
+      ->capture_default_str();
+  simulate->add_option("--step", o->study.convergence_step_deg, "Convergence angle step [deg]")
+      ->capture_default_str();
+  simulate
+      ->add_option("--sigma-p", o->study.camera.parallax_sigma_px,
+                   "Parallax error sigma_p of eq. 4.3 [px]")
+      ->capture_default_str();
+  simulate->add_option("--baseline", o->study.camera.baseline_m, "Stereo base [m] (Navcam 0.2)")
+      ->capture_default_str();
+  simulate->add_option("--focal-px", o->study.camera.focal_px, "Focal length [px] (Navcam 1222.5)")
+      ->capture_default_str();
+  simulate->callback([o, &global] {
+    const std::vector<ConfigurationSample> samples = RunConfigurationStudy(o->study);
+    PrepareOutputFolder(o->out);
+    const std::filesystem::path out(o->out);
+    std::ostringstream csv;
+    csv << "landmarks,traverse_length_m,convergence_deg,figure_size_m,position_sigma_m,"
+           "relative_error_percent\n";
+    nlohmann::json ranges = nlohmann::json::array();
+    std::map<std::pair<double, int>, std::pair<double, double>> extremes;
+    for (const ConfigurationSample& s : samples) {
+      char line[160];
+      std::snprintf(line, sizeof(line), "%d,%.3f,%.2f,%.4f,%.5f,%.4f\n", s.landmark_count,
+                    s.traverse_length_m, s.convergence_deg, s.figure_size_m, s.position_sigma_m,
+                    s.relative_error_percent);
+      csv << line;
+      auto [it, inserted] =
+          extremes.try_emplace({s.traverse_length_m, s.landmark_count}, s.relative_error_percent,
+                               s.relative_error_percent);
+      it->second.first = std::min(it->second.first, s.relative_error_percent);
+      it->second.second = std::max(it->second.second, s.relative_error_percent);
+    }
+    WriteFileAtomically(out / "study.csv", csv.str());
+    nlohmann::json plots = nlohmann::json::array();
+    for (double length : o->study.traverse_lengths_m) {
+      char name[64];
+      std::snprintf(name, sizeof(name), "re_%gm.png", length);
+      WriteImage(out / name, RenderConfigurationPlot(samples, length));
+      plots.push_back(name);
+    }
+    for (const auto& [key, range] : extremes) {
+      ranges.push_back({{"traverse_length_m", key.first},
+                        {"landmarks", key.second},
+                        {"min_relative_error_percent", range.first},
+                        {"max_relative_error_percent", range.second}});
+    }
+    WriteSummary(out, {{"command", "errors simulate"},
+                       {"samples", samples.size()},
+                       {"table", "study.csv"},
+                       {"plots", plots},
+                       {"ranges", ranges}});
+    if (!global.quiet) {
+      for (const auto& [key, range] : extremes) {
+        std::printf("%5.1f m, %d landmarks: RE %.2f-%.2f %%\n", key.first, key.second, range.first,
+                    range.second);
+      }
+    }
+  });
+}
+
+}  // namespace areomap::cli

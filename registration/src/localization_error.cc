@@ -1,0 +1,304 @@
+// Localization error analysis (ch. 4.1): eq. 4.2 covariance, Gauss-Helmert conformal transform
+// (eqs. 4.4-4.6), adjacent-site error and RE (eqs. 4.7-4.9), the configuration study
+// (Figs. 4.1-4.5).
+#include "areomap/registration/localization_error.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Dense>
+
+#include "areomap/map/error.h"
+
+namespace areomap {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+Eigen::Matrix<double, 2, 4> DesignB(const Eigen::Vector2d& p) {
+  Eigen::Matrix<double, 2, 4> e;
+  e << p.x(), -p.y(), 1.0, 0.0, p.y(), p.x(), 0.0, 1.0;
+  return e;
+}
+
+// Unweighted linear solution of eq. 4.4: the start of the adjustment.
+std::optional<Eigen::Vector4d> LinearConformal(const std::vector<PlanarTiePoint>& ties) {
+  Eigen::MatrixXd design(2 * ties.size(), 4);
+  Eigen::VectorXd rhs(2 * ties.size());
+  for (size_t i = 0; i < ties.size(); ++i) {
+    design.block<2, 4>(2 * i, 0) = DesignB(ties[i].in_adjacent);
+    rhs.segment<2>(2 * i) = ties[i].in_current;
+  }
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(design);
+  if (qr.rank() < 4) return std::nullopt;
+  return Eigen::Vector4d(qr.solve(rhs));
+}
+
+}  // namespace
+
+Eigen::Matrix2d PolarPositionCovariance(double range_m, double azimuth_rad, double sigma_range_m,
+                                        double sigma_azimuth_rad) {
+  const double c = std::cos(azimuth_rad), s = std::sin(azimuth_rad);
+  const double sr2 = sigma_range_m * sigma_range_m;
+  const double st2 = range_m * range_m * sigma_azimuth_rad * sigma_azimuth_rad;
+  Eigen::Matrix2d cov;
+  cov(0, 0) = c * c * sr2 + s * s * st2;
+  cov(1, 1) = s * s * sr2 + c * c * st2;
+  cov(0, 1) = cov(1, 0) = s * c * sr2 - s * c * st2;
+  return cov;
+}
+
+void LocalizationCamera::Check() const {
+  RequireOption(baseline_m > 0.0, "LocalizationCamera.baseline_m", "> 0 m");
+  RequireOption(focal_px > 10.0, "LocalizationCamera.focal_px", "> 10 px");
+  RequireOption(parallax_sigma_px > 0.0, "LocalizationCamera.parallax_sigma_px", "> 0 px");
+  RequireOption(azimuth_sigma_px >= 0.0, "LocalizationCamera.azimuth_sigma_px", ">= 0 px");
+}
+
+Eigen::Matrix2d LocalizationCamera::Covariance(const Eigen::Vector2d& point,
+                                               const Eigen::Vector2d& site) const {
+  const Eigen::Vector2d d = point - site;
+  const double range = d.norm();
+  const double sigma_range = range * range * parallax_sigma_px / (baseline_m * focal_px);  // 4.3
+  return PolarPositionCovariance(range, std::atan2(d.y(), d.x()), sigma_range,
+                                 azimuth_sigma_px / focal_px);
+}
+
+Eigen::Vector2d ConformalTransform2d::Apply(const Eigen::Vector2d& in_adjacent) const {
+  return DesignB(in_adjacent) * parameters;
+}
+
+Eigen::Matrix2d ConformalTransform2d::PointCovariance(const Eigen::Vector2d& in_adjacent) const {
+  const Eigen::Matrix<double, 2, 4> e = DesignB(in_adjacent);
+  return e * covariance * e.transpose();
+}
+
+std::optional<ConformalTransform2d> FitConformalTransform(const std::vector<PlanarTiePoint>& ties) {
+  if (ties.size() < 2) return std::nullopt;
+  const std::optional<Eigen::Vector4d> start = LinearConformal(ties);
+  if (!start) return std::nullopt;
+  ConformalTransform2d result;
+  Eigen::Vector4d x = *start;
+  const size_t n = ties.size();
+  std::vector<Eigen::Vector4d> v(n, Eigen::Vector4d::Zero());  // Corrections (x1, y1, x2, y2).
+  std::vector<Eigen::Matrix4d> sigma(n, Eigen::Matrix4d::Zero());
+  for (size_t i = 0; i < n; ++i) {
+    sigma[i].topLeftCorner<2, 2>() = ties[i].covariance_current;
+    sigma[i].bottomRightCorner<2, 2>() = ties[i].covariance_adjacent;
+  }
+  Eigen::Matrix4d normal;
+  for (int iteration = 1; iteration <= 20; ++iteration) {
+    normal.setZero();
+    Eigen::Vector4d rhs = Eigen::Vector4d::Zero();
+    std::vector<Eigen::Matrix<double, 2, 4>> a_mats(n), b_mats(n);
+    std::vector<Eigen::Matrix2d> m_inv(n);
+    std::vector<Eigen::Vector2d> w(n);
+    for (size_t i = 0; i < n; ++i) {
+      const Eigen::Vector2d p1 = ties[i].in_current + v[i].head<2>();
+      const Eigen::Vector2d p2 = ties[i].in_adjacent + v[i].tail<2>();
+      Eigen::Matrix<double, 2, 4> a;  // d f / d (x1, y1, x2, y2)
+      a << 1, 0, -x(0), x(1), 0, 1, -x(1), -x(0);
+      const Eigen::Matrix<double, 2, 4> b = -DesignB(p2);  // d f / d (a, b, c, d)
+      const Eigen::Vector2d f = p1 - DesignB(p2) * x;
+      w[i] = f - a * v[i];
+      const Eigen::Matrix2d m = a * sigma[i] * a.transpose();
+      if (std::abs(m.determinant()) < 1e-300) return std::nullopt;
+      m_inv[i] = m.inverse();
+      normal += b.transpose() * m_inv[i] * b;
+      rhs += b.transpose() * m_inv[i] * w[i];
+      a_mats[i] = a;
+      b_mats[i] = b;
+    }
+    const Eigen::FullPivLU<Eigen::Matrix4d> lu(normal);
+    if (!lu.isInvertible()) return std::nullopt;
+    const Eigen::Vector4d delta = -lu.solve(rhs);
+    x += delta;
+    result.chi2 = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      v[i] = -sigma[i] * a_mats[i].transpose() * m_inv[i] * (b_mats[i] * delta + w[i]);
+      result.chi2 += v[i].dot(sigma[i].ldlt().solve(v[i]));
+    }
+    result.iterations = iteration;
+    if (delta.head<2>().norm() < 1e-12 && delta.tail<2>().norm() < 1e-10) {
+      result.parameters = x;
+      result.covariance = lu.inverse();  // Eq. 4.6.
+      result.redundancy = static_cast<int>(2 * n) - 4;
+      return result;
+    }
+  }
+  return std::nullopt;
+}
+
+double ConvergenceAngle(const Eigen::Vector2d& site, const std::vector<Eigen::Vector2d>& points) {
+  std::vector<double> azimuths;
+  for (const Eigen::Vector2d& p : points) {
+    const Eigen::Vector2d d = p - site;
+    if (d.norm() > 0.0) azimuths.push_back(std::atan2(d.y(), d.x()));
+  }
+  if (azimuths.size() < 2) return 0.0;
+  std::sort(azimuths.begin(), azimuths.end());
+  double largest_gap = azimuths.front() + 2.0 * kPi - azimuths.back();
+  for (size_t i = 1; i < azimuths.size(); ++i) {
+    largest_gap = std::max(largest_gap, azimuths[i] - azimuths[i - 1]);
+  }
+  return 2.0 * kPi - largest_gap;
+}
+
+double DistanceRatio(const Eigen::Vector3d& point, const Eigen::Vector3d& site_a,
+                     const Eigen::Vector3d& site_b) {
+  const double d1 = (point - site_a).norm(), d2 = (point - site_b).norm();
+  const double far = std::max(d1, d2);
+  return far > 0.0 ? std::min(d1, d2) / far : 0.0;
+}
+
+std::optional<SitePairError> EvaluateSitePair(const std::vector<PlanarTiePoint>& ties,
+                                              const Eigen::Vector2d& adjacent_in_current) {
+  const std::optional<ConformalTransform2d> transform = FitConformalTransform(ties);
+  if (!transform) return std::nullopt;
+  SitePairError e;
+  e.traverse_length_m = adjacent_in_current.norm();
+  e.position_sigma_m = std::sqrt(transform->PointCovariance(Eigen::Vector2d::Zero()).trace());
+  e.relative_error_percent =
+      e.traverse_length_m > 0.0 ? 100.0 * e.position_sigma_m / e.traverse_length_m : 0.0;
+  std::vector<Eigen::Vector2d> in_current;
+  for (const PlanarTiePoint& t : ties) {
+    in_current.push_back(t.in_current);
+    e.mean_distance_ratio +=
+        DistanceRatio(Eigen::Vector3d(t.in_current.x(), t.in_current.y(), 0.0),
+                      Eigen::Vector3d::Zero(),
+                      Eigen::Vector3d(adjacent_in_current.x(), adjacent_in_current.y(), 0.0)) /
+        static_cast<double>(ties.size());
+  }
+  e.convergence_current_rad = ConvergenceAngle(Eigen::Vector2d::Zero(), in_current);
+  e.convergence_adjacent_rad = ConvergenceAngle(adjacent_in_current, in_current);
+  return e;
+}
+
+void ConfigurationStudyOptions::Check() const {
+  RequireOption(!landmark_counts.empty(), "ConfigurationStudyOptions.landmark_counts",
+                "at least one of 2, 3, 4, 6, 9");
+  for (int count : landmark_counts) {
+    RequireOption(count == 2 || count == 3 || count == 4 || count == 6 || count == 9,
+                  "ConfigurationStudyOptions.landmark_counts", "values among 2, 3, 4, 6, 9");
+  }
+  RequireOption(!traverse_lengths_m.empty(), "ConfigurationStudyOptions.traverse_lengths_m",
+                "at least one length");
+  for (double d : traverse_lengths_m) {
+    RequireOption(d > 0.0 && d <= 1000.0, "ConfigurationStudyOptions.traverse_lengths_m",
+                  "lengths in (0, 1000] m");
+  }
+  RequireOption(min_convergence_deg > 0.0 && max_convergence_deg < 180.0 &&
+                    min_convergence_deg <= max_convergence_deg,
+                "ConfigurationStudyOptions.min_convergence_deg",
+                "0 < min <= max_convergence_deg < 180");
+  RequireOption(convergence_step_deg > 0.0, "ConfigurationStudyOptions.convergence_step_deg",
+                "> 0 degrees");
+  camera.Check();
+}
+
+std::vector<Eigen::Vector2d> StudyLandmarks(int landmark_count, double traverse_length_m,
+                                            double convergence_deg) {
+  // Unit figures centred on the origin, symmetric under x -> -x so both sites see the same
+  // convergence angle (Fig. 4.1).
+  std::vector<Eigen::Vector2d> unit;
+  switch (landmark_count) {
+    case 2:
+      unit = {{0, 1}, {0, -1}};
+      break;
+    case 3:
+      for (int k = 0; k < 3; ++k) {
+        const double t = kPi / 2.0 + 2.0 * kPi / 3.0 * k;
+        unit.emplace_back(std::cos(t), std::sin(t));
+      }
+      break;
+    case 4:
+      unit = {{1, 1}, {-1, 1}, {-1, -1}, {1, -1}};
+      break;
+    case 6:
+      for (int k = 0; k < 6; ++k)
+        unit.emplace_back(std::cos(kPi / 3.0 * k), std::sin(kPi / 3.0 * k));
+      break;
+    case 9:
+      for (int i = -1; i <= 1; ++i) {
+        for (int j = -1; j <= 1; ++j) unit.emplace_back(i, j);
+      }
+      break;
+    default:
+      throw Error("landmark count " + std::to_string(landmark_count) +
+                  " is not part of the study: expected 2, 3, 4, 6 or 9");
+  }
+  RequireOption(convergence_deg > 0.0 && convergence_deg < 180.0, "convergence_deg",
+                "between 0 and 180 degrees");
+  RequireOption(traverse_length_m > 0.0, "traverse_length_m", "> 0 m");
+  const double target = convergence_deg * kPi / 180.0;
+  const Eigen::Vector2d middle(0.5 * traverse_length_m, 0.0);
+  const auto place = [&](double size) {
+    std::vector<Eigen::Vector2d> points;
+    for (const Eigen::Vector2d& u : unit) points.push_back(middle + size * u);
+    return points;
+  };
+  const auto angle = [&](double size) { return ConvergenceAngle({0, 0}, place(size)); };
+  // The angle grows with the size until a landmark reaches the site's abscissa; bracket, bisect.
+  double lo = 0.0, hi = 1e-3 * traverse_length_m;
+  while (angle(hi) < target && hi < 1e4 * traverse_length_m) {
+    lo = hi;
+    hi *= 2.0;
+  }
+  for (int i = 0; i < 100; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (angle(mid) < target ? lo : hi) = mid;
+  }
+  return place(0.5 * (lo + hi));
+}
+
+ConfigurationSample EvaluateConfiguration(int landmark_count, double traverse_length_m,
+                                          double convergence_deg,
+                                          const LocalizationCamera& camera) {
+  camera.Check();
+  const std::vector<Eigen::Vector2d> landmarks =
+      StudyLandmarks(landmark_count, traverse_length_m, convergence_deg);
+  const Eigen::Vector2d adjacent(traverse_length_m, 0.0);
+  std::vector<PlanarTiePoint> ties;
+  for (const Eigen::Vector2d& p : landmarks) {
+    PlanarTiePoint t;
+    t.in_current = p;
+    t.covariance_current = camera.Covariance(p, Eigen::Vector2d::Zero());
+    t.in_adjacent = p - adjacent;  // Both frames share their axes in the study.
+    t.covariance_adjacent = camera.Covariance(p, adjacent);
+    ties.push_back(t);
+  }
+  ConfigurationSample sample;
+  sample.landmark_count = landmark_count;
+  sample.traverse_length_m = traverse_length_m;
+  sample.convergence_deg = convergence_deg;
+  const Eigen::Vector2d middle(0.5 * traverse_length_m, 0.0);
+  for (const Eigen::Vector2d& p : landmarks) {
+    sample.figure_size_m = std::max(sample.figure_size_m, (p - middle).norm());
+  }
+  const std::optional<SitePairError> error = EvaluateSitePair(ties, adjacent);
+  if (!error) {
+    sample.position_sigma_m = sample.relative_error_percent = std::nan("");
+    return sample;
+  }
+  sample.position_sigma_m = error->position_sigma_m;
+  sample.relative_error_percent = error->relative_error_percent;
+  return sample;
+}
+
+std::vector<ConfigurationSample> RunConfigurationStudy(const ConfigurationStudyOptions& options) {
+  options.Check();
+  std::vector<ConfigurationSample> samples;
+  for (double length : options.traverse_lengths_m) {
+    for (int count : options.landmark_counts) {
+      for (double angle = options.min_convergence_deg; angle <= options.max_convergence_deg + 1e-9;
+           angle += options.convergence_step_deg) {
+        samples.push_back(EvaluateConfiguration(count, length, angle, options.camera));
+      }
+    }
+  }
+  return samples;
+}
+
+}  // namespace areomap

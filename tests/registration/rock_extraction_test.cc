@@ -1,0 +1,160 @@
+#include "areomap/registration/rock_extraction.h"
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+
+#include <gtest/gtest.h>
+#include <Eigen/Eigenvalues>
+
+#include "areomap/map/error.h"
+#include "areomap/samples/simulated_points.h"
+
+namespace areomap {
+namespace {
+
+Scene RockyScene() {
+  SceneOptions options;
+  options.half_extent_m = 60.0;
+  options.crater_count = 0;
+  options.roughness_m = 0.3;
+  options.rock_path = {Eigen::Vector2d(-30, 0), Eigen::Vector2d(30, 0)};
+  options.rock_abundance_k = 0.08;
+  options.rock_corridor_m = 15.0;
+  options.seed = 5;
+  return Scene(options);
+}
+
+// Site-frame (x north, y east) horizontal position of an ENU point seen from `site`.
+Eigen::Vector2d SiteXY(const Eigen::Vector2d& enu, const Eigen::Vector2d& site) {
+  return {enu.y() - site.y(), enu.x() - site.x()};
+}
+
+// How far a peak may lie from the rock's footprint: 3 horizontal sigmas of the peak point (the
+// range error of eq. 4.3 is ~17 cm at 9 m) plus 10 cm for a tilted rock's top.
+double Reach(const ExtractedRock& e) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(
+      e.peak_covariance.topLeftCorner<2, 2>());
+  return 3.0 * std::sqrt(eigen.eigenvalues().maxCoeff()) + 0.10;
+}
+
+struct Detection {
+  int truth = 0, found = 0, extracted_near = 0, false_positives = 0;
+  double worst_height_excess = 0.0;  // max(|H - h| - allowed), <= 0 when all are within.
+  double mean_abs_height_error = 0.0;
+};
+
+// Compares the extraction with the scene's rocks of height >= min_height within 3-10 m of the
+// site and inside the simulated azimuths (5 degrees of margin).
+Detection Evaluate(const Scene& scene, const Eigen::Vector2d& site,
+                   const std::vector<ExtractedRock>& rocks, double min_height, double az_max_deg) {
+  Detection d;
+  const auto inside = [&](const Eigen::Vector2d& xy, double margin_deg) {
+    const double range = xy.norm();
+    const double az = std::atan2(xy.y(), xy.x()) * 180.0 / std::numbers::pi;
+    return range >= 3.0 && range <= 10.0 && az >= margin_deg && az <= az_max_deg - margin_deg;
+  };
+  for (const Rock& r : scene.rocks()) {
+    const Eigen::Vector2d xy = SiteXY(r.center, site);
+    if (r.height < min_height || !inside(xy, 5.0)) continue;
+    ++d.truth;
+    const ExtractedRock* match = nullptr;  // The nearest peak within reach.
+    double nearest = 1e9;
+    for (const ExtractedRock& e : rocks) {
+      const double distance = (e.peak.head<2>() - xy).norm();
+      if (distance < r.a + Reach(e) && distance < nearest) {
+        match = &e;
+        nearest = distance;
+      }
+    }
+    if (!match) continue;
+    ++d.found;
+    // H is measured from the peak, the highest of noisy points: allow 3 vertical sigmas of the
+    // peak (eq. 4.3 noise) plus 3 cm for the ground plane and a tilted rock's top.
+    const double error = std::abs(match->height_m - r.height);
+    const double allowed = 3.0 * std::sqrt(match->peak_covariance(2, 2)) + 0.03;
+    d.worst_height_excess = std::max(d.worst_height_excess, error - allowed);
+    d.mean_abs_height_error += error;
+  }
+  if (d.found > 0) d.mean_abs_height_error /= d.found;
+  // False positives: extracted rocks (H >= 0.15 m) with no true rock of any size under them.
+  for (const ExtractedRock& e : rocks) {
+    if (e.height_m < 0.15 || !inside(e.peak.head<2>(), 0.0)) continue;
+    ++d.extracted_near;
+    bool real = false;
+    for (const Rock& r : scene.rocks()) {
+      real = real || (SiteXY(r.center, site) - e.peak.head<2>()).norm() < r.a + Reach(e);
+    }
+    d.false_positives += real ? 0 : 1;
+  }
+  return d;
+}
+
+TEST(RockExtraction, FindsTheSceneRocksWithHeightsWithinTheStereoError) {
+  const Scene scene = RockyScene();
+  SimulatedPointsOptions sim;
+  sim.azimuth_max_deg = 120.0;
+  sim.max_range_m = 12.0;
+  const Eigen::Vector2d site(0.0, 0.0);
+  const PointCloud cloud = SimulateSitePointCloud(scene, site, 0, sim);
+  RockExtractionSummary summary;
+  const std::vector<ExtractedRock> rocks = ExtractRocks(cloud, {}, &summary);
+  EXPECT_EQ(summary.rocks, static_cast<int>(rocks.size()));
+  const Detection d = Evaluate(scene, site, rocks, 0.15, sim.azimuth_max_deg);
+  ASSERT_GE(d.truth, 10);
+  // Rocks >= 15 cm within 10 m: at least 80 % found (the simulated cloud samples the ground
+  // every ~20 cm in range at 9 m, so the smallest far rocks get only a few points).
+  EXPECT_GE(d.found, 0.8 * d.truth) << d.found << " of " << d.truth;
+  EXPECT_LE(d.worst_height_excess, 0.0);
+  EXPECT_LT(d.mean_abs_height_error, 0.03);
+  EXPECT_LE(d.false_positives, std::max(1, d.extracted_near / 10))
+      << d.false_positives << " of " << d.extracted_near;
+  // Rocks near the camera carry enough surface points for a model.
+  int near_modeled = 0, near_total = 0;
+  for (const ExtractedRock& e : rocks) {
+    if (e.range_m > 6.0 || e.height_m < 0.15) continue;
+    ++near_total;
+    near_modeled += e.modeled() ? 1 : 0;
+    if (e.modeled()) {
+      // The rock frame puts the peak's foot at the origin with z up along the plane normal.
+      const Eigen::Vector3d peak_in_rock = e.rock_from_site * e.peak;
+      EXPECT_NEAR(peak_in_rock.z(), e.height_m, 1e-9);
+      EXPECT_NEAR(peak_in_rock.head<2>().norm(), 0.0, 1e-9);
+    }
+  }
+  EXPECT_GE(near_modeled, 0.8 * near_total);
+}
+
+TEST(RockExtraction, RocklessGroundGivesNoRocks) {
+  SceneOptions options;
+  options.half_extent_m = 40.0;
+  options.crater_count = 0;
+  options.roughness_m = 0.3;
+  const Scene scene(options);  // No rock path: no rocks.
+  SimulatedPointsOptions sim;
+  sim.azimuth_max_deg = 90.0;
+  sim.max_range_m = 12.0;
+  const PointCloud cloud = SimulateSitePointCloud(scene, {0, 0}, 0, sim);
+  RockExtractionSummary summary;
+  const std::vector<ExtractedRock> rocks = ExtractRocks(cloud, {}, &summary);
+  int tall = 0;
+  for (const ExtractedRock& e : rocks) tall += e.height_m >= 0.15 ? 1 : 0;
+  EXPECT_EQ(tall, 0);
+}
+
+TEST(RockExtraction, BadCloudsAreErrorsOrEmpty) {
+  PointCloud cloud;
+  EXPECT_TRUE(ExtractRocks(cloud, {}).empty());
+  cloud.points.resize(10);
+  for (int i = 0; i < 10; ++i) cloud.points[i].position = Eigen::Vector3d(i * 0.1, 0, 0);
+  // Duplicates only: no relief, no rocks.
+  EXPECT_TRUE(ExtractRocks(cloud, {}).empty());
+  cloud.points[3].position.z() = std::nan("");
+  EXPECT_THROW(ExtractRocks(cloud, {}), Error);
+  RockExtractionOptions bad;
+  bad.surface_k_max = 0.1;
+  EXPECT_THROW(ExtractRocks(PointCloud{}, bad), Error);
+}
+
+}  // namespace
+}  // namespace areomap
