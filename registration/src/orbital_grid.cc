@@ -44,16 +44,16 @@ Eigen::Matrix2d PixelGrid::EastNorthPerPixel(const Eigen::Vector2d& pixel) const
 }
 
 GridMapping::GridMapping(const PixelGrid& from, const PixelGrid& to)
-    : from_(&from), to_(&to), same_crs_(from.crs_wkt() == to.crs_wkt()) {}
+    : from_(from), to_(to), same_crs_(from.crs_wkt() == to.crs_wkt()) {}
 
 Eigen::Vector2d GridMapping::Apply(const Eigen::Vector2d& from_pixel) const {
   if (same_crs_) {
-    const Eigen::Vector2d map = from_->geotransform().PixelToMap(from_pixel.x(), from_pixel.y());
-    return to_->geotransform().MapToPixel(map.x(), map.y());
+    const Eigen::Vector2d map = from_.geotransform().PixelToMap(from_pixel.x(), from_pixel.y());
+    return to_.geotransform().MapToPixel(map.x(), map.y());
   }
-  const auto g = from_->PixelToGeographic(from_pixel);
+  const auto g = from_.PixelToGeographic(from_pixel);
   if (!g) return kNaN2;
-  return to_->GeographicToPixel(*g);
+  return to_.GeographicToPixel(*g);
 }
 
 }  // namespace areomap

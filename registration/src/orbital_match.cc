@@ -134,6 +134,26 @@ std::vector<cv::Point> TopLocalMaxima(const MaskedNccSurface& surface, int count
   return out;
 }
 
+// How far the surface dips below the lower of two shifts on the straight path between them
+// (nearest samples every half pixel): 0 when one is on the other's slope.
+double ValleyDepth(const MaskedNccSurface& surface, cv::Point a, cv::Point b) {
+  const auto at = [&](double x, double y) {
+    const int c = static_cast<int>(std::lround(x)) - surface.shift_x0;
+    const int r = static_cast<int>(std::lround(y)) - surface.shift_y0;
+    if (r < 0 || c < 0 || r >= surface.ncc.rows || c >= surface.ncc.cols) return -1.0;
+    const float v = surface.ncc.at<float>(r, c);
+    return std::isfinite(v) ? static_cast<double>(v) : -1.0;
+  };
+  const double va = at(a.x, a.y), vb = at(b.x, b.y);
+  const int steps = std::max(2, static_cast<int>(2.0 * std::hypot(b.x - a.x, b.y - a.y)));
+  double lowest = std::min(va, vb);
+  for (int k = 1; k < steps; ++k) {
+    const double t = static_cast<double>(k) / steps;
+    lowest = std::min(lowest, at(a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)));
+  }
+  return std::min(va, vb) - lowest;
+}
+
 struct CoarseResult {
   MaskedNccSurface surface;
   NccPeak peak;
@@ -151,6 +171,7 @@ void OrbitalMatchOptions::Check() const {
   RequireOption(min_template_px >= 8, "OrbitalMatchOptions.min_template_px", ">= 8 px");
   RequireOption(refine_radius_px >= 1, "OrbitalMatchOptions.refine_radius_px", ">= 1 px");
   RequireOption(candidates >= 2, "OrbitalMatchOptions.candidates", ">= 2");
+  RequireOption(min_valley >= 0.0, "OrbitalMatchOptions.min_valley", ">= 0");
   RequireOption(max_rotation_deg >= 0.0 && max_rotation_deg <= 45.0,
                 "OrbitalMatchOptions.max_rotation_deg", "in [0, 45] degrees");
   RequireOption(rotation_step_deg > 0.0, "OrbitalMatchOptions.rotation_step_deg", "> 0 degrees");
@@ -384,7 +405,7 @@ OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& or
     }
     return fine;
   };
-  const double exclusion_px = options.exclusion_radius_m / out.gsd_m;
+  const double exclusion_px = std::max(options.exclusion_radius_m / out.gsd_m, 3.0);
   std::vector<cv::Point> candidates =
       TopLocalMaxima(best.surface, options.candidates, std::max(1.0, exclusion_px / unit));
   std::vector<NccPeak> refined;
@@ -399,15 +420,55 @@ OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& or
     out.reason = "no coarse peak could be refined at full resolution";
     return out;
   }
-  const NccPeak fine = refined[best_index];
+  NccPeak fine = refined[best_index];
   double second = -1.0;
   for (size_t k = 0; k < refined.size(); ++k) {
     if (!refined[k].found || static_cast<int>(k) == best_index) continue;
     const double d =
         std::hypot(refined[k].shift_x - fine.shift_x, refined[k].shift_y - fine.shift_y);
-    if (d > exclusion_px) second = std::max(second, refined[k].value);
+    // A runner-up on the best peak's own slope (no valley between them) is not a second peak.
+    const double valley = ValleyDepth(best.surface, candidates[best_index], candidates[k]);
+    if (d > exclusion_px && valley >= options.min_valley) {
+      second = std::max(second, refined[k].value);
+    }
   }
   out.peak_ratio = second > 0.0 ? fine.value / second : std::numeric_limits<double>::infinity();
+
+  // Rotation and scale refined at full resolution: a parabola through the peak values half a
+  // grid step either side, then the shift again at the refined warp.
+  MaskedImage final_template = warped;
+  const auto fine_peak_at = [&](const MaskedImage& t, int x, int y) {
+    MaskedNccOptions at = ncc_options;
+    at.search_window = ShiftWindow::Around(x, y, options.refine_radius_px);
+    return FindPeak(
+        MaskedNcc(orbital_pyramid[0].image, orbital_pyramid[0].mask, t.image, t.mask, at),
+        fine_options);
+  };
+  for (int pass = 0; pass < 2; ++pass) {
+    const bool is_rotation = pass == 0;
+    if (is_rotation ? !(rotations.size() > 1) : !(scales.size() > 1)) continue;
+    const double delta = 0.5 * (is_rotation ? step : options.scale_step);
+    double v[3];
+    for (int k = -1; k <= 1; k += 2) {
+      const double r = out.rotation_rad + (is_rotation ? k * delta : 0.0);
+      const double sc = out.scale + (is_rotation ? 0.0 : k * delta);
+      const NccPeak p = fine_peak_at(WarpTemplate(templ, r, sc), fine.shift_x, fine.shift_y);
+      v[k + 1] = p.found ? p.value : -1.0;
+    }
+    v[1] = fine.value;
+    const double offset = delta * 2.0 * vertex(v[0], v[1], v[2]);
+    if (offset == 0.0) continue;
+    const double r = out.rotation_rad + (is_rotation ? offset : 0.0);
+    const double sc = out.scale + (is_rotation ? 0.0 : offset);
+    MaskedImage t = WarpTemplate(templ, r, sc);
+    const NccPeak p = fine_peak_at(t, fine.shift_x, fine.shift_y);
+    if (p.found && !p.on_border && p.value >= fine.value) {
+      fine = p;
+      out.rotation_rad = r;
+      out.scale = sc;
+      final_template = std::move(t);
+    }
+  }
   const bool coarse_on_border = [&] {
     const cv::Point c = candidates[best_index];
     const ShiftWindow& w = *ncc_options.search_window;
@@ -420,7 +481,7 @@ OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& or
   out.shift_en_m = en_per_px * out.shift_px;
   const double correlation_area =
       1.0 + 2.0 * std::numbers::pi * std::pow(options.template_options.lowpass_sigma_orbital_px, 2);
-  out.shift_covariance_px = ShiftCovariance(warped, out.correlation, correlation_area) +
+  out.shift_covariance_px = ShiftCovariance(final_template, out.correlation, correlation_area) +
                             std::pow(options.subpixel_floor_px, 2) * Eigen::Matrix2d::Identity();
   out.shift_covariance_en_m2 = en_per_px * out.shift_covariance_px * en_per_px.transpose();
   const auto corrected = orbital_grid.PixelToGeographic(rover_in_orbital + out.shift_px);

@@ -1,6 +1,6 @@
 // Orbital-ground registration on generated sites, as statistics over many trials (issue #6
 // "Done means"): error <= 0.5 orbital pixel in >= 95% of sites, decoys rejected in >= 99%.
-// About 30 s in Release: labelled "long", not run under the sanitizers.
+// About 30 s of CPU in Release: labelled "long", not run under the sanitizers.
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -18,8 +18,8 @@ using testing::Trial;
 using testing::TrialOptions;
 
 TEST(OrbitalMatchStatistics, RecoversGeneratedSitesAndRejectsDecoys) {
-  constexpr int kTrials = 30;
-  constexpr int kDecoysPerTrial = 4;
+  constexpr int kTrials = 20;
+  constexpr int kDecoysPerTrial = 5;
   std::vector<Trial> trials;
   for (int k = 0; k < kTrials; ++k) {
     TrialOptions o;

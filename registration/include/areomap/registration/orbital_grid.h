@@ -56,8 +56,8 @@ class GridMapping {
   Eigen::Vector2d Apply(const Eigen::Vector2d& from_pixel) const;
 
  private:
-  const PixelGrid* from_;
-  const PixelGrid* to_;
+  PixelGrid from_;  // Copies share the CRS transforms.
+  PixelGrid to_;
   bool same_crs_ = false;
 };
 
