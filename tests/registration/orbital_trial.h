@@ -36,6 +36,8 @@ struct Trial {
   Orthophoto ortho;
   std::optional<OrbitalImage> orbital;
   std::optional<OrbitalImage> decoy;  // When TrialOptions::decoy.
+  std::optional<OrbitalImage> dtm;    // The orbital DTM (1 m posting).
+  GeoTransform ortho_truth;           // The ortho's true georeference.
   OrbitalPrior prior;
   Eigen::Vector2d telemetry_error_en_m;  // Where telemetry put the rover minus the truth [m].
   double gsd_m = 0.25;
@@ -97,6 +99,7 @@ inline Trial MakeTrial(const TrialOptions& o) {
   const OrbitalProducts products =
       RenderOrbitalProducts(scene, georef, o.orbital_half_extent_m, 1.0, orbital);
   trial.orbital = OrbitalImage::FromGeoRaster(products.image, "orbital");
+  trial.dtm = OrbitalImage::FromGeoRaster(products.dtm, "dtm");
   if (o.decoy) {
     const Scene other = TrialScene(o.seed + 100000u);
     trial.decoy = OrbitalImage::FromGeoRaster(
@@ -124,6 +127,7 @@ inline Trial MakeTrial(const TrialOptions& o) {
   // error about the rover (the image centre).
   trial.telemetry_error_en_m = o.telemetry_sigma_m * Eigen::Vector2d(gauss(rng), gauss(rng));
   const GeoTransform& truth = render.image.geotransform;
+  trial.ortho_truth = truth;
   const double cx = trial.ortho.image.cols / 2.0, cy = trial.ortho.image.rows / 2.0;
   const Eigen::Vector2d rover_map = truth.PixelToMap(cx, cy);
   const double h = o.heading_error_deg * std::numbers::pi / 180.0;
