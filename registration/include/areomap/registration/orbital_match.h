@@ -1,0 +1,137 @@
+// Orbital-ground registration: where does the rover orthophoto lie on an orbital image?
+//
+// Method (ch. 3.4.2, made automatic and nodata-aware): the orthophoto is resampled to the
+// orbital grid (orbital_template.h), then matched by masked normalized cross-correlation in the
+// Fourier domain (masked_ncc.h, Padfield 2012) coarse-to-fine over a pyramid: the whole search
+// window (the prior position +- search_sigmas x its 1-sigma radius) at the coarsest level, a
+// few pixels around the doubled peak at each finer one, a quadratic subpixel fit at full
+// resolution. An optional grid of small rotations (heading error) and scale changes is tried
+// at the coarsest level and the best refined by a parabola. Like JPL's Mars Global
+// Localization and VICAR marsautoloco, the answer comes with its confidence: the peak CC, the
+// ratio of the best to the second-best separated peak, and the peak's sharpness; a match that
+// fails a threshold is reported as "no match" with the reason, never as a position.
+//
+// Frames and units: shifts are in orbital pixels (columns, rows; GDAL pixel convention) and in
+// metres east/north in the local level frame at the rover; rotations in radians, counter-
+// clockwise on the map (east towards north). The correction maps where the telemetry
+// georeference puts a ground point on the orbital image to where the image shows it.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "areomap/map/geodesy.h"
+#include "areomap/map/progress.h"
+#include "areomap/registration/orbital_image.h"
+#include "areomap/registration/orbital_template.h"
+
+namespace areomap {
+
+// Where telemetry puts the rover, and how far off that may be.
+struct OrbitalPrior {
+  Geographic position;    // Planetocentric latitude, east longitude [rad] of the rover.
+  double sigma_m = 10.0;  // Horizontal 1-sigma position uncertainty [m], > 0.
+};
+
+struct OrbitalMatchOptions {
+  TemplateOptions template_options;
+  double search_sigmas = 3.0;     // Search window half side = this x prior sigma, > 0.
+  int max_coarse_radius_px = 24;  // Pyramid depth: coarsest search radius <= this [px], >= 4.
+  int max_levels = 4;             // At most this many halvings, >= 0.
+  int min_template_px = 24;       // Coarsest template's shorter side >= this [px], >= 8.
+  int refine_radius_px = 2;       // Search radius at each finer level [px], >= 1.
+  int candidates = 4;             // Coarse peaks followed to full resolution, >= 2.
+  // A runner-up counts as a second peak only if the coarse surface dips at least this much
+  // [NCC] between it and the best (otherwise it sits on the best peak's slope), >= 0.
+  double min_valley = 0.02;
+  double max_rotation_deg = 0.0;      // Rotations searched: +-this [deg], >= 0 (0 = none).
+  double rotation_step_deg = 1.0;     // Rotation grid step [deg], > 0.
+  double max_scale_change = 0.0;      // Scales searched: 1 +- this, in [0, 0.5) (0 = none).
+  double scale_step = 0.02;           // Scale grid step, > 0.
+  double min_overlap_fraction = 0.7;  // Of the template's valid pixels, for a shift to count.
+  double min_correlation = 0.3;       // Confident only if the full-resolution NCC >= this.
+  double min_peak_ratio = 1.25;       // ... and best / second-best separated peak >= this, >= 1.
+  double min_sharpness = 0.03;        // ... and the mean NCC drop to the 8 neighbours >= this.
+  double exclusion_radius_m = 3.0;    // A second peak is one farther than this from the best [m].
+  int min_template_pixels = 400;      // Fewer valid template pixels at full resolution: no match.
+  // Accuracy floor of area correlation between images of different sensors and illumination
+  // (shading moves edges; resampling), added in quadrature to the noise-driven sigma [px].
+  double subpixel_floor_px = 0.15;  // >= 0.
+
+  // Throws areomap::Error naming the field and the rule it broke.
+  void Check() const;
+};
+
+struct OrbitalMatch {
+  std::string orbital;          // The orbital image's name.
+  bool overlaps = false;        // The search window reaches the orbital image.
+  bool matched = false;         // A confident match (all thresholds passed).
+  std::string reason;           // Why there is no match; empty when matched.
+  bool window_clipped = false;  // The search window ran over the image's edge.
+
+  // The correction (orbital pixels): orbital pixel u, where the telemetry georeference puts a
+  // ground point, shows that point at centre + shift + A (u - centre) with A = scale R(rotation).
+  Eigen::Vector2d shift_px = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d shift_covariance_px = Eigen::Matrix2d::Zero();  // [px^2]
+  Eigen::Vector2d centre_px = Eigen::Vector2d::Zero();  // Template centre on the orbital image.
+  double rotation_rad = 0.0;
+  double scale = 1.0;
+  bool rotation_solved = false;
+  bool scale_solved = false;
+  // The same shift in metres, east and north at the rover, and its covariance [m^2].
+  Eigen::Vector2d shift_en_m = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d shift_covariance_en_m2 = Eigen::Matrix2d::Zero();
+  Geographic corrected_position;  // The rover's position after the correction [rad].
+
+  double correlation = 0.0;  // NCC at the full-resolution peak.
+  double peak_ratio = 0.0;   // Best / best separated runner-up, both refined to full resolution.
+  double sharpness = 0.0;    // Mean NCC drop to the 8 neighbours at full resolution.
+  double gsd_m = 0.0;        // Orbital pixel size at the rover [m].
+  int levels = 0;            // Pyramid halvings used.
+  int search_radius_px = 0;  // Full-resolution search radius [px].
+  int template_pixels = 0;   // Valid template pixels at full resolution.
+
+  // The correlation surface of the whole search window at the coarsest level (CV_32F, NaN where
+  // undefined), one pixel per 2^levels orbital pixels; surface_shift0 is the correction
+  // (full-resolution px) of its pixel (0, 0), before rotation.
+  cv::Mat surface;
+  Eigen::Vector2d surface_shift0 = Eigen::Vector2d::Zero();
+
+  // What verification and control points need: the template on the orbital grid (telemetry
+  // georeference), and the orbital pixels around the match.
+  OrbitalTemplate templ;
+  cv::Mat orbital_patch;  // CV_32F, NaN where invalid.
+  PixelWindow orbital_window;
+
+  // Orbital pixel at which template pixel coordinate `p` (GDAL convention) lies under the
+  // correction, and the inverse.
+  Eigen::Vector2d TemplateToOrbital(const Eigen::Vector2d& p) const;
+  Eigen::Vector2d OrbitalToTemplate(const Eigen::Vector2d& u) const;
+  // One line: image, verdict, shift [m] with sigma, CC, ratio.
+  std::string BriefReport() const;
+};
+
+// Matches `ortho` onto `orbital` around `prior`. A failure to match (no overlap, too few
+// valid pixels, low confidence) is a result with matched = false and a reason. Throws
+// areomap::Error if the options fail Check(), a CRS is not on Mars (the message names the
+// file), or the progress callback asks to stop.
+OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& orbital,
+                                 const OrbitalPrior& prior, const OrbitalMatchOptions& options = {},
+                                 const ProgressCallback& progress = nullptr);
+
+// Several orbital images (the dissertation's seven-image test): every image is matched; the
+// best is the confident match with the highest correlation.
+struct MultiOrbitalMatch {
+  std::vector<OrbitalMatch> matches;  // One per image, in input order.
+  int best = -1;                      // Index of the best confident match; -1 if none.
+};
+MultiOrbitalMatch MatchOrthoToOrbitals(const Orthophoto& ortho,
+                                       const std::vector<OrbitalImage>& orbitals,
+                                       const OrbitalPrior& prior,
+                                       const OrbitalMatchOptions& options = {},
+                                       const ProgressCallback& progress = nullptr);
+
+}  // namespace areomap

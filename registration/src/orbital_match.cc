@@ -1,0 +1,533 @@
+#include "areomap/registration/orbital_match.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "areomap/map/error.h"
+#include "areomap/registration/masked_ncc.h"
+#include "areomap/registration/orbital_grid.h"
+#include "areomap/registration/orbital_pyramid.h"
+
+namespace areomap {
+namespace {
+
+void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
+  if (progress && !progress(fraction, stage)) throw Error("orbital registration cancelled");
+}
+
+Eigen::Matrix2d SimilarityMatrix(double rotation, double scale) {
+  // Counter-clockwise on a north-up map = clockwise in (column, row) pixel axes.
+  const double c = std::cos(rotation), s = std::sin(rotation);
+  Eigen::Matrix2d a;
+  a << c, s, -s, c;
+  return scale * a;
+}
+
+// The template warped by A about its centre: W(q) = T(A^-1 (q - c) + c).
+MaskedImage WarpTemplate(const OrbitalTemplate& templ, double rotation, double scale) {
+  MaskedImage out;
+  if (rotation == 0.0 && scale == 1.0) {
+    out.image = templ.image;
+    out.mask = templ.mask;
+    return out;
+  }
+  const Eigen::Matrix2d a = SimilarityMatrix(rotation, scale);
+  const Eigen::Vector2d c((templ.image.cols - 1) / 2.0, (templ.image.rows - 1) / 2.0);
+  const Eigen::Vector2d t = c - a * c;
+  const cv::Mat m = (cv::Mat_<double>(2, 3) << a(0, 0), a(0, 1), t.x(), a(1, 0), a(1, 1), t.y());
+  cv::Mat value(templ.image.size(), CV_32F, cv::Scalar(0.0f)), weight;
+  templ.image.copyTo(value, templ.mask);
+  templ.mask.convertTo(weight, CV_32F, 1.0 / 255.0);
+  cv::Mat warped_value, warped_weight;
+  cv::warpAffine(value, warped_value, m, value.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  cv::warpAffine(weight, warped_weight, m, value.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+  out.image.create(value.size(), CV_32F);
+  out.mask.create(value.size(), CV_8U);
+  for (int r = 0; r < value.rows; ++r) {
+    for (int col = 0; col < value.cols; ++col) {
+      const float w = warped_weight.at<float>(r, col);
+      const bool ok = w >= 0.99f;
+      out.image.at<float>(r, col) =
+          ok ? warped_value.at<float>(r, col) / w : std::numeric_limits<float>::quiet_NaN();
+      out.mask.at<uchar>(r, col) = ok ? 255 : 0;
+    }
+  }
+  return out;
+}
+
+int FloorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+int CeilDiv(int a, int b) { return -FloorDiv(-a, b); }
+
+// Shift covariance of a correlation match [px^2] after Forstner (1982): the residual noise
+// variance over the sum of squared template gradients. The residual variance follows from the
+// correlation coefficient rho of template T against the image, s_T^2 (1 - rho^2) / rho^2 (the
+// regression residual in template units), and the sum counts valid pixels whose neighbours
+// are valid. Residuals between a rover orthophoto and an orbital image (shading, resampling)
+// are correlated over about the low-pass footprint, which shrinks the number of independent
+// samples by `correlation_area` pixels.
+Eigen::Matrix2d ShiftCovariance(const MaskedImage& t, double rho, double correlation_area) {
+  Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
+  double sum = 0.0, sum_sq = 0.0;
+  int n = 0;
+  for (int r = 1; r + 1 < t.image.rows; ++r) {
+    for (int c = 1; c + 1 < t.image.cols; ++c) {
+      const auto ok = [&](int rr, int cc) { return t.mask.at<uchar>(rr, cc) != 0; };
+      if (!ok(r, c) || !ok(r, c - 1) || !ok(r, c + 1) || !ok(r - 1, c) || !ok(r + 1, c)) continue;
+      const double v = t.image.at<float>(r, c);
+      const double gx = 0.5 * (t.image.at<float>(r, c + 1) - t.image.at<float>(r, c - 1));
+      const double gy = 0.5 * (t.image.at<float>(r + 1, c) - t.image.at<float>(r - 1, c));
+      normal(0, 0) += gx * gx;
+      normal(0, 1) += gx * gy;
+      normal(1, 1) += gy * gy;
+      sum += v;
+      sum_sq += v * v;
+      ++n;
+    }
+  }
+  normal(1, 0) = normal(0, 1);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (n < 10 || rho <= 0.0 || normal.determinant() <= 0.0) return Eigen::Matrix2d::Constant(nan);
+  const double variance = std::max(0.0, sum_sq / n - (sum / n) * (sum / n));
+  const double residual = variance * (1.0 - rho * rho) / (rho * rho);
+  return residual * correlation_area * normal.inverse();
+}
+
+// The `count` highest local maxima (3 x 3, finite neighbours only) of a surface, at least
+// `separation` [px] apart (greedy, highest first), as shifts.
+std::vector<cv::Point> TopLocalMaxima(const MaskedNccSurface& surface, int count,
+                                      double separation) {
+  std::vector<std::pair<float, cv::Point>> maxima;
+  const cv::Mat& s = surface.ncc;
+  for (int r = 0; r < s.rows; ++r) {
+    for (int c = 0; c < s.cols; ++c) {
+      const float v = s.at<float>(r, c);
+      if (!std::isfinite(v)) continue;
+      bool is_max = true;
+      for (int dr = -1; dr <= 1 && is_max; ++dr) {
+        for (int dc = -1; dc <= 1; ++dc) {
+          const int rr = r + dr, cc = c + dc;
+          if ((dr == 0 && dc == 0) || rr < 0 || cc < 0 || rr >= s.rows || cc >= s.cols) continue;
+          if (s.at<float>(rr, cc) > v) {
+            is_max = false;
+            break;
+          }
+        }
+      }
+      if (is_max) maxima.emplace_back(v, cv::Point(c + surface.shift_x0, r + surface.shift_y0));
+    }
+  }
+  std::sort(maxima.begin(), maxima.end(),
+            [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<cv::Point> out;
+  for (const auto& [value, p] : maxima) {
+    bool far = true;
+    for (const cv::Point& q : out) far = far && std::hypot(p.x - q.x, p.y - q.y) > separation;
+    if (far) out.push_back(p);
+    if (static_cast<int>(out.size()) == count) break;
+  }
+  return out;
+}
+
+// How far the surface dips below the lower of two shifts on the straight path between them
+// (nearest samples every half pixel): 0 when one is on the other's slope.
+double ValleyDepth(const MaskedNccSurface& surface, cv::Point a, cv::Point b) {
+  const auto at = [&](double x, double y) {
+    const int c = static_cast<int>(std::lround(x)) - surface.shift_x0;
+    const int r = static_cast<int>(std::lround(y)) - surface.shift_y0;
+    if (r < 0 || c < 0 || r >= surface.ncc.rows || c >= surface.ncc.cols) return -1.0;
+    const float v = surface.ncc.at<float>(r, c);
+    return std::isfinite(v) ? static_cast<double>(v) : -1.0;
+  };
+  const double va = at(a.x, a.y), vb = at(b.x, b.y);
+  const int steps = std::max(2, static_cast<int>(2.0 * std::hypot(b.x - a.x, b.y - a.y)));
+  double lowest = std::min(va, vb);
+  for (int k = 1; k < steps; ++k) {
+    const double t = static_cast<double>(k) / steps;
+    lowest = std::min(lowest, at(a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)));
+  }
+  return std::min(va, vb) - lowest;
+}
+
+struct CoarseResult {
+  MaskedNccSurface surface;
+  NccPeak peak;
+  double rotation = 0.0;
+  double scale = 1.0;
+};
+
+}  // namespace
+
+void OrbitalMatchOptions::Check() const {
+  template_options.Check();
+  RequireOption(search_sigmas > 0.0, "OrbitalMatchOptions.search_sigmas", "> 0");
+  RequireOption(max_coarse_radius_px >= 4, "OrbitalMatchOptions.max_coarse_radius_px", ">= 4 px");
+  RequireOption(max_levels >= 0 && max_levels <= 8, "OrbitalMatchOptions.max_levels", "0..8");
+  RequireOption(min_template_px >= 8, "OrbitalMatchOptions.min_template_px", ">= 8 px");
+  RequireOption(refine_radius_px >= 1, "OrbitalMatchOptions.refine_radius_px", ">= 1 px");
+  RequireOption(candidates >= 2, "OrbitalMatchOptions.candidates", ">= 2");
+  RequireOption(min_valley >= 0.0, "OrbitalMatchOptions.min_valley", ">= 0");
+  RequireOption(max_rotation_deg >= 0.0 && max_rotation_deg <= 45.0,
+                "OrbitalMatchOptions.max_rotation_deg", "in [0, 45] degrees");
+  RequireOption(rotation_step_deg > 0.0, "OrbitalMatchOptions.rotation_step_deg", "> 0 degrees");
+  RequireOption(max_scale_change >= 0.0 && max_scale_change < 0.5,
+                "OrbitalMatchOptions.max_scale_change", "in [0, 0.5)");
+  RequireOption(scale_step > 0.0, "OrbitalMatchOptions.scale_step", "> 0");
+  RequireOption(min_overlap_fraction > 0.0 && min_overlap_fraction <= 1.0,
+                "OrbitalMatchOptions.min_overlap_fraction", "in (0, 1]");
+  RequireOption(min_correlation >= -1.0 && min_correlation <= 1.0,
+                "OrbitalMatchOptions.min_correlation", "in [-1, 1]");
+  RequireOption(min_peak_ratio >= 1.0, "OrbitalMatchOptions.min_peak_ratio", ">= 1");
+  RequireOption(min_sharpness >= 0.0, "OrbitalMatchOptions.min_sharpness", ">= 0");
+  RequireOption(exclusion_radius_m >= 0.0, "OrbitalMatchOptions.exclusion_radius_m", ">= 0 m");
+  RequireOption(min_template_pixels >= 16, "OrbitalMatchOptions.min_template_pixels", ">= 16");
+  RequireOption(subpixel_floor_px >= 0.0, "OrbitalMatchOptions.subpixel_floor_px", ">= 0 px");
+}
+
+Eigen::Vector2d OrbitalMatch::TemplateToOrbital(const Eigen::Vector2d& p) const {
+  const Eigen::Vector2d u = p + Eigen::Vector2d(templ.col0, templ.row0);
+  return centre_px + shift_px + SimilarityMatrix(rotation_rad, scale) * (u - centre_px);
+}
+
+Eigen::Vector2d OrbitalMatch::OrbitalToTemplate(const Eigen::Vector2d& v) const {
+  const Eigen::Vector2d u =
+      centre_px + SimilarityMatrix(rotation_rad, scale).inverse() * (v - centre_px - shift_px);
+  return u - Eigen::Vector2d(templ.col0, templ.row0);
+}
+
+std::string OrbitalMatch::BriefReport() const {
+  std::ostringstream out;
+  out.setf(std::ios::fixed);
+  out.precision(3);
+  out << orbital << ": ";
+  if (!matched) {
+    out << "no match (" << reason << ")";
+    if (overlaps) out << ", best CC " << correlation << ", ratio " << peak_ratio;
+    return out.str();
+  }
+  out << "shift E " << shift_en_m.x() << " +- " << std::sqrt(shift_covariance_en_m2(0, 0))
+      << " m, N " << shift_en_m.y() << " +- " << std::sqrt(shift_covariance_en_m2(1, 1))
+      << " m, CC " << correlation << ", ratio " << peak_ratio << ", sharpness " << sharpness;
+  if (rotation_solved) out << ", rotation " << rotation_rad * 180.0 / std::numbers::pi << " deg";
+  if (scale_solved) out << ", scale " << scale;
+  return out.str();
+}
+
+OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& orbital,
+                                 const OrbitalPrior& prior, const OrbitalMatchOptions& options,
+                                 const ProgressCallback& progress) {
+  options.Check();
+  RequireOption(std::isfinite(prior.sigma_m) && prior.sigma_m > 0.0, "OrbitalPrior.sigma_m",
+                "> 0 m");
+  RequireOption(IsValid(prior.position), "OrbitalPrior.position",
+                "a finite latitude in [-90, 90] degrees and a finite longitude");
+  OrbitalMatch out;
+  out.orbital = orbital.name();
+  Report(progress, 0.0, "register: resample");
+  const PixelGrid ortho_grid(ortho.geotransform, ortho.crs_wkt, ortho.source);
+  const PixelGrid orbital_grid(orbital.geotransform(), orbital.crs_wkt(), orbital.name());
+  const Eigen::Vector2d rover_in_ortho = ortho_grid.GeographicToPixel(prior.position);
+  const Eigen::Vector2d rover_in_orbital = orbital_grid.GeographicToPixel(prior.position);
+  if (!rover_in_ortho.allFinite() || !rover_in_orbital.allFinite()) {
+    throw Error("the prior position lies outside the domain of the CRS of " +
+                (rover_in_ortho.allFinite() ? orbital.name() : ortho.source));
+  }
+  const Eigen::Matrix2d en_per_px = orbital_grid.EastNorthPerPixel(rover_in_orbital);
+  out.gsd_m = 0.5 * (en_per_px.col(0).norm() + en_per_px.col(1).norm());
+  out.corrected_position = prior.position;
+
+  out.templ = ResampleToOrbitalGrid(ortho, ortho_grid, orbital_grid, rover_in_ortho,
+                                    options.template_options);
+  out.template_pixels = out.templ.valid_pixels;
+  const OrbitalTemplate& templ = out.templ;
+  if (templ.valid_pixels < options.min_template_pixels) {
+    out.reason = "the orthophoto has " + std::to_string(templ.valid_pixels) +
+                 " valid pixels within the reliable range at the orbital resolution, fewer than " +
+                 std::to_string(options.min_template_pixels);
+    out.overlaps = true;
+    return out;
+  }
+  out.centre_px =
+      Eigen::Vector2d(templ.col0 + templ.image.cols / 2.0, templ.row0 + templ.image.rows / 2.0);
+
+  // Search radius and pyramid depth.
+  const int radius = static_cast<int>(std::ceil(options.search_sigmas * prior.sigma_m / out.gsd_m));
+  out.search_radius_px = radius;
+  int levels = 0;
+  while (levels < options.max_levels && (radius >> levels) > options.max_coarse_radius_px &&
+         (std::min(templ.image.rows, templ.image.cols) >> (levels + 1)) >=
+             options.min_template_px) {
+    ++levels;
+  }
+  out.levels = levels;
+  const int unit = 1 << levels;
+
+  // The orbital pixels the search can reach, read as one window.
+  const int margin = 2 * unit;
+  PixelWindow window{templ.col0 - radius - margin, templ.row0 - radius - margin,
+                     templ.image.cols + 2 * (radius + margin),
+                     templ.image.rows + 2 * (radius + margin)};
+  const PixelWindow requested = window;
+  cv::Mat patch = orbital.ReadWindow(window);
+  if (patch.empty()) {
+    out.reason = "the search window does not overlap the orbital image";
+    return out;
+  }
+  out.overlaps = true;
+  out.window_clipped = window.col0 != requested.col0 || window.row0 != requested.row0 ||
+                       window.width != requested.width || window.height != requested.height;
+  out.orbital_patch = patch;
+  out.orbital_window = window;
+  Report(progress, 0.2, "register: pyramid");
+  const std::vector<MaskedImage> orbital_pyramid = BuildMaskedPyramid({patch, {}}, levels);
+
+  // Shifts: the template's top-left pixel on window pixel (x, y); the telemetry position is
+  // (x0, y0).
+  const int x0 = templ.col0 - window.col0, y0 = templ.row0 - window.row0;
+  MaskedNccOptions ncc_options;
+  ncc_options.min_overlap_fraction = options.min_overlap_fraction;
+  ncc_options.search_window = ShiftWindow{FloorDiv(x0 - radius, unit), CeilDiv(x0 + radius, unit),
+                                          FloorDiv(y0 - radius, unit), CeilDiv(y0 + radius, unit)};
+  PeakOptions coarse_peak_options;
+  coarse_peak_options.exclusion_radius = options.exclusion_radius_m / (out.gsd_m * unit);
+  coarse_peak_options.min_peak = -1.0;
+  coarse_peak_options.min_peak_ratio = 1.0;
+
+  const auto coarse_match = [&](double rotation, double scale) {
+    CoarseResult result;
+    result.rotation = rotation;
+    result.scale = scale;
+    const MaskedImage warped = WarpTemplate(templ, rotation, scale);
+    const std::vector<MaskedImage> pyramid = BuildMaskedPyramid(warped, levels);
+    result.surface = MaskedNcc(orbital_pyramid[levels].image, orbital_pyramid[levels].mask,
+                               pyramid[levels].image, pyramid[levels].mask, ncc_options);
+    result.peak = FindPeak(result.surface, coarse_peak_options);
+    return result;
+  };
+
+  // Coarse search over the rotation and scale grid.
+  std::vector<double> rotations{0.0}, scales{1.0};
+  const double step = options.rotation_step_deg * std::numbers::pi / 180.0;
+  const int n_rot =
+      static_cast<int>(std::floor(options.max_rotation_deg / options.rotation_step_deg));
+  for (int k = 1; k <= n_rot; ++k) {
+    rotations.insert(rotations.begin(), -k * step);
+    rotations.push_back(k * step);
+  }
+  const int n_scale = static_cast<int>(std::floor(options.max_scale_change / options.scale_step));
+  for (int k = 1; k <= n_scale; ++k) {
+    scales.insert(scales.begin(), 1.0 - k * options.scale_step);
+    scales.push_back(1.0 + k * options.scale_step);
+  }
+  std::vector<std::vector<double>> values(rotations.size(),
+                                          std::vector<double>(scales.size(), -2.0));
+  CoarseResult best;
+  best.peak.value = -2.0;
+  size_t best_r = 0, best_s = 0;
+  for (size_t i = 0; i < rotations.size(); ++i) {
+    for (size_t j = 0; j < scales.size(); ++j) {
+      CoarseResult r = coarse_match(rotations[i], scales[j]);
+      if (r.peak.found) values[i][j] = r.peak.value;
+      if (r.peak.found && r.peak.value > best.peak.value) {
+        best = std::move(r);
+        best_r = i;
+        best_s = j;
+      }
+    }
+    Report(progress, 0.2 + 0.5 * static_cast<double>(i + 1) / static_cast<double>(rotations.size()),
+           "register: coarse search");
+  }
+  if (!best.peak.found) {
+    out.reason = "no shift in the search window has enough valid overlap";
+    return out;
+  }
+  // Parabolic refinement of the rotation and the scale between grid values.
+  const auto vertex = [](double a, double b, double c) {
+    const double d = a - 2.0 * b + c;
+    return d < 0.0 ? std::clamp(0.5 * (a - c) / d, -0.5, 0.5) : 0.0;
+  };
+  double rotation = best.rotation, scale = best.scale;
+  if (rotations.size() > 1 && best_r > 0 && best_r + 1 < rotations.size()) {
+    rotation += step * vertex(values[best_r - 1][best_s], values[best_r][best_s],
+                              values[best_r + 1][best_s]);
+  }
+  if (scales.size() > 1 && best_s > 0 && best_s + 1 < scales.size()) {
+    scale += options.scale_step *
+             vertex(values[best_r][best_s - 1], values[best_r][best_s], values[best_r][best_s + 1]);
+  }
+  if (rotation != best.rotation || scale != best.scale) {
+    CoarseResult refined = coarse_match(rotation, scale);
+    if (refined.peak.found && refined.peak.value >= best.peak.value) best = std::move(refined);
+  }
+  out.rotation_rad = best.rotation;
+  out.scale = best.scale;
+  out.rotation_solved = rotations.size() > 1;
+  out.scale_solved = scales.size() > 1;
+  out.surface = best.surface.ncc;
+  out.surface_shift0 =
+      Eigen::Vector2d(best.surface.shift_x0 * unit - x0, best.surface.shift_y0 * unit - y0);
+
+  // Coarse to fine: the best coarse peaks are each followed down the pyramid; the ratio of the
+  // best to the best separated runner-up is measured at full resolution, where a true match
+  // stands out much more than in the blurred coarse levels.
+  Report(progress, 0.75, "register: refine");
+  const MaskedImage warped = WarpTemplate(templ, best.rotation, best.scale);
+  const std::vector<MaskedImage> template_pyramid = BuildMaskedPyramid(warped, levels);
+  PeakOptions fine_options;
+  fine_options.min_peak = -1.0;
+  fine_options.min_peak_ratio = 1.0;
+  const auto refine_candidate = [&](cv::Point coarse) {
+    NccPeak fine;
+    int x = coarse.x, y = coarse.y;
+    for (int level = std::max(levels - 1, 0); level >= 0; --level) {
+      MaskedNccOptions refine = ncc_options;
+      // Level `levels` is where the candidate comes from (itself when there is no pyramid).
+      int cx = level < levels ? 2 * x : x, cy = level < levels ? 2 * y : y;
+      // A peak on the edge of the refinement window is followed uphill a few times.
+      for (int attempt = 0; attempt < 4; ++attempt) {
+        refine.search_window = ShiftWindow::Around(cx, cy, options.refine_radius_px);
+        const MaskedNccSurface surface =
+            MaskedNcc(orbital_pyramid[level].image, orbital_pyramid[level].mask,
+                      template_pyramid[level].image, template_pyramid[level].mask, refine);
+        fine = FindPeak(surface, fine_options);
+        if (!fine.found || !fine.on_border) break;
+        cx = fine.shift_x;
+        cy = fine.shift_y;
+      }
+      if (!fine.found) return fine;
+      x = fine.shift_x;
+      y = fine.shift_y;
+    }
+    return fine;
+  };
+  const double exclusion_px = std::max(options.exclusion_radius_m / out.gsd_m, 3.0);
+  std::vector<cv::Point> candidates =
+      TopLocalMaxima(best.surface, options.candidates, std::max(1.0, exclusion_px / unit));
+  std::vector<NccPeak> refined;
+  for (const cv::Point& candidate : candidates) refined.push_back(refine_candidate(candidate));
+  int best_index = -1;
+  for (size_t k = 0; k < refined.size(); ++k) {
+    if (refined[k].found && (best_index < 0 || refined[k].value > refined[best_index].value)) {
+      best_index = static_cast<int>(k);
+    }
+  }
+  if (best_index < 0) {
+    out.reason = "no coarse peak could be refined at full resolution";
+    return out;
+  }
+  NccPeak fine = refined[best_index];
+  double second = -1.0;
+  for (size_t k = 0; k < refined.size(); ++k) {
+    if (!refined[k].found || static_cast<int>(k) == best_index) continue;
+    const double d =
+        std::hypot(refined[k].shift_x - fine.shift_x, refined[k].shift_y - fine.shift_y);
+    // A runner-up on the best peak's own slope (no valley between them) is not a second peak.
+    const double valley = ValleyDepth(best.surface, candidates[best_index], candidates[k]);
+    if (d > exclusion_px && valley >= options.min_valley) {
+      second = std::max(second, refined[k].value);
+    }
+  }
+  out.peak_ratio = second > 0.0 ? fine.value / second : std::numeric_limits<double>::infinity();
+
+  // Rotation and scale refined at full resolution: a parabola through the peak values half a
+  // grid step either side, then the shift again at the refined warp.
+  MaskedImage final_template = warped;
+  const auto fine_peak_at = [&](const MaskedImage& t, int x, int y) {
+    MaskedNccOptions at = ncc_options;
+    at.search_window = ShiftWindow::Around(x, y, options.refine_radius_px);
+    return FindPeak(
+        MaskedNcc(orbital_pyramid[0].image, orbital_pyramid[0].mask, t.image, t.mask, at),
+        fine_options);
+  };
+  for (int pass = 0; pass < 2; ++pass) {
+    const bool is_rotation = pass == 0;
+    if (is_rotation ? !(rotations.size() > 1) : !(scales.size() > 1)) continue;
+    const double delta = 0.5 * (is_rotation ? step : options.scale_step);
+    double v[3];
+    for (int k = -1; k <= 1; k += 2) {
+      const double r = out.rotation_rad + (is_rotation ? k * delta : 0.0);
+      const double sc = out.scale + (is_rotation ? 0.0 : k * delta);
+      const NccPeak p = fine_peak_at(WarpTemplate(templ, r, sc), fine.shift_x, fine.shift_y);
+      v[k + 1] = p.found ? p.value : -1.0;
+    }
+    v[1] = fine.value;
+    const double offset = delta * 2.0 * vertex(v[0], v[1], v[2]);
+    if (offset == 0.0) continue;
+    const double r = out.rotation_rad + (is_rotation ? offset : 0.0);
+    const double sc = out.scale + (is_rotation ? 0.0 : offset);
+    MaskedImage t = WarpTemplate(templ, r, sc);
+    const NccPeak p = fine_peak_at(t, fine.shift_x, fine.shift_y);
+    if (p.found && !p.on_border && p.value >= fine.value) {
+      fine = p;
+      out.rotation_rad = r;
+      out.scale = sc;
+      final_template = std::move(t);
+    }
+  }
+  const bool coarse_on_border = [&] {
+    const cv::Point c = candidates[best_index];
+    const ShiftWindow& w = *ncc_options.search_window;
+    return c.x <= w.min_shift_x || c.x >= w.max_shift_x || c.y <= w.min_shift_y ||
+           c.y >= w.max_shift_y;
+  }();
+  out.correlation = fine.value;
+  out.sharpness = fine.sharpness;
+  out.shift_px = Eigen::Vector2d(fine.subpixel_x - x0, fine.subpixel_y - y0);
+  out.shift_en_m = en_per_px * out.shift_px;
+  const double correlation_area =
+      1.0 + 2.0 * std::numbers::pi * std::pow(options.template_options.lowpass_sigma_orbital_px, 2);
+  out.shift_covariance_px = ShiftCovariance(final_template, out.correlation, correlation_area) +
+                            std::pow(options.subpixel_floor_px, 2) * Eigen::Matrix2d::Identity();
+  out.shift_covariance_en_m2 = en_per_px * out.shift_covariance_px * en_per_px.transpose();
+  const auto corrected = orbital_grid.PixelToGeographic(rover_in_orbital + out.shift_px);
+  if (corrected) out.corrected_position = *corrected;
+
+  // The verdict.
+  std::ostringstream why;
+  why.precision(3);
+  if (coarse_on_border) {
+    why << "the best peak lies on the edge of the search window";
+  } else if (fine.on_border) {
+    why << "the refined peak drifted to the edge of its refinement window";
+  } else if (out.correlation < options.min_correlation) {
+    why << "peak CC " << out.correlation << " < min_correlation " << options.min_correlation;
+  } else if (out.peak_ratio < options.min_peak_ratio) {
+    why << "peak ratio " << out.peak_ratio << " < min_peak_ratio " << options.min_peak_ratio;
+  } else if (out.sharpness < options.min_sharpness) {
+    why << "sharpness " << out.sharpness << " < min_sharpness " << options.min_sharpness;
+  }
+  out.reason = why.str();
+  out.matched = out.reason.empty();
+  Report(progress, 1.0, "register: done");
+  return out;
+}
+
+MultiOrbitalMatch MatchOrthoToOrbitals(const Orthophoto& ortho,
+                                       const std::vector<OrbitalImage>& orbitals,
+                                       const OrbitalPrior& prior,
+                                       const OrbitalMatchOptions& options,
+                                       const ProgressCallback& progress) {
+  MultiOrbitalMatch out;
+  const double n = static_cast<double>(std::max<size_t>(orbitals.size(), 1));
+  for (size_t k = 0; k < orbitals.size(); ++k) {
+    ProgressCallback sub;
+    if (progress) {
+      sub = [&, k](double fraction, std::string_view stage) {
+        return progress((static_cast<double>(k) + fraction) / n, stage);
+      };
+    }
+    out.matches.push_back(MatchOrthoToOrbital(ortho, orbitals[k], prior, options, sub));
+    const OrbitalMatch& m = out.matches.back();
+    if (m.matched && (out.best < 0 || m.correlation > out.matches[out.best].correlation)) {
+      out.best = static_cast<int>(k);
+    }
+  }
+  return out;
+}
+
+}  // namespace areomap

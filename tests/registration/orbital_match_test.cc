@@ -1,0 +1,141 @@
+#include "areomap/registration/orbital_match.h"
+
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "areomap/map/crs.h"
+#include "orbital_trial.h"
+#include "test_support.h"
+
+namespace areomap {
+namespace {
+
+using testing::MakeTrial;
+using testing::Trial;
+using testing::TrialOptions;
+
+// Small trials keep the unit tests fast: a 70 m orbital square and a 30 m rover ortho.
+TrialOptions SmallTrial(uint32_t seed) {
+  TrialOptions o;
+  o.seed = seed;
+  o.orbital_half_extent_m = 35.0;
+  o.ortho_half_extent_m = 15.0;
+  o.telemetry_sigma_m = 2.0;
+  return o;
+}
+
+double ErrorPx(const OrbitalMatch& m, const Trial& t) {
+  return (m.shift_en_m + t.telemetry_error_en_m).norm() / t.gsd_m;
+}
+
+TEST(OrbitalMatch, RecoversTheTelemetryErrorAndRejectsADecoy) {
+  const Trial trial = MakeTrial(SmallTrial(7));
+  const OrbitalMatch m = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);
+  ASSERT_TRUE(m.matched) << m.BriefReport();
+  EXPECT_LE(ErrorPx(m, trial), 0.5) << m.BriefReport();
+  EXPECT_TRUE(m.overlaps);
+  EXPECT_FALSE(m.window_clipped);
+  EXPECT_NEAR(m.gsd_m, 0.25, 1e-3);
+  EXPECT_GT(m.correlation, 0.5);
+  EXPECT_GE(m.peak_ratio, 1.25);
+  EXPECT_EQ(m.surface.empty(), false);
+  // The corrected rover position is where the truth is: the telemetry error undone.
+  const PixelGrid grid(trial.orbital->geotransform(), trial.orbital->crs_wkt(), "orbital");
+  const Eigen::Vector2d telemetry = grid.GeographicToPixel(trial.prior.position);
+  const Eigen::Vector2d corrected = grid.GeographicToPixel(m.corrected_position);
+  EXPECT_NEAR((corrected - telemetry).x(), m.shift_px.x(), 1e-6);
+  EXPECT_NEAR((corrected - telemetry).y(), m.shift_px.y(), 1e-6);
+
+  const OrbitalMatch d = MatchOrthoToOrbital(trial.ortho, *trial.decoy, trial.prior);
+  EXPECT_FALSE(d.matched) << d.BriefReport();
+  EXPECT_FALSE(d.reason.empty());
+
+  // Several images: each matched, the true one picked.
+  const MultiOrbitalMatch multi =
+      MatchOrthoToOrbitals(trial.ortho, {*trial.decoy, *trial.orbital}, trial.prior);
+  ASSERT_EQ(multi.matches.size(), 2u);
+  EXPECT_EQ(multi.best, 1);
+}
+
+TEST(OrbitalMatch, SolvesAHeadingErrorWithTheRotationSearch) {
+  TrialOptions o = SmallTrial(3);
+  o.heading_error_deg = 3.0;
+  o.decoy = false;
+  const Trial trial = MakeTrial(o);
+  OrbitalMatchOptions options;
+  options.max_rotation_deg = 5.0;
+  const OrbitalMatch m = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior, options);
+  ASSERT_TRUE(m.matched) << m.BriefReport();
+  EXPECT_TRUE(m.rotation_solved);
+  // The georeference was turned 3 deg counter-clockwise; the correction turns it back. A
+  // 0.5 px error at the template's edge (~60 px from its centre) is ~0.5 deg.
+  EXPECT_NEAR(m.rotation_rad * 180.0 / std::numbers::pi, -3.0, 0.5) << m.BriefReport();
+  EXPECT_LE(ErrorPx(m, trial), 0.5) << m.BriefReport();
+}
+
+TEST(OrbitalMatch, ASearchWindowOffTheImageIsNoMatch) {
+  TrialOptions o = SmallTrial(5);
+  o.decoy = false;
+  Trial trial = MakeTrial(o);
+  // Move the ortho and the prior 1 km east: nothing of the search window is on the image.
+  trial.ortho.geotransform.c[0] += 1000.0;
+  const PixelGrid grid(trial.ortho.geotransform, trial.ortho.crs_wkt, "ortho");
+  trial.prior.position =
+      *grid.PixelToGeographic({trial.ortho.image.cols / 2.0, trial.ortho.image.rows / 2.0});
+  const OrbitalMatch m = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);
+  EXPECT_FALSE(m.overlaps);
+  EXPECT_FALSE(m.matched);
+  EXPECT_NE(m.reason.find("does not overlap"), std::string::npos) << m.reason;
+}
+
+TEST(OrbitalMatch, AnAllNodataOrthoIsNoMatch) {
+  TrialOptions o = SmallTrial(5);
+  o.decoy = false;
+  Trial trial = MakeTrial(o);
+  trial.ortho.image.setTo(std::numeric_limits<float>::quiet_NaN());
+  const OrbitalMatch m = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);
+  EXPECT_FALSE(m.matched);
+  EXPECT_NE(m.reason.find("valid pixels"), std::string::npos) << m.reason;
+}
+
+TEST(OrbitalMatch, ASearchWindowLargerThanTheImageIsClippedAndStillMatches) {
+  TrialOptions o = SmallTrial(9);
+  o.decoy = false;
+  Trial trial = MakeTrial(o);
+  trial.prior.sigma_m = 30.0;  // 3 sigma = 90 m, on a 70 m image.
+  const OrbitalMatch m = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);
+  EXPECT_TRUE(m.window_clipped);
+  EXPECT_GT(m.levels, 0);
+  ASSERT_TRUE(m.matched) << m.BriefReport();
+  EXPECT_LE(ErrorPx(m, trial), 0.5) << m.BriefReport();
+}
+
+TEST(OrbitalMatch, AnOrthoOnEarthIsRejectedWithItsName) {
+  TrialOptions o = SmallTrial(5);
+  o.decoy = false;
+  Trial trial = MakeTrial(o);
+  trial.ortho.crs_wkt = Crs::FromUserInput("EPSG:32633").Wkt();
+  trial.ortho.source = "earth_ortho.tif";
+  const std::string message = areomap::testing::ErrorMessageOf(
+      [&] { MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior); });
+  EXPECT_NE(message.find("earth_ortho.tif"), std::string::npos) << message;
+  EXPECT_NE(message.find("not on Mars"), std::string::npos) << message;
+}
+
+TEST(OrbitalMatchOptions, CheckNamesTheField) {
+  OrbitalMatchOptions options;
+  EXPECT_NO_THROW(options.Check());
+  options.min_peak_ratio = 0.5;
+  std::string message = areomap::testing::ErrorMessageOf([&] { options.Check(); });
+  EXPECT_NE(message.find("OrbitalMatchOptions.min_peak_ratio"), std::string::npos) << message;
+  options = {};
+  options.template_options.min_coverage = 0.0;
+  message = areomap::testing::ErrorMessageOf([&] { options.Check(); });
+  EXPECT_NE(message.find("TemplateOptions.min_coverage"), std::string::npos) << message;
+}
+
+}  // namespace
+}  // namespace areomap
