@@ -182,6 +182,7 @@ class Network {
       if (round >= options_.max_rejection_rounds || !RejectOutliers(*problem)) break;
     }
     result.solve_seconds = Seconds(start);
+    if (progress) progress(1.0, "bundle adjustment");
     Report(*problem, result);
     if (options_.compute_covariance) {
       const auto covariance_start = Clock::now();
