@@ -15,5 +15,6 @@ void AddSampleCommand(CLI::App& app, const GlobalOptions& global);
 void AddSimulateCommand(CLI::App& app, const GlobalOptions& global);
 void AddStereoCommand(CLI::App& app, const GlobalOptions& global);
 void AddErrorsCommand(CLI::App& app, const GlobalOptions& global);
+void AddAdjustCommand(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace areomap::cli

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   areomap::cli::AddSimulateCommand(app, global);
   areomap::cli::AddStereoCommand(app, global);
   areomap::cli::AddErrorsCommand(app, global);
+  areomap::cli::AddAdjustCommand(app, global);
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

@@ -320,30 +320,34 @@ void WriteTraverseMap(const std::filesystem::path& path, const AnchoredTraverse&
   cv::Mat gray;
   image.convertTo(gray, CV_8U, 255.0 / std::max(high - low, 1e-9),
                   -low * 255.0 / std::max(high - low, 1e-9));
-  const double scale = std::min(
-      1.0, static_cast<double>(options.max_size_px) / std::max(window.width, window.height));
+  const double scale =
+      static_cast<double>(options.max_size_px) / std::max(window.width, window.height);
   cv::Mat canvas;
-  cv::resize(gray, gray, cv::Size(), scale, scale, cv::INTER_AREA);
+  cv::resize(gray, gray, cv::Size(), scale, scale, scale < 1.0 ? cv::INTER_AREA : cv::INTER_LINEAR);
   cv::cvtColor(gray, canvas, cv::COLOR_GRAY2BGR);
   const auto to_canvas = [&](const Eigen::Vector3d& p) {
     const Eigen::Vector2d q = pixel(p);
     return cv::Point2d((q.x() - window.col0) * scale, (q.y() - window.row0) * scale);
   };
-  const auto draw_track = [&](auto position_of, const cv::Scalar& color) {
+  const auto draw_track = [&](auto position_of, const cv::Scalar& color, int thickness) {
     std::vector<cv::Point> points;
     for (const AnchoredSite& s : traverse.sites) {
       const cv::Point2d q = to_canvas(position_of(s));
       points.emplace_back(static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y)));
     }
-    cv::polylines(canvas, points, false, color, 2, cv::LINE_AA);
-    for (const cv::Point& p : points) cv::circle(canvas, p, 3, color, cv::FILLED, cv::LINE_AA);
+    cv::polylines(canvas, points, false, color, thickness, cv::LINE_AA);
+    for (const cv::Point& p : points) {
+      cv::circle(canvas, p, thickness + 1, color, cv::FILLED, cv::LINE_AA);
+    }
   };
   const cv::Scalar red(40, 40, 230), green(60, 200, 60), blue(230, 120, 40);
-  draw_track([](const AnchoredSite& s) { return s.initial_in_traverse; }, red);
+  // Telemetry, then adjusted, then the truth on top (thinner) so that all three show where
+  // they overlap.
+  draw_track([](const AnchoredSite& s) { return s.initial_in_traverse; }, red, 2);
+  draw_track([](const AnchoredSite& s) { return s.position_in_traverse; }, green, 3);
   if (HasTruth(traverse)) {
-    draw_track([](const AnchoredSite& s) { return s.truth_in_traverse; }, blue);
+    draw_track([](const AnchoredSite& s) { return s.truth_in_traverse; }, blue, 1);
   }
-  draw_track([](const AnchoredSite& s) { return s.position_in_traverse; }, green);
   for (const AnchoredSite& s : traverse.sites) {
     const cv::Point2d c = to_canvas(s.position_in_traverse);
     const double axis_px = options.ellipse_scale * scale / px_m;
@@ -352,12 +356,22 @@ void WriteTraverseMap(const std::filesystem::path& path, const AnchoredTraverse&
                            std::max(1.0, s.ellipse.semi_minor_m * axis_px)),
                 DegFromRad(s.ellipse.azimuth_rad) - 90.0, 0.0, 360.0, green, 1, cv::LINE_AA);
   }
-  char legend[160];
-  std::snprintf(legend, sizeof(legend),
-                "red: telemetry  green: adjusted (1 sigma x%.0f)%s  %.2f m/px",
-                options.ellipse_scale, HasTruth(traverse) ? "  blue: truth" : "", px_m / scale);
-  cv::putText(canvas, legend, cv::Point(10, 24), cv::FONT_HERSHEY_SIMPLEX, 0.6,
-              cv::Scalar(255, 255, 255), 2, cv::LINE_AA);
+  char scale_text[96];
+  std::snprintf(scale_text, sizeof(scale_text), "1 sigma ellipses x%.0f, %.2f m/px",
+                options.ellipse_scale, px_m / scale);
+  int y = 22;
+  for (const auto& [text, color] :
+       std::vector<std::pair<std::string, cv::Scalar>>{{"telemetry", red},
+                                                       {"adjusted", green},
+                                                       {HasTruth(traverse) ? "truth" : "", blue},
+                                                       {scale_text, cv::Scalar(255, 255, 255)}}) {
+    if (text.empty()) continue;
+    cv::putText(canvas, text, cv::Point(10, y), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 0, 0),
+                4, cv::LINE_AA);
+    cv::putText(canvas, text, cv::Point(10, y), cv::FONT_HERSHEY_SIMPLEX, 0.6, color, 2,
+                cv::LINE_AA);
+    y += 24;
+  }
   cv::cvtColor(canvas, canvas, cv::COLOR_BGR2RGB);  // WriteImage keeps file (RGB) order.
   WriteImage(path, canvas);
 }

@@ -29,7 +29,7 @@ void WriteTraverseGeoPackage(const std::filesystem::path& path, const AnchoredTr
                              const Body& body);
 
 struct TraverseMapOptions {
-  int max_size_px = 1600;       // Longest side of the PNG [px].
+  int max_size_px = 1600;       // Longest side of the PNG [px] (resampled).
   double margin_m = 40.0;       // Ground shown around the traverse [m].
   double ellipse_scale = 10.0;  // 1 sigma ellipses drawn this many times larger.
   void Check() const;

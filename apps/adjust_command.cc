@@ -1,0 +1,70 @@
+// areomap adjust NETWORK.json [MORE.json ...] --out DIR: bundle adjustment of a rover traverse
+// from tie points, control points, pose priors and heights (docs/adjustment-format.md).
+#include <iostream>
+
+#include "areomap/registration/traverse_adjustment.h"
+#include "commands.h"
+
+namespace areomap::cli {
+
+void AddAdjustCommand(CLI::App& app, const GlobalOptions& global) {
+  struct Options {
+    std::vector<std::string> inputs;
+    std::string out;
+    std::string orbital;
+    TraverseAdjustmentOptions adjustment;
+  };
+  auto o = std::make_shared<Options>();
+  auto* cmd = app.add_subcommand(
+      "adjust",
+      "Bundle-adjust a rover traverse (site poses from tie points, orbital control points, pose "
+      "priors, heights) and anchor it in Mars body-fixed coordinates with 1-sigma ellipses");
+  cmd->add_option("inputs", o->inputs,
+                  "Adjustment input JSON files, merged in order (docs/adjustment-format.md)")
+      ->required();
+  cmd->add_option("--out", o->out, "Output folder (created if needed)")->required();
+  cmd->add_option("--orbital", o->orbital,
+                  "Georeferenced orbital image to draw the traverse map on (traverse_map.png)");
+  BundleOptions& bundle = o->adjustment.bundle;
+  cmd->add_option("--huber", bundle.huber_scale,
+                  "Huber scale on each observation's Mahalanobis "
+                  "distance [sigmas]")
+      ->capture_default_str();
+  cmd->add_option("--alpha", bundle.rejection_alpha,
+                  "Significance of the normalized residual test for rejecting observations")
+      ->capture_default_str();
+  cmd->add_option("--rejection-rounds", bundle.max_rejection_rounds,
+                  "Most re-solves after rejecting observations")
+      ->capture_default_str();
+  cmd->add_option("--ellipse-scale", o->adjustment.map.ellipse_scale,
+                  "Exaggeration of the 1-sigma ellipses on the traverse map")
+      ->capture_default_str();
+  cmd->callback([o, &global] {
+    o->adjustment.orbital_image = o->orbital;
+    std::vector<std::filesystem::path> inputs(o->inputs.begin(), o->inputs.end());
+    o->adjustment.Check();
+    PrepareOutputFolder(o->out);
+    nlohmann::json summary =
+        AdjustTraverse(inputs, o->out, o->adjustment, MakeProgressBar(global, "adjust"));
+    summary["command"] = "adjust";
+    WriteSummary(o->out, summary);
+    if (!global.quiet) {
+      std::cout << "adjusted " << summary["sites"] << " sites (" << summary["tie_points"]
+                << " tie points, " << summary["control_points"] << " control points, "
+                << summary["rejected"] << " observations rejected), sigma0 "
+                << summary["sigma0"].get<double>() << "; largest 1-sigma ellipse "
+                << summary["largest_horizontal_sigma_m"].get<double>() << " m";
+      if (summary.contains("adjusted_end_error_m")) {
+        std::cout << "; end-point error " << summary["initial_end_error_m"].get<double>()
+                  << " m -> " << summary["adjusted_end_error_m"].get<double>() << " m";
+      }
+      if (summary["sites_with_priors_only"].get<int>() > 0) {
+        std::cout << "\nwarning: " << summary["sites_with_priors_only"]
+                  << " sites have no tie point, control point or height (priors only)";
+      }
+      std::cout << "\nreport: " << (std::filesystem::path(o->out) / "report.txt").string() << "\n";
+    }
+  });
+}
+
+}  // namespace areomap::cli

@@ -1,0 +1,355 @@
+#include "areomap/registration/bundle_io.h"
+
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "areomap/map/error.h"
+
+namespace areomap {
+namespace {
+
+using nlohmann::json;
+
+// Where a value sits, for messages: "<file>: tie_points[3].site_a".
+struct Where {
+  std::string file;
+  std::string path;
+  Where operator/(const std::string& key) const {
+    return {file, path.empty() ? key : path + "." + key};
+  }
+  Where operator[](size_t i) const { return {file, path + "[" + std::to_string(i) + "]"}; }
+  [[noreturn]] void Fail(const std::string& expected) const {
+    throw Error(file + ": " + path + ": expected " + expected);
+  }
+};
+
+const json& Field(const json& j, const std::string& key, const Where& where) {
+  if (!j.is_object() || !j.contains(key)) (where / key).Fail("a value (missing)");
+  return j.at(key);
+}
+
+double Number(const json& j, const Where& where) {
+  if (!j.is_number()) where.Fail("a number");
+  return j.get<double>();
+}
+
+int Integer(const json& j, const Where& where) {
+  if (!j.is_number_integer()) where.Fail("an integer");
+  return j.get<int>();
+}
+
+std::string Text(const json& j, const std::string& key, const std::string& fallback,
+                 const Where& where) {
+  if (!j.contains(key)) return fallback;
+  if (!j.at(key).is_string()) (where / key).Fail("a string");
+  return j.at(key).get<std::string>();
+}
+
+template <int N>
+Eigen::Matrix<double, N, 1> Vector(const json& j, const Where& where) {
+  if (!j.is_array() || j.size() != N) where.Fail("an array of " + std::to_string(N) + " numbers");
+  Eigen::Matrix<double, N, 1> v;
+  for (int i = 0; i < N; ++i) v[i] = Number(j[static_cast<size_t>(i)], where[i]);
+  return v;
+}
+
+template <int N>
+Eigen::Matrix<double, N, N> Matrix(const json& j, const Where& where) {
+  const std::string expected =
+      "a " + std::to_string(N) + "x" + std::to_string(N) + " array of numbers";
+  if (!j.is_array() || j.size() != N) where.Fail(expected);
+  Eigen::Matrix<double, N, N> m;
+  for (int r = 0; r < N; ++r) {
+    const json& row = j[static_cast<size_t>(r)];
+    if (!row.is_array() || row.size() != N) where.Fail(expected);
+    for (int c = 0; c < N; ++c) m(r, c) = Number(row[static_cast<size_t>(c)], where[r][c]);
+  }
+  if (!(m - m.transpose()).isZero(1e-9 * (1.0 + m.cwiseAbs().maxCoeff()))) {
+    where.Fail("a symmetric matrix");
+  }
+  return m;
+}
+
+Eigen::Quaterniond Rotation(const json& j, const Where& where) {
+  if (!j.contains("rotation_wxyz")) return Eigen::Quaterniond::Identity();
+  const Eigen::Vector4d q = Vector<4>(j.at("rotation_wxyz"), where / "rotation_wxyz");
+  if (q.norm() < 1e-9) (where / "rotation_wxyz").Fail("a non-zero quaternion (w, x, y, z)");
+  return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
+}
+
+// A 6x6 pose covariance: "covariance" (rad^2, m^2) or "sigma_rotation_deg" + "sigma_position_m".
+Matrix6d PoseCovariance(const json& j, const Where& where) {
+  if (j.contains("covariance")) return Matrix<6>(j.at("covariance"), where / "covariance");
+  const Eigen::Vector3d rotation =
+      Vector<3>(Field(j, "sigma_rotation_deg", where), where / "sigma_rotation_deg");
+  const Eigen::Vector3d position =
+      Vector<3>(Field(j, "sigma_position_m", where), where / "sigma_position_m");
+  if ((rotation.array() <= 0.0).any() || (position.array() <= 0.0).any()) {
+    where.Fail("positive sigma_rotation_deg and sigma_position_m");
+  }
+  return PoseCovarianceFromSigmas(rotation.unaryExpr([](double d) { return RadFromDeg(d); }),
+                                  position);
+}
+
+const json& Array(const json& j, const std::string& key, const Where& where) {
+  static const json empty = json::array();
+  if (!j.contains(key)) return empty;
+  if (!j.at(key).is_array()) (where / key).Fail("an array");
+  return j.at(key);
+}
+
+json ReadJson(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(path.string() + ": no such file or not readable");
+  try {
+    return json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw Error(path.string() + ": not valid JSON: " + e.what());
+  }
+}
+
+void ReadHeader(const json& doc, const Where& w, BundleInputFile& out) {
+  if (doc.contains("format") && doc.at("format") != "areomap-adjustment") {
+    (w / "format").Fail("\"areomap-adjustment\"");
+  }
+  BundleInput& input = out.input;
+  if (doc.contains("body")) {
+    const json& body = doc.at("body");
+    if (body.is_string()) {
+      input.body = Body::FromName(body.get<std::string>());
+    } else {
+      input.body = Body{Text(body, "name", "custom", w / "body"),
+                        Number(Field(body, "a_m", w / "body"), w / "body" / "a_m"),
+                        Number(Field(body, "b_m", w / "body"), w / "body" / "b_m")};
+      input.body.Check();
+    }
+  }
+  const Where wo = w / "origin";
+  const json& origin = Field(doc, "origin", w);
+  input.origin = Geographic{RadFromDeg(Number(Field(origin, "lat_deg", wo), wo / "lat_deg")),
+                            RadFromDeg(Number(Field(origin, "lon_deg", wo), wo / "lon_deg")),
+                            Number(Field(origin, "h_m", wo), wo / "h_m")};
+  if (!IsValid(input.origin)) (wo / "lat_deg").Fail("a latitude in [-90, 90] degrees");
+  const json& sites = Field(doc, "sites", w);
+  if (!sites.is_array() || sites.empty()) (w / "sites").Fail("a non-empty array of sites");
+  for (size_t i = 0; i < sites.size(); ++i) {
+    const Where ws = (w / "sites")[i];
+    if (Integer(Field(sites[i], "site", ws), ws / "site") != static_cast<int>(i)) {
+      (ws / "site").Fail(std::to_string(i) + " (sites are listed in order from 0)");
+    }
+    input.initial_poses.emplace_back(
+        Rotation(sites[i], ws), Vector<3>(Field(sites[i], "position_m", ws), ws / "position_m"));
+  }
+  input.site_count = static_cast<int>(sites.size());
+  if (doc.contains("site0_prior")) {
+    input.site0_prior_covariance = PoseCovariance(doc.at("site0_prior"), w / "site0_prior");
+  }
+}
+
+void ReadSections(const json& doc, const Where& w, BundleInputFile& out) {
+  BundleInput& input = out.input;
+  const json& priors = Array(doc, "priors", w);
+  for (size_t i = 0; i < priors.size(); ++i) {
+    const Where wp = (w / "priors")[i];
+    const json& p = priors[i];
+    RelativePosePrior prior;
+    prior.site_a = Integer(Field(p, "site_a", wp), wp / "site_a");
+    prior.site_b = Integer(Field(p, "site_b", wp), wp / "site_b");
+    prior.a_from_b =
+        Rigid3d(Rotation(p, wp), Vector<3>(Field(p, "position_m", wp), wp / "position_m"));
+    prior.covariance = PoseCovariance(p, wp);
+    prior.source = Text(p, "source", prior.source, wp);
+    input.priors.push_back(prior);
+  }
+  const json& ties = Array(doc, "tie_points", w);
+  for (size_t i = 0; i < ties.size(); ++i) {
+    const Where wt = (w / "tie_points")[i];
+    const json& t = ties[i];
+    TiePoint tie;
+    tie.id = Text(t, "id", "tie" + std::to_string(input.tie_points.size()), wt);
+    tie.site_a = Integer(Field(t, "site_a", wt), wt / "site_a");
+    tie.site_b = Integer(Field(t, "site_b", wt), wt / "site_b");
+    tie.position_in_a = Vector<3>(Field(t, "position_in_a_m", wt), wt / "position_in_a_m");
+    tie.covariance_in_a = Matrix<3>(Field(t, "covariance_in_a_m2", wt), wt / "covariance_in_a_m2");
+    tie.position_in_b = Vector<3>(Field(t, "position_in_b_m", wt), wt / "position_in_b_m");
+    tie.covariance_in_b = Matrix<3>(Field(t, "covariance_in_b_m2", wt), wt / "covariance_in_b_m2");
+    tie.source = Text(t, "source", tie.source, wt);
+    input.tie_points.push_back(tie);
+  }
+  const json& controls = Array(doc, "control_points", w);
+  for (size_t i = 0; i < controls.size(); ++i) {
+    const Where wc = (w / "control_points")[i];
+    const json& c = controls[i];
+    ControlPoint control;
+    control.id = Text(c, "id", "control" + std::to_string(input.control_points.size()), wc);
+    control.site = Integer(Field(c, "site", wc), wc / "site");
+    control.position_in_site =
+        Vector<3>(Field(c, "position_in_site_m", wc), wc / "position_in_site_m");
+    control.covariance_in_site =
+        Matrix<3>(Field(c, "covariance_in_site_m2", wc), wc / "covariance_in_site_m2");
+    const Rigid3d mbf_from_traverse = SiteFromMbf(input.body, input.origin).Inverse();
+    const bool in_traverse = c.contains("position_traverse_m");
+    if (in_traverse) {
+      control.position_mbf =
+          mbf_from_traverse * Vector<3>(c.at("position_traverse_m"), wc / "position_traverse_m");
+    } else if (c.contains("position_mbf_m")) {
+      control.position_mbf = Vector<3>(c.at("position_mbf_m"), wc / "position_mbf_m");
+    } else {
+      const Geographic g{RadFromDeg(Number(Field(c, "lat_deg", wc), wc / "lat_deg")),
+                         RadFromDeg(Number(Field(c, "lon_deg", wc), wc / "lon_deg")),
+                         Number(Field(c, "h_m", wc), wc / "h_m")};
+      if (!IsValid(g)) (wc / "lat_deg").Fail("a latitude in [-90, 90] degrees");
+      control.position_mbf = MbfFromGeographic(input.body, g);
+    }
+    if (c.contains("covariance_mbf_m2")) {
+      control.covariance_mbf = Matrix<3>(c.at("covariance_mbf_m2"), wc / "covariance_mbf_m2");
+    } else if (c.contains("covariance_traverse_m2")) {
+      const Eigen::Matrix3d r = mbf_from_traverse.RotationMatrix();
+      control.covariance_mbf =
+          r * Matrix<3>(c.at("covariance_traverse_m2"), wc / "covariance_traverse_m2") *
+          r.transpose();
+    } else {
+      // Horizontal and vertical sigmas in the local level frame at the point.
+      const double h = Number(Field(c, "sigma_horizontal_m", wc), wc / "sigma_horizontal_m");
+      const double v = Number(Field(c, "sigma_vertical_m", wc), wc / "sigma_vertical_m");
+      if (!(h > 0.0) || !(v > 0.0)) (wc / "sigma_horizontal_m").Fail("positive sigmas");
+      const Eigen::Matrix3d mbf_from_enu =
+          EnuFromMbf(input.body, GeographicFromMbf(input.body, control.position_mbf))
+              .RotationMatrix()
+              .transpose();
+      control.covariance_mbf = mbf_from_enu * Eigen::Vector3d(h * h, h * h, v * v).asDiagonal() *
+                               mbf_from_enu.transpose();
+    }
+    control.source = Text(c, "source", control.source, wc);
+    input.control_points.push_back(control);
+  }
+  const json& heights = Array(doc, "heights", w);
+  for (size_t i = 0; i < heights.size(); ++i) {
+    const Where wh = (w / "heights")[i];
+    SiteHeight h;
+    h.site = Integer(Field(heights[i], "site", wh), wh / "site");
+    h.height_m = Number(Field(heights[i], "h_m", wh), wh / "h_m");
+    h.sigma_m = Number(Field(heights[i], "sigma_m", wh), wh / "sigma_m");
+    h.source = Text(heights[i], "source", h.source, wh);
+    input.heights.push_back(h);
+  }
+  const json& truth = Array(doc, "truth", w);
+  if (!truth.empty()) {
+    out.truth.assign(static_cast<size_t>(input.site_count),
+                     Eigen::Vector3d::Constant(std::nan("")));
+    for (size_t i = 0; i < truth.size(); ++i) {
+      const Where wt = (w / "truth")[i];
+      const int site = Integer(Field(truth[i], "site", wt), wt / "site");
+      if (site < 0 || site >= input.site_count) (wt / "site").Fail("a listed site");
+      out.truth[static_cast<size_t>(site)] =
+          Vector<3>(Field(truth[i], "position_m", wt), wt / "position_m");
+    }
+    for (const Eigen::Vector3d& t : out.truth) {
+      if (!t.allFinite()) (w / "truth").Fail("a position for every site");
+    }
+  }
+}
+
+json ToJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+template <int N>
+json ToJson(const Eigen::Matrix<double, N, N>& m) {
+  json rows = json::array();
+  for (int r = 0; r < N; ++r) {
+    json row = json::array();
+    for (int c = 0; c < N; ++c) row.push_back(m(r, c));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+json ToJson(const Eigen::Quaterniond& q) { return {q.w(), q.x(), q.y(), q.z()}; }
+
+}  // namespace
+
+BundleInputFile ReadBundleInput(const std::vector<std::filesystem::path>& paths) {
+  if (paths.empty()) throw Error("no adjustment input file given");
+  BundleInputFile out;
+  for (size_t i = 0; i < paths.size(); ++i) {
+    const json doc = ReadJson(paths[i]);
+    const Where where{paths[i].string(), ""};
+    if (!doc.is_object()) throw Error(paths[i].string() + ": expected a JSON object");
+    if (i == 0) ReadHeader(doc, where, out);
+    ReadSections(doc, where, out);
+  }
+  try {
+    out.input.Check();
+  } catch (const Error& e) {
+    throw Error(paths.front().string() + ": " + e.what());
+  }
+  return out;
+}
+
+json BundleInputToJson(const BundleInput& input, const std::vector<Eigen::Vector3d>& truth) {
+  json sites = json::array();
+  for (int s = 0; s < input.site_count; ++s) {
+    const Rigid3d& pose = input.initial_poses.at(static_cast<size_t>(s));
+    sites.push_back({{"site", s},
+                     {"position_m", ToJson(pose.translation)},
+                     {"rotation_wxyz", ToJson(pose.rotation)}});
+  }
+  json priors = json::array();
+  for (const RelativePosePrior& p : input.priors) {
+    priors.push_back({{"site_a", p.site_a},
+                      {"site_b", p.site_b},
+                      {"position_m", ToJson(p.a_from_b.translation)},
+                      {"rotation_wxyz", ToJson(p.a_from_b.rotation)},
+                      {"covariance", ToJson<6>(p.covariance)},
+                      {"source", p.source}});
+  }
+  json ties = json::array();
+  for (const TiePoint& t : input.tie_points) {
+    ties.push_back({{"id", t.id},
+                    {"site_a", t.site_a},
+                    {"site_b", t.site_b},
+                    {"position_in_a_m", ToJson(t.position_in_a)},
+                    {"covariance_in_a_m2", ToJson<3>(t.covariance_in_a)},
+                    {"position_in_b_m", ToJson(t.position_in_b)},
+                    {"covariance_in_b_m2", ToJson<3>(t.covariance_in_b)},
+                    {"source", t.source}});
+  }
+  json controls = json::array();
+  for (const ControlPoint& c : input.control_points) {
+    controls.push_back({{"id", c.id},
+                        {"site", c.site},
+                        {"position_in_site_m", ToJson(c.position_in_site)},
+                        {"covariance_in_site_m2", ToJson<3>(c.covariance_in_site)},
+                        {"position_mbf_m", ToJson(c.position_mbf)},
+                        {"covariance_mbf_m2", ToJson<3>(c.covariance_mbf)},
+                        {"source", c.source}});
+  }
+  json heights = json::array();
+  for (const SiteHeight& h : input.heights) {
+    heights.push_back(
+        {{"site", h.site}, {"h_m", h.height_m}, {"sigma_m", h.sigma_m}, {"source", h.source}});
+  }
+  json doc = {{"format", "areomap-adjustment"},
+              {"version", 1},
+              {"body", {{"name", input.body.name}, {"a_m", input.body.a}, {"b_m", input.body.b}}},
+              {"origin",
+               {{"lat_deg", DegFromRad(input.origin.lat)},
+                {"lon_deg", DegFromRad(input.origin.lon)},
+                {"h_m", input.origin.h}}},
+              {"sites", sites},
+              {"site0_prior", {{"covariance", ToJson<6>(input.site0_prior_covariance)}}},
+              {"priors", priors},
+              {"tie_points", ties},
+              {"control_points", controls},
+              {"heights", heights}};
+  if (!truth.empty()) {
+    json t = json::array();
+    for (size_t s = 0; s < truth.size(); ++s) {
+      t.push_back({{"site", s}, {"position_m", ToJson(truth[s])}});
+    }
+    doc["truth"] = t;
+  }
+  return doc;
+}
+
+}  // namespace areomap
