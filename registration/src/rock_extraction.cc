@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <unordered_map>
 #include <unordered_set>
 
 #include <tbb/parallel_for.h>
@@ -261,7 +262,14 @@ class Extractor {
     }
     RockModelParameters start;
     start.height = rock->height_m;
-    rock->models = FitAllRockModels(points, options_.model, start);
+    // Keep one-sided views plausible: the surface points bound the rock's size and centre.
+    const double reach = std::max({rock->surface_radius_m, 0.3 * rock->height_m, 0.03});
+    RockModelFitOptions model = options_.model;
+    model.max_height_m = std::min(model.max_height_m, 1.5 * rock->height_m + 0.05);
+    model.max_radius_m = std::min(model.max_radius_m, 1.5 * reach + 0.05);
+    model.max_center_offset_m = std::min(model.max_center_offset_m, reach);
+    start.a = std::min(reach, 0.9 * model.max_radius_m);
+    rock->models = FitAllRockModels(points, model, start);
   }
 
   const PointCloud& cloud_;
@@ -321,17 +329,49 @@ std::vector<ExtractedRock> ExtractRocks(const PointCloud& cloud,
       candidates.begin(), candidates.end(), [](const ExtractedRock& a, const ExtractedRock& b) {
         return a.height_m != b.height_m ? a.height_m > b.height_m : a.peak_index < b.peak_index;
       });
-  // A peak on a higher rock's surface is part of that rock.
+  // A peak on a higher rock's surface is part of that rock; so is a lower peak closer to a higher
+  // one than the higher rock's reach plus twice their separation's sigma (range noise smears a
+  // far rock's points along the line of sight). Kept peaks sit in a 1 m hash grid.
   std::vector<char> owned(cloud.points.size(), 0);
   std::vector<ExtractedRock> rocks;
+  constexpr double kCell = 1.0;
+  std::unordered_map<long long, std::vector<int>> kept_cells;
+  const auto cell_key = [](long cx, long cy) {
+    return (static_cast<long long>(cx) << 32) ^ (cy & 0xffffffffLL);
+  };
+  const auto swallowed = [&](const ExtractedRock& rock) {
+    const long cx = std::lround(std::floor(rock.peak.x() / kCell));
+    const long cy = std::lround(std::floor(rock.peak.y() / kCell));
+    for (long dy = -3; dy <= 3; ++dy) {
+      for (long dx = -3; dx <= 3; ++dx) {
+        const auto it = kept_cells.find(cell_key(cx + dx, cy + dy));
+        if (it == kept_cells.end()) continue;
+        for (int k : it->second) {
+          const ExtractedRock& high = rocks[k];
+          const Eigen::Vector2d d = (rock.peak - high.peak).head<2>();
+          const double distance = d.norm();
+          if (distance < 1e-9) return true;
+          const Eigen::Vector2d u = d / distance;
+          const double sigma = std::sqrt(
+              u.dot((rock.peak_covariance + high.peak_covariance).topLeftCorner<2, 2>() * u));
+          const double reach = std::max(high.surface_radius_m, 0.5 * high.height_m);
+          if (distance <= std::min(reach + 2.0 * sigma, 3.0 * kCell)) return true;
+        }
+      }
+    }
+    return false;
+  };
   for (ExtractedRock& rock : candidates) {
-    if (owned[rock.peak_index]) {
+    if (owned[rock.peak_index] || swallowed(rock)) {
       ++s.merged;
       continue;
     }
     for (int j : rock.surface_indices) owned[j] = 1;
     rock.id = static_cast<int>(rocks.size()) + 1;
     s.modeled += rock.modeled() ? 1 : 0;
+    kept_cells[cell_key(std::lround(std::floor(rock.peak.x() / kCell)),
+                        std::lround(std::floor(rock.peak.y() / kCell)))]
+        .push_back(static_cast<int>(rocks.size()));
     rocks.push_back(std::move(rock));
   }
   s.rocks = static_cast<int>(rocks.size());

@@ -56,8 +56,15 @@ double Solve(const std::vector<Eigen::Vector3d>& points, RockModelShape shape,
   }
   problem.SetManifold(q, new ceres::SubsetManifold(kCount, constant));
   for (int i : {kHeight, kA, kB}) {
-    problem.SetParameterLowerBound(q, i, 1e-3);
-    problem.SetParameterUpperBound(q, i, 20.0);
+    problem.SetParameterLowerBound(q, i, options.min_size_m);
+    problem.SetParameterUpperBound(q, i,
+                                   i == kHeight ? options.max_height_m : options.max_radius_m);
+  }
+  if (options.estimate_center) {
+    for (int i : {kCenterX, kCenterY}) {
+      problem.SetParameterLowerBound(q, i, q[i] - options.max_center_offset_m);
+      problem.SetParameterUpperBound(q, i, q[i] + options.max_center_offset_m);
+    }
   }
   if (options.complex_model) {
     for (int i : {kAlpha, kBeta}) {
@@ -97,6 +104,9 @@ void RockModelFitOptions::Check() const {
   RequireOption(max_num_iterations > 0, "RockModelFitOptions.max_num_iterations", "> 0");
   RequireOption(max_tilt_rad > 0.0 && max_tilt_rad < kPi / 2.0, "RockModelFitOptions.max_tilt_rad",
                 "between 0 and pi/2");
+  RequireOption(min_size_m > 0.0 && max_height_m > min_size_m && max_radius_m > min_size_m,
+                "RockModelFitOptions.min_size_m", "0 < min_size_m < max_height_m, max_radius_m");
+  RequireOption(max_center_offset_m > 0.0, "RockModelFitOptions.max_center_offset_m", "> 0 m");
 }
 
 RockModelFit FitRockModel(const std::vector<Eigen::Vector3d>& points_in_rock, RockModelShape shape,
@@ -120,8 +130,12 @@ RockModelFit FitRockModel(const std::vector<Eigen::Vector3d>& points_in_rock, Ro
     top = std::max(top, p.z());
     reach = std::max(reach, std::hypot(p.x() - start.center_x, p.y() - start.center_y));
   }
-  const double h0 = start.height > 0.0 ? start.height : std::max(top, 1e-2);
-  const double a0 = start.a > 0.0 ? start.a : std::max(reach, 1e-2);
+  const auto inside = [&](double value, double upper) {
+    return std::clamp(value, 1.01 * options.min_size_m, 0.99 * upper);
+  };
+  const double h0 =
+      inside(start.height > 0.0 ? start.height : std::max(top, 1e-2), options.max_height_m);
+  const double a0 = inside(start.a > 0.0 ? start.a : std::max(reach, 1e-2), options.max_radius_m);
   // Starts for the azimuth of the anisotropic shapes (their cost has several basins).
   std::vector<double> phi_starts = {start.phi};
   if (shape == RockModelShape::kSemiEllipsoid) phi_starts = {0.0, kPi / 4.0, kPi / 2.0, 0.75 * kPi};

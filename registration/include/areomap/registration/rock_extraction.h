@@ -16,7 +16,8 @@
 //     added.
 //  4. Models: every shape of rock_model.h fitted in the rock frame (origin at the peak's foot on
 //     the plane, z along the plane normal, x toward north), best first.
-// A peak that lies on the surface of a higher rock is merged into it. Neighbour searches use a
+// A peak that lies on the surface of a higher rock, or nearer to a higher peak than that rock's
+// reach plus twice the peaks' separation sigma, is merged into it. Neighbour searches use a
 // uniform grid (no O(n^2) scans); rocks are processed in parallel (TBB), deterministically.
 //
 // Failures: a cloud with a non-finite point throws areomap::Error (CheckPointCloud); an empty

@@ -76,7 +76,14 @@ struct RockModelFitOptions {
   int min_points = 5;           // Table 4.5: a rock needs >= 5 surface points.
   int max_num_iterations = 100;
   double max_tilt_rad = 0.7;  // Bound on |alpha|, |beta| during the fit.
-  void Check() const;         // Throws areomap::Error naming the field.
+  // Bounds that keep one-sided, noisy views plausible (extraction sets them from the rock's
+  // surface points): size parameters in [min_size_m, max_height_m / max_radius_m], the centre
+  // within max_center_offset_m of the initial centre.
+  double min_size_m = 1e-3;
+  double max_height_m = 20.0;
+  double max_radius_m = 20.0;
+  double max_center_offset_m = 20.0;
+  void Check() const;  // Throws areomap::Error naming the field.
 };
 
 struct RockModelFit {

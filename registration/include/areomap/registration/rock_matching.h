@@ -1,0 +1,91 @@
+// Cross-site rock matching (ch. 3.2, Fig. 3.3) with fault detection (ch. 4.2, Table 4.5):
+// rocks extracted at two sites -> tie points for the bundle adjustment.
+//
+// Frames: each site's rocks are in its own site frame (x north, y east, z down [m]);
+// `a_from_b_prior` is the telemetry (or visual odometry) pose of site b in site a, used only to
+// bring b's rocks near a's for the search; its error is what the matching absorbs (the search
+// radius must exceed it). Tie points carry each site's own peak position and covariance.
+//
+// Steps (ch. 3.2): (1) rocks failing a Table 4.5 per-rock rule are set aside (too far, too low,
+// too few surface points, implausible model, distance ratio); (2) significant rocks of site a:
+// the highest ones per grid cell in the overlap (within max_peak_range_m of both cameras);
+// (3) model matching: for each significant rock the candidate of b within the search radius with
+// the smallest cost 1/2 f_h + 1/3 f_r + 1/6 f_S (eq. 3.28; f = relative differences of height,
+// mean radius and exact surface area of the best models), then the local terrain check (angle
+// between the background-plane normals); (4) pattern matching: a translation vote
+// V = P_k - Q_m (eq. 3.29) per candidate counts the rocks of a that b's rocks, shifted by V,
+// bring within epsilon (eqs. 3.30, 3.31); the two best candidates per significant rock; the one
+// whose V is nearer the median of all candidate vectors wins (global consistency). Beyond the
+// dissertation, a winner whose V lies farther than `max_vector_deviation_m` from the median is
+// dropped (it contradicts the global pattern), and so is a rock of either site with a neighbour
+// closer than epsilon plus twice its peak's horizontal sigma (no vote can tell them apart). (5) A
+// pair is matched only where both methods agree; when several rocks of a take the same rock of b,
+// only the lowest-cost one is kept. Pair-level rules (traverse, peaks, tie-point count, distance
+// ratio, RE) decide the outcome.
+//
+// Failures: invalid options throw areomap::Error; everything about the data (no overlap, no
+// rocks, too few tie points) is a verdict in the report, never an exception.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "areomap/map/rigid3d.h"
+#include "areomap/registration/fault_detection.h"
+#include "areomap/registration/landmark_links.h"
+#include "areomap/registration/localization_error.h"
+#include "areomap/registration/rock_extraction.h"
+
+namespace areomap {
+
+struct SiteRocks {
+  int site = -1;
+  Eigen::Vector3d camera_center = Eigen::Vector3d::Zero();  // Site frame [m].
+  std::vector<ExtractedRock> rocks;
+};
+
+struct RockMatchingOptions {
+  double significant_cell_m = 3.0;      // Grid cell for significant rocks [m].
+  int significant_per_cell = 1;         // Highest rocks kept per cell.
+  double search_radius_m = 2.5;         // Candidates of b within this of a rock of a (prior) [m].
+  double pattern_tolerance_m = 0.6;     // epsilon of eq. 3.31 [m].
+  double max_vector_deviation_m = 1.0;  // Winner's V from the median V [m].
+  double cost_height_weight = 0.5;      // c1 of eq. 3.28.
+  double cost_radius_weight = 1.0 / 3.0;
+  double cost_area_weight = 1.0 / 6.0;
+  double max_model_cost = 0.6;  // Model matching accepts costs up to this.
+  FaultDetectionOptions fault_detection;
+  void Check() const;  // Throws areomap::Error naming the field.
+};
+
+struct RockMatch {
+  int rock_a = -1;                // Index into SiteRocks::rocks of site a.
+  int rock_b = -1;                // Index into SiteRocks::rocks of site b.
+  double model_cost = 0.0;        // Eq. 3.28.
+  int pattern_count = 0;          // Eq. 3.31 for the winning translation.
+  double normal_angle_deg = 0.0;  // Between the background-plane normals.
+  double distance_ratio = 0.0;    // Fig. 4.19.
+};
+
+struct SitePairMatch {
+  std::vector<RockMatch> matches;    // Accepted rock pairs (before the pair-level verdict).
+  std::vector<TiePoint> tie_points;  // Only when the pair's outcome is "matched".
+  PairFaultReport report;
+  std::optional<SitePairError> error;  // RE (eq. 4.9) and geometry of the matches.
+  Eigen::Vector3d median_translation = Eigen::Vector3d::Zero();  // V_median (in a) [m].
+  int eligible_a = 0, eligible_b = 0;  // Rocks passing the per-rock rules.
+  int significant = 0;
+  int model_matches = 0, pattern_matches = 0;
+};
+
+SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3d& a_from_b_prior,
+                            const RockMatchingOptions& options,
+                            const std::optional<StereoQuality>& stereo = std::nullopt);
+
+// Eq. 3.28 between two fitted models (relative differences against their mean).
+double ModelMatchCost(const RockModelParameters& p, const RockModelParameters& q,
+                      const RockMatchingOptions& options);
+
+}  // namespace areomap

@@ -1,0 +1,418 @@
+// Cross-site rock matching (ch. 3.2) with the fault detection rules of Table 4.5.
+#include "areomap/registration/rock_matching.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <numbers>
+
+#include <Eigen/Eigenvalues>
+
+#include "areomap/map/error.h"
+#include "rock_point_grid.h"
+
+namespace areomap {
+
+namespace {
+
+constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+
+double RelativeDifference(double x, double y) {
+  const double mean = 0.5 * (std::abs(x) + std::abs(y));
+  return mean > 0.0 ? std::abs(x - y) / mean : 0.0;
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  const double upper = values[mid];
+  if (values.size() % 2 == 1) return upper;
+  return 0.5 * (upper + *std::max_element(values.begin(), values.begin() + mid));
+}
+
+struct Eligibility {
+  std::vector<int> rocks;  // Indices passing the per-rock rules.
+  int beyond_range = 0, too_low = 0, few_points = 0, implausible = 0, low_ratio = 0;
+};
+
+// Table 4.5's per-rock rules. `own` and `other` are the two camera centres in the rocks' frame.
+Eligibility SelectEligible(const std::vector<ExtractedRock>& rocks, const Eigen::Vector3d& own,
+                           const Eigen::Vector3d& other, const FaultDetectionOptions& fd) {
+  Eligibility e;
+  for (size_t i = 0; i < rocks.size(); ++i) {
+    const ExtractedRock& r = rocks[i];
+    if ((r.peak - own).head<2>().norm() > fd.max_peak_range_m) {
+      ++e.beyond_range;
+    } else if (r.height_m < fd.min_peak_to_plane_m) {
+      ++e.too_low;
+    } else if (static_cast<int>(r.surface_indices.size()) < fd.min_surface_points || !r.modeled()) {
+      ++e.few_points;
+    } else if (r.best_model()->parameters.height > fd.max_model_size_m ||
+               r.best_model()->parameters.MeanRadius() > fd.max_model_size_m) {
+      ++e.implausible;
+    } else if (DistanceRatio(r.peak, own, other) < fd.min_rock_distance_ratio) {
+      ++e.low_ratio;
+    } else {
+      e.rocks.push_back(static_cast<int>(i));
+    }
+  }
+  return e;
+}
+
+double LargestHorizontalSigma(const ExtractedRock& r) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(
+      r.peak_covariance.topLeftCorner<2, 2>());
+  return std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
+}
+
+// A rock is ambiguous when another rock of its site lies within the pattern tolerance plus twice
+// the sigma of its peak (combined with its partner's): no translation vote can tell them apart.
+class AmbiguityTest {
+ public:
+  // `eligible`: the rocks that count as neighbours.
+  AmbiguityTest(const std::vector<ExtractedRock>& rocks, const std::vector<int>& eligible,
+                double tolerance)
+      : rocks_(rocks),
+        eligible_(eligible),
+        tolerance_(tolerance),
+        grid_(Peaks(rocks, eligible), 1.0) {}
+  // `partner_sigma`: largest horizontal sigma of the rock it would be matched with [m].
+  bool Ambiguous(int i, double partner_sigma = 0.0) const {
+    const ExtractedRock& r = rocks_[i];
+    const double sigma = LargestHorizontalSigma(r);
+    const double radius =
+        tolerance_ + 2.0 * std::sqrt(sigma * sigma + partner_sigma * partner_sigma);
+    bool ambiguous = false;
+    grid_.ForEachNear(r.peak.head<2>(), radius, [&](int k) {
+      const int j = eligible_[k];
+      ambiguous = ambiguous || (j != i && (rocks_[j].peak - r.peak).head<2>().norm() < radius);
+    });
+    return ambiguous;
+  }
+
+ private:
+  static std::vector<Eigen::Vector2d> Peaks(const std::vector<ExtractedRock>& rocks,
+                                            const std::vector<int>& eligible) {
+    std::vector<Eigen::Vector2d> xy;
+    for (int i : eligible) xy.push_back(rocks[i].peak.head<2>());
+    return xy;
+  }
+  const std::vector<ExtractedRock>& rocks_;
+  const std::vector<int>& eligible_;
+  double tolerance_;
+  rock_internal::PointGrid grid_;
+};
+
+double NormalAngleDeg(const Eigen::Vector3d& n1, const Eigen::Vector3d& n2) {
+  return std::acos(std::clamp(n1.normalized().dot(n2.normalized()), -1.0, 1.0)) * kRadToDeg;
+}
+
+}  // namespace
+
+void RockMatchingOptions::Check() const {
+  RequireOption(significant_cell_m > 0.0, "RockMatchingOptions.significant_cell_m", "> 0 m");
+  RequireOption(significant_per_cell >= 1, "RockMatchingOptions.significant_per_cell", ">= 1");
+  RequireOption(search_radius_m > 0.0, "RockMatchingOptions.search_radius_m", "> 0 m");
+  RequireOption(pattern_tolerance_m > 0.0, "RockMatchingOptions.pattern_tolerance_m", "> 0 m");
+  RequireOption(max_vector_deviation_m > 0.0, "RockMatchingOptions.max_vector_deviation_m",
+                "> 0 m");
+  RequireOption(cost_height_weight >= 0.0 && cost_radius_weight >= 0.0 && cost_area_weight >= 0.0 &&
+                    cost_height_weight + cost_radius_weight + cost_area_weight > 0.0,
+                "RockMatchingOptions.cost_height_weight", "non-negative weights, not all zero");
+  RequireOption(max_model_cost > 0.0, "RockMatchingOptions.max_model_cost", "> 0");
+  fault_detection.Check();
+}
+
+double ModelMatchCost(const RockModelParameters& p, const RockModelParameters& q,
+                      const RockMatchingOptions& options) {
+  return options.cost_height_weight * RelativeDifference(p.height, q.height) +
+         options.cost_radius_weight * RelativeDifference(p.MeanRadius(), q.MeanRadius()) +
+         options.cost_area_weight * RelativeDifference(p.SurfaceAreaExact(), q.SurfaceAreaExact());
+}
+
+SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3d& a_from_b_prior,
+                            const RockMatchingOptions& options,
+                            const std::optional<StereoQuality>& stereo) {
+  options.Check();
+  const FaultDetectionOptions& fd = options.fault_detection;
+  SitePairMatch result;
+  PairFaultReport& report = result.report;
+  report.site_a = a.site;
+  report.site_b = b.site;
+  const Rigid3d b_from_a_prior = a_from_b_prior.Inverse();
+  const Eigen::Vector3d camera_b_in_a = a_from_b_prior * b.camera_center;
+  const Eigen::Vector3d camera_a_in_b = b_from_a_prior * a.camera_center;
+
+  // I and II: pre-screening.
+  const double traverse = a_from_b_prior.translation.head<2>().norm();
+  report.Add(MaxCheck("I pre-screening", "traverse length", traverse, fd.max_traverse_m, "m"));
+  report.Add(MinCheck("II peaks", "peaks at site a", static_cast<double>(a.rocks.size()),
+                      fd.min_peaks_per_site, "peaks"));
+  report.Add(MinCheck("II peaks", "peaks at site b", static_cast<double>(b.rocks.size()),
+                      fd.min_peaks_per_site, "peaks"));
+  FaultCheck cc{"II stereo", "matching correlation coefficient", 0.0,  fd.min_correlation,
+                "",          FaultVerdict::kNotEvaluated,        false};
+  FaultCheck vd{"II stereo", "vertical disparity",        0.0,  fd.max_vertical_disparity_px,
+                "px",        FaultVerdict::kNotEvaluated, false};
+  if (stereo) {
+    cc = MinCheck("II stereo", cc.rule, stereo->min_correlation, fd.min_correlation, "", false);
+    vd = MaxCheck("II stereo", vd.rule, stereo->max_vertical_disparity_px,
+                  fd.max_vertical_disparity_px, "px", false);
+  }
+  report.Add(cc);
+  report.Add(vd);
+  if (report.outcome == PairOutcome::kExcludedByPreScreening) return result;
+
+  // III: per-rock rules.
+  const Eligibility ea = SelectEligible(a.rocks, a.camera_center, camera_b_in_a, fd);
+  const Eligibility eb = SelectEligible(b.rocks, b.camera_center, camera_a_in_b, fd);
+  result.eligible_a = static_cast<int>(ea.rocks.size());
+  result.eligible_b = static_cast<int>(eb.rocks.size());
+  report.Add(RockCount("III peaks", "rock peak beyond range of its camera",
+                       ea.beyond_range + eb.beyond_range, fd.max_peak_range_m, "m"));
+  report.Add(RockCount("III peaks", "rock peak-to-plane distance too small",
+                       ea.too_low + eb.too_low, fd.min_peak_to_plane_m, "m"));
+  report.Add(RockCount("III peaks", "rock distance ratio too small", ea.low_ratio + eb.low_ratio,
+                       fd.min_rock_distance_ratio, ""));
+  report.Add(RockCount("III modeling", "rock with too few surface points / no model",
+                       ea.few_points + eb.few_points, fd.min_surface_points, "points"));
+  report.Add(RockCount("III modeling", "rock model implausible (height or radius)",
+                       ea.implausible + eb.implausible, fd.max_model_size_m, "m"));
+
+  // Rocks of b in a's frame, indexed on a grid of cell epsilon for the pattern votes.
+  std::vector<Eigen::Vector3d> q_in_a;
+  std::vector<Eigen::Vector2d> q_xy;
+  for (int j : eb.rocks) {
+    q_in_a.push_back(a_from_b_prior * b.rocks[j].peak);
+    q_xy.push_back(q_in_a.back().head<2>());
+  }
+  const rock_internal::PointGrid q_grid(q_xy, options.pattern_tolerance_m);
+  const auto count_votes = [&](const Eigen::Vector3d& v) {
+    int count = 0;
+    for (int i : ea.rocks) {
+      const Eigen::Vector3d target = a.rocks[i].peak - v;
+      bool hit = false;
+      q_grid.ForEachNear(target.head<2>(), options.pattern_tolerance_m, [&](int j) {
+        hit = hit || (q_in_a[j] - target).norm() <= options.pattern_tolerance_m;
+      });
+      count += hit ? 1 : 0;
+    }
+    return count;
+  };
+
+  // Significant rocks of a: the highest unambiguous one per grid cell, in the overlap.
+  // Neighbours that make a rock ambiguous: every rock as high as a tie-point rock may be
+  // (modeled or not: a rock too sparse to model can still be the true partner).
+  const auto tall = [&](const std::vector<ExtractedRock>& rocks) {
+    std::vector<int> indices;
+    for (size_t i = 0; i < rocks.size(); ++i) {
+      if (rocks[i].height_m >= fd.min_peak_to_plane_m) indices.push_back(static_cast<int>(i));
+    }
+    return indices;
+  };
+  const std::vector<int> tall_a = tall(a.rocks), tall_b = tall(b.rocks);
+  const AmbiguityTest ambiguous_a(a.rocks, tall_a, options.pattern_tolerance_m);
+  const AmbiguityTest ambiguous_b(b.rocks, tall_b, options.pattern_tolerance_m);
+  int ambiguous = 0;
+  std::map<std::pair<long, long>, std::vector<int>> cells;
+  for (int i : ea.rocks) {
+    const ExtractedRock& r = a.rocks[i];
+    if ((r.peak - camera_b_in_a).head<2>().norm() > fd.max_peak_range_m) continue;
+    if (ambiguous_a.Ambiguous(i)) {
+      ++ambiguous;
+      continue;
+    }
+    const auto key =
+        std::make_pair(std::lround(std::floor(r.peak.x() / options.significant_cell_m)),
+                       std::lround(std::floor(r.peak.y() / options.significant_cell_m)));
+    cells[key].push_back(i);
+  }
+  std::vector<int> significant;
+  for (auto& [key, members] : cells) {
+    std::sort(members.begin(), members.end(),
+              [&](int x, int y) { return a.rocks[x].height_m > a.rocks[y].height_m; });
+    const int keep = std::min(options.significant_per_cell, static_cast<int>(members.size()));
+    for (int k = 0; k < keep; ++k) {
+      significant.push_back(members[k]);
+    }
+  }
+  result.significant = static_cast<int>(significant.size());
+
+  struct Candidates {
+    int rock_a = -1;
+    int model_best = -1;  // Index into eb.rocks / q_in_a.
+    double model_cost = 0.0;
+    bool terrain_ok = false;
+    int pattern[2] = {-1, -1};
+    int votes[2] = {0, 0};
+  };
+  std::vector<Candidates> per_rock;
+  std::vector<double> vx, vy, vz;
+  int terrain_rejects = 0;
+  const Eigen::Matrix3d rotation_a_from_b = a_from_b_prior.RotationMatrix();
+  for (int i : significant) {
+    const ExtractedRock& p = a.rocks[i];
+    Candidates c;
+    c.rock_a = i;
+    q_grid.ForEachNear(p.peak.head<2>(), options.search_radius_m, [&](int j) {
+      if ((q_in_a[j] - p.peak).head<2>().norm() > options.search_radius_m) return;
+      const int votes = count_votes(p.peak - q_in_a[j]);
+      if (votes > c.votes[0] || (votes == c.votes[0] && c.pattern[0] >= 0 && j < c.pattern[0])) {
+        c.votes[1] = c.votes[0];
+        c.pattern[1] = c.pattern[0];
+        c.votes[0] = votes;
+        c.pattern[0] = j;
+      } else if (votes > c.votes[1] || c.pattern[1] < 0) {
+        c.votes[1] = votes;
+        c.pattern[1] = j;
+      }
+    });
+    if (c.pattern[0] < 0) continue;  // No candidate near this rock.
+    // Model matching among the two pattern candidates (Fig. 3.3: local pattern matching limits
+    // model matching to two candidates).
+    double best_cost = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 2; ++k) {
+      if (c.pattern[k] < 0) continue;
+      const ExtractedRock& q = b.rocks[eb.rocks[c.pattern[k]]];
+      const double cost =
+          ModelMatchCost(p.best_model()->parameters, q.best_model()->parameters, options);
+      if (cost < best_cost) {
+        best_cost = cost;
+        c.model_best = c.pattern[k];
+      }
+    }
+    c.model_cost = best_cost;
+    if (best_cost <= options.max_model_cost) {
+      const ExtractedRock& q = b.rocks[eb.rocks[c.model_best]];
+      const double angle = NormalAngleDeg(p.plane_normal, rotation_a_from_b * q.plane_normal);
+      c.terrain_ok = angle <= fd.max_normal_angle_deg;
+      terrain_rejects += c.terrain_ok ? 0 : 1;
+      result.model_matches += c.terrain_ok ? 1 : 0;
+    } else {
+      c.model_best = -1;
+    }
+    for (int k = 0; k < 2; ++k) {
+      if (c.pattern[k] < 0) continue;
+      const Eigen::Vector3d v = p.peak - q_in_a[c.pattern[k]];
+      vx.push_back(v.x());
+      vy.push_back(v.y());
+      vz.push_back(v.z());
+    }
+    per_rock.push_back(c);
+  }
+  result.median_translation = Eigen::Vector3d(Median(vx), Median(vy), Median(vz));
+  report.Add(RockCount("III matching", "local terrain mismatch (plane normals)", terrain_rejects,
+                       fd.max_normal_angle_deg, "deg"));
+
+  // Global pattern consistency, then the combination of both methods.
+  std::vector<RockMatch> combined;
+  for (const Candidates& c : per_rock) {
+    const ExtractedRock& p = a.rocks[c.rock_a];
+    int winner = c.pattern[0];
+    if (c.pattern[1] >= 0) {
+      const double d0 = (p.peak - q_in_a[c.pattern[0]] - result.median_translation).norm();
+      const double d1 = (p.peak - q_in_a[c.pattern[1]] - result.median_translation).norm();
+      if (d1 < d0) winner = c.pattern[1];
+    }
+    const double deviation = (p.peak - q_in_a[winner] - result.median_translation).norm();
+    if (std::getenv("ROCK_DEBUG")) {
+      std::fprintf(stderr,
+                   "P %d (%.1f %.1f) H %.2f: model %d cost %.2f terrain %d | pat %d(%d) %d(%d) win "
+                   "%d dev %.2f\n",
+                   p.id, p.peak.x(), p.peak.y(), p.height_m,
+                   c.model_best >= 0 ? b.rocks[eb.rocks[c.model_best]].id : -1, c.model_cost,
+                   c.terrain_ok, b.rocks[eb.rocks[c.pattern[0]]].id, c.votes[0],
+                   c.pattern[1] >= 0 ? b.rocks[eb.rocks[c.pattern[1]]].id : -1, c.votes[1],
+                   b.rocks[eb.rocks[winner]].id, deviation);
+    }
+    if (deviation > options.max_vector_deviation_m) continue;
+    ++result.pattern_matches;
+    if (winner != c.model_best || !c.terrain_ok) continue;
+    if (ambiguous_b.Ambiguous(eb.rocks[winner], LargestHorizontalSigma(p))) {
+      ++ambiguous;
+      continue;
+    }
+    RockMatch m;
+    m.rock_a = c.rock_a;
+    m.rock_b = eb.rocks[winner];
+    m.model_cost = c.model_cost;
+    m.pattern_count = winner == c.pattern[0] ? c.votes[0] : c.votes[1];
+    m.normal_angle_deg =
+        NormalAngleDeg(p.plane_normal, rotation_a_from_b * b.rocks[m.rock_b].plane_normal);
+    m.distance_ratio = DistanceRatio(p.peak, a.camera_center, camera_b_in_a);
+    combined.push_back(m);
+  }
+  // Multiple matches: keep the lowest model cost for each rock of b.
+  std::sort(combined.begin(), combined.end(), [](const RockMatch& x, const RockMatch& y) {
+    return x.model_cost != y.model_cost ? x.model_cost < y.model_cost : x.rock_a < y.rock_a;
+  });
+  std::vector<char> taken(b.rocks.size(), 0);
+  int multiples = 0;
+  for (const RockMatch& m : combined) {
+    if (taken[m.rock_b]) {
+      ++multiples;
+      continue;
+    }
+    taken[m.rock_b] = 1;
+    result.matches.push_back(m);
+  }
+  std::sort(result.matches.begin(), result.matches.end(),
+            [](const RockMatch& x, const RockMatch& y) { return x.rock_a < y.rock_a; });
+  report.Add(RockCount("III matching", "multiple matches of one rock", multiples, 1, "rocks"));
+  report.Add(RockCount("III matching", "ambiguous rock (neighbour within tolerance + 2 sigma)",
+                       ambiguous, options.pattern_tolerance_m, "m"));
+
+  // IV: pair-level rules before the bundle adjustment.
+  double ratio_sum = 0.0;
+  std::vector<PlanarTiePoint> planar;
+  for (const RockMatch& m : result.matches) {
+    ratio_sum += m.distance_ratio;
+    const ExtractedRock& p = a.rocks[m.rock_a];
+    const ExtractedRock& q = b.rocks[m.rock_b];
+    PlanarTiePoint t;
+    t.in_current = p.peak.head<2>();
+    t.covariance_current = p.peak_covariance.topLeftCorner<2, 2>();
+    t.in_adjacent = q.peak.head<2>();
+    t.covariance_adjacent = q.peak_covariance.topLeftCorner<2, 2>();
+    planar.push_back(t);
+  }
+  const double mean_ratio =
+      result.matches.empty() ? 0.0 : ratio_sum / static_cast<double>(result.matches.size());
+  report.Add(MinCheck("III peaks", "averaged distance ratio of the matched rocks", mean_ratio,
+                      fd.min_pair_distance_ratio, ""));
+  report.Add(MinCheck("IV adjustment", "number of tie points",
+                      static_cast<double>(result.matches.size()), fd.min_tie_points, "points"));
+  if (static_cast<int>(planar.size()) >= 2) {
+    result.error = EvaluateSitePair(planar, a_from_b_prior.translation.head<2>());
+  }
+  if (result.error) {
+    report.Add(MaxCheck("IV adjustment", "relative error RE (eq. 4.9)",
+                        result.error->relative_error_percent, fd.max_relative_error_percent, "%"));
+  } else {
+    report.Add({"IV adjustment", "relative error RE (eq. 4.9)", std::nan(""),
+                fd.max_relative_error_percent, "%", FaultVerdict::kNotEvaluated, false});
+  }
+  if (report.outcome != PairOutcome::kMatched) return result;
+  for (const RockMatch& m : result.matches) {
+    const ExtractedRock& p = a.rocks[m.rock_a];
+    const ExtractedRock& q = b.rocks[m.rock_b];
+    TiePoint t;
+    char id[64];
+    std::snprintf(id, sizeof(id), "s%03d-s%03d-r%d", a.site, b.site, p.id);
+    t.id = id;
+    t.site_a = a.site;
+    t.site_b = b.site;
+    t.position_in_a = p.peak;
+    t.covariance_in_a = p.peak_covariance;
+    t.position_in_b = q.peak;
+    t.covariance_in_b = q.peak_covariance;
+    t.source = "rock";
+    result.tie_points.push_back(t);
+  }
+  return result;
+}
+
+}  // namespace areomap
