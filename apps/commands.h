@@ -16,5 +16,6 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global);
 void AddStereoCommand(CLI::App& app, const GlobalOptions& global);
 void AddErrorsCommand(CLI::App& app, const GlobalOptions& global);
 void AddAdjustCommand(CLI::App& app, const GlobalOptions& global);
+void AddRunCommand(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace areomap::cli

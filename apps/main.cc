@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   areomap::cli::AddStereoCommand(app, global);
   areomap::cli::AddErrorsCommand(app, global);
   areomap::cli::AddAdjustCommand(app, global);
+  areomap::cli::AddRunCommand(app, global);
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

@@ -22,7 +22,7 @@ void RequireGeoreference(const RasterInfo& info) {
 
 }  // namespace
 
-cv::Mat Orthophoto::ValidMask() const {
+cv::Mat OrthoImage::ValidMask() const {
   cv::Mat valid = image == image;  // False exactly at NaN.
   cv::Mat finite = cv::abs(image) < std::numeric_limits<float>::infinity();
   valid &= finite;
@@ -30,11 +30,11 @@ cv::Mat Orthophoto::ValidMask() const {
   return valid;
 }
 
-Orthophoto ReadOrthophoto(const std::filesystem::path& path) {
+OrthoImage ReadOrthoImage(const std::filesystem::path& path) {
   const RasterDataset dataset = RasterDataset::Open(path);
   const RasterInfo& info = dataset.info();
   RequireGeoreference(info);
-  Orthophoto ortho;
+  OrthoImage ortho;
   ortho.image = dataset.ReadWindowFloat(1, dataset.FullWindow());
   if (info.band_count >= 2) {
     cv::Mat mask = dataset.ReadWindow(2, dataset.FullWindow());
@@ -110,6 +110,20 @@ double OrbitalImage::SampleBilinear(double col, double row) const {
   const double v = (1 - fy) * ((1 - fx) * patch.at<float>(0, 0) + fx * patch.at<float>(0, 1)) +
                    fy * ((1 - fx) * patch.at<float>(1, 0) + fx * patch.at<float>(1, 1));
   return v;  // NaN propagates from an invalid neighbour.
+}
+
+OrthoImage OrthoImageFromOrthophoto(const Orthophoto& ortho, std::string source,
+                                    std::optional<int> site,
+                                    std::optional<Geographic> site_origin) {
+  OrthoImage result;
+  result.image = ortho.image;
+  result.mask = ortho.valid;
+  result.geotransform = ortho.grid.Transform();
+  result.crs_wkt = ortho.crs_wkt;
+  result.source = std::move(source);
+  result.site = site;
+  result.site_origin = site_origin;
+  return result;
 }
 
 }  // namespace areomap

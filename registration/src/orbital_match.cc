@@ -218,7 +218,7 @@ std::string OrbitalMatch::BriefReport() const {
   return out.str();
 }
 
-OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& orbital,
+OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& orbital,
                                  const OrbitalPrior& prior, const OrbitalMatchOptions& options,
                                  const ProgressCallback& progress) {
   options.Check();
@@ -507,7 +507,7 @@ OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& or
   return out;
 }
 
-MultiOrbitalMatch MatchOrthoToOrbitals(const Orthophoto& ortho,
+MultiOrbitalMatch MatchOrthoToOrbitals(const OrthoImage& ortho,
                                        const std::vector<OrbitalImage>& orbitals,
                                        const OrbitalPrior& prior,
                                        const OrbitalMatchOptions& options,

@@ -36,7 +36,7 @@ void ControlPointOptions::Check() const {
 }
 
 std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
-                                                   const Orthophoto& ortho,
+                                                   const OrthoImage& ortho,
                                                    const OrbitalImage& orbital,
                                                    const OrbitalPrior& prior,
                                                    const std::optional<OrbitalImage>& dtm,
@@ -183,7 +183,7 @@ nlohmann::json MatchJson(const OrbitalMatch& m) {
   return j;
 }
 
-GeoTransform CorrectedGeoTransform(const OrbitalMatch& match, const Orthophoto& ortho,
+GeoTransform CorrectedGeoTransform(const OrbitalMatch& match, const OrthoImage& ortho,
                                    const OrbitalImage& orbital) {
   const PixelGrid ortho_grid(ortho.geotransform, ortho.crs_wkt, ortho.source);
   const PixelGrid orbital_grid(orbital.geotransform(), orbital.crs_wkt(), orbital.name());

@@ -22,7 +22,7 @@ double PixelSizeM(const PixelGrid& grid, const Eigen::Vector2d& pixel) {
 }
 
 // Valid ortho pixels within `range_m` of the rover.
-cv::Mat ValidInRange(const Orthophoto& ortho, const PixelGrid& grid, const Eigen::Vector2d& rover,
+cv::Mat ValidInRange(const OrthoImage& ortho, const PixelGrid& grid, const Eigen::Vector2d& rover,
                      double range_m) {
   cv::Mat valid = ortho.ValidMask();
   if (range_m <= 0.0) return valid;
@@ -53,7 +53,7 @@ void TemplateOptions::Check() const {
   RequireOption(lattice_step_px >= 1, "TemplateOptions.lattice_step_px", ">= 1");
 }
 
-OrbitalTemplate ResampleToOrbitalGrid(const Orthophoto& ortho, const PixelGrid& ortho_grid,
+OrbitalTemplate ResampleToOrbitalGrid(const OrthoImage& ortho, const PixelGrid& ortho_grid,
                                       const PixelGrid& orbital_grid,
                                       const Eigen::Vector2d& rover_in_ortho_px,
                                       const TemplateOptions& options) {

@@ -16,7 +16,7 @@ namespace areomap {
 namespace {
 
 struct WarpedCrop {
-  Orthophoto ortho;
+  OrthoImage ortho;
   OrbitalPrior prior;
   Eigen::Vector2d true_centre_px;  // Orbital pixel the ortho's centre truly shows.
   Eigen::Vector2d true_corner_px;  // ... and its top-left corner.

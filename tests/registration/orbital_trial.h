@@ -33,7 +33,7 @@ struct TrialOptions {
 };
 
 struct Trial {
-  Orthophoto ortho;
+  OrthoImage ortho;
   std::optional<OrbitalImage> orbital;
   std::optional<OrbitalImage> decoy;  // When TrialOptions::decoy.
   std::optional<OrbitalImage> dtm;    // The orbital DTM (1 m posting).

@@ -14,13 +14,14 @@
 #include <opencv2/core.hpp>
 
 #include "areomap/map/geodesy.h"
+#include "areomap/map/orthophoto.h"
 #include "areomap/map/raster.h"
 
 namespace areomap {
 
 // A rover orthophoto in memory. Invalid pixels (no stereo coverage, occlusion, the rover's own
 // shadow) are NaN in `image` and/or zero in `mask`.
-struct Orthophoto {
+struct OrthoImage {
   cv::Mat image;  // CV_32FC1, any intensity unit, NaN where invalid.
   cv::Mat mask;   // CV_8UC1 of the image's size, nonzero = valid; empty = every finite pixel.
   GeoTransform geotransform;  // Pixel -> map coordinates of crs_wkt (the telemetry georeference).
@@ -40,7 +41,13 @@ struct Orthophoto {
 // the values (its nodata and non-finite values are invalid); a second band, if present, is a
 // validity mask (nonzero = valid). Throws areomap::Error naming the file for a missing or
 // unreadable file, no georeference or no CRS; the CRS is checked to be on Mars by the matcher.
-Orthophoto ReadOrthophoto(const std::filesystem::path& path);
+OrthoImage ReadOrthoImage(const std::filesystem::path& path);
+
+// The orthophoto libmap makes (orthophoto.h, mosaic.h) as a matching input: its image and
+// validity mask on its grid and CRS. `site`/`site_origin` as in OrthoImage (telemetry origin).
+OrthoImage OrthoImageFromOrthophoto(const Orthophoto& ortho, std::string source,
+                                    std::optional<int> site = std::nullopt,
+                                    std::optional<Geographic> site_origin = std::nullopt);
 
 // An orbital image (or an orbital DTM) read by windows, from a file or from memory.
 class OrbitalImage {

@@ -118,7 +118,7 @@ struct OrbitalMatch {
 // valid pixels, low confidence) is a result with matched = false and a reason. Throws
 // areomap::Error if the options fail Check(), a CRS is not on Mars (the message names the
 // file), or the progress callback asks to stop.
-OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& orbital,
+OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& orbital,
                                  const OrbitalPrior& prior, const OrbitalMatchOptions& options = {},
                                  const ProgressCallback& progress = nullptr);
 
@@ -128,7 +128,7 @@ struct MultiOrbitalMatch {
   std::vector<OrbitalMatch> matches;  // One per image, in input order.
   int best = -1;                      // Index of the best confident match; -1 if none.
 };
-MultiOrbitalMatch MatchOrthoToOrbitals(const Orthophoto& ortho,
+MultiOrbitalMatch MatchOrthoToOrbitals(const OrthoImage& ortho,
                                        const std::vector<OrbitalImage>& orbitals,
                                        const OrbitalPrior& prior,
                                        const OrbitalMatchOptions& options = {},

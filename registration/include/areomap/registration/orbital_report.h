@@ -37,7 +37,7 @@ struct ControlPointOptions {
 // A control point with the pixel and geographic detail behind it.
 struct OrbitalControlPoint {
   ControlPoint point;          // The hand-off to the bundle adjustment.
-  Eigen::Vector2d ortho_px;    // Orthophoto pixel (GDAL convention).
+  Eigen::Vector2d ortho_px;    // OrthoImage pixel (GDAL convention).
   Eigen::Vector2d orbital_px;  // Orbital pixel where the correction puts it.
   Geographic geographic;       // Planetocentric lat, east lon [rad], h [m] (corrected).
   double sigma_east_m = 0.0;
@@ -51,7 +51,7 @@ struct OrbitalControlPoint {
 // where given and defined, else from the prior. Horizontal covariance is the match's shift
 // covariance. Throws areomap::Error if the options fail Check() or a CRS is not on Mars.
 std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
-                                                   const Orthophoto& ortho,
+                                                   const OrthoImage& ortho,
                                                    const OrbitalImage& orbital,
                                                    const OrbitalPrior& prior,
                                                    const std::optional<OrbitalImage>& dtm,
@@ -68,7 +68,7 @@ nlohmann::json MatchJson(const OrbitalMatch& match);
 // least-squares fit of ortho pixel -> corrected map position over a grid of ortho pixels
 // (exact when both CRSs are the same). Throws areomap::Error if a CRS is not on Mars or the
 // grid cannot be mapped.
-GeoTransform CorrectedGeoTransform(const OrbitalMatch& match, const Orthophoto& ortho,
+GeoTransform CorrectedGeoTransform(const OrbitalMatch& match, const OrthoImage& ortho,
                                    const OrbitalImage& orbital);
 
 // The coarse correlation surface as an RGB picture (viridis, NaN black), enlarged `zoom`

@@ -47,7 +47,7 @@ struct OrbitalTemplate {
 // reliable range of `rover_in_ortho_px` (ortho pixel coordinates of the rover). An orthophoto
 // with no valid pixel in range gives an empty template (valid_pixels = 0), not an exception.
 // Throws areomap::Error if the options fail Check() or the ortho image is not CV_32FC1.
-OrbitalTemplate ResampleToOrbitalGrid(const Orthophoto& ortho, const PixelGrid& ortho_grid,
+OrbitalTemplate ResampleToOrbitalGrid(const OrthoImage& ortho, const PixelGrid& ortho_grid,
                                       const PixelGrid& orbital_grid,
                                       const Eigen::Vector2d& rover_in_ortho_px,
                                       const TemplateOptions& options = {});

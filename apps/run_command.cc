@@ -1,0 +1,91 @@
+// areomap run MISSION --out DIR: the end-to-end job on a mission folder (mission_run.h), then the
+// HTML report; areomap report DIR re-writes the report from a finished run's folder.
+#include <cstdio>
+#include <iostream>
+
+#include "areomap/map/mission_manifest.h"
+#include "areomap/registration/mission_run.h"
+#include "areomap/registration/run_report.h"
+#include "commands.h"
+
+namespace areomap::cli {
+namespace {
+
+// The lines a person reads after a run: per-leg outcome and RE, and the final errors.
+void PrintRunSummary(const nlohmann::json& s) {
+  std::printf("sites: %d computed, %d reused; legs: %d computed, %d reused (%.0f s)\n",
+              s["units"]["sites_computed"].get<int>(), s["units"]["sites_reused"].get<int>(),
+              s["units"]["legs_computed"].get<int>(), s["units"]["legs_reused"].get<int>(),
+              s["seconds"].get<double>());
+  for (const nlohmann::json& site : s["sites"]) {
+    const nlohmann::json& r = site["registration"];
+    char verdict[96];
+    if (r.value("matched", false)) {
+      std::snprintf(verdict, sizeof(verdict), "matched, CC %.3f", r.value("correlation", 0.0));
+    } else {
+      std::snprintf(verdict, sizeof(verdict), "no match: %s",
+                    r.value("reason", std::string("?")).c_str());
+    }
+    std::printf("site %3d: %8d points, registration %s\n", site["site"].get<int>(),
+                site["points"].get<int>(), verdict);
+  }
+  for (const nlohmann::json& leg : s["legs"]) {
+    std::printf("leg %3d -> %3d: %-30s %3d tie points", leg["site_a"].get<int>(),
+                leg["site_b"].get<int>(), leg["outcome"].get<std::string>().c_str(),
+                leg["tie_points"].get<int>());
+    if (leg.contains("relative_error_percent")) {
+      std::printf(", RE %.2f %%", leg["relative_error_percent"].get<double>());
+    }
+    std::printf("\n");
+  }
+}
+
+}  // namespace
+
+void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
+  struct Options {
+    std::string mission;
+    std::string out;
+    MissionRunOptions run;
+  };
+  auto o = std::make_shared<Options>();
+  auto* run = app.add_subcommand(
+      "run",
+      "The whole job on a mission folder: stereo, DTM and orthophoto per site, registration onto "
+      "the orbital image, rock tie points with fault detection per leg, bundle adjustment, the "
+      "anchored traverse and report.html. Finished sites and legs are reused on a re-run.");
+  run->add_option("MISSION", o->mission, "Mission folder (or its mission.json)")->required();
+  run->add_option("--out", o->out, "Output folder (created if needed)")->required();
+  run->add_option("--max-range", o->run.stereo.max_range_m, "Stereo points beyond are dropped [m]")
+      ->capture_default_str();
+  run->add_option("--posting", o->run.dtm.posting_m, "Site DTM and orthophoto posting [m]")
+      ->capture_default_str();
+  run->add_option("--prior-sigma-per-m", o->run.prior_sigma_per_m,
+                  "Orbital search prior: telemetry sigma per metre driven")
+      ->capture_default_str();
+  run->callback([o, &global] {
+    // Every file the manifest names is checked before any work starts.
+    const MissionManifest mission = ReadMissionManifest(o->mission);
+    PrepareOutputFolder(o->out);
+    const MissionRunSummary summary =
+        RunMission(mission, o->out, o->run, MakeProgressBar(global, "run"));
+    nlohmann::json json = summary.json;
+    json["command"] = "run";
+    WriteSummary(o->out, json);
+    WriteRunReport(o->out);
+    if (!global.quiet) {
+      PrintRunSummary(json);
+      std::printf("report: %s/report.html\n", o->out.c_str());
+    }
+  });
+
+  auto report_dir = std::make_shared<std::string>();
+  auto* report = app.add_subcommand("report", "Writes DIR/report.html from a finished run folder");
+  report->add_option("DIR", *report_dir, "The --out folder of `areomap run`")->required();
+  report->callback([report_dir, &global] {
+    WriteRunReport(*report_dir);
+    if (!global.quiet) std::printf("report: %s/report.html\n", report_dir->c_str());
+  });
+}
+
+}  // namespace areomap::cli

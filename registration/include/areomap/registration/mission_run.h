@@ -1,0 +1,82 @@
+// The end-to-end job (`areomap run`): a mission folder (mission_manifest.h) in, a rover traverse
+// anchored in Mars body-fixed coordinates out, with every intermediate product on disk.
+//
+// Work units and their folders under `out_dir` (DESIGN.md: units whose results are files):
+//   sites/site_NNN/   one per site: dense stereo of every pair -> points.ply (site frame),
+//                     DTM and orthophoto GeoTIFFs on the mission map (telemetry georeference),
+//                     orbital registration of the orthophoto -> registration.json, the
+//                     correlation surface PNG and control_points.json (BA input format)
+//   legs/leg_NNN_MMM/ one per consecutive pair of sites: rock extraction at both sites, cross-site
+//                     matching with fault detection -> tie_points.json, faults.json
+//   craters/          crater detection on the first orbital image (CSV, JSON, overlay PNG)
+//   adjustment/       network.json (sites, telemetry priors, truth), the bundle adjustment and
+//                     the anchored traverse: sites.csv, legs.csv, traverse.gpkg, traverse_map.png
+//   mosaic/           DTM and orthomosaic of the whole traverse with the adjusted poses
+//   summary.json      key figures; report.html is written from the folder by WriteRunReport.
+// A unit is finished when its `unit.json` exists (written last, atomically) and records the
+// same options fingerprint as this run; finished units are skipped, so an interrupted run
+// resumes where it stopped. Site units run in parallel (TBB).
+//
+// Frames: site frames are MER SITE_FRAMEs (x north, y east, z down [m]); the traverse frame is
+// site 0's; the mission map is equirectangular on the local-radius sphere at the mission origin
+// (the orbital products' projection), heights above the body's ellipsoid.
+// Failure: a bad manifest fails before any work (ReadMissionManifest); a unit that fails throws
+// areomap::Error naming the site or leg, leaving the finished units in place.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "areomap/map/dense_stereo.h"
+#include "areomap/map/dtm.h"
+#include "areomap/map/mission_manifest.h"
+#include "areomap/map/orthophoto.h"
+#include "areomap/map/progress.h"
+#include "areomap/registration/bundle_adjustment.h"
+#include "areomap/registration/orbital_match.h"
+#include "areomap/registration/orbital_report.h"
+#include "areomap/registration/rock_extraction.h"
+#include "areomap/registration/rock_matching.h"
+
+namespace areomap {
+
+struct MissionRunOptions {
+  DenseStereoOptions stereo;  // Per pair; max_range_m 30 (Table 4.5).
+  DtmOptions dtm{.posting_m = 0.1};
+  OrthoOptions ortho;
+  OrbitalMatchOptions match;
+  ControlPointOptions control;
+  // Orbital prior: 1 sigma of the telemetry position = floor + fraction x distance driven from
+  // site 0 (dead reckoning drifts with distance; ~10 % at Silver Lake, ch. 4).
+  double prior_sigma_floor_m = 2.0;
+  double prior_sigma_per_m = 0.1;
+  RockExtractionOptions rocks;
+  RockMatchingOptions matching;
+  BundleOptions bundle;
+  // Telemetry pose priors per leg (DeadReckoningCovariance): relative length error and heading
+  // drift per leg, 1 sigma. Defaults to the mission's telemetry model when it states one.
+  double leg_scale_sigma = 0.05;
+  double leg_heading_sigma_deg = 2.0;
+  bool detect_craters = true;
+  void Check() const;  // Throws areomap::Error naming the field.
+  // The options as JSON: recorded in every unit.json; a change invalidates finished units.
+  nlohmann::json ToJson() const;
+};
+
+struct MissionRunSummary {
+  nlohmann::json json;  // What summary.json holds (also the report's source).
+  int sites_computed = 0;
+  int sites_reused = 0;
+  int legs_computed = 0;
+  int legs_reused = 0;
+};
+
+// Runs (or resumes) the whole job. `progress` sees one fraction for the whole run.
+MissionRunSummary RunMission(const MissionManifest& mission, const std::filesystem::path& out_dir,
+                             const MissionRunOptions& options,
+                             const ProgressCallback& progress = nullptr);
+
+}  // namespace areomap

@@ -1,0 +1,264 @@
+#include "areomap/registration/mission_run.h"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <mutex>
+#include <numbers>
+
+#include <tbb/parallel_for.h>
+
+#include "areomap/map/atomic_file.h"
+#include "areomap/map/error.h"
+#include "areomap/registration/bundle_io.h"
+#include "areomap/registration/traverse_adjustment.h"
+#include "mission_units.h"
+
+namespace areomap {
+namespace mission_run {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string ThreeDigits(int n) {
+  char text[16];
+  std::snprintf(text, sizeof(text), "%03d", n);
+  return text;
+}
+
+json ReadJsonFile(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) return nullptr;
+  json parsed = json::parse(in, nullptr, false);
+  return parsed.is_discarded() ? json(nullptr) : parsed;
+}
+
+}  // namespace
+
+RunContext::RunContext(const MissionManifest& mission, const MissionRunOptions& options,
+                       fs::path out_dir)
+    : mission(&mission),
+      options(&options),
+      out_dir(std::move(out_dir)),
+      fingerprint(json{{"mission", fs::absolute(mission.root).lexically_normal().string()},
+                       {"options", options.ToJson()}}
+                      .dump()),
+      map(MapFrame::LocalEquirectangular(mission.body, mission.origin)) {}
+
+fs::path SiteDir(const RunContext& run, int site) {
+  return run.out_dir / "sites" / ("site_" + ThreeDigits(site));
+}
+
+fs::path LegDir(const RunContext& run, int site_a, int site_b) {
+  return run.out_dir / "legs" / ("leg_" + ThreeDigits(site_a) + "_" + ThreeDigits(site_b));
+}
+
+json FinishedUnit(const RunContext& run, const fs::path& unit_dir) {
+  const json unit = ReadJsonFile(unit_dir / "unit.json");
+  if (!unit.is_object() || unit.value("fingerprint", "") != run.fingerprint) return nullptr;
+  return unit.value("summary", json(nullptr));
+}
+
+void FinishUnit(const RunContext& run, const fs::path& unit_dir, const json& summary) {
+  WriteFileAtomically(unit_dir / "unit.json",
+                      json{{"fingerprint", run.fingerprint}, {"summary", summary}}.dump(2));
+}
+
+Rigid3d TelemetryTraverseFromSite(const MissionSitePose& pose) {
+  // Site frames are level and north-up as the rover believes: a pure translation.
+  return Rigid3d(Eigen::Quaterniond::Identity(), pose.position);
+}
+
+double DrivenDistance(const MissionManifest& mission, size_t site_index) {
+  double distance = 0.0;
+  for (size_t i = 1; i <= site_index && i < mission.telemetry.size(); ++i) {
+    distance +=
+        (mission.telemetry[i].position - mission.telemetry[i - 1].position).head<2>().norm();
+  }
+  return distance;
+}
+
+namespace {
+
+// network.json in the adjustment format (docs/adjustment-format.md): the sites at their
+// telemetry poses, a dead-reckoning prior per leg and, when the mission has it, the truth.
+json NetworkJson(const MissionManifest& mission, const MissionRunOptions& options) {
+  BundleInput network;
+  network.body = mission.body;
+  network.origin = mission.origin;
+  network.site_count = static_cast<int>(mission.sites.size());
+  const double heading_sigma = options.leg_heading_sigma_deg * std::numbers::pi / 180.0;
+  Vector6d floor;
+  floor << 1e-3, 1e-3, 1e-3, 0.02, 0.02, 0.02;
+  for (size_t i = 0; i < mission.sites.size(); ++i) {
+    network.initial_poses.push_back(TelemetryTraverseFromSite(mission.telemetry[i]));
+    if (i == 0) continue;
+    RelativePosePrior prior;
+    prior.site_a = static_cast<int>(i - 1);
+    prior.site_b = static_cast<int>(i);
+    prior.a_from_b = network.initial_poses[i - 1].Inverse() * network.initial_poses[i];
+    prior.covariance = DeadReckoningCovariance(prior.a_from_b.translation, options.leg_scale_sigma,
+                                               heading_sigma, floor);
+    network.priors.push_back(prior);
+  }
+  std::vector<Eigen::Vector3d> truth;
+  for (const MissionSitePose& pose : mission.truth_sites) truth.push_back(pose.position);
+  if (truth.size() != mission.sites.size()) truth.clear();
+  return BundleInputToJson(network, truth);
+}
+
+}  // namespace
+}  // namespace mission_run
+
+void MissionRunOptions::Check() const {
+  stereo.Check();
+  dtm.Check();
+  ortho.Check();
+  match.Check();
+  control.Check();
+  rocks.Check();
+  matching.Check();
+  bundle.Check();
+  RequireOption(prior_sigma_floor_m > 0.0, "MissionRunOptions.prior_sigma_floor_m",
+                "a positive sigma in metres");
+  RequireOption(prior_sigma_per_m >= 0.0, "MissionRunOptions.prior_sigma_per_m",
+                "a non-negative fraction of the distance driven");
+  RequireOption(leg_scale_sigma > 0.0, "MissionRunOptions.leg_scale_sigma",
+                "a positive relative leg-length sigma");
+  RequireOption(leg_heading_sigma_deg > 0.0, "MissionRunOptions.leg_heading_sigma_deg",
+                "a positive heading drift sigma in degrees");
+}
+
+nlohmann::json MissionRunOptions::ToJson() const {
+  // The figures a user changes from the CLI; the fingerprint only needs to change with them.
+  return {{"stereo_max_range_m", stereo.max_range_m},
+          {"stereo_block_size", stereo.block_size},
+          {"dtm_posting_m", dtm.posting_m},
+          {"dtm_method", ToString(dtm.gridding.method)},
+          {"ortho_max_range_m", ortho.max_range_m},
+          {"match_min_correlation", match.min_correlation},
+          {"match_max_rotation_deg", match.max_rotation_deg},
+          {"control_spacing_m", control.spacing_m},
+          {"prior_sigma_floor_m", prior_sigma_floor_m},
+          {"prior_sigma_per_m", prior_sigma_per_m},
+          {"rocks_min_height_m", rocks.min_height_m},
+          {"leg_scale_sigma", leg_scale_sigma},
+          {"leg_heading_sigma_deg", leg_heading_sigma_deg},
+          {"bundle_huber_scale", bundle.huber_scale},
+          {"bundle_rejection_alpha", bundle.rejection_alpha},
+          {"detect_craters", detect_craters}};
+}
+
+MissionRunSummary RunMission(const MissionManifest& mission, const std::filesystem::path& out_dir,
+                             const MissionRunOptions& options, const ProgressCallback& progress) {
+  using namespace mission_run;
+  options.Check();
+  const auto start = std::chrono::steady_clock::now();
+  fs::create_directories(out_dir);
+  const RunContext run(mission, options, out_dir);
+
+  // One bar for the run: sites 70 %, legs 20 %, the adjustment 10 %.
+  const size_t site_count = mission.sites.size();
+  const size_t leg_count = site_count > 0 ? site_count - 1 : 0;
+  std::mutex progress_mutex;
+  std::vector<double> site_done(site_count, 0.0);
+  std::atomic<bool> cancelled = false;
+  const auto report = [&](double fraction, std::string_view stage) {
+    if (!progress) return true;
+    std::lock_guard lock(progress_mutex);
+    const bool go = progress(fraction, stage);
+    if (!go) cancelled = true;
+    return go;
+  };
+  const auto sites_fraction = [&] {
+    double sum = 0.0;
+    for (double d : site_done) sum += d;
+    return 0.7 * sum / std::max<size_t>(1, site_count);
+  };
+
+  MissionRunSummary summary;
+  std::vector<json> site_summaries(site_count);
+  std::vector<bool> reused(site_count, false);
+  tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
+    if (cancelled) return;
+    const fs::path dir = SiteDir(run, mission.sites[i].site);
+    json done = FinishedUnit(run, dir);
+    if (done.is_null()) {
+      done = RunSiteUnit(run, i, [&](double f, std::string_view stage) {
+        {
+          std::lock_guard lock(progress_mutex);
+          site_done[i] = f;
+        }
+        return report(sites_fraction(), stage);
+      });
+      FinishUnit(run, dir, done);
+    } else {
+      reused[i] = true;
+    }
+    site_summaries[i] = done;
+    std::lock_guard lock(progress_mutex);
+    site_done[i] = 1.0;
+  });
+  if (cancelled) throw Error("cancelled during the site units");
+  for (bool r : reused) (r ? summary.sites_reused : summary.sites_computed)++;
+
+  std::vector<json> leg_summaries(leg_count);
+  for (size_t i = 0; i < leg_count; ++i) {
+    const fs::path dir = LegDir(run, mission.sites[i].site, mission.sites[i + 1].site);
+    json done = FinishedUnit(run, dir);
+    if (done.is_null()) {
+      done = RunLegUnit(run, i, i + 1, [&](double f, std::string_view stage) {
+        return report(0.7 + 0.2 * (i + f) / static_cast<double>(leg_count), stage);
+      });
+      FinishUnit(run, dir, done);
+      ++summary.legs_computed;
+    } else {
+      ++summary.legs_reused;
+    }
+    leg_summaries[i] = done;
+  }
+
+  // The adjustment reads everything the units wrote: the network, every site's control
+  // points and every leg's tie points.
+  const fs::path adjustment_dir = out_dir / "adjustment";
+  fs::create_directories(adjustment_dir);
+  WriteFileAtomically(adjustment_dir / "network.json", NetworkJson(mission, options).dump(2));
+  std::vector<fs::path> inputs = {adjustment_dir / "network.json"};
+  for (const MissionSite& site : mission.sites) {
+    inputs.push_back(SiteDir(run, site.site) / "control_points.json");
+  }
+  for (size_t i = 0; i < leg_count; ++i) {
+    inputs.push_back(LegDir(run, mission.sites[i].site, mission.sites[i + 1].site) /
+                     "tie_points.json");
+  }
+  TraverseAdjustmentOptions adjustment;
+  adjustment.bundle = options.bundle;
+  if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
+    adjustment.orbital_image = image->path;
+  }
+  const json adjusted = AdjustTraverse(
+      inputs, adjustment_dir, adjustment,
+      [&](double f, std::string_view stage) { return report(0.9 + 0.1 * f, stage); });
+  report(1.0, "done");
+
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.json = {{"mission", mission.root.string()},
+                  {"name", mission.name},
+                  {"sites", site_summaries},
+                  {"legs", leg_summaries},
+                  {"adjustment", adjusted},
+                  {"units",
+                   {{"sites_computed", summary.sites_computed},
+                    {"sites_reused", summary.sites_reused},
+                    {"legs_computed", summary.legs_computed},
+                    {"legs_reused", summary.legs_reused}}},
+                  {"seconds", seconds}};
+  return summary;
+}
+
+}  // namespace areomap

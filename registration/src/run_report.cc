@@ -1,0 +1,208 @@
+#include "areomap/registration/run_report.h"
+
+#include <cpl_string.h>
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "areomap/map/atomic_file.h"
+#include "areomap/map/error.h"
+
+namespace areomap {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string Escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+// An <img> with the PNG embedded (GDAL's base64), or a note when the file is absent.
+std::string EmbeddedPng(const fs::path& path, const std::string& alt, int max_width_px) {
+  if (!fs::is_regular_file(path)) return "<p><em>" + Escape(alt) + ": not produced</em></p>";
+  const std::string bytes = ReadText(path);
+  char* encoded =
+      CPLBase64Encode(static_cast<int>(bytes.size()), reinterpret_cast<const GByte*>(bytes.data()));
+  std::string html = "<img alt=\"" + Escape(alt) +
+                     "\" style=\"max-width:" + std::to_string(max_width_px) +
+                     "px;width:100%\" src=\"data:image/png;base64," + encoded + "\">";
+  CPLFree(encoded);
+  return html;
+}
+
+// A CSV file (header row, plain comma-separated fields) as an HTML table.
+std::string CsvTable(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) return "<p><em>" + Escape(path.filename().string()) + ": not produced</em></p>";
+  std::string html = "<table>";
+  std::string line;
+  for (bool header = true; std::getline(in, line); header = false) {
+    html += "<tr>";
+    std::stringstream fields(line);
+    std::string field;
+    while (std::getline(fields, field, ',')) {
+      html += (header ? "<th>" : "<td>") + Escape(field) + (header ? "</th>" : "</td>");
+    }
+    html += "</tr>";
+  }
+  return html + "</table>";
+}
+
+std::string Number(const json& value, const char* format) {
+  if (!value.is_number()) return "&ndash;";
+  char text[64];
+  std::snprintf(text, sizeof(text), format, value.get<double>());
+  return text;
+}
+
+std::string KeyFigures(const json& summary) {
+  const json& adjustment = summary.value("adjustment", json::object());
+  std::string html = "<table class=\"figures\">";
+  const auto row = [&](const std::string& name, const std::string& value) {
+    html += "<tr><th>" + name + "</th><td>" + value + "</td></tr>";
+  };
+  row("mission", Escape(summary.value("name", std::string())));
+  row("sites", std::to_string(summary.value("sites", json::array()).size()));
+  row("traverse length", Number(adjustment.value("length_m", json()), "%.1f m"));
+  row("tie points / control points",
+      Number(adjustment.value("tie_points", json()), "%.0f") + " / " +
+          Number(adjustment.value("control_points", json()), "%.0f"));
+  row("observations rejected", Number(adjustment.value("rejected", json()), "%.0f"));
+  row("sigma0", Number(adjustment.value("sigma0", json()), "%.3f"));
+  row("end-point error, telemetry (truth)",
+      Number(adjustment.value("initial_end_error_m", json()), "%.3f m"));
+  row("end-point error, adjusted (truth)",
+      Number(adjustment.value("adjusted_end_error_m", json()), "%.3f m"));
+  row("median adjusted leg RE (truth)",
+      Number(adjustment.value("median_adjusted_leg_re", json()).is_number()
+                 ? json(100.0 * adjustment["median_adjusted_leg_re"].get<double>())
+                 : json(),
+             "%.2f %%"));
+  row("largest 1&sigma; ellipse",
+      Number(adjustment.value("largest_horizontal_sigma_m", json()), "%.3f m"));
+  row("run time", Number(summary.value("seconds", json()), "%.0f s"));
+  return html + "</table>";
+}
+
+std::string SiteSection(const fs::path& run_dir, const json& site) {
+  const int number = site.value("site", -1);
+  char folder[32];
+  std::snprintf(folder, sizeof(folder), "site_%03d", number);
+  const json& r = site.value("registration", json::object());
+  std::string html = "<h3>Site " + std::to_string(number) + "</h3><p>" +
+                     Number(site.value("points", json()), "%.0f") + " stereo points; DTM " +
+                     Number(site.value("dtm_known_area_m2", json()), "%.0f") +
+                     " m&sup2;; orthophoto " +
+                     Number(site.value("ortho_valid_area_m2", json()), "%.0f") + " m&sup2;. ";
+  if (r.value("matched", false)) {
+    html += "Registration: <b>matched</b>, CC " + Number(r.value("correlation", json()), "%.3f") +
+            ", peak ratio " + Number(r.value("peak_ratio", json()), "%.2f") + ", " +
+            Number(r.value("control_points", json()), "%.0f") + " control points.";
+  } else {
+    html += "Registration: <b>no match</b> (" + Escape(r.value("reason", std::string("?"))) + ").";
+  }
+  html += "</p><details><summary>registration details and correlation surface</summary><pre>" +
+          Escape(r.dump(2)) + "</pre>" +
+          EmbeddedPng(run_dir / "sites" / folder / "correlation_surface.png", "correlation surface",
+                      320) +
+          "</details>";
+  return html;
+}
+
+std::string LegSection(const json& leg) {
+  std::string html = "<h3>Leg " + std::to_string(leg.value("site_a", -1)) + " &rarr; " +
+                     std::to_string(leg.value("site_b", -1)) + "</h3><p>Outcome: <b>" +
+                     Escape(leg.value("outcome", std::string("?"))) + "</b>, " +
+                     Number(leg.value("tie_points", json()), "%.0f") + " tie points, RE " +
+                     Number(leg.value("relative_error_percent", json()), "%.2f %%") +
+                     ", telemetry distance " +
+                     Number(leg.value("telemetry_distance_m", json()), "%.1f m") + ".</p>";
+  const json& checks = leg.value("faults", json::object()).value("checks", json::array());
+  html +=
+      "<table><tr><th>module</th><th>rule</th><th>value</th><th>threshold</th>"
+      "<th>verdict</th></tr>";
+  for (const json& c : checks) {
+    const std::string verdict = c.value("verdict", std::string());
+    html += "<tr class=\"" + Escape(verdict) + "\"><td>" + Escape(c.value("module", "")) +
+            "</td><td>" + Escape(c.value("rule", "")) + "</td><td>" +
+            Number(c.value("value", json()), "%.3g") + " " + Escape(c.value("unit", "")) +
+            "</td><td>" + Number(c.value("threshold", json()), "%.3g") + "</td><td>" +
+            Escape(verdict) + "</td></tr>";
+  }
+  return html + "</table>";
+}
+
+}  // namespace
+
+void WriteRunReport(const fs::path& run_dir) {
+  std::ifstream in(run_dir / "summary.json");
+  if (!in) {
+    throw Error(run_dir.string() + ": no summary.json; expected the --out folder of areomap run");
+  }
+  const json summary = json::parse(in, nullptr, false);
+  if (summary.is_discarded() || !summary.contains("sites") || !summary.contains("legs")) {
+    throw Error((run_dir / "summary.json").string() +
+                ": not the summary of areomap run (expected \"sites\" and \"legs\")");
+  }
+  std::string html =
+      "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>areomap run: " +
+      Escape(summary.value("name", std::string())) +
+      "</title><style>body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}"
+      "table{border-collapse:collapse;margin:.5em 0;font-size:90%}td,th{border:1px solid #bbb;"
+      "padding:2px 6px;text-align:right}th{background:#eee}tr.fail td{background:#fdd}"
+      "table.figures th{text-align:left}pre{font-size:80%;background:#f6f6f6}</style></head><body>"
+      "<h1>areomap run: " +
+      Escape(summary.value("name", std::string())) + "</h1>";
+  html += "<h2>Key figures</h2>" + KeyFigures(summary);
+  html +=
+      "<h2>Traverse</h2><p>Telemetry (red), adjusted with 1&sigma; ellipses (green, "
+      "enlarged) and, when known, true (blue) positions over the orbital image.</p>" +
+      EmbeddedPng(run_dir / "adjustment" / "traverse_map.png", "traverse map", 1000);
+  html += "<h3>Anchored sites</h3>" + CsvTable(run_dir / "adjustment" / "sites.csv");
+  html += "<h3>Legs (relative error, Tables 4.6 / 5.2)</h3>" +
+          CsvTable(run_dir / "adjustment" / "legs.csv");
+  html += "<h2>Orbital registration per site</h2>";
+  for (const json& site : summary["sites"]) html += SiteSection(run_dir, site);
+  html += "<h2>Tie points and fault detection per leg</h2>";
+  for (const json& leg : summary["legs"]) html += LegSection(leg);
+  if (fs::exists(run_dir / "craters")) {
+    html += "<h2>Craters on the orbital image</h2>" +
+            EmbeddedPng(run_dir / "craters" / "overlay.png", "crater overlay", 1000);
+  }
+  html += "</body></html>\n";
+  WriteFileAtomically(run_dir / "report.html", html);
+}
+
+}  // namespace areomap
