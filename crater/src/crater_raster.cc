@@ -71,7 +71,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
   tile_options.max_diameter_px =
       o.max_diameter_px == 0.0 ? tile_max_diameter : std::min(o.max_diameter_px, tile_max_diameter);
   std::vector<CraterDetection> all;
-  std::mutex mutex;
+  std::mutex mutex, read_mutex;
   std::atomic<int> done{0};
   std::atomic<bool> cancelled{false};
   const double overview_share = need_overview ? 0.2 : 0.0;
@@ -86,7 +86,12 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
                 r0 = std::max(0, core_r0 - o.tile_overlap);
       const int c1 = std::min(width, core_c1 + o.tile_overlap);
       const int r1 = std::min(height, core_r1 + o.tile_overlap);
-      const cv::Mat tile = dataset.ReadWindowFloat(1, {c0, r0, c1 - c0, r1 - r0});
+      cv::Mat tile;
+      {
+        // A GDAL dataset is not thread-safe: reads are serialised, detection is parallel.
+        std::lock_guard<std::mutex> read_lock(read_mutex);
+        tile = dataset.ReadWindowFloat(1, {c0, r0, c1 - c0, r1 - r0});
+      }
       std::vector<CraterDetection> found = DetectCraters(tile, source, tile_options);
       std::lock_guard<std::mutex> lock(mutex);
       for (const CraterDetection& d : found) {

@@ -153,6 +153,63 @@ TEST(DetectCraters, FindsCratersOnDtmAndMeasuresDepth) {
   EXPECT_GE(measured, 5);
 }
 
+TEST(DetectCraters, EmptyResultForFeaturelessImages) {
+  CraterDetectorOptions options;
+  options.sun_azimuth_deg = 120.0;
+  const cv::Mat constant(300, 300, CV_16U, cv::Scalar(512));
+  EXPECT_TRUE(DetectCraters(constant, RimSource::kImage, options).empty());
+  cv::Mat noise(300, 300, CV_32F);
+  cv::randn(noise, 500.0, 5.0);
+  EXPECT_TRUE(DetectCraters(noise, RimSource::kImage, options).empty());
+  const cv::Mat all_nodata(200, 200, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  EXPECT_TRUE(DetectCraters(all_nodata, RimSource::kImage, options).empty());
+  EXPECT_TRUE(DetectCraters(all_nodata, RimSource::kDtm, options).empty());
+  EXPECT_TRUE(
+      DetectCraters(cv::Mat(3, 3, CV_8U, cv::Scalar(1)), RimSource::kImage, options).empty());
+}
+
+TEST(DetectCraters, NodataHolesHideOnlyTheCratersUnderThem) {
+  const CraterScene& scene = FieldScene();
+  cv::Mat image;
+  scene.products.image.bands[0].convertTo(image, CV_32F);
+  // A nodata band across the middle third of the image.
+  const int top = image.rows / 3, bottom = 2 * image.rows / 3;
+  image.rowRange(top, bottom).setTo(std::numeric_limits<float>::quiet_NaN());
+  CraterDetectorOptions options;
+  options.sun_azimuth_deg = 120.0;
+  const std::vector<CraterDetection> found = DetectCraters(image, RimSource::kImage, options);
+  std::vector<Ellipse> visible;
+  for (const Ellipse& e : scene.truth_px) {
+    if (e.center.y() + e.semi_major + 3 < top || e.center.y() - e.semi_major - 3 > bottom) {
+      visible.push_back(e);
+    }
+  }
+  ASSERT_GE(visible.size(), 8u);
+  const CraterScore score = ScoreCraters(Circles(visible), Circles(found), {10.0, 1e9});
+  EXPECT_GE(score.all.recall, 0.9);
+  for (const CraterDetection& d : found) {
+    EXPECT_TRUE(std::isfinite(d.ellipse.center.x()) && std::isfinite(d.ellipse.semi_major));
+  }
+}
+
+TEST(DetectCraters, OptionsNameTheBadField) {
+  CraterDetectorOptions o;
+  o.min_diameter_px = 2.0;
+  try {
+    DetectCraters(cv::Mat(10, 10, CV_8U), RimSource::kImage, o);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("min_diameter_px"), std::string::npos) << e.what();
+  }
+  o = {};
+  o.sun_azimuth_deg = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(o.Check(), Error);
+  o = {};
+  o.tile_overlap = 8;
+  EXPECT_THROW(o.Check(), Error);
+  EXPECT_THROW(DetectCraters(cv::Mat(10, 10, CV_8UC3), RimSource::kImage, {}), Error);
+}
+
 TEST(DetectCraters, RecoversVictoriaSizedCrater) {
   // Victoria crater (ch. 2.2.1): semi-axes 406.3 m and 382.5 m, depth 78.5 m, floor radius about
   // 139 m; rendered at 1 m/px with the sun 30 degrees high.
