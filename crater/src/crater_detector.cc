@@ -27,7 +27,7 @@ constexpr int kSectors = 12;   // 30 degree normal-direction sectors
 constexpr int kArcWindow = 3;  // sectors per arc window (90 degrees)
 constexpr int kMinArcPoints = 5;
 constexpr int kCoverageBins = 36;
-constexpr double kCoverageDistance = 1.5;  // [px]
+constexpr size_t kMaxFitPoints = 256;
 
 struct Level {
   cv::Mat image;  // CV_32F, NaN = nodata
@@ -387,7 +387,12 @@ std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEd
   fit_options.loss = RobustLoss::kHuber;
   fit_options.loss_scale = 0.7;
   fit_options.max_num_iterations = 30;
-  const EllipseFitSummary summary = RefineEllipseGeometric(e, support, fit_options);
+  // The geometric fit costs one distance solve per point and iteration: at most kMaxFitPoints
+  // edges, evenly spread along the scan order (the direct fit above used them all).
+  std::vector<Eigen::Vector2d> fit_points;
+  const size_t stride = (support.size() + kMaxFitPoints - 1) / kMaxFitPoints;
+  for (size_t i = 0; i < support.size(); i += stride) fit_points.push_back(support[i]);
+  const EllipseFitSummary summary = RefineEllipseGeometric(e, fit_points, fit_options);
   if (!summary.converged) return std::nullopt;
   const Ellipse& fitted = summary.ellipse;
   if (fitted.semi_major > o.max_axis_ratio * fitted.semi_minor) return std::nullopt;
@@ -403,7 +408,7 @@ std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEd
   d.num_edge_points = summary.num_points;
   d.edge_contrast = edge_contrast;
   d.efs = EllipseFitSimilarity(fitted, support);
-  d.coverage = EdgeCoverage(fitted, support, kCoverageDistance, kCoverageBins);
+  d.coverage = AngularCoverage(fitted, support);
   const SignatureValues signature = Signature(raster, source, fitted, sun);
   d.signature = signature.value;
   d.shading_correlation = signature.correlation;

@@ -46,7 +46,8 @@ enum class RimSource {
 
 struct CraterDetection {
   Ellipse ellipse;  // rim crest [px]
-  // 1-sigma from the geometric fit's covariance [px, rad]; NaN where not available.
+  // 1-sigma from the geometric fit's covariance [px, rad] (the fit uses at most 256 rim edges,
+  // evenly spread); NaN where not available.
   double center_x_sigma = 0.0;
   double center_y_sigma = 0.0;
   double semi_major_sigma = 0.0;
@@ -54,7 +55,7 @@ struct CraterDetection {
   double angle_sigma = 0.0;
   double rms_residual = 0.0;  // RMS orthogonal distance of the rim edges [px]
   double efs = 0.0;           // Ellipse-Fit-Similarity, eq. 2.1
-  double coverage = 0.0;      // fraction of 36 rim sectors holding an edge within 1.5 px
+  double coverage = 0.0;      // fraction of 36 rim sectors holding an edge near the rim
   // Image: (inner wall facing the sun - wall facing away) / surroundings' std; DTM: (mean rim
   // height - mean height inside half the radius) / diameter [height unit per px]. NaN for an
   // image without sun azimuth.
