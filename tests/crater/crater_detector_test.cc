@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <iostream>
 #include <limits>
 #include <numbers>
 
@@ -108,8 +107,6 @@ TEST(DetectCraters, FindsCratersOnDtmAndMeasuresDepth) {
     const std::optional<CraterModel> model =
         MeasureCraterOnDtm(dtm, found[static_cast<size_t>(d)].ellipse, 1.0);
     ASSERT_TRUE(model.has_value());
-    << model->depth_mean << " ratio2 " << model->ratio2 << " floor " << truth.floor_fraction
-    << "\n";
     // The background's 1 m RMS roughness moves the rim and floor extremes by about 1 m.
     EXPECT_NEAR(model->depth_max_min, truth.depth, 0.1 * truth.depth + 1.5);
     EXPECT_LE(model->depth_mean, model->depth_max_min);
@@ -207,9 +204,6 @@ TEST(DetectCraters, RecoversVictoriaSizedCrater) {
   ASSERT_FALSE(found.empty());
   const Ellipse& truth = scene.truth_px[0];
   const CraterDetection& best = found[0];
-  << " b " << best.ellipse.semi_minor << " efs " << best.efs << " truth "
-  << truth.center.transpose() << " " << truth.semi_major << " " << truth.semi_minor << " level "
-  << best.pyramid_level << "\n";
   RecordProperty("semi_major_px", std::to_string(best.ellipse.semi_major));
   RecordProperty("semi_minor_px", std::to_string(best.ellipse.semi_minor));
   RecordProperty("efs", std::to_string(best.efs));
