@@ -52,6 +52,19 @@ double RmsDistance(const Ellipse& e, const std::vector<Eigen::Vector2d>& points)
   return std::sqrt(sum / static_cast<double>(points.size()));
 }
 
+// RmsDistance over at most kRankingPoints points evenly spread through the list: enough to rank
+// candidate fits, at a bounded cost per fit.
+double RmsDistanceSampled(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
+  constexpr size_t kRankingPoints = 64;
+  if (points.size() <= kRankingPoints) return RmsDistance(e, points);
+  std::vector<Eigen::Vector2d> sample;
+  sample.reserve(kRankingPoints);
+  for (size_t k = 0; k < kRankingPoints; ++k) {
+    sample.push_back(points[k * points.size() / kRankingPoints]);
+  }
+  return RmsDistance(e, sample);
+}
+
 // Orthogonal distance of one point; parameters are (cx, cy, a, b) and (angle).
 class OrthogonalDistanceCost : public ceres::SizedCostFunction<1, 4, 1> {
  public:
@@ -222,7 +235,7 @@ std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& poin
     }
     const std::optional<Ellipse> candidate = FromRotatedRect(box, mean, spread);
     if (!candidate.has_value()) continue;
-    const double rms = RmsDistance(*candidate, finite);
+    const double rms = RmsDistanceSampled(*candidate, finite);
     if (rms < best_rms) {
       best_rms = rms;
       best = candidate;
