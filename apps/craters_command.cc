@@ -139,6 +139,11 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--min-shading-contrast", args->detector.min_shading_contrast,
                   "Image with sun: wall contrast threshold")
       ->capture_default_str();
+  cmd->add_option("--min-coverage", args->detector.min_coverage,
+                  "Fraction of rim sectors that must hold edges")
+      ->capture_default_str();
+  cmd->add_option("--max-axis-ratio", args->detector.max_axis_ratio, "Largest a / b accepted")
+      ->capture_default_str();
   cmd->add_option("--min-edge-contrast", args->detector.min_edge_contrast,
                   "Rim edge strength / high Canny threshold")
       ->capture_default_str();

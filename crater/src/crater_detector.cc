@@ -32,7 +32,7 @@ constexpr size_t kMaxFitPoints = 256;
 struct Level {
   cv::Mat image;  // CV_32F, NaN = nodata
   RimEdges edges;
-  int scale = 1;  // level px = scale full px
+  double scale = 1.0;  // one level px = `scale` full-resolution px (0.5: upsampled)
 };
 
 struct Arc {
@@ -461,7 +461,7 @@ std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEd
 }
 
 RimEdges EdgesOf(const cv::Mat& raster, RimSource source, const CraterDetectorOptions& o,
-                 int scale) {
+                 double scale) {
   return source == RimSource::kImage ? DetectImageEdges(raster, o.edges)
                                      : DetectDtmCrests(raster, o.dtm_posting * scale, o.edges);
 }
@@ -543,11 +543,23 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
                                      : static_cast<double>(std::max(raster.cols, raster.rows)));
   const double min_radius = 0.5 * o.min_diameter_px;
   std::vector<Level> levels;
+  cv::Mat full;
+  raster.convertTo(full, CV_32F);
+  // Small craters (radius < kCoarseMinRadius) are searched on a 2x upsampled copy, where their
+  // rims hold four times the edge points; GDAL coordinates scale exactly by 2 under cv::resize.
+  const bool upsample = o.upsample_small_craters && min_radius < kCoarseMinRadius;
+  if (upsample) {
+    Level up;
+    up.scale = 0.5;
+    cv::resize(full, up.image, cv::Size(full.cols * 2, full.rows * 2), 0, 0, cv::INTER_LINEAR);
+    levels.push_back(std::move(up));
+  }
+  const size_t base = levels.size();  // index of the full-resolution level
   levels.push_back({});
-  raster.convertTo(levels[0].image, CV_32F);
+  levels.back().image = full;
   while (true) {
     const Level& last = levels.back();
-    const int next_scale = last.scale * 2;
+    const double next_scale = last.scale * 2.0;
     if (kCoarseMinRadius * next_scale > max_radius * 1.25) break;
     if (std::min(last.image.cols, last.image.rows) / 2 < 3 * static_cast<int>(kCoarseMinRadius)) {
       break;
@@ -567,8 +579,10 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
   for (size_t li = 0; li < levels.size(); ++li) {
     Level& level = levels[li];
     level.edges = EdgesOf(level.image, source, o, level.scale);
-    const double r_lo = li == 0 ? min_radius : kCoarseMinRadius;
-    const double r_hi = std::min(kLevelMaxRadius, max_radius / level.scale * 1.1);
+    double r_lo = li == 0 ? min_radius / level.scale : kCoarseMinRadius;
+    double r_hi = std::min(kLevelMaxRadius, max_radius / level.scale * 1.1);
+    if (upsample && li == 0) r_hi = std::min(r_hi, 2.0 * kCoarseMinRadius + 2.0);
+    if (upsample && li == base) r_lo = kCoarseMinRadius - 1.0;
     if (r_hi < r_lo * 0.8) continue;
     const std::vector<Arc> arcs = ExtractArcs(level.edges, r_lo, r_hi, sun);
     const std::vector<std::vector<int>> groups = GroupArcs(arcs, r_hi);
@@ -603,6 +617,8 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
       const double r = d->ellipse.MeanRadius();
       if (r < 0.8 * r_lo || r > 1.25 * r_hi) return;
       d->pyramid_level = static_cast<int>(li);
+      // Candidates are compared across levels: keep them in full-resolution pixels.
+      d->ellipse = Scaled(d->ellipse, level.scale);
       found[g] = d;
     });
     for (auto& d : found) {
@@ -617,18 +633,19 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
   std::vector<std::optional<CraterDetection>> final_fits(candidates.size());
   tbb::parallel_for(size_t{0}, candidates.size(), [&](size_t i) {
     const CraterDetection& c = candidates[i];
-    Ellipse e = c.ellipse;
     int k = c.pyramid_level;
-    while (k > 0) {
+    Ellipse e = Scaled(c.ellipse, 1.0 / levels[static_cast<size_t>(k)].scale);
+    const int finest = static_cast<int>(base);
+    while (k > finest) {
       const Level& finer = levels[static_cast<size_t>(k - 1)];
       const auto refined =
-          FitAndValidate(finer.image, finer.edges, source, Scaled(e, 2.0), o, k - 1 == 0);
+          FitAndValidate(finer.image, finer.edges, source, Scaled(e, 2.0), o, k - 1 == finest);
       if (!refined) break;
       e = refined->ellipse;
       --k;
-      if (k == 0) final_fits[i] = refined;
+      if (k == finest) final_fits[i] = refined;
     }
-    if (k > 0 || c.pyramid_level == 0) {
+    if (k > finest || c.pyramid_level <= finest) {
       // Geometric fit on the finest level that still validates, scaled to full resolution.
       const Level& level = levels[static_cast<size_t>(k)];
       auto fit = FitAndValidate(level.image, level.edges, source, e, o, true);
@@ -643,7 +660,7 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
       final_fits[i] = fit;
     }
     if (final_fits[i]) {
-      final_fits[i]->pyramid_level = c.pyramid_level;
+      final_fits[i]->pyramid_level = c.pyramid_level - static_cast<int>(base);
       final_fits[i]->confidence = std::max(final_fits[i]->confidence, c.confidence);
     }
   });
