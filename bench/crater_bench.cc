@@ -1,5 +1,6 @@
 // Crater detection speed and quality on a large generated tile, against OpenCV's HoughCircles on
-// the same image in the same run. Usage: areomap_bench_crater [SIZE_PX] (default 4000).
+// the same image in the same run. Usage: areomap_bench_crater [SIZE_PX [UPSAMPLE]] (default
+// 4000 1; UPSAMPLE 0 skips the 2x upsampled level for craters under 16 px).
 //
 // The tile holds bowls lit from the east (bright western wall, dark eastern wall, sharp rim,
 // 12-120 px across, log-uniform) on a textured plain with noise; truth is exact. areomap runs end
@@ -80,6 +81,7 @@ int main(int argc, char** argv) {
   areomap::CraterDetectorOptions options;
   options.sun_azimuth_deg = 90.0;
   options.min_diameter_px = 10.0;
+  options.upsample_small_craters = argc > 2 ? std::stoi(argv[2]) != 0 : true;
   const auto found = areomap::DetectCratersInRaster(dataset, areomap::RimSource::kImage, options);
   const double ours_s = Seconds(start);
   std::vector<CraterCircle> ours;
