@@ -134,7 +134,9 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
         local.center = (local.center - Eigen::Vector2d(c0, r0)) / fine;
         local.semi_major /= fine;
         local.semi_minor /= fine;
-        if (auto refined = RefineCrater(window, source, local, o)) {
+        CraterDetectorOptions window_options = o;
+        window_options.dtm_posting = o.dtm_posting * fine;  // ground size of a window pixel
+        if (auto refined = RefineCrater(window, source, local, window_options)) {
           const double confidence = d.confidence;
           d = Shifted(*refined, c0, r0, fine);
           d.confidence = std::max(confidence, d.confidence);

@@ -1,6 +1,7 @@
 // Multi-crater detection: rim edges -> arcs -> ellipse hypotheses -> robust fit -> validation.
 //
-// Pipeline (per pyramid level, each level halving the resolution by 2x2 box averaging):
+// Pipeline (per pyramid level, each level halving the resolution by 2x2 box averaging, plus a
+// 2x upsampled level for craters under 16 px across):
 //  1. Rim edges (rim_edges.h): sub-pixel Canny edges with gradient direction for an image,
 //     curvature crests for a DTM.
 //  2. Arcs: 8-connected edge pixels whose normals lie within a 90 degree window (12 overlapping
@@ -9,15 +10,18 @@
 //     out of or into the circle). With a known sun, arcs whose polarity contradicts the shading
 //     of a bowl (brightness must rise towards the sun across the rim, ch. 2.2.1) are dropped:
 //     this removes the shadow edge on the floor and positive relief (mounds).
-//  3. Hypotheses: arcs whose centres and radii agree are grouped; the group's points seed
-//     FitEllipseDirect (OpenCV's direct least squares). A trimmed robust loop then gathers all
-//     edges near the ellipse with a normal aligned to it, refits, and repeats; the final fit is
-//     the orthogonal-distance fit with a Huber loss (RefineEllipseGeometric, Ceres).
-//  4. Validation: rim edge coverage (EdgeCoverage), fit residual, and the signature of a bowl:
-//     for an image with known sun azimuth the inner wall facing the sun must be brighter than
-//     the one facing away; for a DTM the interior must lie below the rim.
-//  5. Detections from coarse levels are refined down the pyramid on the finer levels' edges;
-//     duplicates (within or across levels) are suppressed keeping the most confident.
+//  3. Hypotheses: arcs whose centres and radii agree are grouped; groups of weak edges are
+//     dropped at once; the group's points seed FitEllipseDirect (OpenCV's direct least
+//     squares). A trimmed robust loop then gathers all edges near the ellipse with a normal
+//     aligned to it, refits, and repeats.
+//  4. Validation: mean rim edge strength over the high Canny threshold, the signature of a bowl
+//     (for an image with known sun azimuth the inner wall facing the sun must be brighter than
+//     the one facing away; for a DTM the interior must lie below the rim), sector coverage and
+//     fit residual.
+//  5. Candidates of all levels are compared in full-resolution pixels and duplicates
+//     suppressed; each remaining crater is refined down the pyramid on the finer levels' edges
+//     and gets one orthogonal-distance fit with a Huber loss (RefineEllipseGeometric, Ceres) on
+//     the finest level where it validates, then duplicates are suppressed again.
 //
 // Frame: pixel coordinates of the input, GDAL convention (pixel (col, row) covers
 // [col, col + 1) x [row, row + 1)), x right, y down; lengths in pixels, angles in radians from
