@@ -17,5 +17,6 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global);
 void AddErrorsCommand(CLI::App& app, const GlobalOptions& global);
 void AddAdjustCommand(CLI::App& app, const GlobalOptions& global);
 void AddRunCommand(CLI::App& app, const GlobalOptions& global);
+void AddCratersCommand(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace areomap::cli

@@ -27,12 +27,12 @@ constexpr int kSectors = 12;   // 30 degree normal-direction sectors
 constexpr int kArcWindow = 3;  // sectors per arc window (90 degrees)
 constexpr int kMinArcPoints = 5;
 constexpr int kCoverageBins = 36;
-constexpr double kCoverageDistance = 1.5;  // [px]
+constexpr size_t kMaxFitPoints = 256;
 
 struct Level {
   cv::Mat image;  // CV_32F, NaN = nodata
   RimEdges edges;
-  int scale = 1;  // level px = scale full px
+  double scale = 1.0;  // one level px = `scale` full-resolution px (0.5: upsampled)
 };
 
 struct Arc {
@@ -359,10 +359,28 @@ double AngularCoverage(const Ellipse& e, const std::vector<Eigen::Vector2d>& poi
   return static_cast<double>(std::count(hit.begin(), hit.end(), true)) / kCoverageBins;
 }
 
+// RMS of the radial distances |p - c| (1 - 1/rho) to the ellipse: the orthogonal distance to
+// first order for points near a near-circular rim.
+double RadialRms(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
+  const double cs = std::cos(e.angle), sn = std::sin(e.angle);
+  double sum = 0.0;
+  for (const Eigen::Vector2d& p : points) {
+    const Eigen::Vector2d d = p - e.center;
+    const double u = (cs * d.x() + sn * d.y()) / e.semi_major;
+    const double v = (-sn * d.x() + cs * d.y()) / e.semi_minor;
+    const double rho = std::max(std::hypot(u, v), 1e-12);
+    const double r = d.norm() * (1.0 - 1.0 / rho);
+    sum += r * r;
+  }
+  return points.empty() ? kNaN : std::sqrt(sum / static_cast<double>(points.size()));
+}
+
 // Trimmed robust loop on `edges` from `start`, then the geometric fit and validation.
+// With `geometric` false the trimmed direct fit is the result (no Ceres, sigmas NaN, residual
+// from radial distances): the cheap form used to screen hypotheses.
 std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEdges& edges,
                                               RimSource source, const Ellipse& start,
-                                              const CraterDetectorOptions& o) {
+                                              const CraterDetectorOptions& o, bool geometric) {
   const std::optional<Eigen::Vector2d> sun = SunVector(o, source);
   Ellipse e = start;
   std::vector<Eigen::Vector2d> support;
@@ -383,27 +401,43 @@ std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEd
   if (edge_contrast < o.min_edge_contrast) return std::nullopt;
   if (!SignaturePasses(Signature(raster, source, e, sun), source, o)) return std::nullopt;
   if (AngularCoverage(e, support) < o.min_coverage) return std::nullopt;
-  GeometricFitOptions fit_options;
-  fit_options.loss = RobustLoss::kHuber;
-  fit_options.loss_scale = 0.7;
-  fit_options.max_num_iterations = 30;
-  const EllipseFitSummary summary = RefineEllipseGeometric(e, support, fit_options);
-  if (!summary.converged) return std::nullopt;
-  const Ellipse& fitted = summary.ellipse;
+  CraterDetection d;
+  if (geometric) {
+    GeometricFitOptions fit_options;
+    fit_options.loss = RobustLoss::kHuber;
+    fit_options.loss_scale = 0.7;
+    fit_options.max_num_iterations = 20;
+    // The direct fit starts close: 1e-10 relative cost change is far below the edges' noise.
+    fit_options.function_tolerance = 1e-10;
+    fit_options.parameter_tolerance = 1e-10;
+    // The geometric fit costs one distance solve per point and iteration: at most
+    // kMaxFitPoints edges, evenly spread along the scan order (the direct fit used them all).
+    std::vector<Eigen::Vector2d> fit_points;
+    const size_t stride = (support.size() + kMaxFitPoints - 1) / kMaxFitPoints;
+    for (size_t i = 0; i < support.size(); i += stride) fit_points.push_back(support[i]);
+    const EllipseFitSummary summary = RefineEllipseGeometric(e, fit_points, fit_options);
+    if (!summary.converged) return std::nullopt;
+    d.ellipse = summary.ellipse;
+    d.center_x_sigma = summary.center_x_sigma;
+    d.center_y_sigma = summary.center_y_sigma;
+    d.semi_major_sigma = summary.semi_major_sigma;
+    d.semi_minor_sigma = summary.semi_minor_sigma;
+    d.angle_sigma = summary.angle_sigma;
+    d.rms_residual = summary.rms_residual;
+    d.num_edge_points = summary.num_points;
+  } else {
+    d.ellipse = e;
+    d.center_x_sigma = d.center_y_sigma = d.semi_major_sigma = d.semi_minor_sigma = d.angle_sigma =
+        kNaN;
+    d.rms_residual = RadialRms(e, support);
+    d.num_edge_points = static_cast<int>(support.size());
+  }
+  const Ellipse& fitted = d.ellipse;
   if (fitted.semi_major > o.max_axis_ratio * fitted.semi_minor) return std::nullopt;
   if ((fitted.center - start.center).norm() > 0.4 * start.MeanRadius() + 1.0) return std::nullopt;
-  CraterDetection d;
-  d.ellipse = fitted;
-  d.center_x_sigma = summary.center_x_sigma;
-  d.center_y_sigma = summary.center_y_sigma;
-  d.semi_major_sigma = summary.semi_major_sigma;
-  d.semi_minor_sigma = summary.semi_minor_sigma;
-  d.angle_sigma = summary.angle_sigma;
-  d.rms_residual = summary.rms_residual;
-  d.num_edge_points = summary.num_points;
   d.edge_contrast = edge_contrast;
   d.efs = EllipseFitSimilarity(fitted, support);
-  d.coverage = EdgeCoverage(fitted, support, kCoverageDistance, kCoverageBins);
+  d.coverage = AngularCoverage(fitted, support);
   const SignatureValues signature = Signature(raster, source, fitted, sun);
   d.signature = signature.value;
   d.shading_correlation = signature.correlation;
@@ -427,7 +461,7 @@ std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEd
 }
 
 RimEdges EdgesOf(const cv::Mat& raster, RimSource source, const CraterDetectorOptions& o,
-                 int scale) {
+                 double scale) {
   return source == RimSource::kImage ? DetectImageEdges(raster, o.edges)
                                      : DetectDtmCrests(raster, o.dtm_posting * scale, o.edges);
 }
@@ -495,7 +529,7 @@ std::optional<CraterDetection> RefineCrater(const cv::Mat& raster, RimSource sou
   options.Check();
   cv::Mat f;
   raster.convertTo(f, CV_32F);
-  return FitAndValidate(f, EdgesOf(f, source, options, 1), source, initial, options);
+  return FitAndValidate(f, EdgesOf(f, source, options, 1), source, initial, options, true);
 }
 
 std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource source,
@@ -509,11 +543,23 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
                                      : static_cast<double>(std::max(raster.cols, raster.rows)));
   const double min_radius = 0.5 * o.min_diameter_px;
   std::vector<Level> levels;
+  cv::Mat full;
+  raster.convertTo(full, CV_32F);
+  // Small craters (radius < kCoarseMinRadius) are searched on a 2x upsampled copy, where their
+  // rims hold four times the edge points; GDAL coordinates scale exactly by 2 under cv::resize.
+  const bool upsample = o.upsample_small_craters && min_radius < kCoarseMinRadius;
+  if (upsample) {
+    Level up;
+    up.scale = 0.5;
+    cv::resize(full, up.image, cv::Size(full.cols * 2, full.rows * 2), 0, 0, cv::INTER_LINEAR);
+    levels.push_back(std::move(up));
+  }
+  const size_t base = levels.size();  // index of the full-resolution level
   levels.push_back({});
-  raster.convertTo(levels[0].image, CV_32F);
+  levels.back().image = full;
   while (true) {
     const Level& last = levels.back();
-    const int next_scale = last.scale * 2;
+    const double next_scale = last.scale * 2.0;
     if (kCoarseMinRadius * next_scale > max_radius * 1.25) break;
     if (std::min(last.image.cols, last.image.rows) / 2 < 3 * static_cast<int>(kCoarseMinRadius)) {
       break;
@@ -528,12 +574,15 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
     levels.push_back(std::move(next));
   }
   const std::optional<Eigen::Vector2d> sun = SunVector(o, source);
-  std::vector<CraterDetection> all;
+  // Phase 1: screen hypotheses on every level with the cheap direct fit.
+  std::vector<CraterDetection> candidates;
   for (size_t li = 0; li < levels.size(); ++li) {
     Level& level = levels[li];
     level.edges = EdgesOf(level.image, source, o, level.scale);
-    const double r_lo = li == 0 ? min_radius : kCoarseMinRadius;
-    const double r_hi = std::min(kLevelMaxRadius, max_radius / level.scale * 1.1);
+    double r_lo = li == 0 ? min_radius / level.scale : kCoarseMinRadius;
+    double r_hi = std::min(kLevelMaxRadius, max_radius / level.scale * 1.1);
+    if (upsample && li == 0) r_hi = std::min(r_hi, 2.0 * kCoarseMinRadius + 2.0);
+    if (upsample && li == base) r_lo = kCoarseMinRadius - 1.0;
     if (r_hi < r_lo * 0.8) continue;
     const std::vector<Arc> arcs = ExtractArcs(level.edges, r_lo, r_hi, sun);
     const std::vector<std::vector<int>> groups = GroupArcs(arcs, r_hi);
@@ -546,45 +595,81 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
       std::sort(indices.begin(), indices.end());
       indices.erase(std::unique(indices.begin(), indices.end()), indices.end());
       std::vector<Eigen::Vector2d> points;
-      for (int i : indices) points.push_back(Pos(level.edges.points[i]));
+      double strength = 0.0;
+      for (int i : indices) {
+        points.push_back(Pos(level.edges.points[i]));
+        strength += level.edges.points[i].strength;
+      }
+      // Cheap rejection before any fit: texture edges are weak (the rim's full support is
+      // checked again after fitting).
+      if (strength / static_cast<double>(indices.size()) <
+          0.8 * o.min_edge_contrast * level.edges.high_threshold) {
+        return;
+      }
       const Ellipse circle{seed.center, seed.radius, seed.radius, 0.0};
       Ellipse start = circle;
       if (points.size() >= 12) {
         if (auto fit = SaneFit(points, circle, o.max_axis_ratio)) start = *fit;
       }
-      std::optional<CraterDetection> d = FitAndValidate(level.image, level.edges, source, start, o);
+      std::optional<CraterDetection> d =
+          FitAndValidate(level.image, level.edges, source, start, o, false);
       if (!d) return;
       const double r = d->ellipse.MeanRadius();
       if (r < 0.8 * r_lo || r > 1.25 * r_hi) return;
-      // Down the pyramid: refit on each finer level's edges.
-      for (int k = static_cast<int>(li) - 1; k >= 0 && d; --k) {
-        const Level& finer = levels[static_cast<size_t>(k)];
-        std::optional<CraterDetection> refined =
-            FitAndValidate(finer.image, finer.edges, source, Scaled(d->ellipse, 2.0), o);
-        if (!refined) {
-          d->ellipse = Scaled(d->ellipse, 2.0);  // keep the coarse fit, scaled
-          d->center_x_sigma *= 2.0;
-          d->center_y_sigma *= 2.0;
-          d->semi_major_sigma *= 2.0;
-          d->semi_minor_sigma *= 2.0;
-          d->rms_residual *= 2.0;
-        } else {
-          const double confidence = d->confidence;
-          d = refined;
-          d->confidence = std::max(confidence, d->confidence);
-        }
-      }
       d->pyramid_level = static_cast<int>(li);
+      // Candidates are compared across levels: keep them in full-resolution pixels.
+      d->ellipse = Scaled(d->ellipse, level.scale);
       found[g] = d;
     });
     for (auto& d : found) {
-      if (d && d->Diameter() >= o.min_diameter_px * 0.9 &&
-          (o.max_diameter_px <= 0.0 || d->Diameter() <= o.max_diameter_px * 1.1)) {
-        all.push_back(*d);
-      }
+      if (d) candidates.push_back(*d);
     }
     Report(progress, static_cast<double>(li + 1) / static_cast<double>(levels.size()),
            "craters: pyramid level");
+  }
+  // Phase 2: one geometric fit per distinct crater, on the finest level, the coarse fit refined
+  // down the pyramid on the way.
+  candidates = SuppressDuplicateCraters(std::move(candidates));
+  std::vector<std::optional<CraterDetection>> final_fits(candidates.size());
+  tbb::parallel_for(size_t{0}, candidates.size(), [&](size_t i) {
+    const CraterDetection& c = candidates[i];
+    int k = c.pyramid_level;
+    Ellipse e = Scaled(c.ellipse, 1.0 / levels[static_cast<size_t>(k)].scale);
+    const int finest = static_cast<int>(base);
+    while (k > finest) {
+      const Level& finer = levels[static_cast<size_t>(k - 1)];
+      const auto refined =
+          FitAndValidate(finer.image, finer.edges, source, Scaled(e, 2.0), o, k - 1 == finest);
+      if (!refined) break;
+      e = refined->ellipse;
+      --k;
+      if (k == finest) final_fits[i] = refined;
+    }
+    if (k > finest || c.pyramid_level <= finest) {
+      // Geometric fit on the finest level that still validates, scaled to full resolution.
+      const Level& level = levels[static_cast<size_t>(k)];
+      auto fit = FitAndValidate(level.image, level.edges, source, e, o, true);
+      if (!fit) return;
+      const double f = level.scale;
+      fit->ellipse = Scaled(fit->ellipse, f);
+      fit->center_x_sigma *= f;
+      fit->center_y_sigma *= f;
+      fit->semi_major_sigma *= f;
+      fit->semi_minor_sigma *= f;
+      fit->rms_residual *= f;
+      final_fits[i] = fit;
+    }
+    if (final_fits[i]) {
+      final_fits[i]->pyramid_level = c.pyramid_level - static_cast<int>(base);
+      final_fits[i]->confidence = std::max(final_fits[i]->confidence, c.confidence);
+    }
+  });
+  std::vector<CraterDetection> all;
+  for (const auto& d : final_fits) {
+    if (d && d->Diameter() >= o.min_diameter_px * 0.9 &&
+        (o.max_diameter_px <= 0.0 || d->Diameter() <= o.max_diameter_px * 1.1)) {
+      all.push_back(*d);
+    }
   }
   return SuppressDuplicateCraters(std::move(all));
 }

@@ -52,6 +52,21 @@ double RmsDistance(const Ellipse& e, const std::vector<Eigen::Vector2d>& points)
   return std::sqrt(sum / static_cast<double>(points.size()));
 }
 
+// RMS Sampson distance |f| / |grad f| of the points to the ellipse's conic f: the orthogonal
+// distance to first order, at a few flops per point. Ranks candidate fits.
+double RmsSampsonDistance(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
+  const ConicCoefficients k = e.ToConic();
+  double sum = 0.0;
+  for (const Eigen::Vector2d& p : points) {
+    const double x = p.x(), y = p.y();
+    const double f = k(0) * x * x + k(1) * x * y + k(2) * y * y + k(3) * x + k(4) * y + k(5);
+    const double gx = 2.0 * k(0) * x + k(1) * y + k(3), gy = k(1) * x + 2.0 * k(2) * y + k(4);
+    const double g2 = gx * gx + gy * gy;
+    sum += g2 > 0.0 ? f * f / g2 : 0.0;
+  }
+  return std::sqrt(sum / static_cast<double>(points.size()));
+}
+
 // Orthogonal distance of one point; parameters are (cx, cy, a, b) and (angle).
 class OrthogonalDistanceCost : public ceres::SizedCostFunction<1, 4, 1> {
  public:
@@ -222,7 +237,7 @@ std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& poin
     }
     const std::optional<Ellipse> candidate = FromRotatedRect(box, mean, spread);
     if (!candidate.has_value()) continue;
-    const double rms = RmsDistance(*candidate, finite);
+    const double rms = RmsSampsonDistance(*candidate, finite);
     if (rms < best_rms) {
       best_rms = rms;
       best = candidate;

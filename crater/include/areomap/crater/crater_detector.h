@@ -1,6 +1,7 @@
 // Multi-crater detection: rim edges -> arcs -> ellipse hypotheses -> robust fit -> validation.
 //
-// Pipeline (per pyramid level, each level halving the resolution by 2x2 box averaging):
+// Pipeline (per pyramid level, each level halving the resolution by 2x2 box averaging, plus a
+// 2x upsampled level for craters under 16 px across):
 //  1. Rim edges (rim_edges.h): sub-pixel Canny edges with gradient direction for an image,
 //     curvature crests for a DTM.
 //  2. Arcs: 8-connected edge pixels whose normals lie within a 90 degree window (12 overlapping
@@ -9,15 +10,18 @@
 //     out of or into the circle). With a known sun, arcs whose polarity contradicts the shading
 //     of a bowl (brightness must rise towards the sun across the rim, ch. 2.2.1) are dropped:
 //     this removes the shadow edge on the floor and positive relief (mounds).
-//  3. Hypotheses: arcs whose centres and radii agree are grouped; the group's points seed
-//     FitEllipseDirect (OpenCV's direct least squares). A trimmed robust loop then gathers all
-//     edges near the ellipse with a normal aligned to it, refits, and repeats; the final fit is
-//     the orthogonal-distance fit with a Huber loss (RefineEllipseGeometric, Ceres).
-//  4. Validation: rim edge coverage (EdgeCoverage), fit residual, and the signature of a bowl:
-//     for an image with known sun azimuth the inner wall facing the sun must be brighter than
-//     the one facing away; for a DTM the interior must lie below the rim.
-//  5. Detections from coarse levels are refined down the pyramid on the finer levels' edges;
-//     duplicates (within or across levels) are suppressed keeping the most confident.
+//  3. Hypotheses: arcs whose centres and radii agree are grouped; groups of weak edges are
+//     dropped at once; the group's points seed FitEllipseDirect (OpenCV's direct least
+//     squares). A trimmed robust loop then gathers all edges near the ellipse with a normal
+//     aligned to it, refits, and repeats.
+//  4. Validation: mean rim edge strength over the high Canny threshold, the signature of a bowl
+//     (for an image with known sun azimuth the inner wall facing the sun must be brighter than
+//     the one facing away; for a DTM the interior must lie below the rim), sector coverage and
+//     fit residual.
+//  5. Candidates of all levels are compared in full-resolution pixels and duplicates
+//     suppressed; each remaining crater is refined down the pyramid on the finer levels' edges
+//     and gets one orthogonal-distance fit with a Huber loss (RefineEllipseGeometric, Ceres) on
+//     the finest level where it validates, then duplicates are suppressed again.
 //
 // Frame: pixel coordinates of the input, GDAL convention (pixel (col, row) covers
 // [col, col + 1) x [row, row + 1)), x right, y down; lengths in pixels, angles in radians from
@@ -46,7 +50,8 @@ enum class RimSource {
 
 struct CraterDetection {
   Ellipse ellipse;  // rim crest [px]
-  // 1-sigma from the geometric fit's covariance [px, rad]; NaN where not available.
+  // 1-sigma from the geometric fit's covariance [px, rad] (the fit uses at most 256 rim edges,
+  // evenly spread); NaN where not available.
   double center_x_sigma = 0.0;
   double center_y_sigma = 0.0;
   double semi_major_sigma = 0.0;
@@ -54,7 +59,7 @@ struct CraterDetection {
   double angle_sigma = 0.0;
   double rms_residual = 0.0;  // RMS orthogonal distance of the rim edges [px]
   double efs = 0.0;           // Ellipse-Fit-Similarity, eq. 2.1
-  double coverage = 0.0;      // fraction of 36 rim sectors holding an edge within 1.5 px
+  double coverage = 0.0;      // fraction of 36 rim sectors holding an edge near the rim
   // Image: (inner wall facing the sun - wall facing away) / surroundings' std; DTM: (mean rim
   // height - mean height inside half the radius) / diameter [height unit per px]. NaN for an
   // image without sun azimuth.
@@ -88,9 +93,11 @@ struct CraterDetectorOptions {
   // about 0.2, degraded ones down to about 0.05.
   double min_depth_ratio = 0.06;
   double max_axis_ratio = 1.6;  // a / b
-  double dtm_posting = 1.0;     // DTM: ground size of a pixel in height units
-  int tile_size = 2048;         // DetectCratersInRaster: tile core edge [px]
-  int tile_overlap = 256;       // and margin [px]; bounds in-tile diameters
+  // Search craters below 16 px across on a 2x upsampled copy (about 2.5x the work).
+  bool upsample_small_craters = true;
+  double dtm_posting = 1.0;  // DTM: ground size of a pixel in height units
+  int tile_size = 2048;      // DetectCratersInRaster: tile core edge [px]
+  int tile_overlap = 256;    // and margin [px]; bounds in-tile diameters
 
   void Check() const;  // throws areomap::Error naming the bad field
 };

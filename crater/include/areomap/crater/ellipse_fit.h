@@ -30,7 +30,8 @@ namespace areomap {
 // not scale-invariant, so beyond ~150 points it silently returns cv::fitEllipse's
 // unconstrained fit, and on near-exact points its eigenvector is off by ~1e-3 of the size.
 // cv::fitEllipseAMS and cv::fitEllipse are therefore run too, and the valid candidate with
-// the smallest RMS orthogonal distance is returned (the direct fit on ties). Points are
+// the smallest RMS Sampson distance (orthogonal distance to first order) is returned (the
+// direct fit on ties). Points are
 // centred and scaled to unit RMS radius before OpenCV sees them (it works in float), so
 // noise-free points give the ellipse to ~1e-7 of its size wherever it lies. Algebraic fits
 // are biased toward small ellipses on partial, noisy arcs: use the result to start

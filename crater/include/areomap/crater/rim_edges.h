@@ -19,15 +19,15 @@ struct RimEdgePoint {
   float y = 0.0f;         // [px]
   float nx = 0.0f;        // unit normal: image gradient direction (towards brighter), or for a DTM
   float ny = 0.0f;        // crest the direction of strongest downward curvature (sign arbitrary)
-  float strength = 0.0f;  // gradient magnitude [DN/px] or -curvature [m/px^2]
+  float strength = 0.0f;  // gradient magnitude [DN/px]; DTM: -curvature / posting
 };
 
 struct RimEdges {
   std::vector<RimEdgePoint> points;
-  cv::Mat index;          // CV_32S, raster size: index into `points` of the edge at that pixel, -1
-  bool signed_normals;    // true for image edges (polarity known), false for DTM crests
-  double high_threshold;  // automatic hysteresis thresholds used [strength unit]
-  double low_threshold;
+  cv::Mat index;  // CV_32S, raster size: index into `points` of the edge at that pixel, -1
+  bool signed_normals = true;   // true for image edges (polarity known), false for DTM crests
+  double high_threshold = 0.0;  // automatic hysteresis thresholds used [strength unit]
+  double low_threshold = 0.0;
 };
 
 struct EdgeOptions {
@@ -48,8 +48,8 @@ RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& options = {})
 
 // Crest points of a DTM (heights, NaN = nodata): pixels where the Hessian's most negative
 // eigenvalue (profile curvature across a rim) is a local maximum of -curvature along its
-// eigenvector, above automatic hysteresis thresholds and on a slope break. `posting` only scales
-// `strength` into metres.
+// eigenvector, above automatic hysteresis thresholds. `posting` only scales `strength` into
+// height units per ground unit squared.
 RimEdges DetectDtmCrests(const cv::Mat& dtm, double posting, const EdgeOptions& options = {});
 
 }  // namespace areomap

@@ -1,0 +1,204 @@
+// areomap craters IMAGE|DTM --out DIR: crater rims, ellipses and models; areomap craters score.
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+
+#include "areomap/crater/crater_output.h"
+#include "areomap/crater/crater_raster.h"
+#include "areomap/crater/crater_score.h"
+#include "areomap/map/error.h"
+#include "commands.h"
+
+namespace areomap::cli {
+namespace {
+
+struct CratersArgs {
+  std::string input;
+  std::string out_dir;
+  bool dtm = false;
+  std::string units = "px";
+  double min_diameter = 8.0;
+  double max_diameter = 0.0;
+  std::optional<double> sun_azimuth_deg;
+  CraterDetectorOptions detector;
+};
+
+nlohmann::json StatsJson(const CraterMatchStats& s) {
+  const auto number = [](double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+  };
+  return {{"min_diameter_px", s.min_diameter},
+          {"max_diameter_px",
+           std::isfinite(s.max_diameter) ? nlohmann::json(s.max_diameter) : nlohmann::json("inf")},
+          {"truth", s.truth},
+          {"detected", s.detected},
+          {"matched_truth", s.matched_truth},
+          {"matched_detected", s.matched_detected},
+          {"precision", number(s.precision)},
+          {"recall", number(s.recall)},
+          {"f1", number(s.f1)},
+          {"median_center_error_px", number(s.median_center_error)},
+          {"median_diameter_error", number(s.median_diameter_error)}};
+}
+
+void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
+  const RasterDataset dataset = RasterDataset::Open(a.input);
+  const RasterInfo& info = dataset.info();
+  CraterDetectorOptions options = a.detector;
+  // Ground size of a pixel, to turn metres into pixels and DTM heights into slopes.
+  const CraterCatalog probe = MakeCraterCatalog({}, info);
+  if (a.units == "m" && !(probe.pixel_size_m > 0.0)) {
+    throw Error(a.input + ": --units m needs a georeferenced raster in a projected Mars CRS " +
+                "(this one has no geotransform or CRS); give diameters in px");
+  }
+  const double to_px = a.units == "m" ? 1.0 / probe.pixel_size_m : 1.0;
+  options.min_diameter_px = a.min_diameter * to_px;
+  options.max_diameter_px = a.max_diameter * to_px;
+  options.sun_azimuth_deg = a.sun_azimuth_deg;
+  const double posting = probe.pixel_size_m > 0.0 ? probe.pixel_size_m : 1.0;
+  options.dtm_posting = posting;
+  options.Check();
+  PrepareOutputFolder(a.out_dir);
+  const RimSource source = a.dtm ? RimSource::kDtm : RimSource::kImage;
+  const ProgressCallback progress = MakeProgressBar(global, "craters");
+  const std::vector<CraterDetection> found =
+      DetectCratersInRaster(dataset, source, options, progress);
+  CraterCatalog catalog = MakeCraterCatalog(found, info);
+  if (a.dtm) {
+    for (CatalogCrater& c : catalog.craters) {
+      const Ellipse& e = c.detection.ellipse;
+      const double reach = 1.2 * e.semi_major + 4.0;
+      const int c0 = std::max(0, static_cast<int>(e.center.x() - reach));
+      const int r0 = std::max(0, static_cast<int>(e.center.y() - reach));
+      const int c1 = std::min(info.width, static_cast<int>(e.center.x() + reach) + 1);
+      const int r1 = std::min(info.height, static_cast<int>(e.center.y() + reach) + 1);
+      if (c1 <= c0 || r1 <= r0) continue;
+      Ellipse local = e;
+      local.center -= Eigen::Vector2d(c0, r0);
+      c.model = MeasureCraterOnDtm(dataset.ReadWindowFloat(1, {c0, r0, c1 - c0, r1 - r0}), local,
+                                   posting);
+    }
+  }
+  const std::filesystem::path out(a.out_dir);
+  WriteCratersCsv(out / "craters.csv", catalog);
+  WriteCratersJson(out / "craters.json", catalog);
+  nlohmann::json files = {"craters.csv", "craters.json", "overlay.png"};
+  if (catalog.IsGeoreferenced()) {
+    WriteCratersGeoPackage(out / "craters.gpkg", catalog);
+    files.push_back("craters.gpkg");
+  }
+  int factor = 1;
+  while (std::max(info.width, info.height) / factor > 4096) factor *= 2;
+  WriteCraterOverlay(out / "overlay.png", ReadDecimated(dataset, dataset.FullWindow(), factor),
+                     found, 4096);
+  int partial = 0;
+  for (const CraterDetection& d : found) partial += d.partial ? 1 : 0;
+  WriteSummary(out, {{"command", "craters"},
+                     {"input", a.input},
+                     {"source", a.dtm ? "dtm" : "image"},
+                     {"width_px", info.width},
+                     {"height_px", info.height},
+                     {"georeferenced", catalog.IsGeoreferenced()},
+                     {"pixel_size_m", catalog.pixel_size_m},
+                     {"min_diameter_px", options.min_diameter_px},
+                     {"max_diameter_px", options.max_diameter_px},
+                     {"sun_azimuth_deg",
+                      a.sun_azimuth_deg ? nlohmann::json(*a.sun_azimuth_deg) : nlohmann::json()},
+                     {"craters", found.size()},
+                     {"partial", partial},
+                     {"files", files}});
+  if (!global.quiet) {
+    std::cout << "found " << found.size() << " craters (" << partial << " partial) in " << a.input
+              << "; wrote " << a.out_dir << "\n";
+  }
+}
+
+}  // namespace
+
+void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
+  auto args = std::make_shared<CratersArgs>();
+  auto* cmd = app.add_subcommand(
+      "craters", "Detect crater rims in an image or DTM: ellipses, uncertainties, models");
+  cmd->require_subcommand(0, 1);
+  cmd->add_option("input", args->input, "Image or DTM raster (GeoTIFF, PNG, ISIS3, PDS...)");
+  cmd->add_option("--out", args->out_dir, "Output folder (created if needed)");
+  cmd->add_flag("--dtm", args->dtm, "The input holds heights: rims from curvature crests");
+  cmd->add_option("--units", args->units, "Unit of the diameter limits: px or m")
+      ->check(CLI::IsMember({"px", "m"}))
+      ->capture_default_str();
+  cmd->add_option("--min-diameter", args->min_diameter, "Smallest rim diameter")
+      ->capture_default_str();
+  cmd->add_option("--max-diameter", args->max_diameter, "Largest rim diameter (0: no limit)")
+      ->capture_default_str();
+  cmd->add_option("--sun-azimuth", args->sun_azimuth_deg,
+                  "Sun azimuth [deg clockwise from image up]: enables the shading checks");
+  cmd->add_option("--tile-size", args->detector.tile_size, "Tile core edge [px]")
+      ->capture_default_str();
+  cmd->add_option("--tile-overlap", args->detector.tile_overlap, "Tile margin [px]")
+      ->capture_default_str();
+  cmd->add_option("--min-shading-contrast", args->detector.min_shading_contrast,
+                  "Image with sun: wall contrast threshold")
+      ->capture_default_str();
+  cmd->add_option("--min-coverage", args->detector.min_coverage,
+                  "Fraction of rim sectors that must hold edges")
+      ->capture_default_str();
+  cmd->add_option("--max-axis-ratio", args->detector.max_axis_ratio, "Largest a / b accepted")
+      ->capture_default_str();
+  cmd->add_option("--min-edge-contrast", args->detector.min_edge_contrast,
+                  "Rim edge strength / high Canny threshold")
+      ->capture_default_str();
+
+  auto score_args = std::make_shared<std::array<std::string, 3>>();
+  auto min_score_diameter = std::make_shared<double>(8.0);
+  auto* score = cmd->add_subcommand(
+      "score",
+      "Precision, recall, F1 of detections against truth (CSV with x_px, y_px, diameter_px). "
+      "Match: centre distance < 0.5 x truth radius and diameter ratio within +-30 %");
+  score->add_option("detections", (*score_args)[0], "Detections CSV")->required();
+  score->add_option("truth", (*score_args)[1], "Truth CSV")->required();
+  score->add_option("--min-diameter", *min_score_diameter, "Smallest diameter scored [px]")
+      ->capture_default_str();
+  score->add_option("--out", (*score_args)[2], "Also write DIR/summary.json");
+  score->callback([score_args, min_score_diameter, &global] {
+    const std::vector<CraterCircle> detections = ReadCraterCsv((*score_args)[0]);
+    const std::vector<CraterCircle> truth = ReadCraterCsv((*score_args)[1]);
+    const double lo = *min_score_diameter;
+    const double inf = std::numeric_limits<double>::infinity();
+    const CraterScore s = ScoreCraters(truth, detections, {lo, 2 * lo, 4 * lo, 8 * lo, inf});
+    nlohmann::json summary = {
+        {"command", "craters score"},
+        {"detections", (*score_args)[0]},
+        {"truth", (*score_args)[1]},
+        {"rule", "centre distance < 0.5 x truth radius and detected/true diameter in [0.7, 1.3]"},
+        {"all", StatsJson(s.all)},
+        {"bins", nlohmann::json::array()}};
+    for (const auto& b : s.bins) summary["bins"].push_back(StatsJson(b));
+    if (!(*score_args)[2].empty()) {
+      PrepareOutputFolder((*score_args)[2]);
+      WriteSummary((*score_args)[2], summary);
+    }
+    std::cout << std::fixed << std::setprecision(3);
+    std::cout << "diameter_px        truth  detected  precision  recall  f1     center_err_px\n";
+    const auto line = [](const CraterMatchStats& b) {
+      std::ostringstream range;
+      range << std::setprecision(0) << std::fixed << b.min_diameter << "-"
+            << (std::isfinite(b.max_diameter) ? std::to_string(static_cast<int>(b.max_diameter))
+                                              : std::string("inf"));
+      std::cout << std::left << std::setw(18) << range.str() << std::right << std::setw(6)
+                << b.truth << std::setw(10) << b.detected << std::setw(11) << b.precision
+                << std::setw(8) << b.recall << std::setw(7) << b.f1 << std::setw(10)
+                << b.median_center_error << "\n";
+    };
+    for (const auto& b : s.bins) line(b);
+    line(s.all);
+    (void)global;
+  });
+  cmd->callback([cmd, args, &global] {
+    if (!cmd->get_subcommands().empty()) return;  // `craters score` ran
+    if (args->input.empty()) throw Error("craters: missing INPUT raster (or use 'craters score')");
+    if (args->out_dir.empty()) throw Error("craters: --out DIR is required");
+    RunDetect(*args, global);
+  });
+}
+
+}  // namespace areomap::cli

@@ -1,0 +1,153 @@
+#include "areomap/crater/crater_raster.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <mutex>
+
+#include <tbb/parallel_for.h>
+#include <opencv2/imgproc.hpp>
+
+#include "areomap/map/error.h"
+
+namespace areomap {
+namespace {
+
+void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
+  if (progress && !progress(fraction, stage)) throw Error("crater detection cancelled");
+}
+
+CraterDetection Shifted(CraterDetection d, double dx, double dy, double factor) {
+  d.ellipse.center = d.ellipse.center * factor + Eigen::Vector2d(dx, dy);
+  d.ellipse.semi_major *= factor;
+  d.ellipse.semi_minor *= factor;
+  d.center_x_sigma *= factor;
+  d.center_y_sigma *= factor;
+  d.semi_major_sigma *= factor;
+  d.semi_minor_sigma *= factor;
+  d.rms_residual *= factor;
+  return d;
+}
+
+}  // namespace
+
+cv::Mat ReadDecimated(const RasterDataset& dataset, const PixelWindow& window, int factor) {
+  RequireOption(factor >= 1, "ReadDecimated.factor", ">= 1");
+  const int out_w = window.width / factor, out_h = window.height / factor;
+  cv::Mat out(std::max(out_h, 0), std::max(out_w, 0), CV_32F);
+  if (out_w == 0 || out_h == 0) return out;
+  const int strip_rows = std::max(1, 512 / factor);  // output rows per strip
+  for (int row = 0; row < out_h; row += strip_rows) {
+    const int rows = std::min(strip_rows, out_h - row);
+    const PixelWindow strip{window.col0, window.row0 + row * factor, out_w * factor, rows * factor};
+    const cv::Mat full = dataset.ReadWindowFloat(1, strip);
+    cv::Mat small;
+    if (factor == 1) {
+      small = full;
+    } else {
+      cv::resize(full, small, cv::Size(out_w, rows), 0, 0, cv::INTER_AREA);
+    }
+    small.copyTo(out.rowRange(row, row + rows));
+  }
+  return out;
+}
+
+std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset, RimSource source,
+                                                   const CraterDetectorOptions& o,
+                                                   const ProgressCallback& progress) {
+  o.Check();
+  const int width = dataset.info().width, height = dataset.info().height;
+  const int padded = o.tile_size + 2 * o.tile_overlap;
+  if (width <= padded && height <= padded) {
+    return DetectCraters(dataset.ReadWindowFloat(1, dataset.FullWindow()), source, o, progress);
+  }
+  // Tiles: craters up to the overlap in diameter, kept where their centre is in the tile core.
+  const int tiles_x = (width + o.tile_size - 1) / o.tile_size;
+  const int tiles_y = (height + o.tile_size - 1) / o.tile_size;
+  const int tile_count = tiles_x * tiles_y;
+  const double tile_max_diameter = static_cast<double>(o.tile_overlap);
+  const bool need_overview = o.max_diameter_px == 0.0 || o.max_diameter_px > tile_max_diameter;
+  CraterDetectorOptions tile_options = o;
+  tile_options.max_diameter_px =
+      o.max_diameter_px == 0.0 ? tile_max_diameter : std::min(o.max_diameter_px, tile_max_diameter);
+  std::vector<CraterDetection> all;
+  std::mutex mutex, read_mutex;
+  std::atomic<int> done{0};
+  std::atomic<bool> cancelled{false};
+  const double overview_share = need_overview ? 0.2 : 0.0;
+  if (tile_options.max_diameter_px >= o.min_diameter_px) {
+    tbb::parallel_for(0, tile_count, [&](int t) {
+      if (cancelled) return;
+      const int tx = t % tiles_x, ty = t / tiles_x;
+      const int core_c0 = tx * o.tile_size, core_r0 = ty * o.tile_size;
+      const int core_c1 = std::min(width, core_c0 + o.tile_size);
+      const int core_r1 = std::min(height, core_r0 + o.tile_size);
+      const int c0 = std::max(0, core_c0 - o.tile_overlap),
+                r0 = std::max(0, core_r0 - o.tile_overlap);
+      const int c1 = std::min(width, core_c1 + o.tile_overlap);
+      const int r1 = std::min(height, core_r1 + o.tile_overlap);
+      cv::Mat tile;
+      {
+        // A GDAL dataset is not thread-safe: reads are serialised, detection is parallel.
+        std::lock_guard<std::mutex> read_lock(read_mutex);
+        tile = dataset.ReadWindowFloat(1, {c0, r0, c1 - c0, r1 - r0});
+      }
+      std::vector<CraterDetection> found = DetectCraters(tile, source, tile_options);
+      std::lock_guard<std::mutex> lock(mutex);
+      for (const CraterDetection& d : found) {
+        CraterDetection g = Shifted(d, c0, r0, 1.0);
+        const Eigen::Vector2d& c = g.ellipse.center;
+        if (c.x() < core_c0 || c.x() >= core_c1 || c.y() < core_r0 || c.y() >= core_r1) continue;
+        all.push_back(g);
+      }
+      const double fraction = (1.0 - overview_share) * (++done) / static_cast<double>(tile_count);
+      if (progress && !progress(fraction, "craters: tiles")) cancelled = true;
+    });
+    if (cancelled) throw Error("crater detection cancelled");
+  }
+  if (need_overview) {
+    // Decimate so the overview fits one padded tile.
+    int factor = 1;
+    while (std::max(width, height) / factor > padded) factor *= 2;
+    const cv::Mat overview = ReadDecimated(dataset, dataset.FullWindow(), factor);
+    CraterDetectorOptions overview_options = o;
+    overview_options.min_diameter_px = std::max(4.0, 0.9 * tile_max_diameter / factor);
+    overview_options.max_diameter_px = o.max_diameter_px == 0.0 ? 0.0 : o.max_diameter_px / factor;
+    if (overview_options.max_diameter_px != 0.0 &&
+        overview_options.max_diameter_px < overview_options.min_diameter_px) {
+      overview_options.max_diameter_px = overview_options.min_diameter_px;
+    }
+    const std::vector<CraterDetection> big = DetectCraters(overview, source, overview_options);
+    for (const CraterDetection& coarse : big) {
+      CraterDetection d = Shifted(coarse, 0.0, 0.0, factor);
+      // Re-fit on a window around the rim at the finest resolution that fits a padded tile.
+      const double reach = 1.2 * d.ellipse.semi_major + 8.0;
+      const int c0 = std::max(0, static_cast<int>(d.ellipse.center.x() - reach));
+      const int r0 = std::max(0, static_cast<int>(d.ellipse.center.y() - reach));
+      const int c1 = std::min(width, static_cast<int>(d.ellipse.center.x() + reach) + 1);
+      const int r1 = std::min(height, static_cast<int>(d.ellipse.center.y() + reach) + 1);
+      int fine = 1;
+      while (std::max(c1 - c0, r1 - r0) / fine > padded) fine *= 2;
+      if (fine < factor) {
+        const cv::Mat window = ReadDecimated(dataset, {c0, r0, c1 - c0, r1 - r0}, fine);
+        Ellipse local = d.ellipse;
+        local.center = (local.center - Eigen::Vector2d(c0, r0)) / fine;
+        local.semi_major /= fine;
+        local.semi_minor /= fine;
+        CraterDetectorOptions window_options = o;
+        window_options.dtm_posting = o.dtm_posting * fine;  // ground size of a window pixel
+        if (auto refined = RefineCrater(window, source, local, window_options)) {
+          const double confidence = d.confidence;
+          d = Shifted(*refined, c0, r0, fine);
+          d.confidence = std::max(confidence, d.confidence);
+          d.pyramid_level = coarse.pyramid_level + static_cast<int>(std::log2(factor));
+        }
+      }
+      all.push_back(d);
+    }
+  }
+  Report(progress, 1.0, "craters: done");
+  return SuppressDuplicateCraters(std::move(all));
+}
+
+}  // namespace areomap

@@ -1,0 +1,138 @@
+#include "areomap/crater/crater_raster.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "areomap/crater/crater_output.h"
+#include "areomap/crater/crater_score.h"
+#include "areomap/map/error.h"
+#include "test_support.h"
+
+namespace areomap {
+namespace {
+
+// Synthetic bowls lit from azimuth 90 (east): bright western wall, dark eastern wall, sharp
+// rim. Cheap to draw at any size, so tiling can be exercised on a raster larger than a tile.
+cv::Mat DrawBowls(int size, const std::vector<CraterCircle>& craters) {
+  cv::Mat image(size, size, CV_32F, cv::Scalar(400.0));
+  for (const CraterCircle& c : craters) {
+    const double r = 0.5 * c.diameter;
+    const int c0 = std::max(0, static_cast<int>(c.center.x() - r - 2));
+    const int c1 = std::min(size - 1, static_cast<int>(c.center.x() + r + 2));
+    const int r0 = std::max(0, static_cast<int>(c.center.y() - r - 2));
+    const int r1 = std::min(size - 1, static_cast<int>(c.center.y() + r + 2));
+    for (int y = r0; y <= r1; ++y) {
+      for (int x = c0; x <= c1; ++x) {
+        const double dx = x + 0.5 - c.center.x(), dy = y + 0.5 - c.center.y();
+        const double rho = std::hypot(dx, dy) / r;
+        if (rho >= 1.0) continue;
+        // The wall slope grows towards the rim; the western wall faces the sun (east): bright.
+        image.at<float>(y, x) = static_cast<float>(400.0 - 300.0 * (dx / r) * rho);
+      }
+    }
+  }
+  cv::GaussianBlur(image, image, cv::Size(), 0.7);
+  cv::Mat noise(image.size(), CV_32F);
+  cv::randn(noise, 0.0, 3.0);
+  return image + noise;
+}
+
+TEST(DetectCratersInRaster, TilesAndOverviewFindSmallAndLargeCraters) {
+  const int size = 1100;
+  std::vector<CraterCircle> truth;
+  // Small craters everywhere, including across tile borders (tile core 400 px).
+  for (int i = 0; i < 5; ++i) {
+    for (int j = 0; j < 5; ++j) {
+      truth.push_back(
+          {{100.0 + 210.0 * i + 7.0 * j, 90.0 + 210.0 * j}, 18.0 + 3.0 * ((i + j) % 5)});
+    }
+  }
+  truth.push_back({{550.0, 550.0}, 240.0});  // larger than the 96 px tile overlap
+  // Keep the small ones off the big one.
+  std::erase_if(truth, [](const CraterCircle& c) {
+    return c.diameter < 100 && (c.center - Eigen::Vector2d(550, 550)).norm() < 150;
+  });
+  const cv::Mat image = DrawBowls(size, truth);
+  const auto dir = std::filesystem::temp_directory_path() / "areomap_crater_raster_test";
+  std::filesystem::create_directories(dir);
+  GeoRaster raster;
+  raster.bands = {image};
+  WriteGeoTiff(dir / "bowls.tif", raster);
+  const RasterDataset dataset = RasterDataset::Open(dir / "bowls.tif");
+  CraterDetectorOptions options;
+  options.sun_azimuth_deg = 90.0;
+  options.tile_size = 400;
+  options.tile_overlap = 96;
+  int progress_calls = 0;
+  const std::vector<CraterDetection> found =
+      DetectCratersInRaster(dataset, RimSource::kImage, options, [&](double, std::string_view) {
+        ++progress_calls;
+        return true;
+      });
+  std::vector<CraterCircle> circles;
+  for (const CraterDetection& d : found) circles.push_back({d.ellipse.center, d.Diameter()});
+  const CraterScore score = ScoreCraters(truth, circles, {10.0, 1e9});
+  for (size_t t = 0; t < truth.size(); ++t) {
+    if (std::none_of(score.matches.begin(), score.matches.end(),
+                     [&](auto m) { return m.first == static_cast<int>(t); })) {
+      ADD_FAILURE() << "missed " << truth[t].center.transpose() << " D " << truth[t].diameter;
+    }
+  }
+  EXPECT_GE(score.all.recall, 0.95);
+  EXPECT_GE(score.all.precision, 0.95);
+  EXPECT_GT(progress_calls, 4);
+  bool big = false;
+  for (const auto& [t, d] : score.matches) {
+    if (truth[static_cast<size_t>(t)].diameter > 200) {
+      big = true;
+      EXPECT_LT(
+          (circles[static_cast<size_t>(d)].center - truth[static_cast<size_t>(t)].center).norm(),
+          1.5);
+    }
+  }
+  EXPECT_TRUE(big);
+
+  // Outputs: not georeferenced -> CSV/JSON fine, GeoPackage refused with the reason.
+  const CraterCatalog catalog = MakeCraterCatalog(found, dataset.info());
+  EXPECT_FALSE(catalog.IsGeoreferenced());
+  WriteCratersCsv(dir / "craters.csv", catalog);
+  EXPECT_EQ(ReadCraterCsv(dir / "craters.csv").size(), found.size());
+  EXPECT_THROW(WriteCratersGeoPackage(dir / "craters.gpkg", catalog), Error);
+  EXPECT_FALSE(std::filesystem::exists(dir / "craters.gpkg"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ScoreCraters, AppliesTheMatchingRule) {
+  const std::vector<CraterCircle> truth = {{{0, 0}, 20}, {{100, 0}, 20}, {{200, 0}, 20}};
+  const std::vector<CraterCircle> det = {
+      {{4.9, 0}, 20},    // 4.9 < 0.5 x 10: match
+      {{105.1, 0}, 20},  // too far
+      {{200, 0}, 26.5},  // ratio 1.325 > 1.3: no match
+      {{0.5, 0}, 21}};   // second detection of the first crater: false positive
+  const CraterScore s = ScoreCraters(truth, det, {0.0, 1e9});
+  EXPECT_EQ(s.all.matched_truth, 1);
+  EXPECT_DOUBLE_EQ(s.all.recall, 1.0 / 3.0);
+  EXPECT_DOUBLE_EQ(s.all.precision, 0.25);
+  ASSERT_EQ(s.matches.size(), 1u);
+  EXPECT_EQ(s.matches[0].second, 3);  // the closer of the two candidates
+}
+
+TEST(ReadCraterCsv, NamesFileAndLineOfBadInput) {
+  const auto path = std::filesystem::temp_directory_path() / "areomap_bad_craters.csv";
+  std::ofstream(path) << "x_px,y_px,diameter_px\n1,2,3\n4,five,6\n";
+  try {
+    ReadCraterCsv(path);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("line 3"), std::string::npos) << e.what();
+  }
+  std::ofstream(path) << "x,y,d\n1,2,3\n";
+  EXPECT_THROW(ReadCraterCsv(path), Error);
+  std::filesystem::remove(path);
+}
+
+}  // namespace
+}  // namespace areomap
