@@ -123,6 +123,8 @@ void MissionRunOptions::Check() const {
   rocks.Check();
   matching.Check();
   bundle.Check();
+  RequireOption(point_spacing_m > 0.0, "MissionRunOptions.point_spacing_m",
+                "a positive ground spacing in metres");
   RequireOption(prior_sigma_floor_m > 0.0, "MissionRunOptions.prior_sigma_floor_m",
                 "a positive sigma in metres");
   RequireOption(prior_sigma_per_m >= 0.0, "MissionRunOptions.prior_sigma_per_m",
@@ -136,6 +138,7 @@ void MissionRunOptions::Check() const {
 nlohmann::json MissionRunOptions::ToJson() const {
   // The figures a user changes from the CLI; the fingerprint only needs to change with them.
   return {{"stereo_max_range_m", stereo.max_range_m},
+          {"point_spacing_m", point_spacing_m},
           {"stereo_block_size", stereo.block_size},
           {"dtm_posting_m", dtm.posting_m},
           {"dtm_method", ToString(dtm.gridding.method)},

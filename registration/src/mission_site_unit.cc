@@ -64,13 +64,17 @@ SiteStereo RunSiteStereo(const RunContext& run, const MissionSite& site,
     DenseStereoOptions stereo = run.options->stereo;
     stereo.image_id = static_cast<uint16_t>(i);
     const DenseStereoResult dense = RunDenseStereo(left_image, right_image, left, right, stereo);
-    for (const StereoPoint& point : dense.cloud.points) result.cloud.points.push_back(point);
+    const PointCloud thinned =
+        ThinToGroundSpacing(dense.cloud, run.options->point_spacing_m, dense.summary.focal_px);
+    result.cloud.points.insert(result.cloud.points.end(), thinned.points.begin(),
+                               thinned.points.end());
     centre_sum += dense.cloud.camera_center;
     result.images.push_back({static_cast<int>(i), left_image, CameraInSite(left)});
     result.pairs.push_back({{"instrument", pair.instrument},
                             {"pair", pair.pair},
                             {"image_id", i},
                             {"points", dense.summary.points},
+                            {"points_kept", thinned.points.size()},
                             {"valid_fraction", dense.summary.valid_fraction}});
   }
   if (!site.pairs.empty()) centre_sum /= static_cast<double>(site.pairs.size());
@@ -103,7 +107,9 @@ json RegisterSite(const RunContext& run, const Orthophoto& ortho, const SiteGeor
   if (match.matched) {
     for (const OrbitalControlPoint& point :
          MakeControlPoints(match, ortho_image, orbital, prior, orbital_dtm, run.options->control)) {
-      links.control_points.push_back(point.point);
+      ControlPoint control = point.point;
+      control.id = "site" + std::to_string(site) + "-" + control.id;  // Unique in the run.
+      links.control_points.push_back(control);
     }
   }
   const json control = BundleInputToJson(links);

@@ -84,3 +84,39 @@ TEST(PointCloud, CheckNamesTheSourceAndTheBadPoint) {
 
 }  // namespace
 }  // namespace areomap
+
+namespace areomap {
+namespace {
+
+TEST(PointCloud, ThinningKeepsAboutOnePointPerGroundSpacing) {
+  PointCloud cloud;
+  for (int row = 0; row < 40; ++row) {
+    for (int col = 0; col < 40; ++col) {
+      StereoPoint near;  // 2 m away: 1000 px focal length -> 2 mm pixels.
+      near.position = Eigen::Vector3d(2.0, 0.0, 0.0);
+      near.left_x = static_cast<float>(col);
+      near.left_y = static_cast<float>(row);
+      StereoPoint far = near;  // 20 m away: 2 cm pixels, coarser than the spacing.
+      far.position = Eigen::Vector3d(20.0, 0.0, 0.0);
+      cloud.points.push_back(near);
+      cloud.points.push_back(far);
+    }
+  }
+  const PointCloud thinned = ThinToGroundSpacing(cloud, 0.01, 1000.0);
+  int near_kept = 0, far_kept = 0;
+  for (const StereoPoint& p : thinned.points) {
+    if (p.position.x() < 10.0) {
+      ++near_kept;
+      EXPECT_EQ(static_cast<int>(p.left_x) % 5, 0);  // Step round(0.01 * 1000 / 2) = 5 px.
+      EXPECT_EQ(static_cast<int>(p.left_y) % 5, 0);
+    } else {
+      ++far_kept;
+    }
+  }
+  EXPECT_EQ(near_kept, 8 * 8);
+  EXPECT_EQ(far_kept, 40 * 40);
+  EXPECT_THROW(ThinToGroundSpacing(cloud, 0.0, 1000.0), Error);
+}
+
+}  // namespace
+}  // namespace areomap

@@ -36,4 +36,12 @@ struct PointCloud {
 // has a non-finite position or covariance.
 void CheckPointCloud(const PointCloud& cloud, const std::string& source, bool allow_empty = false);
 
+// Thins a stereo cloud so that near ground is not sampled far more densely than needed: a point
+// at range r (from camera_center) is kept when its left pixel lies on a grid of step
+// s = clamp(round(spacing_m f / r), 1, max_step) pixels, i.e. about one point per spacing_m of
+// ground across the line of sight. `focal_px` is the camera's focal length [px]. Far points
+// (whose pixel footprint r / f already exceeds spacing_m) are all kept.
+PointCloud ThinToGroundSpacing(const PointCloud& cloud, double spacing_m, double focal_px,
+                               int max_step = 8);
+
 }  // namespace areomap

@@ -45,6 +45,9 @@ namespace areomap {
 
 struct MissionRunOptions {
   DenseStereoOptions stereo;  // Per pair; max_range_m 30 (Table 4.5).
+  // Stereo points kept about this far apart on the ground (ThinToGroundSpacing): near the mast a
+  // Navcam pixel covers ~2 mm, far finer than DTM postings or rock modeling need [m].
+  double point_spacing_m = 0.02;
   DtmOptions dtm{.posting_m = 0.1};
   OrthoOptions ortho;
   OrbitalMatchOptions match;
