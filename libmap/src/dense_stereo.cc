@@ -172,13 +172,22 @@ cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_di
       min_disparity, num_disparities, b, 8 * b * b, 32 * b * b, /*disp12MaxDiff=*/-1,
       /*preFilterCap=*/63, options.uniqueness_ratio, options.speckle_window_px,
       options.speckle_range_px, cv::StereoSGBM::MODE_SGBM_3WAY);
-  cv::Mat left_disparity, right_disparity, left_flipped, right_flipped;
-  sgbm->compute(left8, right8, left_disparity);  // CV_16S, 1/16 px; < 16 min_disparity invalid.
+  // SGBM leaves the first min_disparity + num_disparities columns unmatched; padding both
+  // images on the left by that much lets pixels near the border match (where x - d >= 0).
+  const int pad = std::max(0, min_disparity + num_disparities);
+  const auto match = [&](const cv::Mat& first, const cv::Mat& second) {
+    cv::Mat a_padded, b_padded, disparity;
+    cv::copyMakeBorder(first, a_padded, 0, 0, pad, 0, cv::BORDER_CONSTANT, cv::Scalar(0));
+    cv::copyMakeBorder(second, b_padded, 0, 0, pad, 0, cv::BORDER_CONSTANT, cv::Scalar(0));
+    sgbm->compute(a_padded, b_padded, disparity);  // CV_16S, 1/16 px.
+    return cv::Mat(disparity, cv::Rect(pad, 0, first.cols, first.rows)).clone();
+  };
+  const cv::Mat left_disparity = match(left8, right8);
   // The right image's disparity: the same matcher on the mirrored pair.
+  cv::Mat left_flipped, right_flipped, right_disparity;
   cv::flip(left8, left_flipped, 1);
   cv::flip(right8, right_flipped, 1);
-  sgbm->compute(right_flipped, left_flipped, right_disparity);
-  cv::flip(right_disparity, right_disparity, 1);
+  cv::flip(match(right_flipped, left_flipped), right_disparity, 1);
 
   cv::Mat out(left8.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   const float tolerance = static_cast<float>(options.lr_max_diff_px);
