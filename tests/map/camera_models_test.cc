@@ -148,6 +148,22 @@ TEST(Pinhole, ProjectionMatchesOpenCv) {
   }
 }
 
+TEST(Pinhole, ProjectIsDifferentiableByCeresJets) {
+  const PinholeModel m = K10Left();
+  using Jet = ceres::Jet<double, 3>;
+  const Eigen::Vector3d p = m.center + m.world_from_camera * Eigen::Vector3d(0.6, 0.4, 2.0);
+  const Eigen::Matrix<Jet, 3, 1> pj(Jet(p.x(), 0), Jet(p.y(), 1), Jet(p.z(), 2));
+  Eigen::Matrix<Jet, 2, 1> pixel;
+  ASSERT_TRUE(m.Project(pj, &pixel));
+  for (int k = 0; k < 3; ++k) {
+    const double step = 1e-6;
+    const Eigen::Vector3d dp = Eigen::Vector3d::Unit(k) * step;
+    const Eigen::Vector2d numeric = (*m.Project(p + dp) - *m.Project(p - dp)) / (2.0 * step);
+    EXPECT_NEAR(pixel(0).v[k], numeric.x(), 1e-3);
+    EXPECT_NEAR(pixel(1).v[k], numeric.y(), 1e-3);
+  }
+}
+
 TEST(Pinhole, RoundTripIsWithinOneHundredthPixel) {
   EXPECT_LT(WorstRoundTrip(K10Left(), 1024, 768), 0.01);
 }
@@ -300,7 +316,6 @@ TEST(CameraFile, RealMerHazcamAndNavcamLabels) {
 
 }  // namespace
 }  // namespace areomap
-
 
 namespace areomap {
 namespace {
