@@ -157,6 +157,8 @@ void DenseStereoOptions::Check() const {
   RequireOption(speckle_window_px >= 0, "DenseStereoOptions.speckle_window_px", ">= 0 px");
   RequireOption(speckle_range_px >= 1, "DenseStereoOptions.speckle_range_px", ">= 1 px");
   RequireOption(lr_max_diff_px >= 0.0, "DenseStereoOptions.lr_max_diff_px", ">= 0 px");
+  RequireOption(max_disparity_step_px >= 0.0, "DenseStereoOptions.max_disparity_step_px",
+                ">= 0 px (0: no occlusion-edge filter)");
   RequireOption(disparity_margin_px >= 0 && disparity_margin_px % 16 == 0,
                 "DenseStereoOptions.disparity_margin_px", "a multiple of 16 px, >= 0");
   RequireOption(output_size.minCoeff() >= 0, "DenseStereoOptions.output_size",
@@ -204,6 +206,24 @@ cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_di
       if (std::abs(disparity - static_cast<float>(dr[xr]) / 16.0f) <= tolerance) d[x] = disparity;
     }
   });
+  if (options.max_disparity_step_px > 0.0) {
+    // Occlusion edges: a jump to a valid neighbour (right or below) larger than the step.
+    cv::Mat jump(out.size(), CV_8U, cv::Scalar(0));
+    const float step = static_cast<float>(options.max_disparity_step_px);
+    tbb::parallel_for(0, out.rows, [&](int y) {
+      const float* d = out.ptr<float>(y);
+      const float* below = out.ptr<float>(std::min(y + 1, out.rows - 1));
+      uint8_t* j = jump.ptr<uint8_t>(y);
+      for (int x = 0; x < out.cols; ++x) {
+        const float right = d[std::min(x + 1, out.cols - 1)];
+        if (std::abs(d[x] - right) > step || std::abs(d[x] - below[x]) > step) j[x] = 255;
+      }
+    });  // Comparisons with NaN are false: invalid neighbours are not jumps.
+    const int r = options.block_size / 2;
+    cv::dilate(jump, jump,
+               cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * r + 2, 2 * r + 2)));
+    out.setTo(std::numeric_limits<float>::quiet_NaN(), jump);
+  }
   return out;
 }
 
