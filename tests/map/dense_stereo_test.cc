@@ -41,7 +41,8 @@ struct RenderedPair {
   }
   RenderedPair(int size, double azimuth) : scene(Options()) {
     RenderOptions render;
-    render.near_posting_m = 0.04;  // Coarser than the generator's 2 cm: a fast unit test.
+    render.near_posting_m = 0.04;  // Coarser than the generator's 2 cm / 8 cm: a fast unit
+    render.mid_posting_m = 0.16;   // test (the truth is the same mesh's rendered range).
     render.far_radius_m = 50.0;
     const SiteMesh mesh(scene, {0.0, 0.0, scene.GroundHeightAt(0.0, 0.0)}, render);
     Eigen::Matrix3d enu_from_rover;  // Facing north: x -> north, y -> east, z -> down.
