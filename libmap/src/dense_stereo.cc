@@ -90,6 +90,7 @@ constexpr double kMinRowShiftRmsPx = 0.5;
 
 void EstimateRowShift(const cv::Mat& left8, const cv::Mat& right8, DisparityResult* out) {
   constexpr int kCells = 8;
+  if (left8.cols < 8 * kCells || left8.rows < 8 * kCells) return;  // Too small to grid.
   const std::vector<Eigen::Vector3d> tracks = TrackVerticalDisparity(left8, right8, kCells);
   if (tracks.size() < 20) return;
   std::vector<double> all;
