@@ -1,13 +1,20 @@
 // areomap camera show|linearize|project FILE: rover camera models (CAHV, CAHVOR, CAHVORE from
 // PDS/VICAR or generator labels; pinhole from ASP .tsai).
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <sstream>
 #include <variant>
+#include <vector>
 
+#include <opencv2/imgproc.hpp>
+
+#include "areomap/map/camera_footprint.h"
 #include "areomap/map/camera_linearize.h"
 #include "areomap/map/camera_models.h"
 #include "areomap/map/error.h"
+#include "areomap/map/image_io.h"
 #include "commands.h"
 
 namespace areomap::cli {
@@ -93,6 +100,116 @@ void PrintModel(const CameraFile& file, const std::string& name) {
   }
 }
 
+struct FootprintOptions {
+  std::vector<std::string> files;
+  std::string out;
+  double max_range_m = 30.0;
+  double ground_z_rover_m = 0.0;
+};
+
+// Plan view (north up, east right) of the footprints of images whose labels place them in one
+// site frame, on the level plane through the first image's rover-frame z = ground_z_rover_m.
+void WriteFootprints(const FootprintOptions& options) {
+  struct Item {
+    std::string name;
+    std::vector<Eigen::Vector2d> polygon;
+    double azimuth_deg = 0.0, elevation_deg = 0.0;
+    Eigen::Vector3d center;
+  };
+  std::vector<Item> items;
+  double ground_z = 0.0;
+  int site = -1;
+  for (const std::string& file : options.files) {
+    const CameraFile camera = ReadCameraForImage(file);
+    if (!camera.site_from_frame) {
+      throw Error(file + ": no " + camera.frame +
+                  " -> SITE_FRAME pose in the label: expected a "
+                  "ROVER_COORDINATE_SYSTEM group referenced to SITE_FRAME");
+    }
+    if (!camera.image_size) throw Error(file + ": the label gives no image size (IMAGE group)");
+    if (items.empty()) {
+      site = camera.site;
+      ground_z = (*camera.site_from_frame * Eigen::Vector3d(0, 0, options.ground_z_rover_m)).z();
+    } else if (camera.site != site) {
+      throw Error(file + ": site " + std::to_string(camera.site) +
+                  " differs from the first "
+                  "image's site " +
+                  std::to_string(site) + ": expected one site frame");
+    }
+    const CameraModel in_site = camera.model.Transformed(*camera.site_from_frame);
+    const CahvorModel linear = LinearizeToCahv(in_site, *camera.image_size, *camera.image_size);
+    Item item;
+    item.name = std::filesystem::path(file).filename().string();
+    item.polygon = GroundFootprint(in_site, *camera.image_size, ground_z, options.max_range_m);
+    item.azimuth_deg = std::atan2(linear.a.y(), linear.a.x()) * 180.0 / M_PI;
+    if (item.azimuth_deg < 0.0) item.azimuth_deg += 360.0;
+    item.elevation_deg = -std::asin(linear.a.z()) * 180.0 / M_PI;
+    item.center = in_site.Center();
+    items.push_back(std::move(item));
+  }
+  // Plot: 900 px for twice the range around the first camera.
+  constexpr int kSize = 900;
+  const Eigen::Vector2d origin = items.front().center.head<2>();
+  const double scale = kSize / (2.2 * options.max_range_m);  // px per metre
+  const auto to_pixel = [&](const Eigen::Vector2d& p) {
+    const Eigen::Vector2d d = p - origin;  // (north, east)
+    return cv::Point(static_cast<int>(std::lround(kSize / 2.0 + d.y() * scale)),
+                     static_cast<int>(std::lround(kSize / 2.0 - d.x() * scale)));
+  };
+  cv::Mat plot(kSize, kSize, CV_8UC3, cv::Scalar(255, 255, 255));
+  for (int m = -static_cast<int>(options.max_range_m); m <= options.max_range_m; m += 5) {
+    const cv::Scalar grey(225, 225, 225);
+    cv::line(plot, to_pixel(origin + Eigen::Vector2d(m, -options.max_range_m)),
+             to_pixel(origin + Eigen::Vector2d(m, options.max_range_m)), grey);
+    cv::line(plot, to_pixel(origin + Eigen::Vector2d(-options.max_range_m, m)),
+             to_pixel(origin + Eigen::Vector2d(options.max_range_m, m)), grey);
+  }
+  const std::vector<cv::Scalar> colours = {
+      {200, 60, 0}, {0, 140, 230}, {40, 160, 40}, {160, 0, 160}, {0, 0, 200}};  // RGB order.
+  std::vector<cv::Mat> masks;
+  nlohmann::json images = nlohmann::json::array();
+  for (size_t i = 0; i < items.size(); ++i) {
+    std::vector<cv::Point> points;
+    for (const Eigen::Vector2d& p : items[i].polygon) points.push_back(to_pixel(p));
+    cv::Mat mask(kSize, kSize, CV_8U, cv::Scalar(0));
+    cv::fillPoly(mask, std::vector<std::vector<cv::Point>>{points}, cv::Scalar(255));
+    masks.push_back(mask);
+    const cv::Scalar& colour = colours[i % colours.size()];
+    cv::polylines(plot, std::vector<std::vector<cv::Point>>{points}, true, colour, 2, cv::LINE_AA);
+    cv::circle(plot, to_pixel(items[i].center.head<2>()), 4, colour, cv::FILLED);
+    char text[160];
+    std::snprintf(text, sizeof(text), "%s az %.1f el %.1f", items[i].name.c_str(),
+                  items[i].azimuth_deg, items[i].elevation_deg);
+    cv::putText(plot, text, cv::Point(10, 25 + 22 * static_cast<int>(i)), cv::FONT_HERSHEY_SIMPLEX,
+                0.55, colour, 1, cv::LINE_AA);
+    nlohmann::json polygon = nlohmann::json::array();
+    for (const Eigen::Vector2d& p : items[i].polygon) polygon.push_back({p.x(), p.y()});
+    images.push_back(
+        {{"file", options.files[i]},
+         {"azimuth_deg", items[i].azimuth_deg},
+         {"elevation_deg", items[i].elevation_deg},
+         {"camera_center_site_m", {items[i].center.x(), items[i].center.y(), items[i].center.z()}},
+         {"footprint_area_m2", PolygonArea(items[i].polygon)},
+         {"footprint_site_xy_m", polygon}});
+  }
+  cv::putText(plot, "N up, E right; grid 5 m; ground z = " + std::to_string(ground_z) + " m (site)",
+              cv::Point(10, kSize - 12), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(90, 90, 90), 1,
+              cv::LINE_AA);
+  nlohmann::json overlaps = nlohmann::json::array();
+  for (size_t i = 0; i + 1 < masks.size(); ++i) {
+    const double area_px = cv::countNonZero(masks[i] & masks[i + 1]);
+    overlaps.push_back({{"images", {i, i + 1}}, {"overlap_m2", area_px / (scale * scale)}});
+  }
+  PrepareOutputFolder(options.out);
+  WriteImage(std::filesystem::path(options.out) / "footprints.png", plot);
+  WriteSummary(options.out, {{"command", "camera footprint"},
+                             {"site", site},
+                             {"ground_z_site_m", ground_z},
+                             {"max_range_m", options.max_range_m},
+                             {"images", images},
+                             {"consecutive_overlaps", overlaps}});
+}
+
 }  // namespace
 
 void AddCameraCommand(CLI::App& app, const GlobalOptions& /*global*/) {
@@ -143,6 +260,21 @@ void AddCameraCommand(CLI::App& app, const GlobalOptions& /*global*/) {
                            std::to_string(output.y()));
     if (!options->write.empty()) WriteCameraFile(cahv, file.frame, options->write);
   });
+
+  auto footprint_options = std::make_shared<FootprintOptions>();
+  auto* footprint = camera->add_subcommand(
+      "footprint", "Plan view of the images' footprints on a level ground in their site frame");
+  footprint->add_option("files", footprint_options->files, "Labelled images of one site")
+      ->required();
+  footprint->add_option("--out", footprint_options->out, "Output folder")->required();
+  footprint->add_option("--max-range", footprint_options->max_range_m, "Footprint cut [m]")
+      ->capture_default_str();
+  footprint
+      ->add_option("--ground-z-rover", footprint_options->ground_z_rover_m,
+                   "Ground z in the first image's rover frame [m] (0: rover origin on the "
+                   "ground, as the generator's labels)")
+      ->capture_default_str();
+  footprint->callback([footprint_options] { WriteFootprints(*footprint_options); });
 
   auto* project = camera->add_subcommand(
       "project", "Project 3D points (x y z [m] per line on stdin, in --frame) to pixels (x y)");

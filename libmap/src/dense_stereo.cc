@@ -90,6 +90,7 @@ constexpr double kMinRowShiftRmsPx = 0.5;
 
 void EstimateRowShift(const cv::Mat& left8, const cv::Mat& right8, DisparityResult* out) {
   constexpr int kCells = 8;
+  if (left8.cols < 8 * kCells || left8.rows < 8 * kCells) return;  // Too small to grid.
   const std::vector<Eigen::Vector3d> tracks = TrackVerticalDisparity(left8, right8, kCells);
   if (tracks.size() < 20) return;
   std::vector<double> all;
@@ -157,6 +158,8 @@ void DenseStereoOptions::Check() const {
   RequireOption(speckle_window_px >= 0, "DenseStereoOptions.speckle_window_px", ">= 0 px");
   RequireOption(speckle_range_px >= 1, "DenseStereoOptions.speckle_range_px", ">= 1 px");
   RequireOption(lr_max_diff_px >= 0.0, "DenseStereoOptions.lr_max_diff_px", ">= 0 px");
+  RequireOption(max_disparity_step_px >= 0.0, "DenseStereoOptions.max_disparity_step_px",
+                ">= 0 px (0: no occlusion-edge filter)");
   RequireOption(disparity_margin_px >= 0 && disparity_margin_px % 16 == 0,
                 "DenseStereoOptions.disparity_margin_px", "a multiple of 16 px, >= 0");
   RequireOption(output_size.minCoeff() >= 0, "DenseStereoOptions.output_size",
@@ -172,13 +175,22 @@ cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_di
       min_disparity, num_disparities, b, 8 * b * b, 32 * b * b, /*disp12MaxDiff=*/-1,
       /*preFilterCap=*/63, options.uniqueness_ratio, options.speckle_window_px,
       options.speckle_range_px, cv::StereoSGBM::MODE_SGBM_3WAY);
-  cv::Mat left_disparity, right_disparity, left_flipped, right_flipped;
-  sgbm->compute(left8, right8, left_disparity);  // CV_16S, 1/16 px; < 16 min_disparity invalid.
+  // SGBM leaves the first min_disparity + num_disparities columns unmatched; padding both
+  // images on the left by that much lets pixels near the border match (where x - d >= 0).
+  const int pad = std::max(0, min_disparity + num_disparities);
+  const auto match = [&](const cv::Mat& first, const cv::Mat& second) {
+    cv::Mat a_padded, b_padded, disparity;
+    cv::copyMakeBorder(first, a_padded, 0, 0, pad, 0, cv::BORDER_CONSTANT, cv::Scalar(0));
+    cv::copyMakeBorder(second, b_padded, 0, 0, pad, 0, cv::BORDER_CONSTANT, cv::Scalar(0));
+    sgbm->compute(a_padded, b_padded, disparity);  // CV_16S, 1/16 px.
+    return cv::Mat(disparity, cv::Rect(pad, 0, first.cols, first.rows)).clone();
+  };
+  const cv::Mat left_disparity = match(left8, right8);
   // The right image's disparity: the same matcher on the mirrored pair.
+  cv::Mat left_flipped, right_flipped, right_disparity;
   cv::flip(left8, left_flipped, 1);
   cv::flip(right8, right_flipped, 1);
-  sgbm->compute(right_flipped, left_flipped, right_disparity);
-  cv::flip(right_disparity, right_disparity, 1);
+  cv::flip(match(right_flipped, left_flipped), right_disparity, 1);
 
   cv::Mat out(left8.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   const float tolerance = static_cast<float>(options.lr_max_diff_px);
@@ -195,6 +207,24 @@ cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_di
       if (std::abs(disparity - static_cast<float>(dr[xr]) / 16.0f) <= tolerance) d[x] = disparity;
     }
   });
+  if (options.max_disparity_step_px > 0.0) {
+    // Occlusion edges: a jump to a valid neighbour (right or below) larger than the step.
+    cv::Mat jump(out.size(), CV_8U, cv::Scalar(0));
+    const float step = static_cast<float>(options.max_disparity_step_px);
+    tbb::parallel_for(0, out.rows, [&](int y) {
+      const float* d = out.ptr<float>(y);
+      const float* below = out.ptr<float>(std::min(y + 1, out.rows - 1));
+      uint8_t* j = jump.ptr<uint8_t>(y);
+      for (int x = 0; x < out.cols; ++x) {
+        const float right = d[std::min(x + 1, out.cols - 1)];
+        if (std::abs(d[x] - right) > step || std::abs(d[x] - below[x]) > step) j[x] = 255;
+      }
+    });  // Comparisons with NaN are false: invalid neighbours are not jumps.
+    const int r = options.block_size / 2;
+    cv::dilate(jump, jump,
+               cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * r + 2, 2 * r + 2)));
+    out.setTo(std::numeric_limits<float>::quiet_NaN(), jump);
+  }
   return out;
 }
 

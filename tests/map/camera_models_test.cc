@@ -8,7 +8,9 @@
 #include <ceres/jet.h>
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
+#include "areomap/map/camera_footprint.h"
 #include "areomap/map/camera_linearize.h"
 #include "areomap/map/error.h"
 #include "test_support.h"
@@ -143,6 +145,22 @@ TEST(Pinhole, ProjectionMatchesOpenCv) {
     ASSERT_TRUE(pixel);
     EXPECT_NEAR(pixel->x(), expected[i].x, 1e-9);
     EXPECT_NEAR(pixel->y(), expected[i].y, 1e-9);
+  }
+}
+
+TEST(Pinhole, ProjectIsDifferentiableByCeresJets) {
+  const PinholeModel m = K10Left();
+  using Jet = ceres::Jet<double, 3>;
+  const Eigen::Vector3d p = m.center + m.world_from_camera * Eigen::Vector3d(0.6, 0.4, 2.0);
+  const Eigen::Matrix<Jet, 3, 1> pj(Jet(p.x(), 0), Jet(p.y(), 1), Jet(p.z(), 2));
+  Eigen::Matrix<Jet, 2, 1> pixel;
+  ASSERT_TRUE(m.Project(pj, &pixel));
+  for (int k = 0; k < 3; ++k) {
+    const double step = 1e-6;
+    const Eigen::Vector3d dp = Eigen::Vector3d::Unit(k) * step;
+    const Eigen::Vector2d numeric = (*m.Project(p + dp) - *m.Project(p - dp)) / (2.0 * step);
+    EXPECT_NEAR(pixel(0).v[k], numeric.x(), 1e-3);
+    EXPECT_NEAR(pixel(1).v[k], numeric.y(), 1e-3);
   }
 }
 
@@ -294,6 +312,61 @@ TEST(CameraFile, RealMerHazcamAndNavcamLabels) {
   const Eigen::Vector3d hazcam_in_site = *hazcam.site_from_frame * hazcam.model.Center();
   const Eigen::Vector3d navcam_in_site = *navcam.site_from_frame * navcam.model.Center();
   EXPECT_LT((hazcam_in_site - navcam_in_site).norm(), 1.5);
+}
+
+}  // namespace
+}  // namespace areomap
+
+namespace areomap {
+namespace {
+
+TEST(Footprint, NadirCahvSeesTheRectangleOfItsFieldOfView) {
+  CahvorModel m;  // 1.5 m above the ground (z down), looking straight down.
+  m.c = {0.0, 0.0, -1.5};
+  m.a = Eigen::Vector3d::UnitZ();
+  m.h = 500.0 * Eigen::Vector3d::UnitY() + 99.5 * m.a;   // Image x -> east.
+  m.v = 400.0 * -Eigen::Vector3d::UnitX() + 49.5 * m.a;  // Image y -> south.
+  m.o = m.a;
+  const auto polygon = GroundFootprint(m, {200, 100}, 0.0, 30.0);
+  // Half extents: 1.5 m x (99.5 / 500) east-west and 1.5 m x (49.5 / 400) north-south.
+  EXPECT_NEAR(PolygonArea(polygon), 4.0 * (1.5 * 99.5 / 500.0) * (1.5 * 49.5 / 400.0), 1e-9);
+  for (const Eigen::Vector2d& p : polygon) {
+    EXPECT_LE(std::abs(p.y()), 1.5 * 99.5 / 500.0 + 1e-9);
+    EXPECT_LE(std::abs(p.x()), 1.5 * 49.5 / 400.0 + 1e-9);
+  }
+}
+
+TEST(Footprint, MerPanFramesPointAsTheirLabelsSay) {
+  SKIP_WITHOUT_SHARED_DATA();
+  const auto mer = testing::SharedDataDir() / "mer";
+  std::vector<double> azimuths;
+  std::vector<std::vector<Eigen::Vector2d>> footprints;
+  for (const char* name : {"1N491020376ILFCNY9P0706L0M1.IMG", "1N491020519ILFCNY9P0706L0M1.IMG"}) {
+    const CameraFile file = ReadCameraFile(mer / name);
+    ASSERT_TRUE(file.site_from_frame && file.image_size);
+    const CameraModel in_site = file.model.Transformed(*file.site_from_frame);
+    const CahvorModel linear = LinearizeToCahv(in_site, *file.image_size, *file.image_size);
+    azimuths.push_back(std::atan2(linear.a.y(), linear.a.x()) * 180.0 / M_PI);
+    const double ground_z = file.site_from_frame->translation.z();
+    footprints.push_back(GroundFootprint(in_site, *file.image_size, ground_z, 30.0));
+  }
+  // SITE_DERIVED_GEOMETRY_PARMS INSTRUMENT_AZIMUTH of the two labels: 90.0019 and 126.005 deg
+  // (JPL's own rover->site chaining of the pointing).
+  EXPECT_NEAR(azimuths[0], 90.0019, 0.1);
+  EXPECT_NEAR(azimuths[1], 126.005, 0.1);
+  // 45 degree frames 36 degrees apart: the footprints overlap on a wedge of about 9 degrees.
+  std::vector<cv::Point2f> a, b, overlap;
+  for (const auto& p : footprints[0])
+    a.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+  for (const auto& p : footprints[1])
+    b.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+  std::vector<cv::Point2f> hull_a, hull_b;
+  cv::convexHull(a, hull_a);
+  cv::convexHull(b, hull_b);
+  const double shared = cv::intersectConvexConvex(hull_a, hull_b, overlap);
+  const double fraction = shared / PolygonArea(footprints[0]);
+  EXPECT_GT(fraction, 0.5 * 9.0 / 45.0);
+  EXPECT_LT(fraction, 2.0 * 9.0 / 45.0);
 }
 
 }  // namespace

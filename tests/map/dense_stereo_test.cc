@@ -2,15 +2,18 @@
 // input. Thresholds come from eq. 4.3: sigma_r = r^2 sigma_p / (b f), sigma_p = 0.5 px.
 #include "areomap/map/dense_stereo.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
 #include "areomap/map/geodesy.h"
+#include "areomap/map/image_io.h"
 #include "areomap/map/rectification.h"
 #include "areomap/samples/rover.h"
 #include "areomap/samples/scene.h"
@@ -38,7 +41,8 @@ struct RenderedPair {
   }
   RenderedPair(int size, double azimuth) : scene(Options()) {
     RenderOptions render;
-    render.near_posting_m = 0.04;  // Coarser than the generator's 2 cm: a fast unit test.
+    render.near_posting_m = 0.04;  // Coarser than the generator's 2 cm / 8 cm: a fast unit
+    render.mid_posting_m = 0.16;   // test (the truth is the same mesh's rendered range).
     render.far_radius_m = 50.0;
     const SiteMesh mesh(scene, {0.0, 0.0, scene.GroundHeightAt(0.0, 0.0)}, render);
     Eigen::Matrix3d enu_from_rover;  // Facing north: x -> north, y -> east, z -> down.
@@ -197,6 +201,122 @@ TEST(DenseStereo, BadPairsAreRejectedWithClearErrors) {
   message = testing::ErrorMessageOf(
       [&] { RunDenseStereo(f.images[0].dn, f.images[1].dn, f.File(0), f.File(1), bad); });
   EXPECT_NE(message.find("DenseStereoOptions.block_size"), std::string::npos) << message;
+}
+
+}  // namespace
+}  // namespace areomap
+
+namespace areomap {
+namespace {
+
+// Robust plane fit (least squares with 3-sigma trimming): returns (unit normal n, offset d) with
+// n . p = d, n pointing up (negative z: the K10 frame has z down).
+std::pair<Eigen::Vector3d, double> FitPlane(const std::vector<Eigen::Vector3d>& points) {
+  std::vector<bool> keep(points.size(), true);
+  Eigen::Vector3d normal = -Eigen::Vector3d::UnitZ();
+  double offset = 0.0;
+  for (int iteration = 0; iteration < 5; ++iteration) {
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    int n = 0;
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (keep[i]) mean += points[i], ++n;
+    }
+    mean /= n;
+    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (keep[i]) scatter += (points[i] - mean) * (points[i] - mean).transpose();
+    }
+    normal = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvectors().col(0);
+    if (normal.z() > 0) normal = -normal;
+    offset = normal.dot(mean);
+    double sum = 0.0;
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (keep[i]) sum += std::pow(normal.dot(points[i]) - offset, 2);
+    }
+    const double rms = std::sqrt(sum / n);
+    for (size_t i = 0; i < points.size(); ++i) {
+      keep[i] = std::abs(normal.dot(points[i]) - offset) < 3.0 * rms;
+    }
+  }
+  return {normal, offset};
+}
+
+// The real K10 pair (NASA Ames, rocks on pavement; ASP .tsai cameras), at half resolution.
+TEST(DenseStereoK10, PavementIsAPlaneWithinTheErrorModelAndRocksStandAboveIt) {
+  SKIP_WITHOUT_SHARED_DATA();
+  const auto dir = testing::SharedDataDir() / "k10";
+  const CameraFile left = ReadCameraFile(dir / "black_left.tsai");
+  const CameraFile right = ReadCameraFile(dir / "black_right.tsai");
+  cv::Mat left_image, right_image;
+  cv::resize(ReadImage(dir / "left4.png"), left_image, cv::Size(512, 384), 0, 0, cv::INTER_AREA);
+  cv::resize(ReadImage(dir / "right4.png"), right_image, cv::Size(512, 384), 0, 0, cv::INTER_AREA);
+  // Half-size images: the same cameras with half the focal length and principal point.
+  const auto half = [](const CameraFile& file) {
+    CameraFile out = file;
+    PinholeModel m = std::get<PinholeModel>(file.model.variant());
+    m.pitch = 2.0;
+    m.cu -= 0.5;  // Pixel centres: full-size (0, 0) and (1, 1) average to half-size (0, 0).
+    m.cv -= 0.5;
+    out.model = m;
+    return out;
+  };
+  DenseStereoOptions options;
+  options.min_range_m = 0.6;
+  options.block_size = 7;
+  const DenseStereoResult result =
+      RunDenseStereo(left_image, right_image, half(left), half(right), options);
+  ::testing::Test::RecordProperty("valid_fraction", std::to_string(result.summary.valid_fraction));
+  std::printf("K10 half size: %.1f%% of the overlap valid, %zu points\n",
+              100.0 * result.summary.valid_fraction, result.summary.points);
+  EXPECT_GT(result.summary.valid_fraction, 0.5);
+  // Pavement: points 1.5-4 m away, outside the rock columns of the near rock (full-size left
+  // image x 430-720) and the rover body (rows > 600).
+  std::vector<Eigen::Vector3d> pavement;
+  std::vector<double> sigma_sq;
+  std::vector<const StereoPoint*> rock;
+  for (const StereoPoint& p : result.cloud.points) {
+    const double r = (p.position - result.cloud.camera_center).norm();
+    const double x = 2.0 * p.left_x, y = 2.0 * p.left_y;
+    if (x > 450 && x < 700 && y > 340 && y < 580) rock.push_back(&p);
+    if (r < 1.5 || r > 4.0 || (x > 400 && x < 760) || y > 600) continue;
+    pavement.push_back(p.position);
+  }
+  ASSERT_GT(pavement.size(), 2000u);
+  const auto [normal, offset] = FitPlane(pavement);
+  std::vector<double> residuals;
+  double model_sq = 0.0;
+  int n = 0;
+  for (const StereoPoint& p : result.cloud.points) {
+    const double r = (p.position - result.cloud.camera_center).norm();
+    const double x = 2.0 * p.left_x, y = 2.0 * p.left_y;
+    if (r < 1.5 || r > 4.0 || (x > 400 && x < 760) || y > 600) continue;
+    residuals.push_back(normal.dot(p.position) - offset);
+    model_sq += normal.dot(p.covariance * normal);
+    ++n;
+  }
+  std::vector<double> abs_residuals;
+  for (double e : residuals) abs_residuals.push_back(std::abs(e));
+  std::sort(abs_residuals.begin(), abs_residuals.end());
+  // Robust RMS: 1.4826 x median absolute residual.
+  const double robust_rms = 1.4826 * abs_residuals[abs_residuals.size() / 2];
+  const double model_rms = std::sqrt(model_sq / n);
+  std::printf(
+      "pavement plane: %d points, robust RMS %.4f m, error model %.4f m (ratio %.2f), "
+      "normal %.3f %.3f %.3f\n",
+      n, robust_rms, model_rms, robust_rms / model_rms, normal.x(), normal.y(), normal.z());
+  ::testing::Test::RecordProperty("plane_rms_over_model", std::to_string(robust_rms / model_rms));
+  EXPECT_LT(robust_rms, 2.0 * model_rms);
+  EXPECT_GT(robust_rms, 0.25 * model_rms);
+  // The near rock (about 0.4 m tall) stands above the plane; its top is well clear of the noise.
+  ASSERT_GT(rock.size(), 500u);
+  std::vector<double> heights;
+  for (const StereoPoint* p : rock) heights.push_back(normal.dot(p->position) - offset);
+  std::sort(heights.begin(), heights.end());
+  const double top = heights[heights.size() * 95 / 100];
+  std::printf("near rock: %zu points, 95th percentile height above the plane %.3f m\n", rock.size(),
+              top);
+  EXPECT_GT(top, 0.2);
+  EXPECT_GT(top, 5.0 * robust_rms);
 }
 
 }  // namespace

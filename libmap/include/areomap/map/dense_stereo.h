@@ -8,7 +8,8 @@
 // few pixels, ASP's "affine epipolar" idea); SGBM on 8-bit images (both scaled by one gain:
 // the 99.9th percentile of the pair); SGBM's own subpixel fit (1/16 px), uniqueness test and
 // speckle filter; an explicit left-right consistency check against a second SGBM run on the
-// mirrored pair (|d_left(x) - d_right(x - d_left)| <= lr_max_diff_px); ray triangulation
+// mirrored pair (|d_left(x) - d_right(x - d_left)| <= lr_max_diff_px); pixels near disparity
+// jumps (occlusion edges) dropped; ray triangulation
 // (TriangulateRays) of the rectified rays; points farther than max_range_m from the left camera are
 // dropped.
 //
@@ -36,14 +37,17 @@
 namespace areomap {
 
 struct DenseStereoOptions {
-  double min_range_m = 1.0;      // Nearest range searched: sets SGBM's disparity range b f / r.
-  double max_range_m = 30.0;     // Points beyond are dropped (Table 4.5: 30 m).
-  int block_size = 5;            // SGBM matching window [px], odd, 3..11.
-  int uniqueness_ratio = 10;     // SGBM uniqueness margin [%].
-  int speckle_window_px = 100;   // Largest disparity blob removed as a speckle [px].
-  int speckle_range_px = 2;      // Disparity variation within one blob [px].
-  double lr_max_diff_px = 1.0;   // Left-right consistency tolerance [px].
-  int disparity_margin_px = 16;  // Also searched below zero (calibration errors) [px].
+  double min_range_m = 1.0;     // Nearest range searched: sets SGBM's disparity range b f / r.
+  double max_range_m = 30.0;    // Points beyond are dropped (Table 4.5: 30 m).
+  int block_size = 5;           // SGBM matching window [px], odd, 3..11.
+  int uniqueness_ratio = 10;    // SGBM uniqueness margin [%].
+  int speckle_window_px = 100;  // Largest disparity blob removed as a speckle [px].
+  int speckle_range_px = 2;     // Disparity variation within one blob [px].
+  double lr_max_diff_px = 1.0;  // Left-right consistency tolerance [px].
+  double max_disparity_step_px = 2.0;  // Jumps larger than this between neighbours mark an
+                                       // occlusion edge; pixels within block_size / 2 of one are
+                                       // dropped (SGBM's foreground fattening). 0: keep them.
+  int disparity_margin_px = 16;        // Also searched below zero (calibration errors) [px].
   Eigen::Vector2i output_size = Eigen::Vector2i::Zero();  // Rectified size; zero: input size.
   double parallax_sigma_px = 0.5;                         // sigma_p of eq. 4.3 for the covariances.
   double azimuth_sigma_px = 1.0;                          // Across-track sigma [px] (ch. 4.1).
