@@ -100,7 +100,9 @@ json RegisterSite(const RunContext& run, const Orthophoto& ortho, const SiteGeor
   const OrbitalMatch match = MatchOrthoToOrbital(ortho_image, orbital, prior, run.options->match);
   json report = MatchJson(match);
   report["prior_sigma_m"] = prior_sigma_m;
-  WriteImage(dir / "correlation_surface.png", CorrelationSurfaceImage(match));
+  if (const cv::Mat surface = CorrelationSurfaceImage(match); !surface.empty()) {
+    WriteImage(dir / "correlation_surface.png", surface);
+  }
   BundleInput links;
   links.body = run.mission->body;
   links.origin = run.mission->origin;
