@@ -13,5 +13,6 @@ void AddCoordsCommand(CLI::App& app, const GlobalOptions& global);
 void AddCameraCommand(CLI::App& app, const GlobalOptions& global);
 void AddSampleCommand(CLI::App& app, const GlobalOptions& global);
 void AddSimulateCommand(CLI::App& app, const GlobalOptions& global);
+void AddRegisterCommand(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace areomap::cli

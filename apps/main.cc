@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   areomap::cli::AddCameraCommand(app, global);
   areomap::cli::AddSampleCommand(app, global);
   areomap::cli::AddSimulateCommand(app, global);
+  areomap::cli::AddRegisterCommand(app, global);
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

@@ -183,7 +183,8 @@ void OrbitalMatchOptions::Check() const {
   RequireOption(min_correlation >= -1.0 && min_correlation <= 1.0,
                 "OrbitalMatchOptions.min_correlation", "in [-1, 1]");
   RequireOption(min_peak_ratio >= 1.0, "OrbitalMatchOptions.min_peak_ratio", ">= 1");
-  RequireOption(min_sharpness >= 0.0, "OrbitalMatchOptions.min_sharpness", ">= 0");
+  RequireOption(min_relative_sharpness >= 0.0 && min_relative_sharpness <= 1.0,
+                "OrbitalMatchOptions.min_relative_sharpness", "in [0, 1]");
   RequireOption(exclusion_radius_m >= 0.0, "OrbitalMatchOptions.exclusion_radius_m", ">= 0 m");
   RequireOption(min_template_pixels >= 16, "OrbitalMatchOptions.min_template_pixels", ">= 16");
   RequireOption(subpixel_floor_px >= 0.0, "OrbitalMatchOptions.subpixel_floor_px", ">= 0 px");
@@ -212,7 +213,8 @@ std::string OrbitalMatch::BriefReport() const {
   }
   out << "shift E " << shift_en_m.x() << " +- " << std::sqrt(shift_covariance_en_m2(0, 0))
       << " m, N " << shift_en_m.y() << " +- " << std::sqrt(shift_covariance_en_m2(1, 1))
-      << " m, CC " << correlation << ", ratio " << peak_ratio << ", sharpness " << sharpness;
+      << " m, CC " << correlation << ", ratio " << peak_ratio << ", sharpness " << sharpness
+      << " (relative " << relative_sharpness << ")";
   if (rotation_solved) out << ", rotation " << rotation_rad * 180.0 / std::numbers::pi << " deg";
   if (scale_solved) out << ", scale " << scale;
   return out.str();
@@ -477,6 +479,16 @@ OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& or
   }();
   out.correlation = fine.value;
   out.sharpness = fine.sharpness;
+  {
+    // The template's own autocorrelation peak: how sharp a perfect match of it would be.
+    MaskedNccOptions self = ncc_options;
+    self.search_window = ShiftWindow::Around(0, 0, 1);
+    const NccPeak own = FindPeak(MaskedNcc(final_template.image, final_template.mask,
+                                           final_template.image, final_template.mask, self),
+                                 fine_options);
+    const double expected = own.found ? own.sharpness * std::max(out.correlation, 0.0) : 0.0;
+    out.relative_sharpness = expected > 0.0 ? out.sharpness / expected : 0.0;
+  }
   out.shift_px = Eigen::Vector2d(fine.subpixel_x - x0, fine.subpixel_y - y0);
   out.shift_en_m = en_per_px * out.shift_px;
   const double correlation_area =
@@ -498,8 +510,9 @@ OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& or
     why << "peak CC " << out.correlation << " < min_correlation " << options.min_correlation;
   } else if (out.peak_ratio < options.min_peak_ratio) {
     why << "peak ratio " << out.peak_ratio << " < min_peak_ratio " << options.min_peak_ratio;
-  } else if (out.sharpness < options.min_sharpness) {
-    why << "sharpness " << out.sharpness << " < min_sharpness " << options.min_sharpness;
+  } else if (out.relative_sharpness < options.min_relative_sharpness) {
+    why << "relative sharpness " << out.relative_sharpness << " < min_relative_sharpness "
+        << options.min_relative_sharpness;
   }
   out.reason = why.str();
   out.matched = out.reason.empty();

@@ -1,5 +1,7 @@
 #include "areomap/registration/edge_verify.h"
 
+#include "areomap/registration/edge_histogram.h"
+
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -75,6 +77,11 @@ TEST_F(EdgeVerifyTest, EdgesOfACorrectMatchPairUpAndConfirmIt) {
   EXPECT_TRUE(v.consistent) << v.BriefReport();
   // The match is within 0.5 px; the edge fit's residual shift must agree to a pixel.
   EXPECT_LE(v.shift_px.norm(), 1.0) << v.BriefReport();
+
+  // Fig. 3.15 as a picture: 4 groups x 2 histograms, with ink on it.
+  const cv::Mat picture = WorldViewVectorHistogramImage(v);
+  EXPECT_EQ(picture.type(), CV_8UC3);
+  EXPECT_LT(cv::mean(picture)[0], 254.0);
 
   EdgeVerificationOptions similarity;
   similarity.fit_similarity = true;

@@ -54,9 +54,12 @@ struct OrbitalMatchOptions {
   double min_overlap_fraction = 0.7;  // Of the template's valid pixels, for a shift to count.
   double min_correlation = 0.3;       // Confident only if the full-resolution NCC >= this.
   double min_peak_ratio = 1.25;       // ... and best / second-best separated peak >= this, >= 1.
-  double min_sharpness = 0.03;        // ... and the mean NCC drop to the 8 neighbours >= this.
-  double exclusion_radius_m = 3.0;    // A second peak is one farther than this from the best [m].
-  int min_template_pixels = 400;      // Fewer valid template pixels at full resolution: no match.
+  // ... and the peak is sharp: its mean NCC drop to the 8 neighbours is at least this
+  // fraction of what a perfect match of this template would show (CC x the drop of the
+  // template's own autocorrelation), in [0, 1]. Spurious peaks from smooth shading are broad.
+  double min_relative_sharpness = 0.4;
+  double exclusion_radius_m = 3.0;  // A second peak is one farther than this from the best [m].
+  int min_template_pixels = 400;    // Fewer valid template pixels at full resolution: no match.
   // Accuracy floor of area correlation between images of different sensors and illumination
   // (shading moves edges; resampling), added in quadrature to the noise-driven sigma [px].
   double subpixel_floor_px = 0.15;  // >= 0.
@@ -89,10 +92,11 @@ struct OrbitalMatch {
   double correlation = 0.0;  // NCC at the full-resolution peak.
   double peak_ratio = 0.0;   // Best / best separated runner-up, both refined to full resolution.
   double sharpness = 0.0;    // Mean NCC drop to the 8 neighbours at full resolution.
-  double gsd_m = 0.0;        // Orbital pixel size at the rover [m].
-  int levels = 0;            // Pyramid halvings used.
-  int search_radius_px = 0;  // Full-resolution search radius [px].
-  int template_pixels = 0;   // Valid template pixels at full resolution.
+  double relative_sharpness = 0.0;  // sharpness / (CC x the template autocorrelation's drop).
+  double gsd_m = 0.0;               // Orbital pixel size at the rover [m].
+  int levels = 0;                   // Pyramid halvings used.
+  int search_radius_px = 0;         // Full-resolution search radius [px].
+  int template_pixels = 0;          // Valid template pixels at full resolution.
 
   // The correlation surface of the whole search window at the coarsest level (CV_32F, NaN where
   // undefined), one pixel per 2^levels orbital pixels; surface_shift0 is the correction
