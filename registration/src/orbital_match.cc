@@ -7,6 +7,7 @@
 #include <numbers>
 #include <sstream>
 
+#include <tbb/parallel_for.h>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
@@ -390,12 +391,13 @@ OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& or
       MaskedNccOptions refine = ncc_options;
       // Level `levels` is where the candidate comes from (itself when there is no pyramid).
       int cx = level < levels ? 2 * x : x, cy = level < levels ? 2 * y : y;
-      // A peak on the edge of the refinement window is followed uphill a few times.
-      for (int attempt = 0; attempt < 4; ++attempt) {
+      // A peak on the edge of the refinement window is followed uphill a few times. The few
+      // shifts of a refinement window cost less by direct summation than by FFTs.
+      for (int attempt = 0; attempt < 6; ++attempt) {
         refine.search_window = ShiftWindow::Around(cx, cy, options.refine_radius_px);
         const MaskedNccSurface surface =
-            MaskedNcc(orbital_pyramid[level].image, orbital_pyramid[level].mask,
-                      template_pyramid[level].image, template_pyramid[level].mask, refine);
+            MaskedNccNaive(orbital_pyramid[level].image, orbital_pyramid[level].mask,
+                           template_pyramid[level].image, template_pyramid[level].mask, refine);
         fine = FindPeak(surface, fine_options);
         if (!fine.found || !fine.on_border) break;
         cx = fine.shift_x;
@@ -410,8 +412,9 @@ OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& or
   const double exclusion_px = std::max(options.exclusion_radius_m / out.gsd_m, 3.0);
   std::vector<cv::Point> candidates =
       TopLocalMaxima(best.surface, options.candidates, std::max(1.0, exclusion_px / unit));
-  std::vector<NccPeak> refined;
-  for (const cv::Point& candidate : candidates) refined.push_back(refine_candidate(candidate));
+  std::vector<NccPeak> refined(candidates.size());
+  tbb::parallel_for(size_t{0}, candidates.size(),
+                    [&](size_t k) { refined[k] = refine_candidate(candidates[k]); });
   int best_index = -1;
   for (size_t k = 0; k < refined.size(); ++k) {
     if (refined[k].found && (best_index < 0 || refined[k].value > refined[best_index].value)) {
@@ -443,7 +446,7 @@ OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& or
     MaskedNccOptions at = ncc_options;
     at.search_window = ShiftWindow::Around(x, y, options.refine_radius_px);
     return FindPeak(
-        MaskedNcc(orbital_pyramid[0].image, orbital_pyramid[0].mask, t.image, t.mask, at),
+        MaskedNccNaive(orbital_pyramid[0].image, orbital_pyramid[0].mask, t.image, t.mask, at),
         fine_options);
   };
   for (int pass = 0; pass < 2; ++pass) {
@@ -483,8 +486,8 @@ OrbitalMatch MatchOrthoToOrbital(const Orthophoto& ortho, const OrbitalImage& or
     // The template's own autocorrelation peak: how sharp a perfect match of it would be.
     MaskedNccOptions self = ncc_options;
     self.search_window = ShiftWindow::Around(0, 0, 1);
-    const NccPeak own = FindPeak(MaskedNcc(final_template.image, final_template.mask,
-                                           final_template.image, final_template.mask, self),
+    const NccPeak own = FindPeak(MaskedNccNaive(final_template.image, final_template.mask,
+                                                final_template.image, final_template.mask, self),
                                  fine_options);
     const double expected = own.found ? own.sharpness * std::max(out.correlation, 0.0) : 0.0;
     out.relative_sharpness = expected > 0.0 ? out.sharpness / expected : 0.0;

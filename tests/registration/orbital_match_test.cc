@@ -108,7 +108,8 @@ TEST(OrbitalMatch, ASearchWindowLargerThanTheImageIsClippedAndStillMatches) {
   trial.prior.sigma_m = 30.0;  // 3 sigma = 90 m, on a 70 m image.
   const OrbitalMatch m = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);
   EXPECT_TRUE(m.window_clipped);
-  EXPECT_GT(m.levels, 0);
+  EXPECT_EQ(m.search_radius_px, 360);  // 90 m at 0.25 m.
+  EXPECT_FALSE(m.surface.empty());
   ASSERT_TRUE(m.matched) << m.BriefReport();
   EXPECT_LE(ErrorPx(m, trial), 0.5) << m.BriefReport();
 }

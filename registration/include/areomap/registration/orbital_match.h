@@ -41,9 +41,9 @@ struct OrbitalMatchOptions {
   double search_sigmas = 3.0;     // Search window half side = this x prior sigma, > 0.
   int max_coarse_radius_px = 24;  // Pyramid depth: coarsest search radius <= this [px], >= 4.
   int max_levels = 4;             // At most this many halvings, >= 0.
-  int min_template_px = 24;       // Coarsest template's shorter side >= this [px], >= 8.
-  int refine_radius_px = 2;       // Search radius at each finer level [px], >= 1.
-  int candidates = 4;             // Coarse peaks followed to full resolution, >= 2.
+  int min_template_px = 32;       // Coarsest template's shorter side >= this [px], >= 8.
+  int refine_radius_px = 1;       // Search radius at each finer level [px], >= 1.
+  int candidates = 6;             // Coarse peaks followed to full resolution, >= 2.
   // A runner-up counts as a second peak only if the coarse surface dips at least this much
   // [NCC] between it and the best (otherwise it sits on the best peak's slope), >= 0.
   double min_valley = 0.02;
