@@ -3,13 +3,16 @@
 // Method (ch. 3.4.2, made automatic and nodata-aware): the orthophoto is resampled to the
 // orbital grid (orbital_template.h), then matched by masked normalized cross-correlation in the
 // Fourier domain (masked_ncc.h, Padfield 2012) coarse-to-fine over a pyramid: the whole search
-// window (the prior position +- search_sigmas x its 1-sigma radius) at the coarsest level, a
-// few pixels around the doubled peak at each finer one, a quadratic subpixel fit at full
-// resolution. An optional grid of small rotations (heading error) and scale changes is tried
-// at the coarsest level and the best refined by a parabola. Like JPL's Mars Global
-// Localization and VICAR marsautoloco, the answer comes with its confidence: the peak CC, the
-// ratio of the best to the second-best separated peak, and the peak's sharpness; a match that
-// fails a threshold is reported as "no match" with the reason, never as a position.
+// window (the prior position +- search_sigmas x its 1-sigma radius) at the coarsest level, then
+// the best `candidates` coarse peaks each followed down the pyramid in 3 x 3 windows, a
+// quadratic subpixel fit at full resolution. An optional grid of small rotations (heading
+// error) and scale changes is tried at the coarsest level, the best refined by a parabola there
+// and again at full resolution. Like JPL's Mars Global Localization and VICAR marsautoloco, the
+// answer comes with its confidence: the peak CC, the ratio of the best to the best separated
+// runner-up (both at full resolution), and the peak's sharpness relative to the template's own
+// autocorrelation; a match that fails a threshold is reported as "no match" with the reason,
+// never as a position. The shift's covariance follows Forstner's correlation precision plus a
+// floor (OrbitalMatchOptions::subpixel_floor_px). Cost: ~0.05-0.3 s per site (docs/benchmarks.md).
 //
 // Frames and units: shifts are in orbital pixels (columns, rows; GDAL pixel convention) and in
 // metres east/north in the local level frame at the rover; rotations in radians, counter-
@@ -58,7 +61,7 @@ struct OrbitalMatchOptions {
   // fraction of what a perfect match of this template would show (CC x the drop of the
   // template's own autocorrelation), in [0, 1]. Spurious peaks from smooth shading are broad.
   double min_relative_sharpness = 0.4;
-  double exclusion_radius_m = 3.0;  // A second peak is one farther than this from the best [m].
+  double exclusion_radius_m = 3.0;  // Runner-ups lie farther than this [m] and 3 px from the best.
   int min_template_pixels = 400;    // Fewer valid template pixels at full resolution: no match.
   // Accuracy floor of area correlation between images of different sensors and illumination
   // (shading moves edges; resampling), added in quadrature to the noise-driven sigma [px].
