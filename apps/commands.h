@@ -18,5 +18,6 @@ void AddErrorsCommand(CLI::App& app, const GlobalOptions& global);
 void AddAdjustCommand(CLI::App& app, const GlobalOptions& global);
 void AddRunCommand(CLI::App& app, const GlobalOptions& global);
 void AddCratersCommand(CLI::App& app, const GlobalOptions& global);
+void AddRegisterCommand(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace areomap::cli

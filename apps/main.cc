@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   areomap::cli::AddAdjustCommand(app, global);
   areomap::cli::AddRunCommand(app, global);
   areomap::cli::AddCratersCommand(app, global);
+  areomap::cli::AddRegisterCommand(app, global);
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

@@ -241,84 +241,104 @@ EdgeVerification VerifyMatchWithEdges(const OrbitalMatch& match,
     }
   }
 
-  // Robust fit on the pattern pairs.
+  // Robust fit: a translation voted on by every ortho edge point, or a similarity (RANSAC) on
+  // the pattern pairs.
   std::vector<const EdgePair*> fit_set;
   for (const EdgePair& p : out.pairs) {
     if (p.pattern_match) fit_set.push_back(&p);
   }
-  if (fit_set.size() < 3) return out;
-  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-  for (const EdgePair* p : fit_set) centre += p->ortho_px;
-  centre /= static_cast<double>(fit_set.size());
-  out.centre_px = centre;
-  const double thr2 = options.inlier_threshold_px * options.inlier_threshold_px;
-  std::vector<bool> inlier(fit_set.size(), false);
   if (!options.fit_similarity) {
-    // Translation by voting: every (ortho, orbital) edge point pair within fit_radius_px votes
-    // for its offset; the peak of the votes (3 x 3 centroid) is the shift. This is the
-    // exhaustive one-point consensus of all candidate correspondences, and unlike nearest
-    // pairs it sees an offset larger than the pairing distance.
+    // Every (ortho, orbital) edge point pair within fit_radius_px votes for its offset; the
+    // peak of the votes (3 x 3 centroid) is the shift. This is the exhaustive one-point
+    // consensus of all candidate correspondences, and unlike nearest pairs it sees an offset
+    // larger than the pairing distance.
     const int reach_fit = static_cast<int>(std::ceil(options.fit_radius_px));
     const int n = 2 * reach_fit + 1;
     cv::Mat votes(n, n, CV_64F, cv::Scalar(0.0));
+    const auto orbital_edge = [&](int r, int c) {
+      return r >= 0 && c >= 0 && r < orbital_edges.rows && c < orbital_edges.cols &&
+             orbital_edges.at<uchar>(r, c) != 0;
+    };
     for (const Eigen::Vector2d& p : a_points) {
       const int c = static_cast<int>(p.x() - col0), r = static_cast<int>(p.y() - row0);
       for (int dr = -reach_fit; dr <= reach_fit; ++dr) {
         for (int dc = -reach_fit; dc <= reach_fit; ++dc) {
-          const int rr = r + dr, cc = c + dc;
-          if (rr < 0 || cc < 0 || rr >= orbital_edges.rows || cc >= orbital_edges.cols) continue;
-          if (orbital_edges.at<uchar>(rr, cc))
-            votes.at<double>(dr + reach_fit, dc + reach_fit) += 1.0;
+          if (orbital_edge(r + dr, c + dc)) votes.at<double>(dr + reach_fit, dc + reach_fit) += 1;
         }
       }
     }
     cv::Point peak;
     cv::minMaxLoc(votes, nullptr, nullptr, nullptr, &peak);
+    if (peak.x == 0 || peak.y == 0 || peak.x == n - 1 || peak.y == n - 1) return out;
     double sum = 0.0, sx = 0.0, sy = 0.0;
     for (int dr = -1; dr <= 1; ++dr) {
       for (int dc = -1; dc <= 1; ++dc) {
-        const int r = peak.y + dr, c = peak.x + dc;
-        if (r < 0 || c < 0 || r >= n || c >= n) continue;
-        const double w = votes.at<double>(r, c);
+        const double w = votes.at<double>(peak.y + dr, peak.x + dc);
         sum += w;
-        sx += w * (c - reach_fit);
-        sy += w * (r - reach_fit);
+        sx += w * (peak.x + dc - reach_fit);
+        sy += w * (peak.y + dr - reach_fit);
       }
     }
     out.shift_px = Eigen::Vector2d(sx / sum, sy / sum);
-    const bool on_edge = peak.x == 0 || peak.y == 0 || peak.x == n - 1 || peak.y == n - 1;
-    for (size_t k = 0; k < fit_set.size(); ++k) {
-      const Eigen::Vector2d d = fit_set[k]->orbital_px - fit_set[k]->ortho_px;
-      inlier[k] = !on_edge && (d - out.shift_px).squaredNorm() <= thr2;
+    // Inliers: ortho edge points with an orbital edge point within the threshold of their
+    // shifted position.
+    const int reach_in = static_cast<int>(std::ceil(options.inlier_threshold_px)) + 1;
+    double sum_sq = 0.0;
+    for (const Eigen::Vector2d& p : a_points) {
+      const Eigen::Vector2d q = p + out.shift_px;
+      const int c = static_cast<int>(std::floor(q.x() - col0));
+      const int r = static_cast<int>(std::floor(q.y() - row0));
+      double best = std::numeric_limits<double>::infinity();
+      for (int dr = -reach_in; dr <= reach_in; ++dr) {
+        for (int dc = -reach_in; dc <= reach_in; ++dc) {
+          if (!orbital_edge(r + dr, c + dc)) continue;
+          const Eigen::Vector2d e(col0 + c + dc + 0.5, row0 + r + dr + 0.5);
+          best = std::min(best, (e - q).squaredNorm());
+        }
+      }
+      if (best <= options.inlier_threshold_px * options.inlier_threshold_px) {
+        ++out.inliers;
+        sum_sq += best;
+      }
     }
-  } else {
-    std::vector<cv::Point2f> src, dst;
-    for (const EdgePair* p : fit_set) {
-      src.emplace_back(static_cast<float>(p->ortho_px.x() - centre.x()),
-                       static_cast<float>(p->ortho_px.y() - centre.y()));
-      dst.emplace_back(static_cast<float>(p->orbital_px.x() - centre.x()),
-                       static_cast<float>(p->orbital_px.y() - centre.y()));
-    }
-    cv::setRNGSeed(1);  // Deterministic RANSAC.
-    std::vector<uchar> mask;
-    const cv::Mat m = cv::estimateAffinePartial2D(src, dst, mask, cv::RANSAC,
-                                                  options.inlier_threshold_px, 2000, 0.999, 10);
-    if (m.empty()) return out;
-    const double a = m.at<double>(0, 0), b = m.at<double>(1, 0);
-    out.scale = std::hypot(a, b);
-    out.rotation_rad = std::atan2(-b, a);  // orbital_match.h's sense (CCW on a north-up map).
-    out.shift_px = Eigen::Vector2d(m.at<double>(0, 2), m.at<double>(1, 2));
-    for (size_t k = 0; k < fit_set.size(); ++k) inlier[k] = mask[k] != 0;
+    out.rms_px = out.inliers > 0 ? std::sqrt(sum_sq / out.inliers) : kNaN;
+    out.fitted = out.inliers > 0;
+    out.consistent = out.fitted && out.shift_px.norm() <= options.max_residual_shift_px &&
+                     out.inliers >= options.min_inlier_fraction * out.ortho_edges;
+    return out;
   }
+
+  if (fit_set.size() < 3) return out;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (const EdgePair* p : fit_set) centre += p->ortho_px;
+  centre /= static_cast<double>(fit_set.size());
+  out.centre_px = centre;
+  std::vector<cv::Point2f> src, dst;
+  for (const EdgePair* p : fit_set) {
+    src.emplace_back(static_cast<float>(p->ortho_px.x() - centre.x()),
+                     static_cast<float>(p->ortho_px.y() - centre.y()));
+    dst.emplace_back(static_cast<float>(p->orbital_px.x() - centre.x()),
+                     static_cast<float>(p->orbital_px.y() - centre.y()));
+  }
+  cv::setRNGSeed(1);  // Deterministic RANSAC.
+  std::vector<uchar> mask;
+  const cv::Mat m = cv::estimateAffinePartial2D(src, dst, mask, cv::RANSAC,
+                                                options.inlier_threshold_px, 2000, 0.999, 10);
+  if (m.empty()) return out;
+  const double a = m.at<double>(0, 0), b = m.at<double>(1, 0);
+  out.scale = std::hypot(a, b);
+  out.rotation_rad = std::atan2(-b, a);  // orbital_match.h's sense (CCW on a north-up map).
+  out.shift_px = Eigen::Vector2d(m.at<double>(0, 2), m.at<double>(1, 2));
+  Eigen::Matrix2d am;
+  am << std::cos(out.rotation_rad), std::sin(out.rotation_rad), -std::sin(out.rotation_rad),
+      std::cos(out.rotation_rad);
   double sum_sq = 0.0;
   for (size_t k = 0; k < fit_set.size(); ++k) {
-    if (!inlier[k]) continue;
+    if (!mask[k]) continue;
     ++out.inliers;
     const EdgePair& p = *fit_set[k];
-    const double c = std::cos(out.rotation_rad), s = std::sin(out.rotation_rad);
-    Eigen::Matrix2d a;
-    a << c, s, -s, c;
-    const Eigen::Vector2d predicted = centre + out.shift_px + out.scale * a * (p.ortho_px - centre);
+    const Eigen::Vector2d predicted =
+        centre + out.shift_px + out.scale * am * (p.ortho_px - centre);
     sum_sq += (p.orbital_px - predicted).squaredNorm();
   }
   out.rms_px = out.inliers > 0 ? std::sqrt(sum_sq / out.inliers) : kNaN;

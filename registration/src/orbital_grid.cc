@@ -1,6 +1,7 @@
 #include "areomap/registration/orbital_grid.h"
 
 #include <limits>
+#include <map>
 
 namespace areomap {
 namespace {
@@ -8,14 +9,27 @@ namespace {
 const Eigen::Vector2d kNaN2(std::numeric_limits<double>::quiet_NaN(),
                             std::numeric_limits<double>::quiet_NaN());
 
+// Building a CRS transform costs PROJ a database search (~0.1 s); a registration builds
+// several for the same two CRSs. Each thread keeps the ones it built (transforms are not
+// shared across threads).
+std::shared_ptr<CrsTransform> TransformFor(const std::string& wkt, const std::string& name) {
+  thread_local std::map<std::string, std::shared_ptr<CrsTransform>> cache;
+  const auto found = cache.find(wkt);
+  if (found != cache.end()) return found->second;
+  const Crs crs = Crs::FromWkt(wkt, name);
+  crs.RequireMars();
+  auto transform = std::make_shared<CrsTransform>(crs);
+  if (cache.size() > 64) cache.clear();
+  cache.emplace(wkt, transform);
+  return transform;
+}
+
 }  // namespace
 
 PixelGrid::PixelGrid(const GeoTransform& geotransform, const std::string& crs_wkt,
                      const std::string& name)
     : geotransform_(geotransform), crs_wkt_(crs_wkt), name_(name) {
-  const Crs crs = Crs::FromWkt(crs_wkt, name);
-  crs.RequireMars();
-  transform_ = std::make_shared<CrsTransform>(crs);
+  transform_ = TransformFor(crs_wkt, name);
 }
 
 std::optional<Geographic> PixelGrid::PixelToGeographic(const Eigen::Vector2d& pixel) const {

@@ -7,6 +7,7 @@
 #include <numbers>
 #include <sstream>
 
+#include <tbb/parallel_for.h>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
@@ -161,6 +162,166 @@ struct CoarseResult {
   double scale = 1.0;
 };
 
+// Vertex offset of a parabola through (-1, a), (0, b), (1, c), in [-0.5, 0.5]; 0 if b is no
+// maximum.
+double ParabolaVertex(double a, double b, double c) {
+  const double d = a - 2.0 * b + c;
+  return d < 0.0 ? std::clamp(0.5 * (a - c) / d, -0.5, 0.5) : 0.0;
+}
+
+// One search of a template over the orbital pyramid: the coarse surface over the whole window,
+// and the coarse-to-fine refinement of a peak.
+class PyramidSearch {
+ public:
+  PyramidSearch(const OrbitalTemplate& templ, const std::vector<MaskedImage>& orbital_pyramid,
+                const MaskedNccOptions& coarse_options, const PeakOptions& coarse_peak,
+                int refine_radius)
+      : templ_(templ),
+        orbital_(orbital_pyramid),
+        levels_(static_cast<int>(orbital_pyramid.size()) - 1),
+        coarse_options_(coarse_options),
+        coarse_peak_(coarse_peak),
+        refine_radius_(refine_radius) {
+    fine_peak_.min_peak = -1.0;
+    fine_peak_.min_peak_ratio = 1.0;
+  }
+
+  int levels() const { return levels_; }
+  const MaskedNccOptions& coarse_options() const { return coarse_options_; }
+
+  // The whole window at the coarsest level for the template warped by (rotation, scale).
+  CoarseResult Coarse(double rotation, double scale) const {
+    CoarseResult result;
+    result.rotation = rotation;
+    result.scale = scale;
+    const std::vector<MaskedImage> pyramid =
+        BuildMaskedPyramid(WarpTemplate(templ_, rotation, scale), levels_);
+    result.surface = MaskedNcc(orbital_[levels_].image, orbital_[levels_].mask,
+                               pyramid[levels_].image, pyramid[levels_].mask, coarse_options_);
+    result.peak = FindPeak(result.surface, coarse_peak_);
+    return result;
+  }
+
+  // Follows a coarse peak down the pyramid of `warped` to full resolution, in small windows;
+  // a peak on a window's edge is followed uphill a few times. The few shifts of a refinement
+  // window cost less by direct summation than by FFTs.
+  NccPeak Refine(const std::vector<MaskedImage>& warped, cv::Point coarse) const {
+    NccPeak fine;
+    int x = coarse.x, y = coarse.y;
+    for (int level = std::max(levels_ - 1, 0); level >= 0; --level) {
+      // Level `levels_` is where the candidate comes from (itself when there is no pyramid).
+      int cx = level < levels_ ? 2 * x : x, cy = level < levels_ ? 2 * y : y;
+      for (int attempt = 0; attempt < 6; ++attempt) {
+        fine = PeakAt(level, warped[level], cx, cy);
+        if (!fine.found || !fine.on_border) break;
+        cx = fine.shift_x;
+        cy = fine.shift_y;
+      }
+      if (!fine.found) return fine;
+      x = fine.shift_x;
+      y = fine.shift_y;
+    }
+    return fine;
+  }
+
+  // The peak in the refinement window around shift (x, y) at `level`.
+  NccPeak PeakAt(int level, const MaskedImage& t, int x, int y) const {
+    MaskedNccOptions at = coarse_options_;
+    at.search_window = ShiftWindow::Around(x, y, refine_radius_);
+    return FindPeak(
+        MaskedNccNaive(orbital_[level].image, orbital_[level].mask, t.image, t.mask, at),
+        fine_peak_);
+  }
+
+  // How sharp a perfect match of `t` would be: its autocorrelation peak's sharpness.
+  double OwnSharpness(const MaskedImage& t) const {
+    MaskedNccOptions self = coarse_options_;
+    self.search_window = ShiftWindow::Around(0, 0, 1);
+    const NccPeak own =
+        FindPeak(MaskedNccNaive(t.image, t.mask, t.image, t.mask, self), fine_peak_);
+    return own.found ? own.sharpness : 0.0;
+  }
+
+ private:
+  const OrbitalTemplate& templ_;
+  const std::vector<MaskedImage>& orbital_;
+  int levels_;
+  MaskedNccOptions coarse_options_;
+  PeakOptions coarse_peak_;
+  PeakOptions fine_peak_;
+  int refine_radius_;
+};
+
+// The rotation and scale grid of the options (always holding 0 and 1).
+std::vector<double> SearchGrid(double centre, double max_change, double step) {
+  std::vector<double> grid{centre};
+  const int n = static_cast<int>(std::floor(max_change / step + 1e-9));
+  for (int k = 1; k <= n; ++k) {
+    grid.insert(grid.begin(), centre - k * step);
+    grid.push_back(centre + k * step);
+  }
+  return grid;
+}
+
+// Best coarse result over the rotation x scale grid, its rotation and scale refined by a
+// parabola between grid values. best.peak.found is false if no shift has enough overlap.
+CoarseResult CoarseGridSearch(const PyramidSearch& search, const std::vector<double>& rotations,
+                              const std::vector<double>& scales, const ProgressCallback& progress) {
+  std::vector<std::vector<double>> values(rotations.size(),
+                                          std::vector<double>(scales.size(), -2.0));
+  CoarseResult best;
+  best.peak.value = -2.0;
+  size_t bi = 0, bj = 0;
+  for (size_t i = 0; i < rotations.size(); ++i) {
+    for (size_t j = 0; j < scales.size(); ++j) {
+      CoarseResult r = search.Coarse(rotations[i], scales[j]);
+      if (r.peak.found) values[i][j] = r.peak.value;
+      if (r.peak.found && r.peak.value > best.peak.value) {
+        best = std::move(r);
+        bi = i;
+        bj = j;
+      }
+    }
+    Report(progress, 0.2 + 0.5 * static_cast<double>(i + 1) / static_cast<double>(rotations.size()),
+           "register: coarse search");
+  }
+  if (!best.peak.found) return best;
+  double rotation = best.rotation, scale = best.scale;
+  if (bi > 0 && bi + 1 < rotations.size()) {
+    rotation += (rotations[1] - rotations[0]) *
+                ParabolaVertex(values[bi - 1][bj], values[bi][bj], values[bi + 1][bj]);
+  }
+  if (bj > 0 && bj + 1 < scales.size()) {
+    scale += (scales[1] - scales[0]) *
+             ParabolaVertex(values[bi][bj - 1], values[bi][bj], values[bi][bj + 1]);
+  }
+  if (rotation != best.rotation || scale != best.scale) {
+    CoarseResult refined = search.Coarse(rotation, scale);
+    if (refined.peak.found && refined.peak.value >= best.peak.value) best = std::move(refined);
+  }
+  return best;
+}
+
+// Why a match is not confident, or "" if it is.
+std::string Verdict(const OrbitalMatch& m, bool coarse_on_border, bool fine_on_border,
+                    const OrbitalMatchOptions& options) {
+  std::ostringstream why;
+  why.precision(3);
+  if (coarse_on_border) {
+    why << "the best peak lies on the edge of the search window";
+  } else if (fine_on_border) {
+    why << "the refined peak drifted to the edge of its refinement window";
+  } else if (m.correlation < options.min_correlation) {
+    why << "peak CC " << m.correlation << " < min_correlation " << options.min_correlation;
+  } else if (m.peak_ratio < options.min_peak_ratio) {
+    why << "peak ratio " << m.peak_ratio << " < min_peak_ratio " << options.min_peak_ratio;
+  } else if (m.relative_sharpness < options.min_relative_sharpness) {
+    why << "relative sharpness " << m.relative_sharpness << " < min_relative_sharpness "
+        << options.min_relative_sharpness;
+  }
+  return why.str();
+}
+
 }  // namespace
 
 void OrbitalMatchOptions::Check() const {
@@ -183,7 +344,8 @@ void OrbitalMatchOptions::Check() const {
   RequireOption(min_correlation >= -1.0 && min_correlation <= 1.0,
                 "OrbitalMatchOptions.min_correlation", "in [-1, 1]");
   RequireOption(min_peak_ratio >= 1.0, "OrbitalMatchOptions.min_peak_ratio", ">= 1");
-  RequireOption(min_sharpness >= 0.0, "OrbitalMatchOptions.min_sharpness", ">= 0");
+  RequireOption(min_relative_sharpness >= 0.0 && min_relative_sharpness <= 1.0,
+                "OrbitalMatchOptions.min_relative_sharpness", "in [0, 1]");
   RequireOption(exclusion_radius_m >= 0.0, "OrbitalMatchOptions.exclusion_radius_m", ">= 0 m");
   RequireOption(min_template_pixels >= 16, "OrbitalMatchOptions.min_template_pixels", ">= 16");
   RequireOption(subpixel_floor_px >= 0.0, "OrbitalMatchOptions.subpixel_floor_px", ">= 0 px");
@@ -212,7 +374,8 @@ std::string OrbitalMatch::BriefReport() const {
   }
   out << "shift E " << shift_en_m.x() << " +- " << std::sqrt(shift_covariance_en_m2(0, 0))
       << " m, N " << shift_en_m.y() << " +- " << std::sqrt(shift_covariance_en_m2(1, 1))
-      << " m, CC " << correlation << ", ratio " << peak_ratio << ", sharpness " << sharpness;
+      << " m, CC " << correlation << ", ratio " << peak_ratio << ", sharpness " << sharpness
+      << " (relative " << relative_sharpness << ")";
   if (rotation_solved) out << ", rotation " << rotation_rad * 180.0 / std::numbers::pi << " deg";
   if (scale_solved) out << ", scale " << scale;
   return out.str();
@@ -298,71 +461,17 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   coarse_peak_options.min_peak = -1.0;
   coarse_peak_options.min_peak_ratio = 1.0;
 
-  const auto coarse_match = [&](double rotation, double scale) {
-    CoarseResult result;
-    result.rotation = rotation;
-    result.scale = scale;
-    const MaskedImage warped = WarpTemplate(templ, rotation, scale);
-    const std::vector<MaskedImage> pyramid = BuildMaskedPyramid(warped, levels);
-    result.surface = MaskedNcc(orbital_pyramid[levels].image, orbital_pyramid[levels].mask,
-                               pyramid[levels].image, pyramid[levels].mask, ncc_options);
-    result.peak = FindPeak(result.surface, coarse_peak_options);
-    return result;
-  };
+  const PyramidSearch search(templ, orbital_pyramid, ncc_options, coarse_peak_options,
+                             options.refine_radius_px);
 
   // Coarse search over the rotation and scale grid.
-  std::vector<double> rotations{0.0}, scales{1.0};
   const double step = options.rotation_step_deg * std::numbers::pi / 180.0;
-  const int n_rot =
-      static_cast<int>(std::floor(options.max_rotation_deg / options.rotation_step_deg));
-  for (int k = 1; k <= n_rot; ++k) {
-    rotations.insert(rotations.begin(), -k * step);
-    rotations.push_back(k * step);
-  }
-  const int n_scale = static_cast<int>(std::floor(options.max_scale_change / options.scale_step));
-  for (int k = 1; k <= n_scale; ++k) {
-    scales.insert(scales.begin(), 1.0 - k * options.scale_step);
-    scales.push_back(1.0 + k * options.scale_step);
-  }
-  std::vector<std::vector<double>> values(rotations.size(),
-                                          std::vector<double>(scales.size(), -2.0));
-  CoarseResult best;
-  best.peak.value = -2.0;
-  size_t best_r = 0, best_s = 0;
-  for (size_t i = 0; i < rotations.size(); ++i) {
-    for (size_t j = 0; j < scales.size(); ++j) {
-      CoarseResult r = coarse_match(rotations[i], scales[j]);
-      if (r.peak.found) values[i][j] = r.peak.value;
-      if (r.peak.found && r.peak.value > best.peak.value) {
-        best = std::move(r);
-        best_r = i;
-        best_s = j;
-      }
-    }
-    Report(progress, 0.2 + 0.5 * static_cast<double>(i + 1) / static_cast<double>(rotations.size()),
-           "register: coarse search");
-  }
+  const std::vector<double> rotations = SearchGrid(0.0, RadFromDeg(options.max_rotation_deg), step);
+  const std::vector<double> scales = SearchGrid(1.0, options.max_scale_change, options.scale_step);
+  const CoarseResult best = CoarseGridSearch(search, rotations, scales, progress);
   if (!best.peak.found) {
     out.reason = "no shift in the search window has enough valid overlap";
     return out;
-  }
-  // Parabolic refinement of the rotation and the scale between grid values.
-  const auto vertex = [](double a, double b, double c) {
-    const double d = a - 2.0 * b + c;
-    return d < 0.0 ? std::clamp(0.5 * (a - c) / d, -0.5, 0.5) : 0.0;
-  };
-  double rotation = best.rotation, scale = best.scale;
-  if (rotations.size() > 1 && best_r > 0 && best_r + 1 < rotations.size()) {
-    rotation += step * vertex(values[best_r - 1][best_s], values[best_r][best_s],
-                              values[best_r + 1][best_s]);
-  }
-  if (scales.size() > 1 && best_s > 0 && best_s + 1 < scales.size()) {
-    scale += options.scale_step *
-             vertex(values[best_r][best_s - 1], values[best_r][best_s], values[best_r][best_s + 1]);
-  }
-  if (rotation != best.rotation || scale != best.scale) {
-    CoarseResult refined = coarse_match(rotation, scale);
-    if (refined.peak.found && refined.peak.value >= best.peak.value) best = std::move(refined);
   }
   out.rotation_rad = best.rotation;
   out.scale = best.scale;
@@ -378,38 +487,12 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   Report(progress, 0.75, "register: refine");
   const MaskedImage warped = WarpTemplate(templ, best.rotation, best.scale);
   const std::vector<MaskedImage> template_pyramid = BuildMaskedPyramid(warped, levels);
-  PeakOptions fine_options;
-  fine_options.min_peak = -1.0;
-  fine_options.min_peak_ratio = 1.0;
-  const auto refine_candidate = [&](cv::Point coarse) {
-    NccPeak fine;
-    int x = coarse.x, y = coarse.y;
-    for (int level = std::max(levels - 1, 0); level >= 0; --level) {
-      MaskedNccOptions refine = ncc_options;
-      // Level `levels` is where the candidate comes from (itself when there is no pyramid).
-      int cx = level < levels ? 2 * x : x, cy = level < levels ? 2 * y : y;
-      // A peak on the edge of the refinement window is followed uphill a few times.
-      for (int attempt = 0; attempt < 4; ++attempt) {
-        refine.search_window = ShiftWindow::Around(cx, cy, options.refine_radius_px);
-        const MaskedNccSurface surface =
-            MaskedNcc(orbital_pyramid[level].image, orbital_pyramid[level].mask,
-                      template_pyramid[level].image, template_pyramid[level].mask, refine);
-        fine = FindPeak(surface, fine_options);
-        if (!fine.found || !fine.on_border) break;
-        cx = fine.shift_x;
-        cy = fine.shift_y;
-      }
-      if (!fine.found) return fine;
-      x = fine.shift_x;
-      y = fine.shift_y;
-    }
-    return fine;
-  };
   const double exclusion_px = std::max(options.exclusion_radius_m / out.gsd_m, 3.0);
   std::vector<cv::Point> candidates =
       TopLocalMaxima(best.surface, options.candidates, std::max(1.0, exclusion_px / unit));
-  std::vector<NccPeak> refined;
-  for (const cv::Point& candidate : candidates) refined.push_back(refine_candidate(candidate));
+  std::vector<NccPeak> refined(candidates.size());
+  tbb::parallel_for(size_t{0}, candidates.size(),
+                    [&](size_t k) { refined[k] = search.Refine(template_pyramid, candidates[k]); });
   int best_index = -1;
   for (size_t k = 0; k < refined.size(); ++k) {
     if (refined[k].found && (best_index < 0 || refined[k].value > refined[best_index].value)) {
@@ -437,13 +520,6 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   // Rotation and scale refined at full resolution: a parabola through the peak values half a
   // grid step either side, then the shift again at the refined warp.
   MaskedImage final_template = warped;
-  const auto fine_peak_at = [&](const MaskedImage& t, int x, int y) {
-    MaskedNccOptions at = ncc_options;
-    at.search_window = ShiftWindow::Around(x, y, options.refine_radius_px);
-    return FindPeak(
-        MaskedNcc(orbital_pyramid[0].image, orbital_pyramid[0].mask, t.image, t.mask, at),
-        fine_options);
-  };
   for (int pass = 0; pass < 2; ++pass) {
     const bool is_rotation = pass == 0;
     if (is_rotation ? !(rotations.size() > 1) : !(scales.size() > 1)) continue;
@@ -452,16 +528,16 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
     for (int k = -1; k <= 1; k += 2) {
       const double r = out.rotation_rad + (is_rotation ? k * delta : 0.0);
       const double sc = out.scale + (is_rotation ? 0.0 : k * delta);
-      const NccPeak p = fine_peak_at(WarpTemplate(templ, r, sc), fine.shift_x, fine.shift_y);
+      const NccPeak p = search.PeakAt(0, WarpTemplate(templ, r, sc), fine.shift_x, fine.shift_y);
       v[k + 1] = p.found ? p.value : -1.0;
     }
     v[1] = fine.value;
-    const double offset = delta * 2.0 * vertex(v[0], v[1], v[2]);
+    const double offset = delta * 2.0 * ParabolaVertex(v[0], v[1], v[2]);
     if (offset == 0.0) continue;
     const double r = out.rotation_rad + (is_rotation ? offset : 0.0);
     const double sc = out.scale + (is_rotation ? 0.0 : offset);
     MaskedImage t = WarpTemplate(templ, r, sc);
-    const NccPeak p = fine_peak_at(t, fine.shift_x, fine.shift_y);
+    const NccPeak p = search.PeakAt(0, t, fine.shift_x, fine.shift_y);
     if (p.found && !p.on_border && p.value >= fine.value) {
       fine = p;
       out.rotation_rad = r;
@@ -477,6 +553,9 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   }();
   out.correlation = fine.value;
   out.sharpness = fine.sharpness;
+  const double expected_sharpness =
+      search.OwnSharpness(final_template) * std::max(out.correlation, 0.0);
+  out.relative_sharpness = expected_sharpness > 0.0 ? out.sharpness / expected_sharpness : 0.0;
   out.shift_px = Eigen::Vector2d(fine.subpixel_x - x0, fine.subpixel_y - y0);
   out.shift_en_m = en_per_px * out.shift_px;
   const double correlation_area =
@@ -487,21 +566,7 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   const auto corrected = orbital_grid.PixelToGeographic(rover_in_orbital + out.shift_px);
   if (corrected) out.corrected_position = *corrected;
 
-  // The verdict.
-  std::ostringstream why;
-  why.precision(3);
-  if (coarse_on_border) {
-    why << "the best peak lies on the edge of the search window";
-  } else if (fine.on_border) {
-    why << "the refined peak drifted to the edge of its refinement window";
-  } else if (out.correlation < options.min_correlation) {
-    why << "peak CC " << out.correlation << " < min_correlation " << options.min_correlation;
-  } else if (out.peak_ratio < options.min_peak_ratio) {
-    why << "peak ratio " << out.peak_ratio << " < min_peak_ratio " << options.min_peak_ratio;
-  } else if (out.sharpness < options.min_sharpness) {
-    why << "sharpness " << out.sharpness << " < min_sharpness " << options.min_sharpness;
-  }
-  out.reason = why.str();
+  out.reason = Verdict(out, coarse_on_border, fine.on_border, options);
   out.matched = out.reason.empty();
   Report(progress, 1.0, "register: done");
   return out;

@@ -1,6 +1,9 @@
 #include "areomap/registration/edge_verify.h"
 
+#include "areomap/registration/edge_histogram.h"
+
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <random>
 
@@ -62,6 +65,7 @@ OrbitalMatch* EdgeVerifyTest::match_ = nullptr;
 TEST_F(EdgeVerifyTest, EdgesOfACorrectMatchPairUpAndConfirmIt) {
   ASSERT_TRUE(match_->matched) << match_->BriefReport();
   const EdgeVerification v = VerifyMatchWithEdges(*match_);
+  std::printf("edges of a correct match: %s\n", v.BriefReport().c_str());
   EXPECT_GT(v.ortho_edges, 200);
   EXPECT_GT(v.orbital_edges, 200);
   int pairs = 0;
@@ -75,6 +79,11 @@ TEST_F(EdgeVerifyTest, EdgesOfACorrectMatchPairUpAndConfirmIt) {
   EXPECT_TRUE(v.consistent) << v.BriefReport();
   // The match is within 0.5 px; the edge fit's residual shift must agree to a pixel.
   EXPECT_LE(v.shift_px.norm(), 1.0) << v.BriefReport();
+
+  // Fig. 3.15 as a picture: 4 groups x 2 histograms, with ink on it.
+  const cv::Mat picture = WorldViewVectorHistogramImage(v);
+  EXPECT_EQ(picture.type(), CV_8UC3);
+  EXPECT_LT(cv::mean(picture)[0], 254.0);
 
   EdgeVerificationOptions similarity;
   similarity.fit_similarity = true;
@@ -90,6 +99,7 @@ TEST_F(EdgeVerifyTest, AMatchFourPixelsOffIsNotConfirmed) {
   OrbitalMatch wrong = *match_;
   wrong.shift_px += Eigen::Vector2d(4.0, -2.0);
   const EdgeVerification v = VerifyMatchWithEdges(wrong);
+  std::printf("edges of a match (4, -2) px off: %s\n", v.BriefReport().c_str());
   EXPECT_FALSE(v.consistent) << v.BriefReport();
   // The vote sees the offset: the fitted residual undoes it to a pixel.
   EXPECT_LE((v.shift_px - Eigen::Vector2d(-4.0, 2.0)).norm(), 1.0) << v.BriefReport();

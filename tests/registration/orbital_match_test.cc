@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "areomap/map/crs.h"
+#include "areomap/map/raster.h"
 #include "orbital_trial.h"
 #include "test_support.h"
 
@@ -108,7 +109,8 @@ TEST(OrbitalMatch, ASearchWindowLargerThanTheImageIsClippedAndStillMatches) {
   trial.prior.sigma_m = 30.0;  // 3 sigma = 90 m, on a 70 m image.
   const OrbitalMatch m = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);
   EXPECT_TRUE(m.window_clipped);
-  EXPECT_GT(m.levels, 0);
+  EXPECT_EQ(m.search_radius_px, 360);  // 90 m at 0.25 m.
+  EXPECT_FALSE(m.surface.empty());
   ASSERT_TRUE(m.matched) << m.BriefReport();
   EXPECT_LE(ErrorPx(m, trial), 0.5) << m.BriefReport();
 }
@@ -135,6 +137,41 @@ TEST(OrbitalMatchOptions, CheckNamesTheField) {
   options.template_options.min_coverage = 0.0;
   message = areomap::testing::ErrorMessageOf([&] { options.Check(); });
   EXPECT_NE(message.find("TemplateOptions.min_coverage"), std::string::npos) << message;
+}
+
+}  // namespace
+}  // namespace areomap
+
+namespace areomap {
+namespace {
+
+// The orthophoto on another Mars projection than the orbital image (a sinusoidal one on the
+// IAU sphere, warped by gdalwarp, independently of areomap), read back from a 2-band GeoTIFF
+// (values + validity mask): the match goes through planetocentric coordinates.
+TEST(OrbitalMatch, MatchesAnOrthoOnAnotherProjectionReadFromGeoTiff) {
+  TrialOptions o = SmallTrial(13);
+  o.decoy = false;
+  const Trial trial = MakeTrial(o);
+  const areomap::testing::TempDir dir;
+  GeoRaster raster;
+  cv::Mat mask;
+  trial.ortho.ValidMask().convertTo(mask, CV_32F, 1.0 / 255.0);
+  cv::Mat values = trial.ortho.image.clone();
+  values.setTo(0.0f, mask == 0.0f);
+  raster.bands = {values, mask};
+  raster.geotransform = trial.ortho.geotransform;
+  raster.crs_wkt = trial.ortho.crs_wkt;
+  WriteGeoTiff(dir.path() / "ortho.tif", raster);
+  const auto warped = dir.path() / "ortho_sinu.tif";
+  areomap::testing::RunCommand(
+      "gdalwarp -q -r bilinear -t_srs '+proj=sinu +lon_0=175 +R=3396190 +units=m +no_defs' " +
+      (dir.path() / "ortho.tif").string() + " " + warped.string());
+  const OrthoImage ortho = ReadOrthoImage(warped);
+  ASSERT_FALSE(ortho.mask.empty());
+  EXPECT_NE(ortho.crs_wkt, trial.orbital->crs_wkt());
+  const OrbitalMatch m = MatchOrthoToOrbital(ortho, *trial.orbital, trial.prior);
+  ASSERT_TRUE(m.matched) << m.BriefReport();
+  EXPECT_LE(ErrorPx(m, trial), 0.5) << m.BriefReport();
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <numbers>
 #include <optional>
 #include <random>
+#include <vector>
 
 #include <Eigen/Core>
 #include <opencv2/imgproc.hpp>
@@ -30,6 +31,10 @@ struct TrialOptions {
   double telemetry_sigma_m = 4.0;  // Telemetry error per axis, 1 sigma [m].
   double heading_error_deg = 0.0;  // Rotation of the ortho's georeference about the rover.
   bool decoy = true;
+  // Resolution falls with range in a rover orthophoto: a Navcam pixel (0.76 mrad) seen from
+  // the mast (1.5 m) covers r^2 IFOV / h metres of ground along the line of sight, 0.3 m at
+  // 25 m. Modelled as an isotropic Gaussian of half that footprint (1 sigma), in range bands.
+  bool range_blur = true;
 };
 
 struct Trial {
@@ -83,6 +88,35 @@ inline cv::Mat RoverFanMask(cv::Size size, double gsd_m, double azimuth_deg, dou
   return mask;
 }
 
+// See TrialOptions::range_blur. The rover stands at the image centre.
+inline void BlurWithRange(cv::Mat& image, double gsd_m) {
+  constexpr double kIfov = 0.76e-3, kMastHeight = 1.5;
+  const cv::Mat sharp = image.clone();
+  const double cx = image.cols / 2.0, cy = image.rows / 2.0;
+  const double max_range = std::hypot(cx, cy) * gsd_m;
+  constexpr int kBands = 6;
+  std::vector<cv::Mat> blurred;
+  std::vector<double> band_range;
+  for (int b = 0; b <= kBands; ++b) {
+    const double r = max_range * b / kBands;
+    const double sigma_px = 0.5 * r * r * kIfov / kMastHeight / gsd_m;
+    cv::Mat out = sharp.clone();
+    if (sigma_px > 0.3) cv::GaussianBlur(sharp, out, cv::Size(), sigma_px, sigma_px);
+    blurred.push_back(out);
+    band_range.push_back(r);
+  }
+  for (int r = 0; r < image.rows; ++r) {
+    for (int c = 0; c < image.cols; ++c) {
+      const double range = std::hypot(c + 0.5 - cx, r + 0.5 - cy) * gsd_m;
+      const double t = std::min(range / max_range * kBands, kBands - 1e-9);
+      const int b = static_cast<int>(t);
+      const double f = t - b;
+      image.at<float>(r, c) = static_cast<float>((1 - f) * blurred[b].at<float>(r, c) +
+                                                 f * blurred[b + 1].at<float>(r, c));
+    }
+  }
+}
+
 inline Trial MakeTrial(const TrialOptions& o) {
   std::mt19937 rng(o.seed * 7919u + 13u);
   std::normal_distribution<double> gauss(0.0, 1.0);
@@ -119,6 +153,7 @@ inline Trial MakeTrial(const TrialOptions& o) {
       RenderOrbitalProducts(scene, georef, o.ortho_half_extent_m, 1.0, rover);
   trial.ortho.source = "ortho";
   render.image.bands[0].convertTo(trial.ortho.image, CV_32F);
+  if (o.range_blur) BlurWithRange(trial.ortho.image, o.ortho_gsd_m);
   trial.ortho.mask = RoverFanMask(trial.ortho.image.size(), o.ortho_gsd_m, 360.0 * u(rng),
                                   120.0 + 120.0 * u(rng), o.ortho_half_extent_m, rng);
   trial.ortho.crs_wkt = render.image.crs_wkt;

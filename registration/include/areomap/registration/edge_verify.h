@@ -35,7 +35,9 @@ struct EdgeVerificationOptions {
   double fit_radius_px = 6.0;        // Translation fit: offsets up to this are voted on [px], > 0.
   double inlier_threshold_px = 1.0;  // Consensus / RANSAC inlier distance [px], > 0.
   double max_residual_shift_px = 1.0;  // Consistent if the fitted shift is at most this [px].
-  double min_inlier_fraction = 0.3;    // ... and this fraction of pattern pairs agree.
+  double min_inlier_fraction = 0.3;    // ... and this fraction of the fitted points agree (all
+                                       // ortho edge points for the translation vote, the
+                                       // pattern pairs for the similarity).
 
   // Throws areomap::Error naming the field and the rule it broke.
   void Check() const;
@@ -61,7 +63,9 @@ struct EdgeVerification {
   int pattern_pairs = 0;  // Pairs whose world-view vectors match.
 
   // The residual transform orbital = scale R(rotation) (ortho - centre) + centre + shift,
-  // fitted robustly on the pattern pairs (rotation 0 and scale 1 for a translation fit).
+  // fitted robustly (rotation 0 and scale 1 for a translation fit). For a translation,
+  // inliers are the ortho edge points with an orbital edge within inlier_threshold_px of
+  // their shifted position; for a similarity, the RANSAC inliers among the pattern pairs.
   bool fitted = false;
   Eigen::Vector2d shift_px = Eigen::Vector2d::Zero();
   double rotation_rad = 0.0;

@@ -3,13 +3,16 @@
 // Method (ch. 3.4.2, made automatic and nodata-aware): the orthophoto is resampled to the
 // orbital grid (orbital_template.h), then matched by masked normalized cross-correlation in the
 // Fourier domain (masked_ncc.h, Padfield 2012) coarse-to-fine over a pyramid: the whole search
-// window (the prior position +- search_sigmas x its 1-sigma radius) at the coarsest level, a
-// few pixels around the doubled peak at each finer one, a quadratic subpixel fit at full
-// resolution. An optional grid of small rotations (heading error) and scale changes is tried
-// at the coarsest level and the best refined by a parabola. Like JPL's Mars Global
-// Localization and VICAR marsautoloco, the answer comes with its confidence: the peak CC, the
-// ratio of the best to the second-best separated peak, and the peak's sharpness; a match that
-// fails a threshold is reported as "no match" with the reason, never as a position.
+// window (the prior position +- search_sigmas x its 1-sigma radius) at the coarsest level, then
+// the best `candidates` coarse peaks each followed down the pyramid in 3 x 3 windows, a
+// quadratic subpixel fit at full resolution. An optional grid of small rotations (heading
+// error) and scale changes is tried at the coarsest level, the best refined by a parabola there
+// and again at full resolution. Like JPL's Mars Global Localization and VICAR marsautoloco, the
+// answer comes with its confidence: the peak CC, the ratio of the best to the best separated
+// runner-up (both at full resolution), and the peak's sharpness relative to the template's own
+// autocorrelation; a match that fails a threshold is reported as "no match" with the reason,
+// never as a position. The shift's covariance follows Forstner's correlation precision plus a
+// floor (OrbitalMatchOptions::subpixel_floor_px). Cost: ~0.05-0.3 s per site (docs/benchmarks.md).
 //
 // Frames and units: shifts are in orbital pixels (columns, rows; GDAL pixel convention) and in
 // metres east/north in the local level frame at the rover; rotations in radians, counter-
@@ -41,9 +44,9 @@ struct OrbitalMatchOptions {
   double search_sigmas = 3.0;     // Search window half side = this x prior sigma, > 0.
   int max_coarse_radius_px = 24;  // Pyramid depth: coarsest search radius <= this [px], >= 4.
   int max_levels = 4;             // At most this many halvings, >= 0.
-  int min_template_px = 24;       // Coarsest template's shorter side >= this [px], >= 8.
-  int refine_radius_px = 2;       // Search radius at each finer level [px], >= 1.
-  int candidates = 4;             // Coarse peaks followed to full resolution, >= 2.
+  int min_template_px = 32;       // Coarsest template's shorter side >= this [px], >= 8.
+  int refine_radius_px = 1;       // Search radius at each finer level [px], >= 1.
+  int candidates = 6;             // Coarse peaks followed to full resolution, >= 2.
   // A runner-up counts as a second peak only if the coarse surface dips at least this much
   // [NCC] between it and the best (otherwise it sits on the best peak's slope), >= 0.
   double min_valley = 0.02;
@@ -54,9 +57,12 @@ struct OrbitalMatchOptions {
   double min_overlap_fraction = 0.7;  // Of the template's valid pixels, for a shift to count.
   double min_correlation = 0.3;       // Confident only if the full-resolution NCC >= this.
   double min_peak_ratio = 1.25;       // ... and best / second-best separated peak >= this, >= 1.
-  double min_sharpness = 0.03;        // ... and the mean NCC drop to the 8 neighbours >= this.
-  double exclusion_radius_m = 3.0;    // A second peak is one farther than this from the best [m].
-  int min_template_pixels = 400;      // Fewer valid template pixels at full resolution: no match.
+  // ... and the peak is sharp: its mean NCC drop to the 8 neighbours is at least this
+  // fraction of what a perfect match of this template would show (CC x the drop of the
+  // template's own autocorrelation), in [0, 1]. Spurious peaks from smooth shading are broad.
+  double min_relative_sharpness = 0.4;
+  double exclusion_radius_m = 3.0;  // Runner-ups lie farther than this [m] and 3 px from the best.
+  int min_template_pixels = 400;    // Fewer valid template pixels at full resolution: no match.
   // Accuracy floor of area correlation between images of different sensors and illumination
   // (shading moves edges; resampling), added in quadrature to the noise-driven sigma [px].
   double subpixel_floor_px = 0.15;  // >= 0.
@@ -89,10 +95,11 @@ struct OrbitalMatch {
   double correlation = 0.0;  // NCC at the full-resolution peak.
   double peak_ratio = 0.0;   // Best / best separated runner-up, both refined to full resolution.
   double sharpness = 0.0;    // Mean NCC drop to the 8 neighbours at full resolution.
-  double gsd_m = 0.0;        // Orbital pixel size at the rover [m].
-  int levels = 0;            // Pyramid halvings used.
-  int search_radius_px = 0;  // Full-resolution search radius [px].
-  int template_pixels = 0;   // Valid template pixels at full resolution.
+  double relative_sharpness = 0.0;  // sharpness / (CC x the template autocorrelation's drop).
+  double gsd_m = 0.0;               // Orbital pixel size at the rover [m].
+  int levels = 0;                   // Pyramid halvings used.
+  int search_radius_px = 0;         // Full-resolution search radius [px].
+  int template_pixels = 0;          // Valid template pixels at full resolution.
 
   // The correlation surface of the whole search window at the coarsest level (CV_32F, NaN where
   // undefined), one pixel per 2^levels orbital pixels; surface_shift0 is the correction

@@ -1,0 +1,212 @@
+// areomap register ORTHO ORBITAL... --out DIR: put a rover orthophoto where it belongs on
+// orbital images (masked NCC, coarse to fine), verify by edges, write control points.
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+#include <vector>
+
+#include "areomap/map/atomic_file.h"
+#include "areomap/map/error.h"
+#include "areomap/map/image_io.h"
+#include "areomap/registration/edge_histogram.h"
+#include "areomap/registration/edge_verify.h"
+#include "areomap/registration/orbital_grid.h"
+#include "areomap/registration/orbital_match.h"
+#include "areomap/registration/orbital_report.h"
+#include "commands.h"
+
+namespace areomap::cli {
+namespace {
+
+struct RegisterArgs {
+  std::string ortho;
+  std::vector<std::string> orbitals;
+  std::string out_dir;
+  std::optional<double> prior_lat_deg;
+  std::optional<double> prior_lon_deg;
+  double prior_height_m = 0.0;
+  double prior_sigma_m = 10.0;
+  std::string orbital_dtm;
+  std::optional<int> site;
+  bool similarity = false;
+  OrbitalMatchOptions match;
+  ControlPointOptions control;
+};
+
+constexpr double kNoData = -3.4028227e+38;
+
+void WriteRegisteredOrtho(const std::filesystem::path& path, const OrthoImage& ortho,
+                          const GeoTransform& corrected) {
+  GeoRaster raster;
+  cv::Mat values = ortho.image.clone();
+  values.setTo(kNoData, ~ortho.ValidMask());
+  raster.bands = {values};
+  raster.band_names = {"orthophoto"};
+  raster.geotransform = corrected;
+  raster.crs_wkt = ortho.crs_wkt;
+  raster.nodata = kNoData;
+  WriteGeoTiff(path, raster);
+}
+
+void Run(RegisterArgs& args, const GlobalOptions& global) {
+  args.match.Check();
+  args.control.Check();
+  RequireOption(args.prior_lat_deg.has_value() == args.prior_lon_deg.has_value(),
+                "--prior-lat/--prior-lon", "both or neither");
+  OrthoImage ortho = ReadOrthoImage(args.ortho);
+  const PixelGrid ortho_grid(ortho.geotransform, ortho.crs_wkt, ortho.source);
+  OrbitalPrior prior;
+  prior.sigma_m = args.prior_sigma_m;
+  if (args.prior_lat_deg) {
+    prior.position = {RadFromDeg(*args.prior_lat_deg), RadFromDeg(*args.prior_lon_deg),
+                      args.prior_height_m};
+  } else {
+    // Without telemetry: the orthophoto's centre as its georeference has it.
+    const auto centre =
+        ortho_grid.PixelToGeographic({ortho.image.cols / 2.0, ortho.image.rows / 2.0});
+    if (!centre) throw Error(args.ortho + ": its centre lies outside its CRS's domain");
+    prior.position = {centre->lat, centre->lon, args.prior_height_m};
+  }
+  if (args.site) {
+    ortho.site = *args.site;
+    ortho.site_origin = prior.position;
+  }
+  std::vector<OrbitalImage> orbitals;
+  for (const std::string& path : args.orbitals) orbitals.push_back(OrbitalImage::Open(path));
+  std::optional<OrbitalImage> dtm;
+  if (!args.orbital_dtm.empty()) dtm = OrbitalImage::Open(args.orbital_dtm);
+
+  const ProgressCallback progress = MakeProgressBar(global, "register");
+  const MultiOrbitalMatch result = MatchOrthoToOrbitals(
+      ortho, orbitals, prior, args.match,
+      [&](double fraction, std::string_view stage) { return progress(0.9 * fraction, stage); });
+  bool any_overlap = false;
+  for (const OrbitalMatch& m : result.matches) any_overlap = any_overlap || m.overlaps;
+  if (!any_overlap) {
+    throw Error(
+        "no orbital image overlaps the search window: " +
+        std::to_string(static_cast<int>(std::lround(args.match.search_sigmas * prior.sigma_m))) +
+        " m around latitude " + std::to_string(DegFromRad(prior.position.lat)) + ", longitude " +
+        std::to_string(DegFromRad(prior.position.lon)) + " deg");
+  }
+
+  PrepareOutputFolder(args.out_dir);
+  const std::filesystem::path out(args.out_dir);
+  nlohmann::json summary = {{"command", "register"},
+                            {"ortho", args.ortho},
+                            {"prior",
+                             {{"lat_deg", DegFromRad(prior.position.lat)},
+                              {"lon_deg", DegFromRad(prior.position.lon)},
+                              {"sigma_m", prior.sigma_m}}},
+                            {"matches", nlohmann::json::array()}};
+  for (size_t k = 0; k < result.matches.size(); ++k) {
+    const OrbitalMatch& m = result.matches[k];
+    nlohmann::json j = MatchJson(m);
+    if (!m.surface.empty()) {
+      const std::string name = "cc_surface_" + std::to_string(k) + ".png";
+      WriteImage(out / name, CorrelationSurfaceImage(m));
+      j["cc_surface_png"] = name;
+    }
+    summary["matches"].push_back(j);
+  }
+  summary["matched"] = result.best >= 0;
+  if (result.best >= 0) {
+    const OrbitalMatch& best = result.matches[result.best];
+    const OrbitalImage& orbital = orbitals[result.best];
+    summary["best"] = result.best;
+    EdgeVerificationOptions edge_options;
+    edge_options.fit_similarity = args.similarity;
+    const EdgeVerification edges = VerifyMatchWithEdges(best, edge_options);
+    WriteImage(out / "wvv_histograms.png", WorldViewVectorHistogramImage(edges));
+    summary["edges"] = {
+        {"ortho_edges", edges.ortho_edges},
+        {"orbital_edges", edges.orbital_edges},
+        {"pairs_per_group_0_1_2_3_px", edges.pairs_per_group},
+        {"ortho_rate", edges.ortho_rate},
+        {"orbital_rate", edges.orbital_rate},
+        {"world_view_vector_matches", edges.pattern_pairs},
+        {"fitted", edges.fitted},
+        {"residual_shift_px", {edges.shift_px.x(), edges.shift_px.y()}},
+        {"residual_rotation_deg", DegFromRad(edges.rotation_rad)},
+        {"residual_scale", edges.scale},
+        {"inliers", edges.inliers},
+        {"rms_px", std::isfinite(edges.rms_px) ? nlohmann::json(edges.rms_px) : nlohmann::json()},
+        {"consistent", edges.consistent},
+        {"histograms_png", "wvv_histograms.png"}};
+    const std::vector<OrbitalControlPoint> points =
+        MakeControlPoints(best, ortho, orbital, prior, dtm, args.control);
+    WriteFileAtomically(out / "control_points.json", ControlPointsJson(points).dump(2) + "\n");
+    WriteFileAtomically(out / "control_points.csv", ControlPointsCsv(points));
+    WriteRegisteredOrtho(out / "registered_ortho.tif", ortho,
+                         CorrectedGeoTransform(best, ortho, orbital));
+    summary["control_points"] = points.size();
+    summary["control_points_json"] = "control_points.json";
+    summary["control_points_csv"] = "control_points.csv";
+    summary["registered_ortho"] = "registered_ortho.tif";
+    if (!global.quiet) {
+      std::cout << "edges: " << edges.BriefReport() << "\n";
+    }
+  }
+  WriteSummary(out, summary);
+  progress(1.0, "done");
+  if (!global.quiet) {
+    for (const OrbitalMatch& m : result.matches) std::cout << m.BriefReport() << "\n";
+    if (result.best >= 0) {
+      std::cout << "best: " << result.matches[result.best].orbital << "\n";
+    } else {
+      std::cout << "no match: no orbital image gives a confident match\n";
+    }
+  }
+}
+
+}  // namespace
+
+void AddRegisterCommand(CLI::App& app, const GlobalOptions& global) {
+  auto args = std::make_shared<RegisterArgs>();
+  auto* cmd = app.add_subcommand(
+      "register", "Register a rover orthophoto onto orbital images (masked NCC, edge check)");
+  cmd->add_option("ortho", args->ortho, "Rover orthophoto GeoTIFF (nodata or band 2 = mask)")
+      ->required();
+  cmd->add_option("orbital", args->orbitals, "Orbital images (any Mars GDAL raster)")->required();
+  cmd->add_option("--out", args->out_dir, "Output folder (created if needed)")->required();
+  auto* prior = cmd->add_option_group("Prior (telemetry)");
+  prior->add_option("--prior-lat", args->prior_lat_deg,
+                    "Rover planetocentric latitude [deg] (default: the ortho's centre)");
+  prior->add_option("--prior-lon", args->prior_lon_deg, "Rover east longitude [deg]");
+  prior
+      ->add_option("--prior-height", args->prior_height_m,
+                   "Height above the ellipsoid used without a DTM [m]")
+      ->capture_default_str();
+  prior
+      ->add_option("--prior-sigma-m", args->prior_sigma_m,
+                   "Horizontal 1-sigma of the prior [m]; the search covers 3 sigma")
+      ->capture_default_str();
+  cmd->add_option("--orbital-dtm", args->orbital_dtm, "Orbital DTM for control point heights");
+  cmd->add_option("--site", args->site,
+                  "MER site index: control points also in its site frame (origin: the prior)");
+  auto* matching = cmd->add_option_group("Matching");
+  matching
+      ->add_option("--range-m", args->match.template_options.reliable_range_m,
+                   "Reliable range kept around the rover [m] (0 = all)")
+      ->capture_default_str();
+  matching
+      ->add_option("--max-rotation-deg", args->match.max_rotation_deg,
+                   "Rotation (heading error) searched: +-this [deg]")
+      ->capture_default_str();
+  matching
+      ->add_option("--max-scale-change", args->match.max_scale_change, "Scale searched: 1 +- this")
+      ->capture_default_str();
+  matching
+      ->add_option("--min-correlation", args->match.min_correlation, "No match below this peak CC")
+      ->capture_default_str();
+  matching
+      ->add_option("--min-peak-ratio", args->match.min_peak_ratio,
+                   "No match below this best / second-best peak ratio")
+      ->capture_default_str();
+  matching->add_flag("--similarity", args->similarity,
+                     "Edge refinement fits a similarity instead of a translation");
+  cmd->callback([args, &global] { Run(*args, global); });
+}
+
+}  // namespace areomap::cli
