@@ -70,6 +70,8 @@ TEST(DetectCratersInRaster, TilesAndOverviewFindSmallAndLargeCraters) {
   options.sun_azimuth_deg = 90.0;
   options.tile_size = 400;
   options.tile_overlap = 96;
+  options.min_diameter_px = 12.0;
+  options.upsample_small_craters = false;  // every crater here is >= 18 px across
   int progress_calls = 0;
   const std::vector<CraterDetection> found =
       DetectCratersInRaster(dataset, RimSource::kImage, options, [&](double, std::string_view) {
