@@ -3,12 +3,16 @@
 #include <filesystem>
 #include <fstream>
 
+#include <gdal_priv.h>
 #include <gtest/gtest.h>
+#include <ogrsf_frmts.h>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/crater/crater_output.h"
 #include "areomap/crater/crater_score.h"
+#include "areomap/map/crs.h"
 #include "areomap/map/error.h"
+#include "areomap/map/geodesy.h"
 #include "test_support.h"
 
 namespace areomap {
@@ -66,6 +70,8 @@ TEST(DetectCratersInRaster, TilesAndOverviewFindSmallAndLargeCraters) {
   options.sun_azimuth_deg = 90.0;
   options.tile_size = 400;
   options.tile_overlap = 96;
+  options.min_diameter_px = 12.0;
+  options.upsample_small_craters = false;  // every crater here is >= 18 px across
   int progress_calls = 0;
   const std::vector<CraterDetection> found =
       DetectCratersInRaster(dataset, RimSource::kImage, options, [&](double, std::string_view) {
@@ -102,6 +108,48 @@ TEST(DetectCratersInRaster, TilesAndOverviewFindSmallAndLargeCraters) {
   EXPECT_EQ(ReadCraterCsv(dir / "craters.csv").size(), found.size());
   EXPECT_THROW(WriteCratersGeoPackage(dir / "craters.gpkg", catalog), Error);
   EXPECT_FALSE(std::filesystem::exists(dir / "craters.gpkg"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(CraterOutput, GeoPackageCarriesTheMarsCrsAndLatLon) {
+  RasterInfo info;
+  info.path = "synthetic.tif";
+  info.width = info.height = 100;
+  // 10 m pixels, equirectangular with standard parallel 14.5 S, centre meridian 175.5 E: map
+  // (0, 0) is on the equator at 175.5 E.
+  info.geotransform = GeoTransform::NorthUp(-500.0, 500.0, 10.0, 10.0);
+  info.crs_wkt =
+      ProjectedCrsWkt(Body::Mars2000(), "Equirectangular",
+                      {{"center_lat", RadFromDeg(-14.5)}, {"center_lon", RadFromDeg(175.5)}});
+  CraterDetection d;
+  d.ellipse = Ellipse{{50.0, 50.0}, 8.0, 6.0, 0.3};
+  const CraterCatalog catalog = MakeCraterCatalog({d}, info);
+  ASSERT_TRUE(catalog.IsGeoreferenced());
+  EXPECT_DOUBLE_EQ(catalog.pixel_size_m, 10.0);
+  const CatalogCrater& c = catalog.craters.at(0);
+  EXPECT_DOUBLE_EQ(c.semi_major_m, 80.0);
+  ASSERT_TRUE(c.lat_deg && c.lon_deg);
+  EXPECT_NEAR(*c.lat_deg, 0.0, 1e-9);  // the pixel centre (50, 50) is map (0, 0)
+  EXPECT_NEAR(*c.lon_deg, 175.5, 1e-6);
+  const auto dir = std::filesystem::temp_directory_path() / "areomap_crater_gpkg_test";
+  std::filesystem::create_directories(dir);
+  WriteCratersGeoPackage(dir / "craters.gpkg", catalog);
+  GDALAllRegister();
+  std::unique_ptr<GDALDataset> ds(
+      GDALDataset::Open((dir / "craters.gpkg").c_str(), GDAL_OF_VECTOR));
+  ASSERT_TRUE(ds);
+  OGRLayer* layer = ds->GetLayerByName("craters");
+  ASSERT_NE(layer, nullptr);
+  EXPECT_EQ(layer->GetFeatureCount(), 1);
+  ASSERT_NE(layer->GetSpatialRef(), nullptr);
+  EXPECT_NEAR(layer->GetSpatialRef()->GetSemiMajor(), Body::Mars2000().a, 30000.0);
+  std::unique_ptr<OGRFeature> feature(layer->GetNextFeature());
+  ASSERT_TRUE(feature);
+  EXPECT_NEAR(feature->GetFieldAsDouble("lon_deg"), 175.5, 1e-6);
+  OGREnvelope envelope;
+  feature->GetGeometryRef()->getEnvelope(&envelope);
+  EXPECT_NEAR(envelope.MaxX - envelope.MinX, 2 * 80.0, 40.0);  // rotated 8 x 6 px ellipse
+  ds.reset();
   std::filesystem::remove_all(dir);
 }
 
