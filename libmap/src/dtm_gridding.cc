@@ -234,19 +234,34 @@ void InterpolateInverseDistance(const std::vector<GridPoint>& points, const Buck
   const GridSpec& g = out.grid;
   const double radius2 = options.idw_radius_m * options.idw_radius_m;
   const int reach = buckets.margin;
+  const bool square_power = options.idw_power == 2.0;
+  const size_t max_points = static_cast<size_t>(options.idw_max_points);
   tbb::enumerable_thread_specific<std::vector<std::pair<double, uint32_t>>> scratch;
   tbb::parallel_for(0, g.height, [&](int row) {
     std::vector<std::pair<double, uint32_t>>& near = scratch.local();
     for (int col = 0; col < g.width; ++col) {
       const Eigen::Vector2d center = g.CellCenter(col, row);
       near.clear();
-      for (int r = row - reach; r <= row + reach; ++r) {
-        for (int c = col - reach; c <= col + reach; ++c) {
-          const auto [begin, end] = buckets.Cell(c, r);
-          for (const uint32_t* it = begin; it != end; ++it) {
-            const double d2 = (points[*it].xyz.head<2>() - center).squaredNorm();
-            if (d2 <= radius2) near.emplace_back(d2, *it);
+      // Rings of buckets outward; stop once the k-th nearest is nearer than the next ring.
+      for (int ring = 0; ring <= reach; ++ring) {
+        for (int r = row - ring; r <= row + ring; ++r) {
+          const bool full_row = ring == 0 || r == row - ring || r == row + ring;
+          for (int c = col - ring; c <= col + ring; c += full_row ? 1 : 2 * ring) {
+            // Skip buckets wholly outside the radius (their nearest point to the centre).
+            const double gap_x = std::max(0, std::abs(c - col) - 1) * g.posting;
+            const double gap_y = std::max(0, std::abs(r - row) - 1) * g.posting;
+            if (gap_x * gap_x + gap_y * gap_y > radius2) continue;
+            const auto [begin, end] = buckets.Cell(c, r);
+            for (const uint32_t* it = begin; it != end; ++it) {
+              const double d2 = (points[*it].xyz.head<2>() - center).squaredNorm();
+              if (d2 <= radius2) near.emplace_back(d2, *it);
+            }
           }
+        }
+        if (near.size() >= max_points) {
+          std::nth_element(near.begin(), near.begin() + (max_points - 1), near.end());
+          const double beyond = (ring + 0.5) * g.posting;
+          if (near[max_points - 1].first <= beyond * beyond) break;
         }
       }
       if (near.empty()) continue;
@@ -262,16 +277,13 @@ void InterpolateInverseDistance(const std::vector<GridPoint>& points, const Buck
         continue;
       }
       double weights = 0.0, weighted = 0.0;
-      for (const auto& [d2, index] : near) {
-        const double w = std::pow(d2, -0.5 * options.idw_power);
-        weights += w;
-        weighted += w * points[index].xyz.z();
+      for (auto& [d2, index] : near) {
+        d2 = square_power ? 1.0 / d2 : std::pow(d2, -0.5 * options.idw_power);  // Now w.
+        weights += d2;
+        weighted += d2 * points[index].xyz.z();
       }
       out.elevation.at<float>(row, col) = static_cast<float>(weighted / weights);
-      for (const auto& [d2, index] : near) {
-        sums.Add(col, row, std::pow(d2, -0.5 * options.idw_power) / weights,
-                 points[index].covariance);
-      }
+      for (const auto& [w, index] : near) sums.Add(col, row, w / weights, points[index].covariance);
     }
   });
 }
