@@ -13,5 +13,7 @@ void AddCoordsCommand(CLI::App& app, const GlobalOptions& global);
 void AddCameraCommand(CLI::App& app, const GlobalOptions& global);
 void AddSampleCommand(CLI::App& app, const GlobalOptions& global);
 void AddSimulateCommand(CLI::App& app, const GlobalOptions& global);
+void AddOrthoCommand(CLI::App& app, const GlobalOptions& global);
+void AddMosaicCommand(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace areomap::cli

@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   areomap::cli::AddCameraCommand(app, global);
   areomap::cli::AddSampleCommand(app, global);
   areomap::cli::AddSimulateCommand(app, global);
+  areomap::cli::AddOrthoCommand(app, global);
+  areomap::cli::AddMosaicCommand(app, global);
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

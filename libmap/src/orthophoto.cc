@@ -266,4 +266,26 @@ void WriteOrthophoto(const std::filesystem::path& path, const Orthophoto& ortho)
   WriteGeoTiff(path, ortho.ToGeoRaster());
 }
 
+Orthophoto ReadOrthophoto(const std::filesystem::path& path) {
+  const RasterDataset dataset = RasterDataset::Open(path);
+  const RasterInfo& info = dataset.info();
+  if (info.band_count != 4) {
+    throw Error(path.string() +
+                ": expected an areomap orthophoto (4 bands: image, valid, resolution_m, "
+                "source_id), found " +
+                std::to_string(info.band_count) + " band(s)");
+  }
+  Orthophoto ortho;
+  ortho.grid = GridOfRaster(info, path.string());
+  ortho.crs_wkt = info.crs_wkt;
+  const PixelWindow all = dataset.FullWindow();
+  ortho.image = dataset.ReadWindowFloat(1, all);
+  cv::Mat valid = dataset.ReadWindowFloat(2, all), id = dataset.ReadWindowFloat(4, all);
+  valid.convertTo(ortho.valid, CV_8U);
+  id.convertTo(ortho.source_id, CV_32S);
+  ortho.resolution = dataset.ReadWindowFloat(3, all);
+  ortho.valid_cells = cv::countNonZero(ortho.valid);
+  return ortho;
+}
+
 }  // namespace areomap
