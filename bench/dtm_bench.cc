@@ -3,6 +3,7 @@
 // search to a radius) on the same points and the same grid, run from this process.
 //
 //   build/release/bench/areomap_bench_dtm [points_per_site_step_rad]
+//   build/release/bench/areomap_bench_dtm --demo-accuracy DTM.tif SITE   (see DemoAccuracyMain)
 //
 // Points: a full Navcam-like panorama simulated from the generator's scene (viewshed, eq. 4.3
 // noise), carried onto the site's local map; ~1 M points with the default 2e-3 rad step.
@@ -15,6 +16,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -32,6 +34,7 @@
 #include "areomap/map/dtm.h"
 #include "areomap/map/error.h"
 #include "areomap/map/raster.h"
+#include "areomap/samples/mission.h"
 #include "areomap/samples/orbital.h"
 #include "areomap/samples/simulated_points.h"
 
@@ -313,12 +316,74 @@ int BenchMain(const char* self, double step_rad) {
   return 0;
 }
 
+// --demo-accuracy DTM.tif SITE: a DTM of the `demo` mission (seed 1, e.g. `areomap stereo` +
+// `areomap dtm --poses truth`) against the scene's true heights, which are rebuilt here exactly
+// as GenerateMission builds them; RMS error, RMS sigma and coverage per range bin from SITE.
+int DemoAccuracyMain(const std::filesystem::path& dtm_path, int site) {
+  const MissionOptions options = MissionOptions::Preset("demo");
+  const Traverse traverse =
+      PlanTraverse(options.traverse, options.telemetry, options.scene.half_extent_m, options.seed);
+  SceneOptions scene_options = options.scene;
+  scene_options.seed = options.seed;
+  for (const SitePose& p : traverse.truth) {
+    scene_options.rock_path.emplace_back(p.position.y(), p.position.x());
+  }
+  const Scene scene(scene_options);
+  SceneGeoreference georef;
+  georef.origin = {RadFromDeg(options.site_lat_deg), RadFromDeg(options.site_lon_deg),
+                   scene.GroundHeightAt(0.0, 0.0)};
+  const MapFrame map = MapFrame::LocalEquirectangular(georef.body, georef.origin);
+  const Rigid3d enu_from_mbf = georef.EnuFromMbf();
+  const Eigen::Vector2d site_enu(traverse.truth.at(static_cast<size_t>(site)).position.y(),
+                                 traverse.truth.at(static_cast<size_t>(site)).position.x());
+  const Dtm dtm = ReadDtm(dtm_path);
+  const GriddedLayers& l = dtm.layers;
+  constexpr std::array<double, 5> edges{0.0, 5.0, 10.0, 15.0, 25.0};
+  std::array<double, 4> squared_error{}, squared_sigma{};
+  std::array<int, 4> known{}, area{}, outliers{};
+  for (int row = 0; row < l.grid.height; ++row) {
+    for (int col = 0; col < l.grid.width; ++col) {
+      const Eigen::Vector2d xy = l.grid.CellCenter(col, row);
+      const float z = l.elevation.at<float>(row, col);
+      const Eigen::Vector3d enu =
+          enu_from_mbf * map.MbfFromMap({xy.x(), xy.y(), std::isfinite(z) ? z : georef.origin.h});
+      const double range = (enu.head<2>() - site_enu).norm();
+      if (range >= edges.back()) continue;
+      const size_t bin = static_cast<size_t>(std::upper_bound(edges.begin(), edges.end(), range) -
+                                             edges.begin() - 1);
+      ++area[bin];
+      if (!std::isfinite(z)) continue;
+      const double error = z - scene.HeightAt(enu.x(), enu.y());
+      const double sigma = l.sigma.at<float>(row, col);
+      ++known[bin];
+      squared_error[bin] += error * error;
+      squared_sigma[bin] += sigma * sigma;
+      outliers[bin] += std::abs(error) > 3.0 * sigma ? 1 : 0;
+    }
+  }
+  std::printf(
+      "| range | cells known | coverage of the disc | RMS error | RMS sigma | ratio | |error| > 3 "
+      "sigma |\n|---|---:|---:|---:|---:|---:|---:|\n");
+  for (size_t b = 0; b < 4; ++b) {
+    const int n = std::max(known[b], 1);
+    std::printf("| %.0f-%.0f m | %d | %.1f %% | %.4f m | %.4f m | %.2f | %.1f %% |\n", edges[b],
+                edges[b + 1], known[b], 100.0 * known[b] / std::max(area[b], 1),
+                std::sqrt(squared_error[b] / n), std::sqrt(squared_sigma[b] / n),
+                std::sqrt(squared_error[b] / std::max(squared_sigma[b], 1e-30)),
+                100.0 * outliers[b] / n);
+  }
+  return 0;
+}
+
 }  // namespace
 }  // namespace areomap
 
 int main(int argc, char** argv) {
   try {
     if (argc >= 10 && std::string(argv[1]) == "--child") return areomap::ChildMain(argv + 2);
+    if (argc == 4 && std::string(argv[1]) == "--demo-accuracy") {
+      return areomap::DemoAccuracyMain(argv[2], std::stoi(argv[3]));
+    }
     const double step = argc >= 2 ? std::stod(argv[1]) : 2e-3;
     return areomap::BenchMain("/proc/self/exe", step);
   } catch (const areomap::Error& e) {
