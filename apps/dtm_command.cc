@@ -31,6 +31,9 @@ struct Georeference {
   Body body = Body::Mars2000();
   Geographic origin;
   std::map<int, Eigen::Vector3d> site_positions;  // Empty: every cloud at --site-position.
+  // Rotation about the site's z (down) taking the frame the clouds were made in (the labels'
+  // telemetry heading) to the chosen poses' heading [rad]; 0 for telemetry poses.
+  std::map<int, double> heading_corrections;
 };
 
 Georeference ReadGeoreference(const DtmCommandOptions& o) {
@@ -46,6 +49,12 @@ Georeference ReadGeoreference(const DtmCommandOptions& o) {
         o.poses == "truth" ? manifest.truth_sites : manifest.telemetry;
     if (poses.empty()) throw Error(o.mission + ": the mission has no " + o.poses + " site poses");
     for (const MissionSitePose& p : poses) g.site_positions[p.site] = p.position;
+    for (const MissionSitePose& p : manifest.telemetry) {
+      g.heading_corrections[p.site] = o.poses == "truth" ? -p.heading : 0.0;
+    }
+    if (o.poses == "truth") {
+      for (const MissionSitePose& p : poses) g.heading_corrections[p.site] += p.heading;
+    }
     return g;
   }
   if (o.origin.size() != 3)
@@ -66,7 +75,9 @@ void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--out", o->out, "Output folder (created if needed)")->required();
   cmd->add_option("--mission", o->mission,
                   "Mission folder: origin and site poses (each cloud's site selects its pose)");
-  cmd->add_option("--poses", o->poses, "Site poses from the mission: telemetry or truth")
+  cmd->add_option("--poses", o->poses,
+                  "Site poses from the mission: telemetry or truth (truth also turns each cloud "
+                  "by the heading the labels' telemetry got wrong)")
       ->capture_default_str();
   cmd->add_option("--origin", o->origin,
                   "Without --mission: site 0's origin, planetocentric lat, east lon [deg], h [m]")
@@ -105,7 +116,10 @@ void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
     std::vector<SiteCloud> sites;
     for (size_t i = 0; i < clouds.size(); ++i) {
       Eigen::Vector3d position(o->site_position[0], o->site_position[1], o->site_position[2]);
+      double heading_correction = 0.0;
       if (!g.site_positions.empty()) {
+        const auto correction = g.heading_corrections.find(clouds[i].site);
+        if (correction != g.heading_corrections.end()) heading_correction = correction->second;
         const auto it = g.site_positions.find(clouds[i].site);
         if (it == g.site_positions.end()) {
           throw Error(o->clouds[i] + ": site " + std::to_string(clouds[i].site) +
@@ -113,9 +127,11 @@ void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
         }
         position = it->second;
       }
-      sites.push_back(
-          {&clouds[i], SiteGeoreference::InMission(
-                           g.body, g.origin, Rigid3d(Eigen::Quaterniond::Identity(), position))});
+      sites.push_back({&clouds[i], SiteGeoreference::InMission(
+                                       g.body, g.origin,
+                                       Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(
+                                                   heading_correction, Eigen::Vector3d::UnitZ())),
+                                               position))});
     }
     const MapFrame map = o->crs.empty() ? MapFrame::LocalEquirectangular(g.body, g.origin)
                                         : MapFrame::FromCrs(g.body, Crs::FromUserInput(o->crs));

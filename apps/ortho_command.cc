@@ -26,6 +26,7 @@ struct OrthoCommandOptions {
   std::string dtm, out;
   std::vector<double> origin;                        // lat [deg], lon [deg], h [m]
   std::vector<double> site_position{0.0, 0.0, 0.0};  // In the mission (site 0) frame [m].
+  double heading_correction_deg = 0.0;  // True minus the labels' (telemetry) heading [deg].
   OrthoOptions ortho;
 };
 
@@ -86,6 +87,10 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
       ->expected(3)
       ->delimiter(',')
       ->capture_default_str();
+  cmd->add_option("--heading-correction", o->heading_correction_deg,
+                  "True heading minus the labels' (telemetry) heading, e.g. from a bundle "
+                  "adjustment [deg, clockwise]")
+      ->capture_default_str();
   cmd->add_option("--out", o->out, "Output folder (created if needed)")->required();
   cmd->add_option("--max-range", o->ortho.max_range_m, "Paint cells up to this range [m]")
       ->capture_default_str();
@@ -100,7 +105,8 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
     if (!IsValid(origin)) throw Error("--origin: expected lat,lon,h with |lat| <= 90 degrees");
     const SiteGeoreference site = SiteGeoreference::InMission(
         body, origin,
-        Rigid3d(Eigen::Quaterniond::Identity(),
+        Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(RadFromDeg(o->heading_correction_deg),
+                                                     Eigen::Vector3d::UnitZ())),
                 Eigen::Vector3d(o->site_position[0], o->site_position[1], o->site_position[2])));
     const Dtm dtm = ReadDtm(o->dtm);
     const MapFrame map = MapFrame::FromCrs(body, Crs::FromWkt(dtm.crs_wkt, o->dtm));

@@ -4,6 +4,7 @@
 //
 //   build/release/bench/areomap_bench_dtm [points_per_site_step_rad]
 //   build/release/bench/areomap_bench_dtm --demo-accuracy DTM.tif SITE   (see DemoAccuracyMain)
+//   build/release/bench/areomap_bench_dtm --demo-ortho-accuracy ORTHO.tif SITE
 //
 // Points: a full Navcam-like panorama simulated from the generator's scene (viewshed, eq. 4.3
 // noise), carried onto the site's local map; ~1 M points with the default 2e-3 rad step.
@@ -30,9 +31,11 @@
 
 #include <tbb/global_control.h>
 #include <tbb/info.h>
+#include <opencv2/imgproc.hpp>
 
 #include "areomap/map/dtm.h"
 #include "areomap/map/error.h"
+#include "areomap/map/orthophoto.h"
 #include "areomap/map/raster.h"
 #include "areomap/samples/mission.h"
 #include "areomap/samples/orbital.h"
@@ -319,23 +322,101 @@ int BenchMain(const char* self, double step_rad) {
 // --demo-accuracy DTM.tif SITE: a DTM of the `demo` mission (seed 1, e.g. `areomap stereo` +
 // `areomap dtm --poses truth`) against the scene's true heights, which are rebuilt here exactly
 // as GenerateMission builds them; RMS error, RMS sigma and coverage per range bin from SITE.
-int DemoAccuracyMain(const std::filesystem::path& dtm_path, int site) {
-  const MissionOptions options = MissionOptions::Preset("demo");
-  const Traverse traverse =
+struct DemoTruth {
+  MissionOptions options = MissionOptions::Preset("demo");
+  Traverse traverse =
       PlanTraverse(options.traverse, options.telemetry, options.scene.half_extent_m, options.seed);
-  SceneOptions scene_options = options.scene;
-  scene_options.seed = options.seed;
-  for (const SitePose& p : traverse.truth) {
-    scene_options.rock_path.emplace_back(p.position.y(), p.position.x());
+  Scene scene = [this] {
+    SceneOptions s = options.scene;
+    s.seed = options.seed;
+    for (const SitePose& p : traverse.truth)
+      s.rock_path.emplace_back(p.position.y(), p.position.x());
+    return Scene(s);
+  }();
+  SceneGeoreference georef{Body::Mars2000(),
+                           {RadFromDeg(options.site_lat_deg), RadFromDeg(options.site_lon_deg),
+                            scene.GroundHeightAt(0.0, 0.0)}};
+  MapFrame map = MapFrame::LocalEquirectangular(georef.body, georef.origin);
+  Eigen::Vector2d SiteEnu(int site) const {
+    const SitePose& p = traverse.truth.at(static_cast<size_t>(site));
+    return {p.position.y(), p.position.x()};
   }
-  const Scene scene(scene_options);
-  SceneGeoreference georef;
-  georef.origin = {RadFromDeg(options.site_lat_deg), RadFromDeg(options.site_lon_deg),
-                   scene.GroundHeightAt(0.0, 0.0)};
-  const MapFrame map = MapFrame::LocalEquirectangular(georef.body, georef.origin);
+  Eigen::Vector2d Enu(const Eigen::Vector2d& xy) const {
+    return (georef.EnuFromMbf() * map.MbfFromMap({xy.x(), xy.y(), georef.origin.h})).head<2>();
+  }
+};
+
+// --demo-ortho-accuracy ORTHO.tif SITE: an orthophoto of the demo mission against the scene's
+// albedo: NCC of 2.4 m patches (±0.5 m search) at 3-15 m from SITE, shift of the peak.
+int DemoOrthoAccuracyMain(const std::filesystem::path& ortho_path, int site) {
+  const DemoTruth truth;
+  const Orthophoto ortho = ReadOrthophoto(ortho_path);
+  const Eigen::Vector2d site_enu = truth.SiteEnu(site);
+  constexpr int kPatch = 24, kSearch = 5;
+  const int half = kPatch / 2 + kSearch;
+  std::vector<double> shifts;
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (int row = half; row + half < ortho.grid.height; row += kPatch / 2) {
+    for (int col = half; col + half < ortho.grid.width; col += kPatch / 2) {
+      const cv::Rect rect(col - kPatch / 2, row - kPatch / 2, kPatch, kPatch);
+      if (cv::countNonZero(ortho.valid(rect)) < 0.9 * kPatch * kPatch) continue;
+      const double range = (truth.Enu(ortho.grid.CellCenter(col, row)) - site_enu).norm();
+      if (range < 3.0 || range > 15.0) continue;
+      cv::Mat albedo(2 * half, 2 * half, CV_32F);
+      for (int r = 0; r < 2 * half; ++r) {
+        for (int c = 0; c < 2 * half; ++c) {
+          const Eigen::Vector2d e =
+              truth.Enu(ortho.grid.CellCenter(col - half + c, row - half + r));
+          double sum = 0.0;
+          for (int i = -1; i <= 1; ++i) {
+            for (int j = -1; j <= 1; ++j) {
+              const double step = ortho.grid.posting / 3.0;
+              sum += truth.scene.AlbedoAt(e.x() + i * step, e.y() + j * step) / 9.0;
+            }
+          }
+          albedo.at<float>(r, c) = static_cast<float>(sum);
+        }
+      }
+      cv::Mat patch = ortho.image(rect).clone(), score;
+      patch.setTo(cv::mean(patch, ortho.valid(rect))[0], ortho.valid(rect) == 0);
+      cv::matchTemplate(albedo, patch, score, cv::TM_CCOEFF_NORMED);
+      double peak = 0.0;
+      cv::Point at;
+      cv::minMaxLoc(score, nullptr, &peak, nullptr, &at);
+      if (peak < 0.3) continue;
+      const Eigen::Vector2d shift(at.x - kSearch, at.y - kSearch);
+      shifts.push_back(shift.norm());
+      mean += shift;
+    }
+  }
+  if (shifts.empty()) {
+    std::printf("no patch could be located\n");
+    return 1;
+  }
+  std::sort(shifts.begin(), shifts.end());
+  double squared = 0.0;
+  int within = 0;
+  for (const double s : shifts) {
+    squared += s * s;
+    within += s < 2.0 ? 1 : 0;
+  }
+  mean /= static_cast<double>(shifts.size());
+  std::printf(
+      "%zu patches 3-15 m: RMS shift %.2f px, median %.2f px, %.0f %% under 2 px, mean (%.2f, "
+      "%.2f) px, ground pixel %.2f m\n",
+      shifts.size(), std::sqrt(squared / static_cast<double>(shifts.size())),
+      shifts[shifts.size() / 2], 100.0 * within / static_cast<double>(shifts.size()), mean.x(),
+      mean.y(), ortho.grid.posting);
+  return 0;
+}
+
+int DemoAccuracyMain(const std::filesystem::path& dtm_path, int site) {
+  const DemoTruth truth;
+  const Scene& scene = truth.scene;
+  const SceneGeoreference& georef = truth.georef;
+  const MapFrame& map = truth.map;
   const Rigid3d enu_from_mbf = georef.EnuFromMbf();
-  const Eigen::Vector2d site_enu(traverse.truth.at(static_cast<size_t>(site)).position.y(),
-                                 traverse.truth.at(static_cast<size_t>(site)).position.x());
+  const Eigen::Vector2d site_enu = truth.SiteEnu(site);
   const Dtm dtm = ReadDtm(dtm_path);
   const GriddedLayers& l = dtm.layers;
   constexpr std::array<double, 5> edges{0.0, 5.0, 10.0, 15.0, 25.0};
@@ -381,6 +462,9 @@ int DemoAccuracyMain(const std::filesystem::path& dtm_path, int site) {
 int main(int argc, char** argv) {
   try {
     if (argc >= 10 && std::string(argv[1]) == "--child") return areomap::ChildMain(argv + 2);
+    if (argc == 4 && std::string(argv[1]) == "--demo-ortho-accuracy") {
+      return areomap::DemoOrthoAccuracyMain(argv[2], std::stoi(argv[3]));
+    }
     if (argc == 4 && std::string(argv[1]) == "--demo-accuracy") {
       return areomap::DemoAccuracyMain(argv[2], std::stoi(argv[3]));
     }
