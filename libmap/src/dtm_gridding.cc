@@ -199,12 +199,16 @@ void InterpolateTin(const std::vector<GridPoint>& points, const GriddingOptions&
     const double max_x = std::max({p0.x(), p1.x(), p2.x()});
     const double min_y = std::min({p0.y(), p1.y(), p2.y()});
     const double max_y = std::max({p0.y(), p1.y(), p2.y()});
-    const int col0 = std::max(0, static_cast<int>(std::ceil((min_x - g.x_left) / g.posting - 0.5)));
+    // Cells whose centres the triangle's bounding box holds (clamped before any cast).
+    const auto cell = [](double v, int hi) {
+      return static_cast<int>(std::clamp(v, -1.0, hi + 1.0));
+    };
+    const int col0 = std::max(0, cell(std::ceil((min_x - g.x_left) / g.posting - 0.5), g.width));
     const int col1 =
-        std::min(g.width - 1, static_cast<int>(std::floor((max_x - g.x_left) / g.posting - 0.5)));
-    const int row0 = std::max(0, static_cast<int>(std::ceil((g.y_top - max_y) / g.posting - 0.5)));
+        std::min(g.width - 1, cell(std::floor((max_x - g.x_left) / g.posting - 0.5), g.width));
+    const int row0 = std::max(0, cell(std::ceil((g.y_top - max_y) / g.posting - 0.5), g.height));
     const int row1 =
-        std::min(g.height - 1, static_cast<int>(std::floor((g.y_top - min_y) / g.posting - 0.5)));
+        std::min(g.height - 1, cell(std::floor((g.y_top - min_y) / g.posting - 0.5), g.height));
     if (col0 > col1 || row0 > row1) return;
     const Eigen::Vector2d e1 = (p1 - p0).head<2>(), e2 = (p2 - p0).head<2>();
     const double area2 = e1.x() * e2.y() - e1.y() * e2.x();  // > 0: CGAL faces are ccw.
@@ -363,8 +367,12 @@ GridSpec GridSpec::Covering(const Eigen::Vector2d& min, const Eigen::Vector2d& m
   g.posting = posting;
   g.x_left = std::floor(min.x() / posting) * posting;
   g.y_top = (std::floor(max.y() / posting) + 1.0) * posting;
-  g.width = static_cast<int>(std::floor(max.x() / posting) - std::floor(min.x() / posting)) + 1;
-  g.height = static_cast<int>(std::floor(max.y() / posting) - std::floor(min.y() / posting)) + 1;
+  const double width = std::floor(max.x() / posting) - std::floor(min.x() / posting) + 1.0;
+  const double height = std::floor(max.y() / posting) - std::floor(min.y() / posting) + 1.0;
+  RequireOption(width * height <= 4e8, "GridSpec.posting",
+                "a posting giving at most 4e8 cells over the points");
+  g.width = static_cast<int>(width);
+  g.height = static_cast<int>(height);
   g.Check();
   return g;
 }
@@ -444,6 +452,8 @@ GriddedLayers GridPoints(const std::vector<GridPoint>& points, const GridSpec& g
   out.stddev = cv::Mat(grid.height, grid.width, CV_32F, cv::Scalar(kNaNf));
   out.count = cv::Mat(grid.height, grid.width, CV_32S, cv::Scalar(0));
   Report(progress, 0.0, "DTM: binning");
+  RequireOption(options.idw_radius_m / grid.posting <= 1000.0, "GriddingOptions.idw_radius_m",
+                "at most 1000 cells");
   const int margin = options.method == GriddingMethod::kInverseDistance
                          ? static_cast<int>(std::ceil(options.idw_radius_m / grid.posting))
                          : 0;
