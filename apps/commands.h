@@ -19,5 +19,7 @@ void AddAdjustCommand(CLI::App& app, const GlobalOptions& global);
 void AddRunCommand(CLI::App& app, const GlobalOptions& global);
 void AddCratersCommand(CLI::App& app, const GlobalOptions& global);
 void AddRegisterCommand(CLI::App& app, const GlobalOptions& global);
+void AddOrthoCommand(CLI::App& app, const GlobalOptions& global);
+void AddMosaicCommand(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace areomap::cli

@@ -26,6 +26,8 @@ int main(int argc, char** argv) {
   areomap::cli::AddRunCommand(app, global);
   areomap::cli::AddCratersCommand(app, global);
   areomap::cli::AddRegisterCommand(app, global);
+  areomap::cli::AddOrthoCommand(app, global);
+  areomap::cli::AddMosaicCommand(app, global);
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

@@ -1,6 +1,7 @@
 #include "areomap/map/dtm.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -153,6 +154,48 @@ Dtm MakeDtm(const std::vector<SiteCloud>& sites, const MapFrame& map, const DtmO
 
 void WriteDtm(const std::filesystem::path& path, const Dtm& dtm) {
   WriteGeoTiff(path, dtm.ToGeoRaster());
+}
+
+GridSpec GridOfRaster(const RasterInfo& info, const std::string& source) {
+  if (!info.geotransform) throw Error(source + ": not georeferenced (no geotransform)");
+  const std::array<double, 6>& c = info.geotransform->c;
+  if (c[2] != 0.0 || c[4] != 0.0 || !(c[1] > 0.0) || std::abs(c[1] + c[5]) > 1e-9 * c[1]) {
+    throw Error(source + ": expected a north-up raster with square cells");
+  }
+  GridSpec grid;
+  grid.x_left = c[0];
+  grid.y_top = c[3];
+  grid.posting = c[1];
+  grid.width = info.width;
+  grid.height = info.height;
+  grid.Check();
+  return grid;
+}
+
+Dtm ReadDtm(const std::filesystem::path& path) {
+  const RasterDataset dataset = RasterDataset::Open(path);
+  const RasterInfo& info = dataset.info();
+  if (info.crs_wkt.empty()) throw Error(path.string() + ": the DTM has no CRS");
+  Dtm dtm;
+  dtm.crs_wkt = info.crs_wkt;
+  GriddedLayers& l = dtm.layers;
+  l.grid = GridOfRaster(info, path.string());
+  l.elevation = dataset.ReadWindowFloat(1, dataset.FullWindow());
+  const bool layered = info.band_count >= 4;
+  l.count = cv::Mat(l.grid.height, l.grid.width, CV_32S, cv::Scalar(0));
+  if (layered) dataset.ReadWindowFloat(2, dataset.FullWindow()).convertTo(l.count, CV_32S);
+  l.stddev = layered ? dataset.ReadWindowFloat(3, dataset.FullWindow())
+                     : cv::Mat(l.grid.height, l.grid.width, CV_32F,
+                               cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  l.sigma = layered ? dataset.ReadWindowFloat(4, dataset.FullWindow())
+                    : cv::Mat(l.grid.height, l.grid.width, CV_32F,
+                              cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  for (int row = 0; row < l.grid.height; ++row) {
+    for (int col = 0; col < l.grid.width; ++col) {
+      l.known_cells += std::isfinite(l.elevation.at<float>(row, col)) ? 1 : 0;
+    }
+  }
+  return dtm;
 }
 
 }  // namespace areomap

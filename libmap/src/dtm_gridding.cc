@@ -199,12 +199,16 @@ void InterpolateTin(const std::vector<GridPoint>& points, const GriddingOptions&
     const double max_x = std::max({p0.x(), p1.x(), p2.x()});
     const double min_y = std::min({p0.y(), p1.y(), p2.y()});
     const double max_y = std::max({p0.y(), p1.y(), p2.y()});
-    const int col0 = std::max(0, static_cast<int>(std::ceil((min_x - g.x_left) / g.posting - 0.5)));
+    // Cells whose centres the triangle's bounding box holds (clamped before any cast).
+    const auto cell = [](double v, int hi) {
+      return static_cast<int>(std::clamp(v, -1.0, hi + 1.0));
+    };
+    const int col0 = std::max(0, cell(std::ceil((min_x - g.x_left) / g.posting - 0.5), g.width));
     const int col1 =
-        std::min(g.width - 1, static_cast<int>(std::floor((max_x - g.x_left) / g.posting - 0.5)));
-    const int row0 = std::max(0, static_cast<int>(std::ceil((g.y_top - max_y) / g.posting - 0.5)));
+        std::min(g.width - 1, cell(std::floor((max_x - g.x_left) / g.posting - 0.5), g.width));
+    const int row0 = std::max(0, cell(std::ceil((g.y_top - max_y) / g.posting - 0.5), g.height));
     const int row1 =
-        std::min(g.height - 1, static_cast<int>(std::floor((g.y_top - min_y) / g.posting - 0.5)));
+        std::min(g.height - 1, cell(std::floor((g.y_top - min_y) / g.posting - 0.5), g.height));
     if (col0 > col1 || row0 > row1) return;
     const Eigen::Vector2d e1 = (p1 - p0).head<2>(), e2 = (p2 - p0).head<2>();
     const double area2 = e1.x() * e2.y() - e1.y() * e2.x();  // > 0: CGAL faces are ccw.
@@ -234,19 +238,34 @@ void InterpolateInverseDistance(const std::vector<GridPoint>& points, const Buck
   const GridSpec& g = out.grid;
   const double radius2 = options.idw_radius_m * options.idw_radius_m;
   const int reach = buckets.margin;
+  const bool square_power = options.idw_power == 2.0;
+  const size_t max_points = static_cast<size_t>(options.idw_max_points);
   tbb::enumerable_thread_specific<std::vector<std::pair<double, uint32_t>>> scratch;
   tbb::parallel_for(0, g.height, [&](int row) {
     std::vector<std::pair<double, uint32_t>>& near = scratch.local();
     for (int col = 0; col < g.width; ++col) {
       const Eigen::Vector2d center = g.CellCenter(col, row);
       near.clear();
-      for (int r = row - reach; r <= row + reach; ++r) {
-        for (int c = col - reach; c <= col + reach; ++c) {
-          const auto [begin, end] = buckets.Cell(c, r);
-          for (const uint32_t* it = begin; it != end; ++it) {
-            const double d2 = (points[*it].xyz.head<2>() - center).squaredNorm();
-            if (d2 <= radius2) near.emplace_back(d2, *it);
+      // Rings of buckets outward; stop once the k-th nearest is nearer than the next ring.
+      for (int ring = 0; ring <= reach; ++ring) {
+        for (int r = row - ring; r <= row + ring; ++r) {
+          const bool full_row = ring == 0 || r == row - ring || r == row + ring;
+          for (int c = col - ring; c <= col + ring; c += full_row ? 1 : 2 * ring) {
+            // Skip buckets wholly outside the radius (their nearest point to the centre).
+            const double gap_x = std::max(0, std::abs(c - col) - 1) * g.posting;
+            const double gap_y = std::max(0, std::abs(r - row) - 1) * g.posting;
+            if (gap_x * gap_x + gap_y * gap_y > radius2) continue;
+            const auto [begin, end] = buckets.Cell(c, r);
+            for (const uint32_t* it = begin; it != end; ++it) {
+              const double d2 = (points[*it].xyz.head<2>() - center).squaredNorm();
+              if (d2 <= radius2) near.emplace_back(d2, *it);
+            }
           }
+        }
+        if (near.size() >= max_points) {
+          std::nth_element(near.begin(), near.begin() + (max_points - 1), near.end());
+          const double beyond = (ring + 0.5) * g.posting;
+          if (near[max_points - 1].first <= beyond * beyond) break;
         }
       }
       if (near.empty()) continue;
@@ -262,16 +281,13 @@ void InterpolateInverseDistance(const std::vector<GridPoint>& points, const Buck
         continue;
       }
       double weights = 0.0, weighted = 0.0;
-      for (const auto& [d2, index] : near) {
-        const double w = std::pow(d2, -0.5 * options.idw_power);
-        weights += w;
-        weighted += w * points[index].xyz.z();
+      for (auto& [d2, index] : near) {
+        d2 = square_power ? 1.0 / d2 : std::pow(d2, -0.5 * options.idw_power);  // Now w.
+        weights += d2;
+        weighted += d2 * points[index].xyz.z();
       }
       out.elevation.at<float>(row, col) = static_cast<float>(weighted / weights);
-      for (const auto& [d2, index] : near) {
-        sums.Add(col, row, std::pow(d2, -0.5 * options.idw_power) / weights,
-                 points[index].covariance);
-      }
+      for (const auto& [w, index] : near) sums.Add(col, row, w / weights, points[index].covariance);
     }
   });
 }
@@ -351,8 +367,12 @@ GridSpec GridSpec::Covering(const Eigen::Vector2d& min, const Eigen::Vector2d& m
   g.posting = posting;
   g.x_left = std::floor(min.x() / posting) * posting;
   g.y_top = (std::floor(max.y() / posting) + 1.0) * posting;
-  g.width = static_cast<int>(std::floor(max.x() / posting) - std::floor(min.x() / posting)) + 1;
-  g.height = static_cast<int>(std::floor(max.y() / posting) - std::floor(min.y() / posting)) + 1;
+  const double width = std::floor(max.x() / posting) - std::floor(min.x() / posting) + 1.0;
+  const double height = std::floor(max.y() / posting) - std::floor(min.y() / posting) + 1.0;
+  RequireOption(width * height <= 4e8, "GridSpec.posting",
+                "a posting giving at most 4e8 cells over the points");
+  g.width = static_cast<int>(width);
+  g.height = static_cast<int>(height);
   g.Check();
   return g;
 }
@@ -432,6 +452,8 @@ GriddedLayers GridPoints(const std::vector<GridPoint>& points, const GridSpec& g
   out.stddev = cv::Mat(grid.height, grid.width, CV_32F, cv::Scalar(kNaNf));
   out.count = cv::Mat(grid.height, grid.width, CV_32S, cv::Scalar(0));
   Report(progress, 0.0, "DTM: binning");
+  RequireOption(options.idw_radius_m / grid.posting <= 1000.0, "GriddingOptions.idw_radius_m",
+                "at most 1000 cells");
   const int margin = options.method == GriddingMethod::kInverseDistance
                          ? static_cast<int>(std::ceil(options.idw_radius_m / grid.posting))
                          : 0;

@@ -101,12 +101,16 @@ cv::Mat DepthBuffer(const GroundCells& cells, const CahvorModel& camera, int ima
                         const Eigen::Vector3f& c) {
     const float area = (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
     if (!(std::abs(area) > 1e-12f)) return;
-    const int x0 = std::max(0, static_cast<int>(std::ceil(std::min({a.x(), b.x(), c.x()}))));
+    // Pixel bounds, clamped before the cast (points near the camera plane project far away).
+    const auto bound = [](float v, int hi) {
+      return static_cast<int>(std::clamp(v, -1.0f, static_cast<float>(hi) + 1.0f));
+    };
+    const int x0 = std::max(0, bound(std::ceil(std::min({a.x(), b.x(), c.x()})), image_width));
     const int x1 =
-        std::min(image_width - 1, static_cast<int>(std::floor(std::max({a.x(), b.x(), c.x()}))));
-    const int y0 = std::max(0, static_cast<int>(std::ceil(std::min({a.y(), b.y(), c.y()}))));
-    const int y1 =
-        std::min(image_height - 1, static_cast<int>(std::floor(std::max({a.y(), b.y(), c.y()}))));
+        std::min(image_width - 1, bound(std::floor(std::max({a.x(), b.x(), c.x()})), image_width));
+    const int y0 = std::max(0, bound(std::ceil(std::min({a.y(), b.y(), c.y()})), image_height));
+    const int y1 = std::min(image_height - 1,
+                            bound(std::floor(std::max({a.y(), b.y(), c.y()})), image_height));
     for (int y = y0; y <= y1; ++y) {
       for (int x = x0; x <= x1; ++x) {
         const float px = static_cast<float>(x), py = static_cast<float>(y);
@@ -264,6 +268,28 @@ Orthophoto MakeOrthophoto(const Dtm& dtm, const SiteGeoreference& site, const Ma
 
 void WriteOrthophoto(const std::filesystem::path& path, const Orthophoto& ortho) {
   WriteGeoTiff(path, ortho.ToGeoRaster());
+}
+
+Orthophoto ReadOrthophoto(const std::filesystem::path& path) {
+  const RasterDataset dataset = RasterDataset::Open(path);
+  const RasterInfo& info = dataset.info();
+  if (info.band_count != 4) {
+    throw Error(path.string() +
+                ": expected an areomap orthophoto (4 bands: image, valid, resolution_m, "
+                "source_id), found " +
+                std::to_string(info.band_count) + " band(s)");
+  }
+  Orthophoto ortho;
+  ortho.grid = GridOfRaster(info, path.string());
+  ortho.crs_wkt = info.crs_wkt;
+  const PixelWindow all = dataset.FullWindow();
+  ortho.image = dataset.ReadWindowFloat(1, all);
+  cv::Mat valid = dataset.ReadWindowFloat(2, all), id = dataset.ReadWindowFloat(4, all);
+  valid.convertTo(ortho.valid, CV_8U);
+  id.convertTo(ortho.source_id, CV_32S);
+  ortho.resolution = dataset.ReadWindowFloat(3, all);
+  ortho.valid_cells = cv::countNonZero(ortho.valid);
+  return ortho;
 }
 
 }  // namespace areomap

@@ -63,4 +63,12 @@ GriddedLayers MergeGriddedLayers(const std::vector<GriddedLayers>& sites, const 
 // Writes the DTM as a tiled, compressed GeoTIFF, atomically.
 void WriteDtm(const std::filesystem::path& path, const Dtm& dtm);
 
+// Reads a DTM GeoTIFF: band 1 is the elevation; the count, stddev and sigma bands of WriteDtm's
+// layout are read when present (else 0 / NaN). Throws areomap::Error naming the file when it is
+// not a north-up raster with square cells and a CRS.
+Dtm ReadDtm(const std::filesystem::path& path);
+
+// The grid of a north-up raster with square cells; throws areomap::Error naming `source`.
+GridSpec GridOfRaster(const RasterInfo& info, const std::string& source);
+
 }  // namespace areomap

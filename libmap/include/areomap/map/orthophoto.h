@@ -75,4 +75,8 @@ Orthophoto MakeOrthophoto(const Dtm& dtm, const SiteGeoreference& site, const Ma
 // Writes the orthophoto as a tiled, compressed GeoTIFF, atomically.
 void WriteOrthophoto(const std::filesystem::path& path, const Orthophoto& ortho);
 
+// Reads a GeoTIFF written by WriteOrthophoto. Throws areomap::Error naming the file when it does
+// not have that layout (4 bands: image, valid, resolution_m, source_id) on a north-up grid.
+Orthophoto ReadOrthophoto(const std::filesystem::path& path);
+
 }  // namespace areomap

@@ -1,0 +1,61 @@
+// areomap mosaic ORTHO.tif... --out DIR: per-site orthophotos blended into one orthomosaic with
+// feathered seams (mosaic.tif: image, valid mask, resolution map, source id; Mars CRS, nodata).
+#include <filesystem>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "areomap/map/crs.h"
+#include "areomap/map/error.h"
+#include "areomap/map/mosaic.h"
+#include "commands.h"
+
+namespace areomap::cli {
+
+void AddMosaicCommand(CLI::App& app, const GlobalOptions& global) {
+  auto inputs = std::make_shared<std::vector<std::string>>();
+  auto out_dir = std::make_shared<std::string>();
+  auto options = std::make_shared<MosaicOptions>();
+  auto* cmd = app.add_subcommand(
+      "mosaic", "Blend per-site orthophotos (areomap ortho) into one orthomosaic, feathered seams");
+  cmd->add_option("orthophotos", *inputs, "Orthophoto GeoTIFFs on one grid (areomap ortho)")
+      ->required();
+  cmd->add_option("--out", *out_dir, "Output folder (created if needed)")->required();
+  cmd->add_option("--feather", options->feather_m, "Blend width at seams [m]")
+      ->capture_default_str();
+  cmd->callback([inputs, out_dir, options, &global] {
+    options->Check();
+    const ProgressCallback progress = MakeProgressBar(global, "mosaic");
+    std::vector<Orthophoto> orthophotos;
+    for (const std::string& path : *inputs) {
+      orthophotos.push_back(ReadOrthophoto(path));
+      const Orthophoto& o = orthophotos.back();
+      Crs::FromWkt(o.crs_wkt, path).RequireMars();
+      if (o.crs_wkt != orthophotos.front().crs_wkt) {
+        throw Error(path + ": its CRS differs from " + inputs->front() + "'s");
+      }
+    }
+    PrepareOutputFolder(*out_dir);
+    const GridSpec grid = CommonGrid(orthophotos);
+    const Orthophoto mosaic =
+        MakeOrthomosaic(orthophotos, grid, orthophotos.front().crs_wkt, *options, progress);
+    const std::filesystem::path path = std::filesystem::path(*out_dir) / "mosaic.tif";
+    WriteOrthophoto(path, mosaic);
+    WriteSummary(*out_dir, {{"command", "mosaic"},
+                            {"mosaic", path.filename().string()},
+                            {"inputs", *inputs},
+                            {"width", grid.width},
+                            {"height", grid.height},
+                            {"posting_m", grid.posting},
+                            {"feather_m", options->feather_m},
+                            {"valid_cells", mosaic.valid_cells},
+                            {"coverage", static_cast<double>(mosaic.valid_cells) /
+                                             (static_cast<double>(grid.width) * grid.height)}});
+    if (!global.quiet) {
+      std::cout << "wrote " << path.string() << " (" << grid.width << " x " << grid.height << " at "
+                << grid.posting << " m, " << mosaic.valid_cells << " valid cells)\n";
+    }
+  });
+}
+
+}  // namespace areomap::cli
