@@ -92,6 +92,30 @@ TEST(BundleAdjustment, OrbitalControlGivesHonestSubHalfMetrePositions) {
   EXPECT_LT(coverage, 0.85);
 }
 
+// Heights from an orbital DTM (0.3 m) at every site and no control: the vertical is anchored
+// to the ellipsoid, the horizontal only by site 0's prior (50 m), and the covariance says so.
+TEST(BundleAdjustment, DtmHeightsAnchorTheVertical) {
+  SimulatedNetworkOptions options = LongTraverseWithTenPercentOdometry();
+  options.traverse.site_count = 12;
+  options.height_sigma_m = 0.3;
+  const SimulatedNetwork net = SimulateNetwork(options);
+  // Shift the whole network's initial heights by 5 m: only the heights can remove that.
+  BundleInput input = net.input;
+  for (Rigid3d& pose : input.initial_poses) pose.translation.z() += 5.0;
+  const BundleResult result = AdjustBundle(input);
+  EXPECT_FALSE(result.sites[0].held);
+  EXPECT_NEAR(result.sigma0, 1.0, 0.25);
+  for (size_t s = 0; s < result.sites.size(); ++s) {
+    const double sigma_down = std::sqrt(result.sites[s].covariance(5, 5));
+    EXPECT_LT(sigma_down, 0.3) << s;  // Better than one height: they are averaged.
+    EXPECT_LT(std::abs(result.sites[s].adjusted.translation.z() - net.truth[s].translation.z()),
+              4.0 * sigma_down)
+        << s;
+    EXPECT_GT(std::sqrt(result.sites[s].covariance(3, 3)), 10.0);  // Horizontal: site 0 prior.
+    EXPECT_EQ(result.sites[s].heights, 1);
+  }
+}
+
 TEST(BundleAdjustment, SiteWithoutLinksStaysOnItsPriorAndIsFlagged) {
   SimulatedNetworkOptions options;
   options.traverse.site_count = 8;

@@ -159,6 +159,15 @@ SimulatedNetwork SimulateNetwork(const SimulatedNetworkOptions& o) {
       input.control_points.push_back(c);
     }
   }
+  // Heights of the site origins above the ellipsoid, e.g. from an orbital DTM.
+  if (o.height_sigma_m > 0.0) {
+    std::normal_distribution<double> gauss(0.0, o.height_sigma_m);
+    for (int s = 0; s < input.site_count; ++s) {
+      const Eigen::Vector3d mbf = mbf_from_traverse * net.truth[static_cast<size_t>(s)].translation;
+      input.heights.push_back(
+          {s, GeographicFromMbf(input.body, mbf).h + gauss(rng), o.height_sigma_m, "simulated"});
+    }
+  }
   return net;
 }
 
