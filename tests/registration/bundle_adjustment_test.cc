@@ -61,6 +61,28 @@ TEST(BundleAdjustment, RoverTiePointsBoundLongTraverseDriftToOnePercent) {
       result.solve_seconds);
 }
 
+// The same traverse with the tie points as Navcam pixels (0.5 px) through the CAHVOR models
+// instead of their stereo points: the rigorous image model meets the same bounds.
+TEST(BundleAdjustment, PixelObservationsThroughCahvorBoundTheDriftToo) {
+  SimulatedNetworkOptions options = LongTraverseWithTenPercentOdometry();
+  options.pixel_observations = true;
+  const SimulatedNetwork net = SimulateNetwork(options);
+  ASSERT_GT(net.input.image_observations.size(), 1000u);
+  const BundleResult result = AdjustBundle(net.input);
+  const AnchoredTraverse anchored = AnchorTraverse(net.input, result, TruePositions(net));
+  EXPECT_LE(anchored.adjusted_end_error_m, 0.01 * net.length_m);
+  EXPECT_LE(anchored.median_adjusted_re, 0.01);
+  EXPECT_NEAR(result.sigma0, 1.0, 0.1);
+  EXPECT_LE(result.rejected, 3);
+  ASSERT_FALSE(result.images.empty());
+  for (const ImageReport& image : result.images) EXPECT_LT(image.rms_px, 2.0) << image.image;
+  std::printf(
+      "pixels: %zu image observations in %zu images; end-point error %.2f m, median leg "
+      "RE %.3f %%, sigma0 %.3f, %.3f s\n",
+      net.input.image_observations.size(), result.images.size(), anchored.adjusted_end_error_m,
+      100 * anchored.median_adjusted_re, result.sigma0, result.solve_seconds);
+}
+
 // Orbital control (0.25 m horizontal) at every site: absolute errors within 0.5 m and a reported
 // 1 sigma that covers the true error about 68 % of the time (per horizontal axis).
 TEST(BundleAdjustment, OrbitalControlGivesHonestSubHalfMetrePositions) {

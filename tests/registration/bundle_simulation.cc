@@ -9,6 +9,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
+#include "areomap/samples/rover.h"
+
 namespace areomap::testing {
 namespace {
 
@@ -50,6 +52,47 @@ std::string Id(char prefix, int a, int b, int c = -1) {
     std::snprintf(text, sizeof(text), "%c%d-%d-%d", prefix, a, b, c);
   }
   return text;
+}
+
+// Pixels of `x_in_site` in the left and right cameras of the first panorama pair that sees it
+// in both (inside the image), with noise; none if no pair does.
+void AddPixelObservations(const std::string& landmark, int site, const Eigen::Vector3d& x_in_site,
+                          double believed_heading, const SimulatedNetworkOptions& o,
+                          std::mt19937& rng, BundleInput& input) {
+  const StereoCameraOptions navcam;
+  const Rigid3d site_from_rover(
+      Eigen::Quaterniond(Eigen::AngleAxisd(believed_heading, Eigen::Vector3d::UnitZ())),
+      Eigen::Vector3d::Zero());
+  const std::vector<StereoPointing> pointings = Panorama(10, RadFromDeg(-25.0));
+  std::normal_distribution<double> gauss(0.0, o.pixel_sigma_px);
+  for (size_t p = 0; p < pointings.size(); ++p) {
+    const std::array<CahvorModel, 2> cameras = StereoCameras(navcam, pointings[p]);
+    std::array<Eigen::Vector2d, 2> pixels;
+    bool seen = true;
+    for (int side = 0; side < 2; ++side) {
+      const std::optional<Eigen::Vector2d> pixel =
+          cameras[side].Transformed(site_from_rover).Project(x_in_site);
+      seen = seen && pixel && pixel->x() >= 0 && pixel->y() >= 0 &&
+             pixel->x() <= navcam.width - 1 && pixel->y() <= navcam.height - 1;
+      if (pixel) pixels[side] = *pixel;
+    }
+    if (!seen) continue;
+    for (int side = 0; side < 2; ++side) {
+      ImageObservation image;
+      image.landmark_id = landmark;
+      image.site = site;
+      image.camera_in_site = cameras[side].Transformed(site_from_rover);
+      const double dx = gauss(rng), dy = gauss(rng);
+      image.pixel = pixels[side] + Eigen::Vector2d(dx, dy);
+      image.sigma_px = o.pixel_sigma_px;
+      char name[48];
+      std::snprintf(name, sizeof(name), "s%03d_navcam_p%02zu_%s", site, p,
+                    side == 0 ? "left" : "right");
+      image.image = name;
+      input.image_observations.push_back(image);
+    }
+    return;
+  }
 }
 
 bool Excluded(const SimulatedNetworkOptions& o, int site) {
@@ -128,6 +171,12 @@ SimulatedNetwork SimulateNetwork(const SimulatedNetworkOptions& o) {
       t.site_b = b;
       std::tie(t.position_in_a, t.covariance_in_a) = MeasureStereo(ta.Inverse() * x, o, rng);
       std::tie(t.position_in_b, t.covariance_in_b) = MeasureStereo(tb.Inverse() * x, o, rng);
+      if (o.pixel_observations) {
+        AddPixelObservations(t.id, a, ta.Inverse() * x,
+                             traverse.telemetry[static_cast<size_t>(a)].heading, o, rng, input);
+        AddPixelObservations(t.id, b, tb.Inverse() * x,
+                             traverse.telemetry[static_cast<size_t>(b)].heading, o, rng, input);
+      }
       input.tie_points.push_back(t);
       ++made;
     }

@@ -76,13 +76,16 @@ TEST(BundleIo, JsonRoundTripGivesTheSameAdjustment) {
   SimulatedNetworkOptions options;
   options.traverse.site_count = 5;
   options.control_points_per_site = 1;
+  options.pixel_observations = true;
   const SimulatedNetwork net = SimulateNetwork(options);
+  ASSERT_FALSE(net.input.image_observations.empty());
   const std::filesystem::path dir = TempDir("io");
   WriteFileAtomically(dir / "network.json",
                       BundleInputToJson(net.input, TruePositions(net)).dump(1));
   const BundleInputFile file = ReadBundleInput({dir / "network.json"});
   ASSERT_EQ(file.truth.size(), 5u);
   EXPECT_EQ(file.input.tie_points.size(), net.input.tie_points.size());
+  EXPECT_EQ(file.input.image_observations.size(), net.input.image_observations.size());
   const BundleResult a = AdjustBundle(net.input);
   const BundleResult b = AdjustBundle(file.input);
   for (size_t s = 0; s < a.sites.size(); ++s) {
