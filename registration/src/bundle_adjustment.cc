@@ -748,7 +748,8 @@ void IncrementalBundle::AddSite(const Rigid3d& initial_traverse_from_site,
                                 const std::vector<RelativePosePrior>& priors,
                                 const std::vector<TiePoint>& tie_points,
                                 const std::vector<ControlPoint>& control_points,
-                                const std::vector<SiteHeight>& heights) {
+                                const std::vector<SiteHeight>& heights,
+                                const std::vector<ImageObservation>& image_observations) {
   input_.initial_poses.push_back(initial_traverse_from_site);
   ++input_.site_count;
   input_.priors.insert(input_.priors.end(), priors.begin(), priors.end());
@@ -756,6 +757,8 @@ void IncrementalBundle::AddSite(const Rigid3d& initial_traverse_from_site,
   input_.control_points.insert(input_.control_points.end(), control_points.begin(),
                                control_points.end());
   input_.heights.insert(input_.heights.end(), heights.begin(), heights.end());
+  input_.image_observations.insert(input_.image_observations.end(), image_observations.begin(),
+                                   image_observations.end());
 }
 
 BundleResult IncrementalBundle::Adjust(std::vector<int> free_sites) {

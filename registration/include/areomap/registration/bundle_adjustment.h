@@ -213,7 +213,9 @@ class IncrementalBundle {
                const std::vector<RelativePosePrior>& priors,
                const std::vector<TiePoint>& tie_points,
                const std::vector<ControlPoint>& control_points,
-               const std::vector<SiteHeight>& heights = {});
+               const std::vector<SiteHeight>& heights = {},
+               const std::vector<ImageObservation>& image_observations = {});
+  // Adjusts the last `window` sites; the covariances are then conditional on the held sites.
   BundleResult AdjustWindow(int window);
   BundleResult Full();
   const BundleInput& input() const { return input_; }
