@@ -9,6 +9,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
+#include "areomap/registration/traverse_priors.h"
 #include "areomap/samples/rover.h"
 
 namespace areomap::testing {
@@ -131,19 +132,8 @@ SimulatedNetwork SimulateNetwork(const SimulatedNetworkOptions& o) {
   input.initial_poses = net.telemetry;
 
   // Leg priors from dead reckoning, with the error model's covariance.
-  Vector6d floor;
-  floor << 1e-3, 1e-3, 1e-4, 0.02, 0.02, 0.02;
-  for (int k = 1; k < input.site_count; ++k) {
-    RelativePosePrior prior;
-    prior.site_a = k - 1;
-    prior.site_b = k;
-    prior.a_from_b =
-        net.telemetry[static_cast<size_t>(k - 1)].Inverse() * net.telemetry[static_cast<size_t>(k)];
-    prior.covariance =
-        DeadReckoningCovariance(prior.a_from_b.translation, o.telemetry.scale_sigma,
-                                RadFromDeg(o.telemetry.heading_drift_sigma_deg), floor);
-    input.priors.push_back(prior);
-  }
+  input.priors = DeadReckonedPriors(net.telemetry, o.telemetry.scale_sigma,
+                                    RadFromDeg(o.telemetry.heading_drift_sigma_deg));
 
   // Tie points: ground landmarks seen from both ends of each leg.
   for (int b = 1; b < input.site_count; ++b) {
