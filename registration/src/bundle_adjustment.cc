@@ -26,6 +26,7 @@ namespace {
 using bundle_internal::AbsolutePointResidual;
 using bundle_internal::AbsolutePoseResidual;
 using bundle_internal::HeightResidual;
+using bundle_internal::ImageResidual;
 using bundle_internal::RelativePoseResidual;
 using bundle_internal::StereoPointResidual;
 using bundle_internal::Whitening;
@@ -104,6 +105,8 @@ struct Group {
   bool outside_window = false;  // Touches no adjusted site: not part of this adjustment.
   std::vector<ceres::ResidualBlockId> blocks;
   std::vector<Eigen::MatrixXd> unwhitening;  // Per block: Cholesky factor L of the covariance.
+  std::vector<int> block_image;              // Per block: index of its ImageObservation, or -1.
+  std::map<int, std::vector<int>> images_at_site;  // Site -> ImageObservation indices.
 };
 
 Group MakeGroup(ObservationKind kind, size_t index, std::string id, std::vector<int> sites,
@@ -148,6 +151,22 @@ class Network {
       const SiteHeight& h = input.heights[i];
       groups_.push_back(
           MakeGroup(ObservationKind::kHeight, i, "height " + SiteName(h.site), {h.site}, 1));
+    }
+    // Image observations join their landmark's group and replace its stereo observation at
+    // their site: 2 residuals each instead of 3.
+    std::map<std::string, size_t> group_of_landmark;
+    for (size_t i = 0; i < groups_.size(); ++i) {
+      if (groups_[i].kind == ObservationKind::kTiePoint ||
+          groups_[i].kind == ObservationKind::kControlPoint) {
+        group_of_landmark[groups_[i].id] = i;
+      }
+    }
+    for (size_t i = 0; i < input.image_observations.size(); ++i) {
+      const ImageObservation& o = input.image_observations[i];
+      Group& g = groups_[group_of_landmark.at(o.landmark_id)];
+      std::vector<int>& at_site = g.images_at_site[o.site];
+      g.dof += at_site.empty() ? -1 : 2;
+      at_site.push_back(static_cast<int>(i));
     }
     // Groups that touch no free site carry no information about the unknowns.
     for (Group& g : groups_) {
@@ -204,20 +223,23 @@ class Network {
     for (Group& g : groups_) {
       g.blocks.clear();
       g.unwhitening.clear();
+      g.block_image.clear();
       if (!g.active) continue;
       switch (g.kind) {
         case ObservationKind::kTiePoint: {
           const TiePoint& t = input_.tie_points[static_cast<size_t>(g.index)];
           double* point = points_[static_cast<size_t>(g.index)].data();
-          AddStereo(*problem, t.site_a, t.position_in_a, t.covariance_in_a, point, g, "tie point");
-          AddStereo(*problem, t.site_b, t.position_in_b, t.covariance_in_b, point, g, "tie point");
+          AddSiteObservation(*problem, t.site_a, t.position_in_a, t.covariance_in_a, point, g,
+                             "tie point");
+          AddSiteObservation(*problem, t.site_b, t.position_in_b, t.covariance_in_b, point, g,
+                             "tie point");
           break;
         }
         case ObservationKind::kControlPoint: {
           const ControlPoint& c = input_.control_points[static_cast<size_t>(g.index)];
           double* point = points_[static_cast<size_t>(tie_count + g.index)].data();
-          AddStereo(*problem, c.site, c.position_in_site, c.covariance_in_site, point, g,
-                    "control point");
+          AddSiteObservation(*problem, c.site, c.position_in_site, c.covariance_in_site, point, g,
+                             "control point");
           const Eigen::Matrix3d r = traverse_from_mbf_.RotationMatrix();
           const Eigen::Matrix3d covariance = r * c.covariance_mbf * r.transpose();
           const Eigen::Matrix3d w =
@@ -226,6 +248,7 @@ class Network {
               new AbsolutePointResidual{traverse_from_mbf_ * c.position_mbf, w});
           g.blocks.push_back(problem->AddResidualBlock(cost, huber_.get(), point));
           g.unwhitening.push_back(covariance.llt().matrixL().toDenseMatrix());
+          g.block_image.push_back(-1);
           break;
         }
         case ObservationKind::kPosePrior: {
@@ -236,6 +259,7 @@ class Network {
           g.blocks.push_back(
               problem->AddResidualBlock(cost, nullptr, pose(p.site_a), pose(p.site_b)));
           g.unwhitening.push_back(p.covariance.llt().matrixL().toDenseMatrix());
+          g.block_image.push_back(-1);
           break;
         }
         case ObservationKind::kHeight: {
@@ -251,6 +275,7 @@ class Network {
                                  h.height_m, h.sigma_m});
           g.blocks.push_back(problem->AddResidualBlock(cost, huber_.get(), pose(h.site)));
           g.unwhitening.push_back(Eigen::MatrixXd::Constant(1, 1, h.sigma_m));
+          g.block_image.push_back(-1);
           break;
         }
       }
@@ -269,6 +294,27 @@ class Network {
     return problem;
   }
 
+  // The landmark's observation at `site`: its image observations there if any, else the stereo
+  // point.
+  void AddSiteObservation(ceres::Problem& problem, int site, const Eigen::Vector3d& observed,
+                          const Eigen::Matrix3d& covariance, double* point, Group& g,
+                          const char* what) {
+    const auto images = g.images_at_site.find(site);
+    if (images == g.images_at_site.end()) {
+      AddStereo(problem, site, observed, covariance, point, g, what);
+      return;
+    }
+    for (int i : images->second) {
+      const ImageObservation& o = input_.image_observations[static_cast<size_t>(i)];
+      auto* cost = new ceres::AutoDiffCostFunction<ImageResidual, 2, 6, 3>(
+          new ImageResidual{o.camera_in_site, o.pixel, o.sigma_px});
+      g.blocks.push_back(problem.AddResidualBlock(cost, huber_.get(),
+                                                  poses_[static_cast<size_t>(site)].data(), point));
+      g.unwhitening.push_back(Eigen::Matrix2d::Identity() * o.sigma_px);
+      g.block_image.push_back(i);
+    }
+  }
+
   void AddStereo(ceres::Problem& problem, int site, const Eigen::Vector3d& observed,
                  const Eigen::Matrix3d& covariance, double* point, Group& g, const char* what) {
     const Eigen::Matrix3d w = Whitening<3>(
@@ -278,6 +324,7 @@ class Network {
     g.blocks.push_back(problem.AddResidualBlock(cost, huber_.get(),
                                                 poses_[static_cast<size_t>(site)].data(), point));
     g.unwhitening.push_back(covariance.llt().matrixL().toDenseMatrix());
+    g.block_image.push_back(-1);
   }
 
   // Squared whitened residual of a group without the loss, and its largest metric residual
@@ -356,6 +403,24 @@ class Network {
       problem.EvaluateResidualBlock(site0_prior_, false, &cost, nullptr, nullptr);
       chi2_total += 2.0 * cost;
       residual_count += 6;
+    }
+    // Per-image RMS of the accepted image residuals [px].
+    std::map<std::string, std::pair<int, double>> per_image;
+    for (const Group& g : groups_) {
+      if (!g.active) continue;
+      for (size_t b = 0; b < g.blocks.size(); ++b) {
+        if (g.block_image[b] < 0) continue;
+        const ImageObservation& o =
+            input_.image_observations[static_cast<size_t>(g.block_image[b])];
+        double cost = 0.0;
+        problem.EvaluateResidualBlock(g.blocks[b], false, &cost, nullptr, nullptr);
+        auto& [count, sum] = per_image[o.image];
+        ++count;
+        sum += 2.0 * cost * o.sigma_px * o.sigma_px;
+      }
+    }
+    for (const auto& [image, stats] : per_image) {
+      result.images.push_back({image, stats.first, std::sqrt(stats.second / stats.first)});
     }
     for (SiteReport& r : result.sites) {
       r.only_priors = r.tie_points == 0 && r.control_points == 0 && r.heights == 0;
@@ -606,6 +671,24 @@ void BundleInput::Check() const {
     if (p.site_a == p.site_b) throw Error("bundle input: " + what + ": site_a equals site_b");
     CheckFinite(p.a_from_b.translation, what + " translation");
   }
+  std::map<std::string, std::vector<int>> landmark_sites;
+  for (const TiePoint& t : tie_points) landmark_sites[t.id] = {t.site_a, t.site_b};
+  for (const ControlPoint& c : control_points) landmark_sites[c.id] = {c.site};
+  for (const ImageObservation& o : image_observations) {
+    const std::string what = "image observation of '" + o.landmark_id + "' in '" + o.image + "'";
+    const auto landmark = landmark_sites.find(o.landmark_id);
+    if (landmark == landmark_sites.end()) {
+      throw Error("bundle input: " + what + ": no tie point or control point has that id");
+    }
+    if (std::find(landmark->second.begin(), landmark->second.end(), o.site) ==
+        landmark->second.end()) {
+      throw Error("bundle input: " + what + ": site " + std::to_string(o.site) +
+                  " is not one of the landmark's sites");
+    }
+    if (!(o.sigma_px > 0.0) || !o.pixel.allFinite()) {
+      throw Error("bundle input: " + what + ": expected a finite pixel and a positive sigma_px");
+    }
+  }
   for (const SiteHeight& h : heights) {
     CheckSite(h.site, site_count, "height");
     if (!(h.sigma_m > 0.0) || !std::isfinite(h.height_m)) {
@@ -665,7 +748,8 @@ void IncrementalBundle::AddSite(const Rigid3d& initial_traverse_from_site,
                                 const std::vector<RelativePosePrior>& priors,
                                 const std::vector<TiePoint>& tie_points,
                                 const std::vector<ControlPoint>& control_points,
-                                const std::vector<SiteHeight>& heights) {
+                                const std::vector<SiteHeight>& heights,
+                                const std::vector<ImageObservation>& image_observations) {
   input_.initial_poses.push_back(initial_traverse_from_site);
   ++input_.site_count;
   input_.priors.insert(input_.priors.end(), priors.begin(), priors.end());
@@ -673,6 +757,8 @@ void IncrementalBundle::AddSite(const Rigid3d& initial_traverse_from_site,
   input_.control_points.insert(input_.control_points.end(), control_points.begin(),
                                control_points.end());
   input_.heights.insert(input_.heights.end(), heights.begin(), heights.end());
+  input_.image_observations.insert(input_.image_observations.end(), image_observations.begin(),
+                                   image_observations.end());
 }
 
 BundleResult IncrementalBundle::Adjust(std::vector<int> free_sites) {
@@ -735,6 +821,10 @@ nlohmann::json ToJson(const BundleResult& result) {
     if (o.rejected) j["reason"] = o.reason;
     observations.push_back(j);
   }
+  nlohmann::json images = nlohmann::json::array();
+  for (const ImageReport& i : result.images) {
+    images.push_back({{"image", i.image}, {"observations", i.observations}, {"rms_px", i.rms_px}});
+  }
   return {{"sigma0", result.sigma0},
           {"redundancy", result.redundancy},
           {"rejected", result.rejected},
@@ -745,7 +835,8 @@ nlohmann::json ToJson(const BundleResult& result) {
           {"solve_seconds", result.solve_seconds},
           {"covariance_seconds", result.covariance_seconds},
           {"sites", sites},
-          {"observations", observations}};
+          {"observations", observations},
+          {"images", images}};
 }
 
 }  // namespace areomap

@@ -9,6 +9,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 
+#include "areomap/map/cahvor.h"
 #include "areomap/map/error.h"
 #include "areomap/map/rigid3d.h"
 
@@ -41,6 +42,26 @@ struct StereoPointResidual {
                                        predicted[1] - T(observed.y()),
                                        predicted[2] - T(observed.z()));
     r = whitening.cast<T>() * error;
+    return true;
+  }
+};
+
+// A landmark seen in an image: pixel = camera.Project(site_from_traverse * X), CAHVOR model in
+// the site frame. Points behind the camera make the residual fail (Ceres then shortens the step).
+struct ImageResidual {
+  CahvorModel camera;
+  Eigen::Vector2d observed;
+  double sigma_px = 0.5;
+  template <typename T>
+  bool operator()(const T* pose, const T* point, T* residual) const {
+    const T minus_rotation[3] = {-pose[0], -pose[1], -pose[2]};
+    const T relative[3] = {point[0] - pose[3], point[1] - pose[4], point[2] - pose[5]};
+    Eigen::Matrix<T, 3, 1> in_site;
+    ceres::AngleAxisRotatePoint(minus_rotation, relative, in_site.data());
+    Eigen::Matrix<T, 2, 1> pixel;
+    if (!camera.Project(in_site, &pixel)) return false;
+    residual[0] = (pixel.x() - T(observed.x())) / T(sigma_px);
+    residual[1] = (pixel.y() - T(observed.y())) / T(sigma_px);
     return true;
   }
 };

@@ -234,6 +234,29 @@ void ReadSections(const json& doc, const Where& w, BundleInputFile& out) {
     h.source = Text(heights[i], "source", h.source, wh);
     input.heights.push_back(h);
   }
+  const json& images = Array(doc, "image_observations", w);
+  for (size_t i = 0; i < images.size(); ++i) {
+    const Where wi = (w / "image_observations")[i];
+    const json& o = images[i];
+    ImageObservation image;
+    const json& landmark = Field(o, "landmark", wi);
+    if (!landmark.is_string()) (wi / "landmark").Fail("a tie point or control point id");
+    image.landmark_id = landmark.get<std::string>();
+    image.site = Integer(Field(o, "site", wi), wi / "site");
+    image.image = Text(o, "image", "", wi);
+    image.pixel = Vector<2>(Field(o, "pixel", wi), wi / "pixel");
+    image.sigma_px = Number(Field(o, "sigma_px", wi), wi / "sigma_px");
+    const Where wc = wi / "camera";
+    const json& camera = Field(o, "camera", wi);
+    CahvorModel& m = image.camera_in_site;
+    m.c = Vector<3>(Field(camera, "c", wc), wc / "c");
+    m.a = Vector<3>(Field(camera, "a", wc), wc / "a");
+    m.h = Vector<3>(Field(camera, "h", wc), wc / "h");
+    m.v = Vector<3>(Field(camera, "v", wc), wc / "v");
+    m.o = camera.contains("o") ? Vector<3>(camera.at("o"), wc / "o") : m.a;
+    m.r = camera.contains("r") ? Vector<3>(camera.at("r"), wc / "r") : Eigen::Vector3d::Zero();
+    input.image_observations.push_back(image);
+  }
   const json& truth = Array(doc, "truth", w);
   if (!truth.empty()) {
     out.truth.assign(static_cast<size_t>(input.site_count),
@@ -329,6 +352,22 @@ json BundleInputToJson(const BundleInput& input, const std::vector<Eigen::Vector
     heights.push_back(
         {{"site", h.site}, {"h_m", h.height_m}, {"sigma_m", h.sigma_m}, {"source", h.source}});
   }
+  json images = json::array();
+  for (const ImageObservation& o : input.image_observations) {
+    const CahvorModel& m = o.camera_in_site;
+    images.push_back({{"landmark", o.landmark_id},
+                      {"site", o.site},
+                      {"image", o.image},
+                      {"pixel", {o.pixel.x(), o.pixel.y()}},
+                      {"sigma_px", o.sigma_px},
+                      {"camera",
+                       {{"c", ToJson(m.c)},
+                        {"a", ToJson(m.a)},
+                        {"h", ToJson(m.h)},
+                        {"v", ToJson(m.v)},
+                        {"o", ToJson(m.o)},
+                        {"r", ToJson(m.r)}}}});
+  }
   json doc = {{"format", "areomap-adjustment"},
               {"version", 1},
               {"body", {{"name", input.body.name}, {"a_m", input.body.a}, {"b_m", input.body.b}}},
@@ -341,7 +380,8 @@ json BundleInputToJson(const BundleInput& input, const std::vector<Eigen::Vector
               {"priors", priors},
               {"tie_points", ties},
               {"control_points", controls},
-              {"heights", heights}};
+              {"heights", heights},
+              {"image_observations", images}};
   if (!truth.empty()) {
     json t = json::array();
     for (size_t s = 0; s < truth.size(); ++s) {

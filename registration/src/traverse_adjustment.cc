@@ -48,6 +48,12 @@ std::string ReadableReport(const BundleResult& result, const AnchoredTraverse& t
     text += "  " + ToString(o.kind) + " " + o.id + ": " + o.reason + "\n";
   }
   if (rejected == 0) text += "  none\n";
+  if (!result.images.empty()) {
+    text += "\nimage residuals (rms px, observations):\n";
+    for (const ImageReport& image : result.images) {
+      text += Format("  %-32s %6.3f %4d\n", image.image.c_str(), image.rms_px, image.observations);
+    }
+  }
   text += "\nleg        length_m  predicted_RE_%";
   text += truth ? "  telemetry_RE_%  adjusted_RE_%\n" : "\n";
   for (const LegError& leg : traverse.legs) {

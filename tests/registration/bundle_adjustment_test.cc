@@ -61,6 +61,28 @@ TEST(BundleAdjustment, RoverTiePointsBoundLongTraverseDriftToOnePercent) {
       result.solve_seconds);
 }
 
+// The same traverse with the tie points as Navcam pixels (0.5 px) through the CAHVOR models
+// instead of their stereo points: the rigorous image model meets the same bounds.
+TEST(BundleAdjustment, PixelObservationsThroughCahvorBoundTheDriftToo) {
+  SimulatedNetworkOptions options = LongTraverseWithTenPercentOdometry();
+  options.pixel_observations = true;
+  const SimulatedNetwork net = SimulateNetwork(options);
+  ASSERT_GT(net.input.image_observations.size(), 1000u);
+  const BundleResult result = AdjustBundle(net.input);
+  const AnchoredTraverse anchored = AnchorTraverse(net.input, result, TruePositions(net));
+  EXPECT_LE(anchored.adjusted_end_error_m, 0.01 * net.length_m);
+  EXPECT_LE(anchored.median_adjusted_re, 0.01);
+  EXPECT_NEAR(result.sigma0, 1.0, 0.1);
+  EXPECT_LE(result.rejected, 3);
+  ASSERT_FALSE(result.images.empty());
+  for (const ImageReport& image : result.images) EXPECT_LT(image.rms_px, 2.0) << image.image;
+  std::printf(
+      "pixels: %zu image observations in %zu images; end-point error %.2f m, median leg "
+      "RE %.3f %%, sigma0 %.3f, %.3f s\n",
+      net.input.image_observations.size(), result.images.size(), anchored.adjusted_end_error_m,
+      100 * anchored.median_adjusted_re, result.sigma0, result.solve_seconds);
+}
+
 // Orbital control (0.25 m horizontal) at every site: absolute errors within 0.5 m and a reported
 // 1 sigma that covers the true error about 68 % of the time (per horizontal axis).
 TEST(BundleAdjustment, OrbitalControlGivesHonestSubHalfMetrePositions) {
@@ -90,6 +112,30 @@ TEST(BundleAdjustment, OrbitalControlGivesHonestSubHalfMetrePositions) {
               100 * coverage, tested);
   EXPECT_GT(coverage, 0.50);
   EXPECT_LT(coverage, 0.85);
+}
+
+// Heights from an orbital DTM (0.3 m) at every site and no control: the vertical is anchored
+// to the ellipsoid, the horizontal only by site 0's prior (50 m), and the covariance says so.
+TEST(BundleAdjustment, DtmHeightsAnchorTheVertical) {
+  SimulatedNetworkOptions options = LongTraverseWithTenPercentOdometry();
+  options.traverse.site_count = 12;
+  options.height_sigma_m = 0.3;
+  const SimulatedNetwork net = SimulateNetwork(options);
+  // Shift the whole network's initial heights by 5 m: only the heights can remove that.
+  BundleInput input = net.input;
+  for (Rigid3d& pose : input.initial_poses) pose.translation.z() += 5.0;
+  const BundleResult result = AdjustBundle(input);
+  EXPECT_FALSE(result.sites[0].held);
+  EXPECT_NEAR(result.sigma0, 1.0, 0.25);
+  for (size_t s = 0; s < result.sites.size(); ++s) {
+    const double sigma_down = std::sqrt(result.sites[s].covariance(5, 5));
+    EXPECT_LT(sigma_down, 0.3) << s;  // Better than one height: they are averaged.
+    EXPECT_LT(std::abs(result.sites[s].adjusted.translation.z() - net.truth[s].translation.z()),
+              4.0 * sigma_down)
+        << s;
+    EXPECT_GT(std::sqrt(result.sites[s].covariance(3, 3)), 10.0);  // Horizontal: site 0 prior.
+    EXPECT_EQ(result.sites[s].heights, 1);
+  }
 }
 
 TEST(BundleAdjustment, SiteWithoutLinksStaysOnItsPriorAndIsFlagged) {

@@ -9,6 +9,9 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
+#include "areomap/registration/traverse_priors.h"
+#include "areomap/samples/rover.h"
+
 namespace areomap::testing {
 namespace {
 
@@ -52,6 +55,47 @@ std::string Id(char prefix, int a, int b, int c = -1) {
   return text;
 }
 
+// Pixels of `x_in_site` in the left and right cameras of the first panorama pair that sees it
+// in both (inside the image), with noise; none if no pair does.
+void AddPixelObservations(const std::string& landmark, int site, const Eigen::Vector3d& x_in_site,
+                          double believed_heading, const SimulatedNetworkOptions& o,
+                          std::mt19937& rng, BundleInput& input) {
+  const StereoCameraOptions navcam;
+  const Rigid3d site_from_rover(
+      Eigen::Quaterniond(Eigen::AngleAxisd(believed_heading, Eigen::Vector3d::UnitZ())),
+      Eigen::Vector3d::Zero());
+  const std::vector<StereoPointing> pointings = Panorama(10, RadFromDeg(-25.0));
+  std::normal_distribution<double> gauss(0.0, o.pixel_sigma_px);
+  for (size_t p = 0; p < pointings.size(); ++p) {
+    const std::array<CahvorModel, 2> cameras = StereoCameras(navcam, pointings[p]);
+    std::array<Eigen::Vector2d, 2> pixels;
+    bool seen = true;
+    for (int side = 0; side < 2; ++side) {
+      const std::optional<Eigen::Vector2d> pixel =
+          cameras[side].Transformed(site_from_rover).Project(x_in_site);
+      seen = seen && pixel && pixel->x() >= 0 && pixel->y() >= 0 &&
+             pixel->x() <= navcam.width - 1 && pixel->y() <= navcam.height - 1;
+      if (pixel) pixels[side] = *pixel;
+    }
+    if (!seen) continue;
+    for (int side = 0; side < 2; ++side) {
+      ImageObservation image;
+      image.landmark_id = landmark;
+      image.site = site;
+      image.camera_in_site = cameras[side].Transformed(site_from_rover);
+      const double dx = gauss(rng), dy = gauss(rng);
+      image.pixel = pixels[side] + Eigen::Vector2d(dx, dy);
+      image.sigma_px = o.pixel_sigma_px;
+      char name[48];
+      std::snprintf(name, sizeof(name), "s%03d_navcam_p%02zu_%s", site, p,
+                    side == 0 ? "left" : "right");
+      image.image = name;
+      input.image_observations.push_back(image);
+    }
+    return;
+  }
+}
+
 bool Excluded(const SimulatedNetworkOptions& o, int site) {
   for (int s : o.sites_without_links) {
     if (s == site) return true;
@@ -88,19 +132,8 @@ SimulatedNetwork SimulateNetwork(const SimulatedNetworkOptions& o) {
   input.initial_poses = net.telemetry;
 
   // Leg priors from dead reckoning, with the error model's covariance.
-  Vector6d floor;
-  floor << 1e-3, 1e-3, 1e-4, 0.02, 0.02, 0.02;
-  for (int k = 1; k < input.site_count; ++k) {
-    RelativePosePrior prior;
-    prior.site_a = k - 1;
-    prior.site_b = k;
-    prior.a_from_b =
-        net.telemetry[static_cast<size_t>(k - 1)].Inverse() * net.telemetry[static_cast<size_t>(k)];
-    prior.covariance =
-        DeadReckoningCovariance(prior.a_from_b.translation, o.telemetry.scale_sigma,
-                                RadFromDeg(o.telemetry.heading_drift_sigma_deg), floor);
-    input.priors.push_back(prior);
-  }
+  input.priors = DeadReckonedPriors(net.telemetry, o.telemetry.scale_sigma,
+                                    RadFromDeg(o.telemetry.heading_drift_sigma_deg));
 
   // Tie points: ground landmarks seen from both ends of each leg.
   for (int b = 1; b < input.site_count; ++b) {
@@ -128,6 +161,12 @@ SimulatedNetwork SimulateNetwork(const SimulatedNetworkOptions& o) {
       t.site_b = b;
       std::tie(t.position_in_a, t.covariance_in_a) = MeasureStereo(ta.Inverse() * x, o, rng);
       std::tie(t.position_in_b, t.covariance_in_b) = MeasureStereo(tb.Inverse() * x, o, rng);
+      if (o.pixel_observations) {
+        AddPixelObservations(t.id, a, ta.Inverse() * x,
+                             traverse.telemetry[static_cast<size_t>(a)].heading, o, rng, input);
+        AddPixelObservations(t.id, b, tb.Inverse() * x,
+                             traverse.telemetry[static_cast<size_t>(b)].heading, o, rng, input);
+      }
       input.tie_points.push_back(t);
       ++made;
     }
@@ -157,6 +196,15 @@ SimulatedNetwork SimulateNetwork(const SimulatedNetworkOptions& o) {
       c.position_mbf = true_mbf + mbf_from_enu * sigmas.cwiseProduct(Gaussian3(rng));
       c.covariance_mbf = mbf_from_enu * sigmas.cwiseAbs2().asDiagonal() * mbf_from_enu.transpose();
       input.control_points.push_back(c);
+    }
+  }
+  // Heights of the site origins above the ellipsoid, e.g. from an orbital DTM.
+  if (o.height_sigma_m > 0.0) {
+    std::normal_distribution<double> gauss(0.0, o.height_sigma_m);
+    for (int s = 0; s < input.site_count; ++s) {
+      const Eigen::Vector3d mbf = mbf_from_traverse * net.truth[static_cast<size_t>(s)].translation;
+      input.heights.push_back(
+          {s, GeographicFromMbf(input.body, mbf).h + gauss(rng), o.height_sigma_m, "simulated"});
     }
   }
   return net;

@@ -32,6 +32,11 @@ struct SimulatedNetworkOptions {
   int control_points_per_site = 0;
   double control_sigma_horizontal_m = 0.25;  // Orbital control, 1 sigma, per horizontal axis.
   double control_sigma_vertical_m = 0.5;
+  double height_sigma_m = 0.0;
+  // Tie points also as Navcam pixels (10-pair panorama, 25 deg down, CAHVOR with the rover's
+  // believed heading), which then replace the stereo points in the adjustment.
+  bool pixel_observations = false;
+  double pixel_sigma_px = 0.5;  // > 0: each site's height above the ellipsoid with this sigma.
   double mast_height_m = 1.5;
   StereoErrorModel stereo;
   std::vector<int> sites_without_links;  // No tie point or control point touches these.

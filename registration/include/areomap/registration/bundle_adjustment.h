@@ -40,6 +40,7 @@
 #include <nlohmann/json.hpp>
 
 #include "areomap/map/body.h"
+#include "areomap/map/cahvor.h"
 #include "areomap/map/geodesy.h"
 #include "areomap/map/progress.h"
 #include "areomap/map/rigid3d.h"
@@ -69,6 +70,20 @@ struct SiteHeight {
   std::string source = "orbital_dtm";
 };
 
+// A landmark (the ground point of the tie point or control point with id `landmark_id`) seen
+// at `pixel` (CAHVOR convention: first pixel centre at (0, 0)) by a camera whose model is given
+// in the site frame of `site`. Where a landmark has image observations at a site they replace
+// its stereo 3D observation there (the same pixels made it): the rigorous image-measurement
+// model instead of its linearization (eqs. 4.1-4.3).
+struct ImageObservation {
+  std::string landmark_id;
+  int site = -1;
+  CahvorModel camera_in_site;
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+  double sigma_px = 0.5;  // Matching error, 1 sigma [px].
+  std::string image;      // Product name, for the per-image report.
+};
+
 // Diagonal pose covariance from sigmas of (rotation about x, y, z [rad]; translation x, y, z [m]).
 Matrix6d PoseCovarianceFromSigmas(const Eigen::Vector3d& rotation_sigma_rad,
                                   const Eigen::Vector3d& translation_sigma_m);
@@ -94,6 +109,7 @@ struct BundleInput {
   std::vector<TiePoint> tie_points;
   std::vector<ControlPoint> control_points;
   std::vector<SiteHeight> heights;
+  std::vector<ImageObservation> image_observations;
   // Prior on site 0's pose (around the identity) when control or heights anchor the network.
   Matrix6d site0_prior_covariance =
       PoseCovarianceFromSigmas(Eigen::Vector3d(1e-3, 1e-3, 0.035), Eigen::Vector3d(50, 50, 50));
@@ -135,7 +151,7 @@ struct ObservationReport {
   double chi2 = 0.0;        // Sum of squared whitened residuals (at the final estimate).
   int dof = 0;              // Degrees of freedom of the test (redundancy of the group).
   double threshold = 0.0;   // chi2 quantile (1 - alpha) for dof.
-  double residual_m = 0.0;  // Largest metric residual of the group [m] (rotation: rad).
+  double residual_m = 0.0;  // Largest residual of one observation: [m], [px] for images.
   bool rejected = false;
   std::string reason;  // Why it was rejected (empty if kept).
 };
@@ -152,8 +168,16 @@ struct SiteReport {
   bool only_priors = false;  // No tie point, control point or height: flagged.
 };
 
+// Image residuals of one image (ImageObservation::image) after the adjustment.
+struct ImageReport {
+  std::string image;
+  int observations = 0;  // Accepted ones.
+  double rms_px = 0.0;
+};
+
 struct BundleResult {
   std::vector<SiteReport> sites;
+  std::vector<ImageReport> images;
   // Full covariance of all site poses (6 per site, site order) for relative uncertainties.
   Eigen::MatrixXd pose_covariance;
   std::vector<Eigen::Vector3d> tie_point_positions;  // Adjusted, traverse frame, input order.
@@ -189,7 +213,9 @@ class IncrementalBundle {
                const std::vector<RelativePosePrior>& priors,
                const std::vector<TiePoint>& tie_points,
                const std::vector<ControlPoint>& control_points,
-               const std::vector<SiteHeight>& heights = {});
+               const std::vector<SiteHeight>& heights = {},
+               const std::vector<ImageObservation>& image_observations = {});
+  // Adjusts the last `window` sites; the covariances are then conditional on the held sites.
   BundleResult AdjustWindow(int window);
   BundleResult Full();
   const BundleInput& input() const { return input_; }
