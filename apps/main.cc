@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   areomap::cli::AddErrorsCommand(app, global);
   areomap::cli::AddAdjustCommand(app, global);
   areomap::cli::AddRunCommand(app, global);
+  areomap::cli::AddDtmCommand(app, global);
   areomap::cli::AddCratersCommand(app, global);
   areomap::cli::AddRegisterCommand(app, global);
   areomap::cli::AddOrthoCommand(app, global);
