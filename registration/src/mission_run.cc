@@ -39,15 +39,15 @@ json ReadJsonFile(const fs::path& path) {
 
 }  // namespace
 
-RunContext::RunContext(const MissionManifest& mission, const MissionRunOptions& options,
-                       fs::path out_dir)
-    : mission(&mission),
-      options(&options),
-      out_dir(std::move(out_dir)),
-      fingerprint(json{{"mission", fs::absolute(mission.root).lexically_normal().string()},
-                       {"options", options.ToJson()}}
+RunContext::RunContext(const MissionManifest& mission_in, const MissionRunOptions& options_in,
+                       fs::path out_dir_in)
+    : mission(&mission_in),
+      options(&options_in),
+      out_dir(std::move(out_dir_in)),
+      fingerprint(json{{"mission", fs::absolute(mission_in.root).lexically_normal().string()},
+                       {"options", options_in.ToJson()}}
                       .dump()),
-      map(MapFrame::LocalEquirectangular(mission.body, mission.origin)) {}
+      map(MapFrame::LocalEquirectangular(mission_in.body, mission_in.origin)) {}
 
 fs::path SiteDir(const RunContext& run, int site) {
   return run.out_dir / "sites" / ("site_" + ThreeDigits(site));
@@ -180,7 +180,7 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   const auto sites_fraction = [&] {
     double sum = 0.0;
     for (double d : site_done) sum += d;
-    return 0.7 * sum / std::max<size_t>(1, site_count);
+    return 0.7 * sum / static_cast<double>(std::max<size_t>(1, site_count));
   };
 
   MissionRunSummary summary;
@@ -215,7 +215,8 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
     json done = FinishedUnit(run, dir);
     if (done.is_null()) {
       done = RunLegUnit(run, i, i + 1, [&](double f, std::string_view stage) {
-        return report(0.7 + 0.2 * (i + f) / static_cast<double>(leg_count), stage);
+        return report(0.7 + 0.2 * (static_cast<double>(i) + f) / static_cast<double>(leg_count),
+                      stage);
       });
       FinishUnit(run, dir, done);
       ++summary.legs_computed;

@@ -54,7 +54,8 @@ SiteStereo RunSiteStereo(const RunContext& run, const MissionSite& site,
   Eigen::Vector3d centre_sum = Eigen::Vector3d::Zero();
   for (size_t i = 0; i < site.pairs.size(); ++i) {
     const MissionStereoPair& pair = site.pairs[i];
-    if (progress && !progress(static_cast<double>(i) / site.pairs.size(), "stereo")) {
+    if (progress &&
+        !progress(static_cast<double>(i) / static_cast<double>(site.pairs.size()), "stereo")) {
       throw Error("cancelled during stereo of " + SiteName(site.site));
     }
     const CameraFile left = ReadCameraFile(pair.left_label);

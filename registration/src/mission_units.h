@@ -23,8 +23,8 @@ struct RunContext {
   std::string fingerprint;  // Options + mission, recorded in every unit.json.
   MapFrame map;             // The mission map (equirectangular at the origin).
 
-  RunContext(const MissionManifest& mission, const MissionRunOptions& options,
-             std::filesystem::path out_dir);
+  RunContext(const MissionManifest& mission_in, const MissionRunOptions& options_in,
+             std::filesystem::path out_dir_in);
 };
 
 std::filesystem::path SiteDir(const RunContext& run, int site);

@@ -48,7 +48,7 @@ struct MissionRunOptions {
   // Stereo points kept about this far apart on the ground (ThinToGroundSpacing): near the mast a
   // Navcam pixel covers ~2 mm, far finer than DTM postings or rock modeling need [m].
   double point_spacing_m = 0.02;
-  DtmOptions dtm{.posting_m = 0.1};
+  DtmOptions dtm;  // 0.1 m posting.
   OrthoOptions ortho;
   OrbitalMatchOptions match;
   ControlPointOptions control;
