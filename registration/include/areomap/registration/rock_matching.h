@@ -4,7 +4,8 @@
 // Frames: each site's rocks are in its own site frame (x north, y east, z down [m]);
 // `a_from_b_prior` is the telemetry (or visual odometry) pose of site b in site a, used only to
 // bring b's rocks near a's for the search; its error is what the matching absorbs (the search
-// radius must exceed it). Tie points carry each site's own peak position and covariance.
+// radius must exceed it). Tie points carry each site's own peak position and its stereo covariance
+// plus `peak_definition_sigma_m` horizontally.
 //
 // Steps (ch. 3.2): (1) rocks failing a Table 4.5 per-rock rule are set aside (too far, too low,
 // too few surface points, implausible model, distance ratio); (2) significant rocks of site a:
@@ -16,8 +17,9 @@
 // V = P_k - Q_m (eq. 3.29) per candidate counts the rocks of a that b's rocks, shifted by V,
 // bring within epsilon (eqs. 3.30, 3.31); the two best candidates per significant rock; the one
 // whose V is nearer the median of all candidate vectors wins (global consistency). Beyond the
-// dissertation, a winner whose V lies farther than `max_vector_deviation_m` from the median is
-// dropped (it contradicts the global pattern), and so is a rock of either site with a neighbour
+// dissertation, a winner whose V lies farther than `max_vector_deviation_m` from the median, or
+// beyond its chi-square bound given the peaks' covariances, is dropped (it contradicts the global
+// pattern), and so is a rock of either site with a neighbour
 // closer than epsilon plus twice its peak's horizontal sigma (no vote can tell them apart). (5) A
 // pair is matched only where both methods agree; when several rocks of a take the same rock of b,
 // only the lowest-cost one is kept. Pair-level rules (traverse, peaks, tie-point count, distance
@@ -51,11 +53,22 @@ struct RockMatchingOptions {
   int significant_per_cell = 1;         // Highest rocks kept per cell.
   double search_radius_m = 2.5;         // Candidates of b within this of a rock of a (prior) [m].
   double pattern_tolerance_m = 0.6;     // epsilon of eq. 3.31 [m].
-  double max_vector_deviation_m = 1.0;  // Winner's V from the median V [m].
-  double cost_height_weight = 0.5;      // c1 of eq. 3.28.
+  double max_vector_deviation_m = 1.0;  // Winner's V from the median V [m], and ...
+  // ... its chi-square against the two peaks' covariances plus the prior's heading error acting
+  // on the rock's distance from site a (chi-square 3 dof, 99 %: 11.34).
+  double prior_heading_sigma_deg = 2.0;
+  double max_vector_chi2 = 11.34;
+  // The highest point of a rock seen from two sides is not the same surface point: this sigma
+  // (horizontal, each site) is added to the peaks' stereo covariance in the tie points and RE [m].
+  double peak_definition_sigma_m = 0.08;
+  double cost_height_weight = 0.5;  // c1 of eq. 3.28.
   double cost_radius_weight = 1.0 / 3.0;
   double cost_area_weight = 1.0 / 6.0;
-  double max_model_cost = 0.6;  // Model matching accepts costs up to this.
+  double max_model_cost = 0.6;    // Model matching accepts costs up to this.
+  double ambiguity_sigmas = 1.0;  // Neighbour within epsilon + this many sigmas: ambiguous.
+  // Rocks whose peak's largest horizontal sigma exceeds this are not used as tie points (eq. 4.3
+  // range error grows as r^2: 0.3 m at ~12 m for the Navcam) [m].
+  double max_peak_sigma_m = 0.3;
   FaultDetectionOptions fault_detection;
   void Check() const;  // Throws areomap::Error naming the field.
 };
