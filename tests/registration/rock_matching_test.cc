@@ -39,7 +39,7 @@ SimulatedSite MakeSite(const Scene& scene, const Eigen::Vector2d& enu, int id, d
   SimulatedPointsOptions sim;
   sim.azimuth_min_deg = az_min;
   sim.azimuth_max_deg = az_max;
-  sim.max_range_m = 16.0;
+  sim.max_range_m = 14.0;
   sim.angular_step_rad = 2e-3;
   sim.seed = static_cast<uint32_t>(id) + 10u;
   const PointCloud cloud = SimulateSitePointCloud(scene, enu, id, sim);
@@ -76,34 +76,29 @@ Rigid3d TelemetryPrior(const SimulatedSite& a, const SimulatedSite& b) {
                  truth + Eigen::Vector3d(0.4, -0.3, 0.05));
 }
 
-// Two sites 12 m apart looking at each other, and a third beside b looking away from a; the
-// clouds are simulated once for the suite (they dominate its run time).
-class RockMatchingPair : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    scene_ = new Scene(RockyScene(5));
-    a_ = new SimulatedSite(MakeSite(*scene_, {-6.0, 0.0}, 1, 10.0, 170.0));
-    b_ = new SimulatedSite(MakeSite(*scene_, {6.0, 0.0}, 2, 190.0, 350.0));
-    away_ = new SimulatedSite(MakeSite(*scene_, {6.0, 0.0}, 2, 30.0, 150.0));
-  }
-  static void TearDownTestSuite() {
-    delete away_;
-    delete b_;
-    delete a_;
-    delete scene_;
-  }
-  static Scene* scene_;
-  static SimulatedSite *a_, *b_, *away_;
-};
-Scene* RockMatchingPair::scene_ = nullptr;
-SimulatedSite* RockMatchingPair::a_ = nullptr;
-SimulatedSite* RockMatchingPair::b_ = nullptr;
-SimulatedSite* RockMatchingPair::away_ = nullptr;
+// Two sites 12 m apart looking at each other, and a third beside b looking away from a; each
+// cloud is simulated once per test process, on first use (they dominate the run time).
+const Scene& SharedScene() {
+  static const Scene scene = RockyScene(5);
+  return scene;
+}
+const SimulatedSite& SiteA() {
+  static const SimulatedSite site = MakeSite(SharedScene(), {-6.0, 0.0}, 1, 20.0, 160.0);
+  return site;
+}
+const SimulatedSite& SiteB() {
+  static const SimulatedSite site = MakeSite(SharedScene(), {6.0, 0.0}, 2, 200.0, 340.0);
+  return site;
+}
+const SimulatedSite& SiteLookingAway() {
+  static const SimulatedSite site = MakeSite(SharedScene(), {6.0, 0.0}, 2, 30.0, 150.0);
+  return site;
+}
 
-TEST_F(RockMatchingPair, TwoSitesTwelveMetresApartGiveCorrectTiePoints) {
-  const Scene& scene = *scene_;
-  const SimulatedSite& a = *a_;
-  const SimulatedSite& b = *b_;
+TEST(RockMatching, TwoSitesTwelveMetresApartGiveCorrectTiePoints) {
+  const Scene& scene = SharedScene();
+  const SimulatedSite& a = SiteA();
+  const SimulatedSite& b = SiteB();
   const SitePairMatch match = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), {});
   EXPECT_EQ(match.report.outcome, PairOutcome::kMatched) << match.report.ToText();
   ASSERT_GE(match.tie_points.size(), 3u) << match.report.ToText();
@@ -136,10 +131,10 @@ TEST_F(RockMatchingPair, TwoSitesTwelveMetresApartGiveCorrectTiePoints) {
   EXPECT_EQ(count->verdict, FaultVerdict::kPass);
 }
 
-TEST_F(RockMatchingPair, PairsWithoutOverlapOrRocksAreExcludedWithAReport) {
-  const SimulatedSite& a = *a_;
+TEST(RockMatching, PairsWithoutOverlapOrRocksAreExcludedWithAReport) {
+  const SimulatedSite& a = SiteA();
   // Site b looks away from a: no common rocks, so fault detection excludes the pair.
-  const SimulatedSite& away = *away_;
+  const SimulatedSite& away = SiteLookingAway();
   const SitePairMatch none = MatchSitePair(a.rocks, away.rocks, TelemetryPrior(a, away), {});
   EXPECT_EQ(none.report.outcome, PairOutcome::kExcludedByFaultDetection) << none.report.ToText();
   EXPECT_TRUE(none.tie_points.empty());
