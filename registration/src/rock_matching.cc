@@ -127,6 +127,7 @@ void RockMatchingOptions::Check() const {
   RequireOption(prior_heading_sigma_deg >= 0.0, "RockMatchingOptions.prior_heading_sigma_deg",
                 ">= 0 degrees");
   RequireOption(max_vector_chi2 > 0.0, "RockMatchingOptions.max_vector_chi2", "> 0");
+  RequireOption(max_residual_chi2 > 0.0, "RockMatchingOptions.max_residual_chi2", "> 0");
   RequireOption(peak_definition_sigma_m >= 0.0, "RockMatchingOptions.peak_definition_sigma_m",
                 ">= 0 m");
   RequireOption(cost_height_weight >= 0.0 && cost_radius_weight >= 0.0 && cost_area_weight >= 0.0 &&
@@ -396,21 +397,52 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3
   report.Add(RockCount("III matching", "ambiguous rock (neighbour within tolerance + k sigma)",
                        ambiguous, options.pattern_tolerance_m, "m"));
 
+  const Eigen::Matrix2d definition = options.peak_definition_sigma_m *
+                                     options.peak_definition_sigma_m * Eigen::Matrix2d::Identity();
+  const auto planar_tie = [&](const RockMatch& m) {
+    PlanarTiePoint t;
+    t.in_current = a.rocks[m.rock_a].peak.head<2>();
+    t.covariance_current = a.rocks[m.rock_a].peak_covariance.topLeftCorner<2, 2>() + definition;
+    t.in_adjacent = b.rocks[m.rock_b].peak.head<2>();
+    t.covariance_adjacent = b.rocks[m.rock_b].peak_covariance.topLeftCorner<2, 2>() + definition;
+    return t;
+  };
+  // Outlier test in the site-to-site adjustment (data snooping): with redundancy left, the tie
+  // point whose residual in the 2D conformal fit (eq. 4.4) has the largest chi-square above
+  // `max_residual_chi2` is dropped, and the fit repeated.
+  int outliers = 0;
+  while (static_cast<int>(result.matches.size()) > fd.min_tie_points) {
+    std::vector<PlanarTiePoint> ties;
+    for (const RockMatch& m : result.matches) ties.push_back(planar_tie(m));
+    const std::optional<ConformalTransform2d> fit = FitConformalTransform(ties);
+    if (!fit) break;
+    Eigen::Matrix2d sr;
+    sr << fit->parameters(0), -fit->parameters(1), fit->parameters(1), fit->parameters(0);
+    size_t worst = 0;
+    double worst_chi2 = 0.0;
+    for (size_t k = 0; k < ties.size(); ++k) {
+      const Eigen::Vector2d r = ties[k].in_current - fit->Apply(ties[k].in_adjacent);
+      const Eigen::Matrix2d cov =
+          ties[k].covariance_current + sr * ties[k].covariance_adjacent * sr.transpose();
+      const double chi2 = r.dot(cov.ldlt().solve(r));
+      if (chi2 > worst_chi2) {
+        worst_chi2 = chi2;
+        worst = k;
+      }
+    }
+    if (worst_chi2 <= options.max_residual_chi2) break;
+    result.matches.erase(result.matches.begin() + static_cast<long>(worst));
+    ++outliers;
+  }
+  report.Add(RockCount("IV adjustment", "tie point residual outlier (conformal fit)", outliers,
+                       options.max_residual_chi2, "chi2"));
+
   // IV: pair-level rules before the bundle adjustment.
   double ratio_sum = 0.0;
   std::vector<PlanarTiePoint> planar;
-  const Eigen::Matrix2d definition = options.peak_definition_sigma_m *
-                                     options.peak_definition_sigma_m * Eigen::Matrix2d::Identity();
   for (const RockMatch& m : result.matches) {
     ratio_sum += m.distance_ratio;
-    const ExtractedRock& p = a.rocks[m.rock_a];
-    const ExtractedRock& q = b.rocks[m.rock_b];
-    PlanarTiePoint t;
-    t.in_current = p.peak.head<2>();
-    t.covariance_current = p.peak_covariance.topLeftCorner<2, 2>() + definition;
-    t.in_adjacent = q.peak.head<2>();
-    t.covariance_adjacent = q.peak_covariance.topLeftCorner<2, 2>() + definition;
-    planar.push_back(t);
+    planar.push_back(planar_tie(m));
   }
   const double mean_ratio =
       result.matches.empty() ? 0.0 : ratio_sum / static_cast<double>(result.matches.size());
