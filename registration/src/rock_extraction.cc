@@ -82,10 +82,14 @@ Rigid3d RockFromSite(const Eigen::Vector3d& foot, const Eigen::Vector3d& up) {
 
 class Extractor {
  public:
+  // Only points that can matter are indexed: within the peak range of the camera plus the
+  // widest neighbourhood (plane search), which also bounds the grid for clouds with far outliers.
   Extractor(const PointCloud& cloud, const RockExtractionOptions& options)
       : cloud_(cloud),
         options_(options),
-        grid_(HorizontalPositions(cloud), options.peak_window_m / 5.0) {}
+        xy_(HorizontalPositions(cloud)),
+        keep_(NearCamera(cloud, options.max_peak_range_m + 3.0)),
+        grid_(xy_, options.peak_window_m / 5.0, &keep_) {}
 
   std::vector<int> FindPeakCandidates(RockExtractionSummary* summary) const {
     const int cells = grid_.nx() * grid_.ny();
@@ -209,6 +213,13 @@ class Extractor {
     for (const StereoPoint& p : cloud.points) xy.push_back(p.position.head<2>());
     return xy;
   }
+  static std::vector<char> NearCamera(const PointCloud& cloud, double radius) {
+    std::vector<char> keep(cloud.points.size());
+    for (size_t i = 0; i < cloud.points.size(); ++i) {
+      keep[i] = (cloud.points[i].position - cloud.camera_center).head<2>().norm() <= radius;
+    }
+    return keep;
+  }
   double Elevation(int i) const { return -cloud_.points[i].position.z(); }
 
   bool AbovePlane(const Plane& plane, int j) const {
@@ -275,6 +286,8 @@ class Extractor {
 
   const PointCloud& cloud_;
   const RockExtractionOptions& options_;
+  std::vector<Eigen::Vector2d> xy_;
+  std::vector<char> keep_;
   PointGrid grid_;
 };
 
