@@ -177,6 +177,14 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3
   }
   report.Add(cc);
   report.Add(vd);
+  // Applied where the data are made, reported so that the report lists every Table 4.5 rule.
+  report.Add({"II stereo", "left-right consistency check (in stereo matching)", 0.0, 0.0, "",
+              FaultVerdict::kNotEvaluated, false});
+  report.Add({"II stereo", "XYZ intersection computable (in stereo matching)", 0.0, 0.0, "",
+              FaultVerdict::kNotEvaluated, false});
+  report.Add({"III peaks", "peak window points (applied by ExtractRocks)", 0.0,
+              static_cast<double>(fd.min_window_points), "points", FaultVerdict::kNotEvaluated,
+              false});
   if (report.outcome == PairOutcome::kExcludedByPreScreening) return result;
 
   // III: per-rock rules.
