@@ -82,10 +82,14 @@ Rigid3d RockFromSite(const Eigen::Vector3d& foot, const Eigen::Vector3d& up) {
 
 class Extractor {
  public:
+  // Only points that can matter are indexed: within the peak range of the camera plus the
+  // widest neighbourhood (plane search), which also bounds the grid for clouds with far outliers.
   Extractor(const PointCloud& cloud, const RockExtractionOptions& options)
       : cloud_(cloud),
         options_(options),
-        grid_(HorizontalPositions(cloud), options.peak_window_m / 5.0) {}
+        xy_(HorizontalPositions(cloud)),
+        keep_(NearCamera(cloud, options.max_peak_range_m + 3.0)),
+        grid_(xy_, options.peak_window_m / 5.0, &keep_) {}
 
   std::vector<int> FindPeakCandidates(RockExtractionSummary* summary) const {
     const int cells = grid_.nx() * grid_.ny();
@@ -177,8 +181,29 @@ class Extractor {
     if (rock.height_m < options_.min_height_m) return std::nullopt;
     GrowSurface(*plane, &rock);
     rock.rock_from_site = RockFromSite(rock.peak_foot, plane->normal);
-    if (options_.fit_models) FitModels(&rock);
     return rock;
+  }
+
+  // Step 4 (after merging): the models, for rocks high enough.
+  void FitModels(ExtractedRock* rock) const {
+    if (!options_.fit_models || rock->height_m < options_.model_min_height_m) return;
+    const std::vector<int>& surface = rock->surface_indices;
+    const size_t stride = std::max<size_t>(1, (surface.size() + options_.max_model_points - 1) /
+                                                  static_cast<size_t>(options_.max_model_points));
+    std::vector<Eigen::Vector3d> points;
+    for (size_t k = 0; k < surface.size(); k += stride) {
+      points.push_back(rock->rock_from_site * cloud_.points[surface[k]].position);
+    }
+    RockModelParameters start;
+    start.height = rock->height_m;
+    // Keep one-sided views plausible: the surface points bound the rock's size and centre.
+    const double reach = std::max({rock->surface_radius_m, 0.3 * rock->height_m, 0.03});
+    RockModelFitOptions model = options_.model;
+    model.max_height_m = std::min(model.max_height_m, 1.5 * rock->height_m + 0.05);
+    model.max_radius_m = std::min(model.max_radius_m, 1.5 * reach + 0.05);
+    model.max_center_offset_m = std::min(model.max_center_offset_m, reach);
+    start.a = std::min(reach, 0.9 * model.max_radius_m);
+    rock->models = FitAllRockModels(points, model, start);
   }
 
  private:
@@ -187,6 +212,13 @@ class Extractor {
     xy.reserve(cloud.points.size());
     for (const StereoPoint& p : cloud.points) xy.push_back(p.position.head<2>());
     return xy;
+  }
+  static std::vector<char> NearCamera(const PointCloud& cloud, double radius) {
+    std::vector<char> keep(cloud.points.size());
+    for (size_t i = 0; i < cloud.points.size(); ++i) {
+      keep[i] = (cloud.points[i].position - cloud.camera_center).head<2>().norm() <= radius;
+    }
+    return keep;
   }
   double Elevation(int i) const { return -cloud_.points[i].position.z(); }
 
@@ -252,28 +284,10 @@ class Extractor {
     }
   }
 
-  void FitModels(ExtractedRock* rock) const {
-    const std::vector<int>& surface = rock->surface_indices;
-    const size_t stride = std::max<size_t>(1, (surface.size() + options_.max_model_points - 1) /
-                                                  static_cast<size_t>(options_.max_model_points));
-    std::vector<Eigen::Vector3d> points;
-    for (size_t k = 0; k < surface.size(); k += stride) {
-      points.push_back(rock->rock_from_site * cloud_.points[surface[k]].position);
-    }
-    RockModelParameters start;
-    start.height = rock->height_m;
-    // Keep one-sided views plausible: the surface points bound the rock's size and centre.
-    const double reach = std::max({rock->surface_radius_m, 0.3 * rock->height_m, 0.03});
-    RockModelFitOptions model = options_.model;
-    model.max_height_m = std::min(model.max_height_m, 1.5 * rock->height_m + 0.05);
-    model.max_radius_m = std::min(model.max_radius_m, 1.5 * reach + 0.05);
-    model.max_center_offset_m = std::min(model.max_center_offset_m, reach);
-    start.a = std::min(reach, 0.9 * model.max_radius_m);
-    rock->models = FitAllRockModels(points, model, start);
-  }
-
   const PointCloud& cloud_;
   const RockExtractionOptions& options_;
+  std::vector<Eigen::Vector2d> xy_;
+  std::vector<char> keep_;
   PointGrid grid_;
 };
 
@@ -292,6 +306,7 @@ void RockExtractionOptions::Check() const {
   RequireOption(above_plane_m >= 0.0 && above_plane_sigmas >= 0.0,
                 "RockExtractionOptions.above_plane_m", "thresholds >= 0");
   RequireOption(max_model_points >= 5, "RockExtractionOptions.max_model_points", ">= 5");
+  RequireOption(model_min_height_m >= 0.0, "RockExtractionOptions.model_min_height_m", ">= 0 m");
   model.Check();
 }
 
@@ -368,12 +383,14 @@ std::vector<ExtractedRock> ExtractRocks(const PointCloud& cloud,
     }
     for (int j : rock.surface_indices) owned[j] = 1;
     rock.id = static_cast<int>(rocks.size()) + 1;
-    s.modeled += rock.modeled() ? 1 : 0;
     kept_cells[cell_key(std::lround(std::floor(rock.peak.x() / kCell)),
                         std::lround(std::floor(rock.peak.y() / kCell)))]
         .push_back(static_cast<int>(rocks.size()));
     rocks.push_back(std::move(rock));
   }
+  report(0.95, "models");
+  tbb::parallel_for(size_t{0}, rocks.size(), [&](size_t k) { extractor.FitModels(&rocks[k]); });
+  for (const ExtractedRock& rock : rocks) s.modeled += rock.modeled() ? 1 : 0;
   s.rocks = static_cast<int>(rocks.size());
   report(1.0, "done");
   return rocks;

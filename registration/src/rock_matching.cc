@@ -4,10 +4,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <map>
 #include <numbers>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
 #include "areomap/map/error.h"
@@ -33,14 +33,21 @@ double Median(std::vector<double> values) {
   return 0.5 * (upper + *std::max_element(values.begin(), values.begin() + mid));
 }
 
+double LargestHorizontalSigma(const ExtractedRock& r) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(
+      r.peak_covariance.topLeftCorner<2, 2>());
+  return std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
+}
+
 struct Eligibility {
   std::vector<int> rocks;  // Indices passing the per-rock rules.
-  int beyond_range = 0, too_low = 0, few_points = 0, implausible = 0, low_ratio = 0;
+  int beyond_range = 0, too_low = 0, few_points = 0, implausible = 0, low_ratio = 0, imprecise = 0;
 };
 
 // Table 4.5's per-rock rules. `own` and `other` are the two camera centres in the rocks' frame.
 Eligibility SelectEligible(const std::vector<ExtractedRock>& rocks, const Eigen::Vector3d& own,
-                           const Eigen::Vector3d& other, const FaultDetectionOptions& fd) {
+                           const Eigen::Vector3d& other, const FaultDetectionOptions& fd,
+                           double max_peak_sigma) {
   Eligibility e;
   for (size_t i = 0; i < rocks.size(); ++i) {
     const ExtractedRock& r = rocks[i];
@@ -55,17 +62,13 @@ Eligibility SelectEligible(const std::vector<ExtractedRock>& rocks, const Eigen:
       ++e.implausible;
     } else if (DistanceRatio(r.peak, own, other) < fd.min_rock_distance_ratio) {
       ++e.low_ratio;
+    } else if (LargestHorizontalSigma(r) > max_peak_sigma) {
+      ++e.imprecise;
     } else {
       e.rocks.push_back(static_cast<int>(i));
     }
   }
   return e;
-}
-
-double LargestHorizontalSigma(const ExtractedRock& r) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(
-      r.peak_covariance.topLeftCorner<2, 2>());
-  return std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
 }
 
 // A rock is ambiguous when another rock of its site lies within the pattern tolerance plus twice
@@ -74,17 +77,18 @@ class AmbiguityTest {
  public:
   // `eligible`: the rocks that count as neighbours.
   AmbiguityTest(const std::vector<ExtractedRock>& rocks, const std::vector<int>& eligible,
-                double tolerance)
+                double tolerance, double sigmas)
       : rocks_(rocks),
         eligible_(eligible),
         tolerance_(tolerance),
+        sigmas_(sigmas),
         grid_(Peaks(rocks, eligible), 1.0) {}
   // `partner_sigma`: largest horizontal sigma of the rock it would be matched with [m].
   bool Ambiguous(int i, double partner_sigma = 0.0) const {
     const ExtractedRock& r = rocks_[i];
     const double sigma = LargestHorizontalSigma(r);
     const double radius =
-        tolerance_ + 2.0 * std::sqrt(sigma * sigma + partner_sigma * partner_sigma);
+        tolerance_ + sigmas_ * std::sqrt(sigma * sigma + partner_sigma * partner_sigma);
     bool ambiguous = false;
     grid_.ForEachNear(r.peak.head<2>(), radius, [&](int k) {
       const int j = eligible_[k];
@@ -103,6 +107,7 @@ class AmbiguityTest {
   const std::vector<ExtractedRock>& rocks_;
   const std::vector<int>& eligible_;
   double tolerance_;
+  double sigmas_;
   rock_internal::PointGrid grid_;
 };
 
@@ -119,10 +124,18 @@ void RockMatchingOptions::Check() const {
   RequireOption(pattern_tolerance_m > 0.0, "RockMatchingOptions.pattern_tolerance_m", "> 0 m");
   RequireOption(max_vector_deviation_m > 0.0, "RockMatchingOptions.max_vector_deviation_m",
                 "> 0 m");
+  RequireOption(prior_heading_sigma_deg >= 0.0, "RockMatchingOptions.prior_heading_sigma_deg",
+                ">= 0 degrees");
+  RequireOption(max_vector_chi2 > 0.0, "RockMatchingOptions.max_vector_chi2", "> 0");
+  RequireOption(max_residual_chi2 > 0.0, "RockMatchingOptions.max_residual_chi2", "> 0");
+  RequireOption(peak_definition_sigma_m >= 0.0, "RockMatchingOptions.peak_definition_sigma_m",
+                ">= 0 m");
   RequireOption(cost_height_weight >= 0.0 && cost_radius_weight >= 0.0 && cost_area_weight >= 0.0 &&
                     cost_height_weight + cost_radius_weight + cost_area_weight > 0.0,
                 "RockMatchingOptions.cost_height_weight", "non-negative weights, not all zero");
   RequireOption(max_model_cost > 0.0, "RockMatchingOptions.max_model_cost", "> 0");
+  RequireOption(ambiguity_sigmas >= 0.0, "RockMatchingOptions.ambiguity_sigmas", ">= 0");
+  RequireOption(max_peak_sigma_m > 0.0, "RockMatchingOptions.max_peak_sigma_m", "> 0 m");
   fault_detection.Check();
 }
 
@@ -164,11 +177,21 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3
   }
   report.Add(cc);
   report.Add(vd);
+  // Applied where the data are made, reported so that the report lists every Table 4.5 rule.
+  report.Add({"II stereo", "left-right consistency check (in stereo matching)", 0.0, 0.0, "",
+              FaultVerdict::kNotEvaluated, false});
+  report.Add({"II stereo", "XYZ intersection computable (in stereo matching)", 0.0, 0.0, "",
+              FaultVerdict::kNotEvaluated, false});
+  report.Add({"III peaks", "peak window points (applied by ExtractRocks)", 0.0,
+              static_cast<double>(fd.min_window_points), "points", FaultVerdict::kNotEvaluated,
+              false});
   if (report.outcome == PairOutcome::kExcludedByPreScreening) return result;
 
   // III: per-rock rules.
-  const Eligibility ea = SelectEligible(a.rocks, a.camera_center, camera_b_in_a, fd);
-  const Eligibility eb = SelectEligible(b.rocks, b.camera_center, camera_a_in_b, fd);
+  const Eligibility ea =
+      SelectEligible(a.rocks, a.camera_center, camera_b_in_a, fd, options.max_peak_sigma_m);
+  const Eligibility eb =
+      SelectEligible(b.rocks, b.camera_center, camera_a_in_b, fd, options.max_peak_sigma_m);
   result.eligible_a = static_cast<int>(ea.rocks.size());
   result.eligible_b = static_cast<int>(eb.rocks.size());
   report.Add(RockCount("III peaks", "rock peak beyond range of its camera",
@@ -177,6 +200,8 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3
                        ea.too_low + eb.too_low, fd.min_peak_to_plane_m, "m"));
   report.Add(RockCount("III peaks", "rock distance ratio too small", ea.low_ratio + eb.low_ratio,
                        fd.min_rock_distance_ratio, ""));
+  report.Add(RockCount("III peaks", "rock peak sigma above limit (not Table 4.5)",
+                       ea.imprecise + eb.imprecise, options.max_peak_sigma_m, "m"));
   report.Add(RockCount("III modeling", "rock with too few surface points / no model",
                        ea.few_points + eb.few_points, fd.min_surface_points, "points"));
   report.Add(RockCount("III modeling", "rock model implausible (height or radius)",
@@ -190,13 +215,27 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3
     q_xy.push_back(q_in_a.back().head<2>());
   }
   const rock_internal::PointGrid q_grid(q_xy, options.pattern_tolerance_m);
+  // Eq. 3.31 with epsilon widened to twice the two peaks' combined horizontal sigma where the
+  // stereo range error (eq. 4.3) exceeds it: far rocks smear along their line of sight.
+  std::vector<double> sigma_b;
+  double max_sigma_b = 0.0;
+  for (int j : eb.rocks) {
+    sigma_b.push_back(LargestHorizontalSigma(b.rocks[j]));
+    max_sigma_b = std::max(max_sigma_b, sigma_b.back());
+  }
   const auto count_votes = [&](const Eigen::Vector3d& v) {
     int count = 0;
     for (int i : ea.rocks) {
       const Eigen::Vector3d target = a.rocks[i].peak - v;
+      const double sigma_p = LargestHorizontalSigma(a.rocks[i]);
+      const double reach =
+          std::max(options.pattern_tolerance_m, 2.0 * std::hypot(sigma_p, max_sigma_b));
       bool hit = false;
-      q_grid.ForEachNear(target.head<2>(), options.pattern_tolerance_m, [&](int j) {
-        hit = hit || (q_in_a[j] - target).norm() <= options.pattern_tolerance_m;
+      q_grid.ForEachNear(target.head<2>(), reach, [&](int j) {
+        const double tolerance =
+            std::max(options.pattern_tolerance_m, 2.0 * std::hypot(sigma_p, sigma_b[j]));
+        hit = hit || ((q_in_a[j] - target).head<2>().norm() <= tolerance &&
+                      std::abs(q_in_a[j].z() - target.z()) <= options.pattern_tolerance_m);
       });
       count += hit ? 1 : 0;
     }
@@ -214,8 +253,10 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3
     return indices;
   };
   const std::vector<int> tall_a = tall(a.rocks), tall_b = tall(b.rocks);
-  const AmbiguityTest ambiguous_a(a.rocks, tall_a, options.pattern_tolerance_m);
-  const AmbiguityTest ambiguous_b(b.rocks, tall_b, options.pattern_tolerance_m);
+  const AmbiguityTest ambiguous_a(a.rocks, tall_a, options.pattern_tolerance_m,
+                                  options.ambiguity_sigmas);
+  const AmbiguityTest ambiguous_b(b.rocks, tall_b, options.pattern_tolerance_m,
+                                  options.ambiguity_sigmas);
   int ambiguous = 0;
   std::map<std::pair<long, long>, std::vector<int>> cells;
   for (int i : ea.rocks) {
@@ -317,18 +358,17 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3
       const double d1 = (p.peak - q_in_a[c.pattern[1]] - result.median_translation).norm();
       if (d1 < d0) winner = c.pattern[1];
     }
-    const double deviation = (p.peak - q_in_a[winner] - result.median_translation).norm();
-    if (std::getenv("ROCK_DEBUG")) {
-      std::fprintf(stderr,
-                   "P %d (%.1f %.1f) H %.2f: model %d cost %.2f terrain %d | pat %d(%d) %d(%d) win "
-                   "%d dev %.2f\n",
-                   p.id, p.peak.x(), p.peak.y(), p.height_m,
-                   c.model_best >= 0 ? b.rocks[eb.rocks[c.model_best]].id : -1, c.model_cost,
-                   c.terrain_ok, b.rocks[eb.rocks[c.pattern[0]]].id, c.votes[0],
-                   c.pattern[1] >= 0 ? b.rocks[eb.rocks[c.pattern[1]]].id : -1, c.votes[1],
-                   b.rocks[eb.rocks[winner]].id, deviation);
+    const Eigen::Vector3d deviation = p.peak - q_in_a[winner] - result.median_translation;
+    const double lever =
+        options.prior_heading_sigma_deg / kRadToDeg * (p.peak - a.camera_center).head<2>().norm();
+    const Eigen::Matrix3d cov = p.peak_covariance +
+                                rotation_a_from_b * b.rocks[eb.rocks[winner]].peak_covariance *
+                                    rotation_a_from_b.transpose() +
+                                lever * lever * Eigen::Matrix3d::Identity();
+    if (deviation.norm() > options.max_vector_deviation_m ||
+        deviation.dot(cov.ldlt().solve(deviation)) > options.max_vector_chi2) {
+      continue;
     }
-    if (deviation > options.max_vector_deviation_m) continue;
     ++result.pattern_matches;
     if (winner != c.model_best || !c.terrain_ok) continue;
     if (ambiguous_b.Ambiguous(eb.rocks[winner], LargestHorizontalSigma(p))) {
@@ -362,22 +402,55 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3
   std::sort(result.matches.begin(), result.matches.end(),
             [](const RockMatch& x, const RockMatch& y) { return x.rock_a < y.rock_a; });
   report.Add(RockCount("III matching", "multiple matches of one rock", multiples, 1, "rocks"));
-  report.Add(RockCount("III matching", "ambiguous rock (neighbour within tolerance + 2 sigma)",
+  report.Add(RockCount("III matching", "ambiguous rock (neighbour within tolerance + k sigma)",
                        ambiguous, options.pattern_tolerance_m, "m"));
+
+  const Eigen::Matrix2d definition = options.peak_definition_sigma_m *
+                                     options.peak_definition_sigma_m * Eigen::Matrix2d::Identity();
+  const auto planar_tie = [&](const RockMatch& m) {
+    PlanarTiePoint t;
+    t.in_current = a.rocks[m.rock_a].peak.head<2>();
+    t.covariance_current = a.rocks[m.rock_a].peak_covariance.topLeftCorner<2, 2>() + definition;
+    t.in_adjacent = b.rocks[m.rock_b].peak.head<2>();
+    t.covariance_adjacent = b.rocks[m.rock_b].peak_covariance.topLeftCorner<2, 2>() + definition;
+    return t;
+  };
+  // Outlier test in the site-to-site adjustment (data snooping): with redundancy left, the tie
+  // point whose residual in the 2D conformal fit (eq. 4.4) has the largest chi-square above
+  // `max_residual_chi2` is dropped, and the fit repeated.
+  int outliers = 0;
+  while (static_cast<int>(result.matches.size()) > fd.min_tie_points) {
+    std::vector<PlanarTiePoint> ties;
+    for (const RockMatch& m : result.matches) ties.push_back(planar_tie(m));
+    const std::optional<ConformalTransform2d> fit = FitConformalTransform(ties);
+    if (!fit) break;
+    Eigen::Matrix2d sr;
+    sr << fit->parameters(0), -fit->parameters(1), fit->parameters(1), fit->parameters(0);
+    size_t worst = 0;
+    double worst_chi2 = 0.0;
+    for (size_t k = 0; k < ties.size(); ++k) {
+      const Eigen::Vector2d r = ties[k].in_current - fit->Apply(ties[k].in_adjacent);
+      const Eigen::Matrix2d cov =
+          ties[k].covariance_current + sr * ties[k].covariance_adjacent * sr.transpose();
+      const double chi2 = r.dot(cov.ldlt().solve(r));
+      if (chi2 > worst_chi2) {
+        worst_chi2 = chi2;
+        worst = k;
+      }
+    }
+    if (worst_chi2 <= options.max_residual_chi2) break;
+    result.matches.erase(result.matches.begin() + static_cast<long>(worst));
+    ++outliers;
+  }
+  report.Add(RockCount("IV adjustment", "tie point residual outlier (conformal fit)", outliers,
+                       options.max_residual_chi2, "chi2"));
 
   // IV: pair-level rules before the bundle adjustment.
   double ratio_sum = 0.0;
   std::vector<PlanarTiePoint> planar;
   for (const RockMatch& m : result.matches) {
     ratio_sum += m.distance_ratio;
-    const ExtractedRock& p = a.rocks[m.rock_a];
-    const ExtractedRock& q = b.rocks[m.rock_b];
-    PlanarTiePoint t;
-    t.in_current = p.peak.head<2>();
-    t.covariance_current = p.peak_covariance.topLeftCorner<2, 2>();
-    t.in_adjacent = q.peak.head<2>();
-    t.covariance_adjacent = q.peak_covariance.topLeftCorner<2, 2>();
-    planar.push_back(t);
+    planar.push_back(planar_tie(m));
   }
   const double mean_ratio =
       result.matches.empty() ? 0.0 : ratio_sum / static_cast<double>(result.matches.size());
@@ -407,8 +480,10 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3
     t.site_b = b.site;
     t.position_in_a = p.peak;
     t.covariance_in_a = p.peak_covariance;
+    t.covariance_in_a.topLeftCorner<2, 2>() += definition;
     t.position_in_b = q.peak;
     t.covariance_in_b = q.peak_covariance;
+    t.covariance_in_b.topLeftCorner<2, 2>() += definition;
     t.source = "rock";
     result.tie_points.push_back(t);
   }

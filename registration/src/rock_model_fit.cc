@@ -138,8 +138,9 @@ RockModelFit FitRockModel(const std::vector<Eigen::Vector3d>& points_in_rock, Ro
   const double a0 = inside(start.a > 0.0 ? start.a : std::max(reach, 1e-2), options.max_radius_m);
   // Starts for the azimuth of the anisotropic shapes (their cost has several basins).
   std::vector<double> phi_starts = {start.phi};
-  if (shape == RockModelShape::kSemiEllipsoid) phi_starts = {0.0, kPi / 4.0, kPi / 2.0, 0.75 * kPi};
-  if (shape == RockModelShape::kTetrahedron) phi_starts = {0.0, 2.0 * kPi / 9.0, 4.0 * kPi / 9.0};
+  // (An ellipse's azimuth has period pi and a/b swap at pi/2; a triangle's period is 2 pi/3.)
+  if (shape == RockModelShape::kSemiEllipsoid) phi_starts = {0.0, kPi / 4.0};
+  if (shape == RockModelShape::kTetrahedron) phi_starts = {0.0, kPi / 3.0};
   double best_cost = std::numeric_limits<double>::infinity();
   double best[kCount] = {};
   std::vector<int> free_indices;

@@ -149,6 +149,9 @@ TEST(RockExtraction, BadCloudsAreErrorsOrEmpty) {
   for (int i = 0; i < 10; ++i) cloud.points[i].position = Eigen::Vector3d(i * 0.1, 0, 0);
   // Duplicates only: no relief, no rocks.
   EXPECT_TRUE(ExtractRocks(cloud, {}).empty());
+  // A far outlier does not blow up the neighbour grid (it only indexes points near the camera).
+  cloud.points[5].position = Eigen::Vector3d(1e9, -1e9, 0.0);
+  EXPECT_TRUE(ExtractRocks(cloud, {}).empty());
   cloud.points[3].position.z() = std::nan("");
   EXPECT_THROW(ExtractRocks(cloud, {}), Error);
   RockExtractionOptions bad;

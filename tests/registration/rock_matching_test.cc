@@ -1,10 +1,11 @@
 #include "areomap/registration/rock_matching.h"
 
 #include <cmath>
-#include <cstdio>
 #include <numbers>
 
 #include <gtest/gtest.h>
+#include <Eigen/Dense>
+#include <nlohmann/json.hpp>
 
 #include "areomap/map/error.h"
 #include "areomap/samples/simulated_points.h"
@@ -32,14 +33,15 @@ struct SimulatedSite {
   SiteRocks rocks;
 };
 
+// A site's rocks from a simulated stereo cloud (eq. 4.3 noise) over the given azimuths.
 SimulatedSite MakeSite(const Scene& scene, const Eigen::Vector2d& enu, int id, double az_min,
-                       double az_max, uint32_t seed) {
+                       double az_max) {
   SimulatedPointsOptions sim;
   sim.azimuth_min_deg = az_min;
   sim.azimuth_max_deg = az_max;
-  sim.max_range_m = 20.0;
+  sim.max_range_m = 14.0;
   sim.angular_step_rad = 2e-3;
-  sim.seed = seed;
+  sim.seed = static_cast<uint32_t>(id) + 10u;
   const PointCloud cloud = SimulateSitePointCloud(scene, enu, id, sim);
   SimulatedSite site;
   site.enu = enu;
@@ -50,12 +52,14 @@ SimulatedSite MakeSite(const Scene& scene, const Eigen::Vector2d& enu, int id, d
   return site;
 }
 
-// The true rock under a site-frame peak (nearest footprint within 0.5 m), or -1.
+// The true rock under a site-frame peak: the nearest footprint within 0.5 m among the rocks at
+// least 10 cm high (a pebble cannot make a peak 15 cm above its ground), or -1.
 int TrueRock(const Scene& scene, const SimulatedSite& site, const Eigen::Vector3d& peak) {
   const Eigen::Vector2d enu = site.enu + Eigen::Vector2d(peak.y(), peak.x());
   int best = -1;
   double best_gap = 0.5;
   for (const Rock& r : scene.rocks()) {
+    if (r.height < 0.10) continue;
     const double gap = (r.center - enu).norm() - r.a;
     if (gap < best_gap) {
       best_gap = gap;
@@ -65,42 +69,129 @@ int TrueRock(const Scene& scene, const SimulatedSite& site, const Eigen::Vector3
   return best;
 }
 
-TEST(RockMatching, Explore) {
-  const Scene scene = RockyScene(5);
-  for (double distance : {10.0, 15.0, 20.0, 25.0}) {
-    const Eigen::Vector2d enu_a(-distance / 2, 0.0), enu_b(distance / 2, 0.0);
-    const SimulatedSite a = MakeSite(scene, enu_a, 1, 20, 160, 11);
-    const SimulatedSite b = MakeSite(scene, enu_b, 2, 200, 340, 12);
-    // Truth: site frames share their axes; b's origin in a.
-    const Eigen::Vector3d truth(0.0, distance, -(b.ground - a.ground));
-    // Telemetry-like prior: 1.5 degree heading error and ~3 % position error.
-    const Rigid3d prior(Eigen::AngleAxisd(1.5 * kDeg, Eigen::Vector3d::UnitZ()).matrix(),
-                        truth + Eigen::Vector3d(0.4, -0.3, 0.05));
-    const SitePairMatch match = MatchSitePair(a.rocks, b.rocks, prior, {});
-    int correct = 0;
-    for (const RockMatch& m : match.matches) {
-      const int ta = TrueRock(scene, a, a.rocks.rocks[m.rock_a].peak);
-      const int tb = TrueRock(scene, b, b.rocks.rocks[m.rock_b].peak);
-      correct += (ta >= 0 && ta == tb) ? 1 : 0;
-      if (!(ta >= 0 && ta == tb)) {
-        const Eigen::Vector3d& P = a.rocks.rocks[m.rock_a].peak;
-        const Eigen::Vector3d& Q = b.rocks.rocks[m.rock_b].peak;
-        const Eigen::Vector2d pe = a.enu + Eigen::Vector2d(P.y(), P.x());
-        const Eigen::Vector2d qe = b.enu + Eigen::Vector2d(Q.y(), Q.x());
-        const Rock* ra = nullptr; const Rock* rb = nullptr;
-        for (const Rock& r : scene.rocks()) { if (r.id == ta) ra = &r; if (r.id == tb) rb = &r; }
-        printf("  WRONG %d vs %d cost %.2f votes %d |P-Q| %.2f sigP %.2f sigQ %.2f rockdist %.2f Pc %.2f Qc %.2f\n", ta, tb, m.model_cost, m.pattern_count,
-          (pe - qe).norm(), std::sqrt(a.rocks.rocks[m.rock_a].peak_covariance.topLeftCorner<2,2>().trace()),
-          std::sqrt(b.rocks.rocks[m.rock_b].peak_covariance.topLeftCorner<2,2>().trace()),
-          ra && rb ? (ra->center - rb->center).norm() : -1.0, ra ? (pe - ra->center).norm() : -1.0, rb ? (qe - rb->center).norm() : -1.0);
-      }
-    }
-    printf("D %.0f rocks %zu/%zu eligible %d/%d significant %d model %d pattern %d matches %zu correct %d RE %.2f %s\n",
-           distance, a.rocks.rocks.size(), b.rocks.rocks.size(), match.eligible_a, match.eligible_b,
-           match.significant, match.model_matches, match.pattern_matches, match.matches.size(),
-           correct, match.error ? match.error->relative_error_percent : -1.0,
-           ToString(match.report.outcome).c_str());
+// Site b's true pose in a (site frames share their axes) with a telemetry-like error: 1.5 degree
+// heading and ~0.5 m position.
+Rigid3d TelemetryPrior(const SimulatedSite& a, const SimulatedSite& b) {
+  const Eigen::Vector2d d = b.enu - a.enu;
+  const Eigen::Vector3d truth(d.y(), d.x(), -(b.ground - a.ground));
+  return Rigid3d(Eigen::AngleAxisd(1.5 * kDeg, Eigen::Vector3d::UnitZ()).matrix(),
+                 truth + Eigen::Vector3d(0.4, -0.3, 0.05));
+}
+
+// Two sites 12 m apart looking at each other, and a third beside b looking away from a; each
+// cloud is simulated once per test process, on first use (they dominate the run time).
+const Scene& SharedScene() {
+  static const Scene scene = RockyScene(5);
+  return scene;
+}
+const SimulatedSite& SiteA() {
+  static const SimulatedSite site = MakeSite(SharedScene(), {-6.0, 0.0}, 1, 20.0, 160.0);
+  return site;
+}
+const SimulatedSite& SiteB() {
+  static const SimulatedSite site = MakeSite(SharedScene(), {6.0, 0.0}, 2, 200.0, 340.0);
+  return site;
+}
+const SimulatedSite& SiteLookingAway() {
+  static const SimulatedSite site = MakeSite(SharedScene(), {6.0, 0.0}, 2, 30.0, 150.0);
+  return site;
+}
+
+TEST(RockMatching, TwoSitesTwelveMetresApartGiveCorrectTiePoints) {
+  const Scene& scene = SharedScene();
+  const SimulatedSite& a = SiteA();
+  const SimulatedSite& b = SiteB();
+  const SitePairMatch match = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), {});
+  EXPECT_EQ(match.report.outcome, PairOutcome::kMatched) << match.report.ToText();
+  ASSERT_GE(match.tie_points.size(), 3u) << match.report.ToText();
+  ASSERT_EQ(match.tie_points.size(), match.matches.size());
+  int same_rock = 0;
+  for (size_t k = 0; k < match.matches.size(); ++k) {
+    const RockMatch& m = match.matches[k];
+    const TiePoint& t = match.tie_points[k];
+    EXPECT_EQ(t.site_a, 1);
+    EXPECT_EQ(t.site_b, 2);
+    const int truth_a = TrueRock(scene, a, t.position_in_a);
+    const int truth_b = TrueRock(scene, b, t.position_in_b);
+    same_rock += truth_a >= 0 && truth_a == truth_b ? 1 : 0;
+    // The two measurements agree in the scene within the tie point's covariance (eq. 4.3 plus
+    // the peak-definition term): chi-square with 2 degrees of freedom below its 99.9 % point.
+    const Eigen::Vector2d pa = a.enu + Eigen::Vector2d(t.position_in_a.y(), t.position_in_a.x());
+    const Eigen::Vector2d pb = b.enu + Eigen::Vector2d(t.position_in_b.y(), t.position_in_b.x());
+    Eigen::Matrix2d cov = (t.covariance_in_a + t.covariance_in_b).topLeftCorner<2, 2>();
+    std::swap(cov(0, 0), cov(1, 1));  // North-east to east-north.
+    const Eigen::Vector2d e = pa - pb;
+    EXPECT_LT(e.dot(cov.inverse() * e), 13.8) << t.id << " |e| " << e.norm();
+    EXPECT_LE(m.model_cost, RockMatchingOptions{}.max_model_cost);
   }
+  // Tie-point precision against the scene's rocks (a wrong match is a defect).
+  EXPECT_EQ(same_rock, static_cast<int>(match.matches.size()));
+  ASSERT_TRUE(match.error.has_value());
+  EXPECT_LT(match.error->relative_error_percent, 2.0);
+  const FaultCheck* count = match.report.Find("number of tie points");
+  ASSERT_NE(count, nullptr);
+  EXPECT_EQ(count->verdict, FaultVerdict::kPass);
+}
+
+TEST(RockMatching, PairsWithoutOverlapOrRocksAreExcludedWithAReport) {
+  const SimulatedSite& a = SiteA();
+  // Site b looks away from a: no common rocks, so fault detection excludes the pair.
+  const SimulatedSite& away = SiteLookingAway();
+  const SitePairMatch none = MatchSitePair(a.rocks, away.rocks, TelemetryPrior(a, away), {});
+  EXPECT_EQ(none.report.outcome, PairOutcome::kExcludedByFaultDetection) << none.report.ToText();
+  EXPECT_TRUE(none.tie_points.empty());
+  // Too far apart: pre-screening (traverse > 30 m).
+  SimulatedSite far = away;
+  far.enu = Eigen::Vector2d(40.0, 0.0);
+  const SitePairMatch distant = MatchSitePair(a.rocks, far.rocks, TelemetryPrior(a, far), {});
+  EXPECT_EQ(distant.report.outcome, PairOutcome::kExcludedByPreScreening);
+  EXPECT_EQ(distant.report.Find("traverse length")->verdict, FaultVerdict::kFail);
+  // A site without rocks: pre-screening (< 10 peaks).
+  SiteRocks empty;
+  empty.site = 3;
+  const SitePairMatch rockless = MatchSitePair(a.rocks, empty, TelemetryPrior(a, away), {});
+  EXPECT_EQ(rockless.report.outcome, PairOutcome::kExcludedByPreScreening);
+  EXPECT_EQ(rockless.report.Find("peaks at site b")->verdict, FaultVerdict::kFail);
+  EXPECT_TRUE(rockless.tie_points.empty());
+}
+
+TEST(RockMatching, ReportListsEveryRuleWithValueThresholdAndVerdict) {
+  SiteRocks a, b;
+  a.site = 1;
+  b.site = 2;
+  const SitePairMatch match =
+      MatchSitePair(a, b, Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(10, 0, 0)), {});
+  // Pre-screening stops at Module II with empty sites; the stereo rules are "not evaluated".
+  EXPECT_EQ(match.report.Find("matching correlation coefficient")->verdict,
+            FaultVerdict::kNotEvaluated);
+  const nlohmann::json json = match.report.ToJson();
+  EXPECT_EQ(json["outcome_code"], 2);
+  EXPECT_EQ(json["rules"].size(), match.report.checks.size());
+  // With stereo statistics the Module II rules are evaluated.
+  const SitePairMatch with_stereo =
+      MatchSitePair(a, b, Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(10, 0, 0)), {},
+                    StereoQuality{0.80, 1.0});
+  EXPECT_EQ(with_stereo.report.Find("matching correlation coefficient")->verdict,
+            FaultVerdict::kFail);
+  EXPECT_EQ(with_stereo.report.Find("vertical disparity")->verdict, FaultVerdict::kPass);
+  EXPECT_NE(with_stereo.report.ToText().find("excluded by pre-screening"), std::string::npos);
+}
+
+TEST(RockMatching, ModelCostIsEq328) {
+  RockModelParameters p, q;
+  p.height = q.height = 0.3;
+  p.a = p.b = q.a = q.b = 0.4;
+  EXPECT_DOUBLE_EQ(ModelMatchCost(p, q, {}), 0.0);
+  q.height = 0.6;  // Height differs by 2/3 of the mean; radius equal; area differs too.
+  const double area = 2.0 * std::abs(p.SurfaceAreaExact() - q.SurfaceAreaExact()) /
+                      (p.SurfaceAreaExact() + q.SurfaceAreaExact());
+  EXPECT_NEAR(ModelMatchCost(p, q, {}), 0.5 * (0.3 / 0.45) + area / 6.0, 1e-12);
+  RockMatchingOptions bad;
+  bad.pattern_tolerance_m = 0.0;
+  EXPECT_THROW(MatchSitePair({}, {}, Rigid3d(), bad), Error);
+  bad = RockMatchingOptions{};
+  bad.fault_detection.min_tie_points = 1;
+  EXPECT_THROW(MatchSitePair({}, {}, Rigid3d(), bad), Error);
 }
 
 }  // namespace

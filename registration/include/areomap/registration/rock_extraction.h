@@ -14,7 +14,8 @@
 //     0.3 H, then repeatedly those within MaxD_Neighbor (largest nearest-neighbour distance of the
 //     points found so far) of the last points found, until the radius reaches 1.7 H or nothing is
 //     added.
-//  4. Models: every shape of rock_model.h fitted in the rock frame (origin at the peak's foot on
+//  4. Models (rocks at least `model_min_height_m` high, after merging): every shape of
+//     rock_model.h fitted in the rock frame (origin at the peak's foot on
 //     the plane, z along the plane normal, x toward north), best first.
 // A peak that lies on the surface of a higher rock, or nearer to a higher peak than that rock's
 // reach plus twice the peaks' separation sigma, is merged into it. Neighbour searches use a
@@ -48,8 +49,9 @@ struct RockExtractionOptions {
   double surface_k_max = 1.7;       // ... and stops at k_max H.
   double above_plane_m = 0.02;      // A surface point stands this far above the plane [m] ...
   double above_plane_sigmas = 2.0;  // ... or this many of its own vertical sigmas, if more.
-  int max_model_points = 150;       // Surface points passed to the model fits (evenly thinned).
+  int max_model_points = 80;        // Surface points passed to the model fits (evenly thinned).
   bool fit_models = true;
+  double model_min_height_m = 0.15;  // Lower rocks are not modeled (Table 4.5 drops them) [m].
   RockModelFitOptions model;
   void Check() const;  // Throws areomap::Error naming the field.
 };

@@ -4,24 +4,28 @@
 // Frames: each site's rocks are in its own site frame (x north, y east, z down [m]);
 // `a_from_b_prior` is the telemetry (or visual odometry) pose of site b in site a, used only to
 // bring b's rocks near a's for the search; its error is what the matching absorbs (the search
-// radius must exceed it). Tie points carry each site's own peak position and covariance.
+// radius must exceed it). Tie points carry each site's own peak position and its stereo covariance
+// plus `peak_definition_sigma_m` horizontally.
 //
 // Steps (ch. 3.2): (1) rocks failing a Table 4.5 per-rock rule are set aside (too far, too low,
 // too few surface points, implausible model, distance ratio); (2) significant rocks of site a:
 // the highest ones per grid cell in the overlap (within max_peak_range_m of both cameras);
-// (3) model matching: for each significant rock the candidate of b within the search radius with
-// the smallest cost 1/2 f_h + 1/3 f_r + 1/6 f_S (eq. 3.28; f = relative differences of height,
-// mean radius and exact surface area of the best models), then the local terrain check (angle
-// between the background-plane normals); (4) pattern matching: a translation vote
-// V = P_k - Q_m (eq. 3.29) per candidate counts the rocks of a that b's rocks, shifted by V,
-// bring within epsilon (eqs. 3.30, 3.31); the two best candidates per significant rock; the one
-// whose V is nearer the median of all candidate vectors wins (global consistency). Beyond the
-// dissertation, a winner whose V lies farther than `max_vector_deviation_m` from the median is
-// dropped (it contradicts the global pattern), and so is a rock of either site with a neighbour
-// closer than epsilon plus twice its peak's horizontal sigma (no vote can tell them apart). (5) A
-// pair is matched only where both methods agree; when several rocks of a take the same rock of b,
-// only the lowest-cost one is kept. Pair-level rules (traverse, peaks, tie-point count, distance
-// ratio, RE) decide the outcome.
+// (3) pattern matching: a translation vote V = P_k - Q_m (eq. 3.29) per candidate of b within
+// the search radius counts the rocks of a that b's rocks, shifted by V, bring within epsilon
+// (eqs. 3.30, 3.31; epsilon widened to twice the peaks' combined sigma); the two best candidates
+// per significant rock are kept (Fig. 3.3); (4) model matching among those two: the smallest
+// cost 1/2 f_h + 1/3 f_r + 1/6 f_S (eq. 3.28; f = relative differences of height, mean radius and
+// exact surface area of the best models), then the local terrain check (angle between the
+// background-plane normals); the pattern candidate whose V is nearer the median of all candidate
+// vectors wins (global consistency). Beyond the dissertation, a winner whose V lies farther than
+// `max_vector_deviation_m` from the median, or beyond its chi-square bound given the peaks'
+// covariances, is dropped (it contradicts the global pattern), and so is a rock of either site with
+// a neighbour closer than epsilon plus `ambiguity_sigmas` of the peaks' horizontal sigma (no vote
+// can tell them apart); rocks whose peak sigma exceeds `max_peak_sigma_m` are not used. (5) A pair
+// is matched only where both methods agree; when several rocks of a take the same rock of b, only
+// the lowest-cost one is kept. (6) Data snooping in the 2D conformal fit of the matches (eq. 4.4)
+// drops residual outliers while more than min_tie_points remain. Pair-level rules (traverse, peaks,
+// tie-point count, distance ratio, RE) decide the outcome.
 //
 // Failures: invalid options throw areomap::Error; everything about the data (no overlap, no
 // rocks, too few tie points) is a verdict in the report, never an exception.
@@ -51,11 +55,25 @@ struct RockMatchingOptions {
   int significant_per_cell = 1;         // Highest rocks kept per cell.
   double search_radius_m = 2.5;         // Candidates of b within this of a rock of a (prior) [m].
   double pattern_tolerance_m = 0.6;     // epsilon of eq. 3.31 [m].
-  double max_vector_deviation_m = 1.0;  // Winner's V from the median V [m].
-  double cost_height_weight = 0.5;      // c1 of eq. 3.28.
+  double max_vector_deviation_m = 1.0;  // Winner's V from the median V [m], and ...
+  // ... its chi-square against the two peaks' covariances plus the prior's heading error acting
+  // on the rock's distance from site a (chi-square 3 dof, 99 %: 11.34).
+  double prior_heading_sigma_deg = 2.0;
+  double max_vector_chi2 = 11.34;
+  // The highest point of a rock seen from two sides is not the same surface point: this sigma
+  // (horizontal, each site) is added to the peaks' stereo covariance in the tie points and RE [m].
+  double peak_definition_sigma_m = 0.08;
+  // Tie points whose residual in the site-to-site conformal fit exceeds this chi-square (2 dof,
+  // 99.9 %: 13.8) are dropped one by one while more than min_tie_points remain.
+  double max_residual_chi2 = 13.8;
+  double cost_height_weight = 0.5;  // c1 of eq. 3.28.
   double cost_radius_weight = 1.0 / 3.0;
   double cost_area_weight = 1.0 / 6.0;
-  double max_model_cost = 0.6;  // Model matching accepts costs up to this.
+  double max_model_cost = 0.6;    // Model matching accepts costs up to this.
+  double ambiguity_sigmas = 1.0;  // Neighbour within epsilon + this many sigmas: ambiguous.
+  // Rocks whose peak's largest horizontal sigma exceeds this are not used as tie points (eq. 4.3
+  // range error grows as r^2: 0.3 m at ~12 m for the Navcam) [m].
+  double max_peak_sigma_m = 0.3;
   FaultDetectionOptions fault_detection;
   void Check() const;  // Throws areomap::Error naming the field.
 };

@@ -74,7 +74,7 @@ struct RockModelFitOptions {
   bool complex_model = false;   // Also estimate alpha and beta (eqs. 2.10-2.12).
   bool estimate_center = true;  // Estimate the base centre (else fixed at the initial guess).
   int min_points = 5;           // Table 4.5: a rock needs >= 5 surface points.
-  int max_num_iterations = 100;
+  int max_num_iterations = 50;
   double max_tilt_rad = 0.7;  // Bound on |alpha|, |beta| during the fit.
   // Bounds that keep one-sided, noisy views plausible (extraction sets them from the rock's
   // surface points): size parameters in [min_size_m, max_height_m / max_radius_m], the centre
