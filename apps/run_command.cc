@@ -38,6 +38,15 @@ void PrintRunSummary(const nlohmann::json& s) {
     }
     std::printf("\n");
   }
+  const nlohmann::json& a = s["adjustment"];
+  std::printf("bundle adjustment: %d tie points, %d control points, %d rejected, sigma0 %.3f\n",
+              a.value("tie_points", 0), a.value("control_points", 0), a.value("rejected", 0),
+              a.value("sigma0", 0.0));
+  if (a.contains("adjusted_end_error_m")) {
+    std::printf("end-point error against truth over %.1f m: telemetry %.2f m, adjusted %.2f m\n",
+                a.value("length_m", 0.0), a.value("initial_end_error_m", 0.0),
+                a.value("adjusted_end_error_m", 0.0));
+  }
 }
 
 }  // namespace
