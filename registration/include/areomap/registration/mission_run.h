@@ -50,7 +50,13 @@ struct MissionRunOptions {
   double point_spacing_m = 0.02;
   DtmOptions dtm;  // 0.1 m posting.
   OrthoOptions ortho;
-  OrbitalMatchOptions match;
+  // Heading drift turns a site's orthophoto on the map (a few degrees after a few legs), so the
+  // orbital search also tries rotations of up to +-5 degrees.
+  OrbitalMatchOptions match = [] {
+    OrbitalMatchOptions o;
+    o.max_rotation_deg = 5.0;
+    return o;
+  }();
   ControlPointOptions control;
   // Orbital prior: 1 sigma of the telemetry position = floor + fraction x distance driven from
   // site 0 (dead reckoning drifts with distance; ~10 % at Silver Lake, ch. 4).
