@@ -1,0 +1,92 @@
+// The end-to-end run on a small generated mission: every unit's products, the report, and
+// resuming (finished units reused, a removed unit recomputed alone).
+#include "areomap/registration/mission_run.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "areomap/map/error.h"
+#include "areomap/map/mission_manifest.h"
+#include "areomap/registration/run_report.h"
+#include "areomap/samples/mission.h"
+#include "test_support.h"
+
+namespace areomap {
+namespace {
+
+namespace fs = std::filesystem;
+
+MissionOptions TinyMission() {
+  MissionOptions o = MissionOptions::Preset("demo");
+  o.scene.half_extent_m = 40.0;
+  o.scene.crater_count = 1;
+  o.traverse.site_count = 2;
+  o.traverse.min_leg_m = 8.0;
+  o.traverse.max_leg_m = 10.0;
+  o.navcam_pairs = 1;
+  o.navcam.width = 256;
+  o.navcam.height = 256;
+  o.pancam_pairs = 0;
+  o.render.near_radius_m = 2.0;
+  o.render.mid_radius_m = 8.0;
+  return o;
+}
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+TEST(MissionRun, WritesEveryUnitAndResumes) {
+  testing::TempDir dir;
+  GenerateMission(TinyMission(), dir.path() / "mission");
+  const MissionManifest mission = ReadMissionManifest(dir.path() / "mission");
+  const fs::path out = dir.path() / "run";
+  MissionRunOptions options;
+  options.stereo.min_range_m = 2.0;
+
+  const MissionRunSummary first = RunMission(mission, out, options);
+  EXPECT_EQ(first.sites_computed, 2);
+  EXPECT_EQ(first.legs_computed, 1);
+  for (const char* file : {"points.ply", "dtm.tif", "ortho.tif", "registration.json",
+                           "control_points.json", "unit.json"}) {
+    EXPECT_TRUE(fs::exists(out / "sites" / "site_001" / file)) << file;
+  }
+  for (const char* file : {"faults.json", "tie_points.json", "unit.json"}) {
+    EXPECT_TRUE(fs::exists(out / "legs" / "leg_000_001" / file)) << file;
+  }
+  EXPECT_TRUE(fs::exists(out / "adjustment" / "sites.csv"));
+  EXPECT_GT(first.json["sites"][1]["points"].get<int>(), 200);  // Stereo produced a cloud.
+
+  std::ofstream(out / "summary.json") << first.json.dump();
+  WriteRunReport(out);
+  const std::string html = ReadText(out / "report.html");
+  EXPECT_NE(html.find("Leg 0 &rarr; 1"), std::string::npos);
+  EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
+
+  // A second run reuses everything; removing one site's marker recomputes that site alone.
+  const MissionRunSummary second = RunMission(mission, out, options);
+  EXPECT_EQ(second.sites_reused, 2);
+  EXPECT_EQ(second.legs_reused, 1);
+  fs::remove(out / "sites" / "site_001" / "unit.json");
+  const MissionRunSummary third = RunMission(mission, out, options);
+  EXPECT_EQ(third.sites_computed, 1);
+  EXPECT_EQ(third.sites_reused, 1);
+  // Different options invalidate the finished units.
+  options.point_spacing_m = 0.03;
+  EXPECT_EQ(RunMission(mission, out, options).sites_computed, 2);
+}
+
+TEST(MissionRun, ReportNeedsARunFolder) {
+  testing::TempDir dir;
+  const std::string message = testing::ErrorMessageOf([&] { WriteRunReport(dir.path()); });
+  EXPECT_NE(message.find("no summary.json"), std::string::npos) << message;
+}
+
+}  // namespace
+}  // namespace areomap
