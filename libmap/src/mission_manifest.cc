@@ -148,8 +148,9 @@ std::vector<MissionSitePose> ReadSitePosesCsv(const fs::path& csv) {
 
 MissionManifest ReadMissionManifest(const fs::path& path) {
   if (!fs::exists(path)) {
-    throw Error(path.string() + ": no such mission folder or mission.json; expected the folder "
-                                "`areomap simulate` writes (docs/mission-format.md)");
+    throw Error(path.string() +
+                ": no such mission folder or mission.json; expected the folder "
+                "`areomap simulate` writes (docs/mission-format.md)");
   }
   const fs::path manifest = fs::is_directory(path) ? path / "mission.json" : path;
   std::ifstream in(manifest);
