@@ -309,6 +309,35 @@ BundleInputFile ReadBundleInput(const std::vector<std::filesystem::path>& paths)
   return out;
 }
 
+json TiePointsToJson(const std::vector<TiePoint>& tie_points) {
+  json ties = json::array();
+  for (const TiePoint& t : tie_points) {
+    ties.push_back({{"id", t.id},
+                    {"site_a", t.site_a},
+                    {"site_b", t.site_b},
+                    {"position_in_a_m", ToJson(t.position_in_a)},
+                    {"covariance_in_a_m2", ToJson<3>(t.covariance_in_a)},
+                    {"position_in_b_m", ToJson(t.position_in_b)},
+                    {"covariance_in_b_m2", ToJson<3>(t.covariance_in_b)},
+                    {"source", t.source}});
+  }
+  return ties;
+}
+
+json ControlPointsToJson(const std::vector<ControlPoint>& control_points) {
+  json controls = json::array();
+  for (const ControlPoint& c : control_points) {
+    controls.push_back({{"id", c.id},
+                        {"site", c.site},
+                        {"position_in_site_m", ToJson(c.position_in_site)},
+                        {"covariance_in_site_m2", ToJson<3>(c.covariance_in_site)},
+                        {"position_mbf_m", ToJson(c.position_mbf)},
+                        {"covariance_mbf_m2", ToJson<3>(c.covariance_mbf)},
+                        {"source", c.source}});
+  }
+  return controls;
+}
+
 json BundleInputToJson(const BundleInput& input, const std::vector<Eigen::Vector3d>& truth) {
   json sites = json::array();
   for (int s = 0; s < input.site_count; ++s) {
@@ -326,27 +355,8 @@ json BundleInputToJson(const BundleInput& input, const std::vector<Eigen::Vector
                       {"covariance", ToJson<6>(p.covariance)},
                       {"source", p.source}});
   }
-  json ties = json::array();
-  for (const TiePoint& t : input.tie_points) {
-    ties.push_back({{"id", t.id},
-                    {"site_a", t.site_a},
-                    {"site_b", t.site_b},
-                    {"position_in_a_m", ToJson(t.position_in_a)},
-                    {"covariance_in_a_m2", ToJson<3>(t.covariance_in_a)},
-                    {"position_in_b_m", ToJson(t.position_in_b)},
-                    {"covariance_in_b_m2", ToJson<3>(t.covariance_in_b)},
-                    {"source", t.source}});
-  }
-  json controls = json::array();
-  for (const ControlPoint& c : input.control_points) {
-    controls.push_back({{"id", c.id},
-                        {"site", c.site},
-                        {"position_in_site_m", ToJson(c.position_in_site)},
-                        {"covariance_in_site_m2", ToJson<3>(c.covariance_in_site)},
-                        {"position_mbf_m", ToJson(c.position_mbf)},
-                        {"covariance_mbf_m2", ToJson<3>(c.covariance_mbf)},
-                        {"source", c.source}});
-  }
+  const json ties = TiePointsToJson(input.tie_points);
+  const json controls = ControlPointsToJson(input.control_points);
   json heights = json::array();
   for (const SiteHeight& h : input.heights) {
     heights.push_back(

@@ -55,12 +55,8 @@ json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
   WriteFileAtomically(dir / "faults.json", match.report.ToJson().dump(2));
   WriteFileAtomically(dir / "faults.txt", match.report.ToText());
 
-  BundleInput links;
-  links.body = mission.body;
-  links.origin = mission.origin;
-  links.tie_points = match.tie_points;
-  const json tie_points = BundleInputToJson(links).value("tie_points", json::array());
-  WriteFileAtomically(dir / "tie_points.json", json{{"tie_points", tie_points}}.dump(2));
+  WriteFileAtomically(dir / "tie_points.json",
+                      json{{"tie_points", TiePointsToJson(match.tie_points)}}.dump(2));
   if (progress) progress(1.0, "matching");
 
   json summary = {{"site_a", site_a},

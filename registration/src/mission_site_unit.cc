@@ -104,22 +104,18 @@ json RegisterSite(const RunContext& run, const Orthophoto& ortho, const SiteGeor
   if (const cv::Mat surface = CorrelationSurfaceImage(match); !surface.empty()) {
     WriteImage(dir / "correlation_surface.png", surface);
   }
-  BundleInput links;
-  links.body = run.mission->body;
-  links.origin = run.mission->origin;
+  std::vector<ControlPoint> controls;
   if (match.matched) {
     for (const OrbitalControlPoint& point :
          MakeControlPoints(match, ortho_image, orbital, prior, orbital_dtm, run.options->control)) {
       ControlPoint control = point.point;
       control.id = "site" + std::to_string(site) + "-" + control.id;  // Unique in the run.
-      links.control_points.push_back(control);
+      controls.push_back(control);
     }
   }
-  const json control = BundleInputToJson(links);
-  WriteFileAtomically(
-      dir / "control_points.json",
-      json{{"control_points", control.value("control_points", json::array())}}.dump(2));
-  report["control_points"] = links.control_points.size();
+  WriteFileAtomically(dir / "control_points.json",
+                      json{{"control_points", ControlPointsToJson(controls)}}.dump(2));
+  report["control_points"] = controls.size();
   WriteFileAtomically(dir / "registration.json", report.dump(2));
   return report;
 }

@@ -29,6 +29,11 @@ struct BundleInputFile {
 
 BundleInputFile ReadBundleInput(const std::vector<std::filesystem::path>& paths);
 
+// The "tie_points" / "control_points" arrays of that format alone, e.g. for a file that only adds
+// observations to a network (covariances written in full).
+nlohmann::json TiePointsToJson(const std::vector<TiePoint>& tie_points);
+nlohmann::json ControlPointsToJson(const std::vector<ControlPoint>& control_points);
+
 // The JSON document ReadBundleInput reads back to the same input (covariances written in full).
 nlohmann::json BundleInputToJson(const BundleInput& input,
                                  const std::vector<Eigen::Vector3d>& truth = {});
