@@ -37,15 +37,25 @@ Eigen::Vector3d CahvorModel::Unproject(const Eigen::Vector2d& pixel) const {
   return (zeta * o + (k / k_distorted) * lambda).normalized();
 }
 
-CahvorModel CahvorModel::Transformed(const Rigid3d& b_from_a) const {
-  CahvorModel out = *this;
+namespace {
+
+// C moves as a point; A, H, V and O rotate. R and E are coefficients, not directions.
+template <typename Model>
+Model TransformedCahvorFamily(const Model& model, const Rigid3d& b_from_a) {
+  Model out = model;
   const Eigen::Matrix3d rotation = b_from_a.RotationMatrix();
-  out.c = b_from_a * c;
-  out.a = rotation * a;
-  out.h = rotation * h;
-  out.v = rotation * v;
-  out.o = rotation * o;
+  out.c = b_from_a * model.c;
+  out.a = rotation * model.a;
+  out.h = rotation * model.h;
+  out.v = rotation * model.v;
+  out.o = rotation * model.o;
   return out;
+}
+
+}  // namespace
+
+CahvorModel CahvorModel::Transformed(const Rigid3d& b_from_a) const {
+  return TransformedCahvorFamily(*this, b_from_a);
 }
 
 namespace {
@@ -137,14 +147,7 @@ CameraRay CahvoreModel::Unproject(const Eigen::Vector2d& pixel) const {
 }
 
 CahvoreModel CahvoreModel::Transformed(const Rigid3d& b_from_a) const {
-  CahvoreModel out = *this;
-  const Eigen::Matrix3d rotation = b_from_a.RotationMatrix();
-  out.c = b_from_a * c;
-  out.a = rotation * a;
-  out.h = rotation * h;
-  out.v = rotation * v;
-  out.o = rotation * o;
-  return out;
+  return TransformedCahvorFamily(*this, b_from_a);
 }
 
 CahvoreModel CahvoreFromLabel(const CameraModelLabel& label, const std::string& source) {
