@@ -42,10 +42,11 @@ double HighPercentile(const cv::Mat& a, const cv::Mat& b) {
   return std::max(1.0, static_cast<double>(values[k]));
 }
 
-// Vertical disparity of corners tracked from left to right (pyramidal Lucas-Kanade with a
-// forward-backward check), as (x_right, y_right, dy).
-std::vector<Eigen::Vector3d> TrackVerticalDisparity(const cv::Mat& left8, const cv::Mat& right8,
-                                                    int cells) {
+// Corners tracked from left to right (pyramidal Lucas-Kanade with a forward-backward check), as
+// (left pixel, right pixel) pairs.
+using PixelPairs = std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>;
+
+PixelPairs TrackCorners(const cv::Mat& left8, const cv::Mat& right8, int cells) {
   std::vector<cv::Point2f> left_points, right_points, back_points;
   for (int cy = 0; cy < cells; ++cy) {  // The best corners of each cell, spread over the image.
     for (int cx = 0; cx < cells; ++cx) {
@@ -59,7 +60,7 @@ std::vector<Eigen::Vector3d> TrackVerticalDisparity(const cv::Mat& left8, const 
       }
     }
   }
-  std::vector<Eigen::Vector3d> out;
+  PixelPairs out;
   if (left_points.empty()) return out;
   std::vector<uint8_t> status, back_status;
   std::vector<float> error;
@@ -71,8 +72,8 @@ std::vector<Eigen::Vector3d> TrackVerticalDisparity(const cv::Mat& left8, const 
                            stop);
   for (size_t i = 0; i < left_points.size(); ++i) {
     if (!status[i] || !back_status[i] || cv::norm(back_points[i] - left_points[i]) > 0.5) continue;
-    const cv::Point2f r = right_points[i];
-    out.emplace_back(r.x, r.y, static_cast<double>(r.y - left_points[i].y));
+    out.emplace_back(Eigen::Vector2d(left_points[i].x, left_points[i].y),
+                     Eigen::Vector2d(right_points[i].x, right_points[i].y));
   }
   return out;
 }
@@ -91,7 +92,10 @@ constexpr double kMinRowShiftRmsPx = 0.5;
 void EstimateRowShift(const cv::Mat& left8, const cv::Mat& right8, DisparityResult* out) {
   constexpr int kCells = 8;
   if (left8.cols < 8 * kCells || left8.rows < 8 * kCells) return;  // Too small to grid.
-  const std::vector<Eigen::Vector3d> tracks = TrackVerticalDisparity(left8, right8, kCells);
+  std::vector<Eigen::Vector3d> tracks;                             // (x_right, y_right, dy).
+  for (const auto& [l, r] : TrackCorners(left8, right8, kCells)) {
+    tracks.emplace_back(r.x(), r.y(), r.y() - l.y());
+  }
   if (tracks.size() < 20) return;
   std::vector<double> all;
   std::vector<std::vector<double>> per_cell(kCells * kCells);
@@ -132,6 +136,27 @@ void EstimateRowShift(const cv::Mat& left8, const cv::Mat& right8, DisparityResu
     out->row_shift_rms_px = out->row_shift_before_rms_px;
     out->row_shift_features = 0;
   }
+}
+
+// Real calibrations: when corners tracked on the rectified pair leave more than
+// kMinRowShiftRmsPx of vertical disparity, the relative orientation (baseline direction, right
+// camera rotation) fitted to them. Returns false (and leaves `out` alone) otherwise.
+bool FitRelativeOrientation(const StereoRectification& rect, const cv::Mat& left8,
+                            const cv::Mat& right8, DisparityResult* out,
+                            RectificationCorrection* correction) {
+  constexpr int kCells = 8;
+  if (left8.cols < 8 * kCells || left8.rows < 8 * kCells) return false;  // Too small to grid.
+  const PixelPairs tracks = TrackCorners(left8, right8, kCells);
+  if (tracks.size() < 20) return false;
+  const RectificationFit fit = EstimateRectificationCorrection(rect, {}, tracks);
+  if (fit.rms_before_px < kMinRowShiftRmsPx) return false;
+  *correction = fit.correction;
+  out->orientation_features = fit.inliers;
+  out->orientation_rms_before_px = fit.rms_before_px;
+  out->orientation_rms_after_px = fit.rms_after_px;
+  out->right_rotation_deg = fit.right_rotation_deg;
+  out->baseline_tilt_deg = fit.baseline_tilt_deg;
+  return true;
 }
 
 double RowShiftAt(const cv::Mat& row_shift, double x, int y) {
@@ -262,14 +287,25 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
       RectifyStereoPair(left.model, right.model, {left_image.cols, left_image.rows}, rect_options);
   const StereoRectification& rect = result.rectification;
   const cv::Mat left_grey = ToGrey(left_image), right_grey = ToGrey(right_image);
-  const cv::Mat left_rect = RemapToRectified(left_grey, rect.left_map_x, rect.left_map_y);
-  const cv::Mat right_rect = RemapToRectified(right_grey, rect.right_map_x, rect.right_map_y);
-  const double gain = 255.0 / HighPercentile(left_rect, right_rect);
   DisparityResult& disparity = result.disparity;
-  left_rect.convertTo(disparity.left8, CV_8U, gain);
-  right_rect.convertTo(disparity.right8, CV_8U, gain);
+  double gain = 0.0;  // One gain for both images: the 99.9th percentile of the first pair.
+  const auto rectify_images = [&] {
+    const cv::Mat left_rect = RemapToRectified(left_grey, rect.left_map_x, rect.left_map_y);
+    const cv::Mat right_rect = RemapToRectified(right_grey, rect.right_map_x, rect.right_map_y);
+    if (gain == 0.0) gain = 255.0 / HighPercentile(left_rect, right_rect);
+    left_rect.convertTo(disparity.left8, CV_8U, gain);
+    right_rect.convertTo(disparity.right8, CV_8U, gain);
+  };
+  rectify_images();
+  if (options.align_rows && FitRelativeOrientation(rect, disparity.left8, disparity.right8,
+                                                   &disparity, &rect_options.correction)) {
+    result.rectification = RectifyStereoPair(left.model, right.model,
+                                             {left_image.cols, left_image.rows}, rect_options);
+    rectify_images();
+  }
   disparity.valid_left = rect.left_map_x >= 0.0f;
-  cv::Mat right_map_x = rect.right_map_x, right_map_y = rect.right_map_y;
+  // Own buffers: cv::remap below must not write into the maps it reads (rect's).
+  cv::Mat right_map_x = rect.right_map_x.clone(), right_map_y = rect.right_map_y.clone();
   if (options.align_rows) {
     EstimateRowShift(disparity.left8, disparity.right8, &disparity);
     if (disparity.row_shift_features > 0) {

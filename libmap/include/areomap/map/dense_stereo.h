@@ -1,7 +1,9 @@
 // Dense stereo: rectified pair → disparity (OpenCV's semi-global matcher) → 3D points with
 // covariance (the stereo error model, eqs. 4.1-4.3) in the site frame.
 //
-// Steps: epipolar rectification (rectification.h); a residual row alignment: sparse features
+// Steps: epipolar rectification (rectification.h); when corners tracked on it show more than
+// 0.5 px of vertical disparity, the pair's relative orientation (baseline direction, right camera
+// rotation) fitted to them and the rectification redone; a residual row alignment: sparse features
 // (Shi-Tomasi corners tracked by pyramidal Lucas-Kanade, forward-backward checked) give the
 // vertical offset of the right image, the median dy of each cell of an 8 x 8 grid, interpolated,
 // applied when their RMS exceeds 0.5 px, shifts the right image's rows (real calibrations leave a
@@ -68,6 +70,11 @@ struct DisparityResult {
   size_t row_shift_features = 0;         // Features the fit used (0: no correction).
   double row_shift_rms_px = 0.0;         // Residual vertical disparity of those features.
   double row_shift_before_rms_px = 0.0;  // Their vertical disparity before the correction.
+  // Relative orientation fitted to tracked corners (real calibrations: vertical disparity above
+  // 0.5 px), the rectification redone with it (rectification.h); 0 features: not needed.
+  size_t orientation_features = 0;
+  double orientation_rms_before_px = 0.0, orientation_rms_after_px = 0.0;
+  double right_rotation_deg = 0.0, baseline_tilt_deg = 0.0;
   size_t overlap_pixels = 0;  // Left pixels whose right partner at min disparity is inside.
   size_t valid_pixels = 0;    // Overlap pixels with a disparity after all filters.
 };
