@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
@@ -98,6 +99,60 @@ TEST(Rectification, RowsAreEpipolarAndMapsInvertTheModels) {
     EXPECT_NEAR(rect.left_map_x.at<float>(y, x), original.x(), 1e-3);
     EXPECT_NEAR(rect.left_map_y.at<float>(y, x), original.y(), 1e-3);
   }
+}
+
+// A rectification built with a wrong relative orientation (the right camera turned 1 degree, the
+// baseline tilted 3 degrees: what an error in a real calibration does); correspondences of
+// points 2-40 m away as the true cameras see them on that rectified grid. The fit must undo the
+// wrong correction and bring them to one row.
+TEST(Rectification, RelativeOrientationFitUndoesAWrongCalibration) {
+  const RenderedPair& f = Pair();
+  const Eigen::Vector3d baseline = f.cameras[1].c - f.cameras[0].c;
+  const Eigen::Vector3d axis = f.cameras[0].a;
+  RectificationOptions options;
+  options.correction.right_rotation =
+      Eigen::AngleAxisd(RadFromDeg(1.0), (0.6 * baseline.normalized() + 0.8 * axis).normalized())
+          .toRotationMatrix();
+  options.correction.baseline_rotation =
+      Eigen::AngleAxisd(RadFromDeg(3.0), axis.cross(baseline).normalized()).toRotationMatrix() *
+      Eigen::AngleAxisd(RadFromDeg(1.0), axis).toRotationMatrix();
+  const StereoRectification rect =
+      RectifyStereoPair(f.cameras[0], f.cameras[1], {512, 512}, options);
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> pairs;
+  double rms_wrong = 0.0;
+  while (pairs.size() < 400) {
+    const Eigen::Vector2d pixel(511.0 * unit(random), 511.0 * unit(random));
+    const Eigen::Vector3d point =
+        rect.left.c + (2.0 + 38.0 * unit(random)) * rect.left.Unproject(pixel);
+    // Where the true right camera sees the point, on the grid rectified with the correction.
+    const auto right = rect.right.Project(Eigen::Vector3d(
+        rect.right.c + options.correction.right_rotation * (point - f.cameras[1].c)));
+    if (!right) continue;
+    pairs.emplace_back(pixel, *right);
+    rms_wrong += std::pow(right->y() - pixel.y(), 2);
+  }
+  rms_wrong = std::sqrt(rms_wrong / 400.0);
+  const RectificationFit fit = EstimateRectificationCorrection(rect, options.correction, pairs);
+  EXPECT_GT(rms_wrong, 5.0);  // The wrong calibration matters.
+  EXPECT_NEAR(fit.rms_before_px, rms_wrong, 1e-6);
+  EXPECT_EQ(fit.inliers, 400u);
+  EXPECT_LT(fit.rms_after_px, 0.02);
+  // What may remain is what rows cannot see: the right camera turned about the vertical (a
+  // range bias, not a row error), which trades against a forward tilt of the baseline.
+  const Eigen::Vector3d x = baseline.normalized();
+  const Eigen::Vector3d forward = (axis - axis.dot(x) * x).normalized();
+  const Eigen::Vector3d down = forward.cross(x);
+  const Eigen::AngleAxisd right_rest(fit.correction.right_rotation);
+  const Eigen::Vector3d rest = right_rest.angle() * right_rest.axis();
+  EXPECT_LT(std::abs(rest.dot(x)), RadFromDeg(0.01));
+  EXPECT_LT(std::abs(rest.dot(forward)), RadFromDeg(0.01));
+  const Eigen::Vector3d b = (fit.correction.baseline_rotation * baseline).normalized();
+  EXPECT_LT(std::abs(b.dot(down)), RadFromDeg(0.01));  // Vertical tilt: undone.
+  EXPECT_LT(std::acos(b.dot(x)), RadFromDeg(0.2));
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> few(pairs.begin(), pairs.begin() + 19);
+  EXPECT_THROW(EstimateRectificationCorrection(rect, options.correction, few), Error);
 }
 
 TEST(DenseStereo, PointsMatchTheRenderedTruthWithinTheRangeErrorModel) {
