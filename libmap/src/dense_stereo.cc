@@ -185,6 +185,8 @@ void DenseStereoOptions::Check() const {
   RequireOption(lr_max_diff_px >= 0.0, "DenseStereoOptions.lr_max_diff_px", ">= 0 px");
   RequireOption(max_disparity_step_px >= 0.0, "DenseStereoOptions.max_disparity_step_px",
                 ">= 0 px (0: no occlusion-edge filter)");
+  RequireOption(occlusion_margin_px >= -1 && occlusion_margin_px <= 64,
+                "DenseStereoOptions.occlusion_margin_px", "-1 (block_size / 2) or 0..64 px");
   RequireOption(disparity_margin_px >= 0 && disparity_margin_px % 16 == 0,
                 "DenseStereoOptions.disparity_margin_px", "a multiple of 16 px, >= 0");
   RequireOption(output_size.minCoeff() >= 0, "DenseStereoOptions.output_size",
@@ -245,7 +247,8 @@ cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_di
         if (std::abs(d[x] - right) > step || std::abs(d[x] - below[x]) > step) j[x] = 255;
       }
     });  // Comparisons with NaN are false: invalid neighbours are not jumps.
-    const int r = options.block_size / 2;
+    const int r =
+        options.occlusion_margin_px >= 0 ? options.occlusion_margin_px : options.block_size / 2;
     cv::dilate(jump, jump,
                cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * r + 2, 2 * r + 2)));
     out.setTo(std::numeric_limits<float>::quiet_NaN(), jump);

@@ -18,6 +18,7 @@
 #include "areomap/map/rectification.h"
 #include "areomap/samples/rover.h"
 #include "areomap/samples/scene.h"
+#include "k10_pavement.h"
 #include "test_support.h"
 
 namespace areomap {
@@ -264,38 +265,6 @@ TEST(DenseStereo, BadPairsAreRejectedWithClearErrors) {
 namespace areomap {
 namespace {
 
-// Robust plane fit (least squares with 3-sigma trimming): returns (unit normal n, offset d) with
-// n . p = d, n pointing up (negative z: the K10 frame has z down).
-std::pair<Eigen::Vector3d, double> FitPlane(const std::vector<Eigen::Vector3d>& points) {
-  std::vector<bool> keep(points.size(), true);
-  Eigen::Vector3d normal = -Eigen::Vector3d::UnitZ();
-  double offset = 0.0;
-  for (int iteration = 0; iteration < 5; ++iteration) {
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    int n = 0;
-    for (size_t i = 0; i < points.size(); ++i) {
-      if (keep[i]) mean += points[i], ++n;
-    }
-    mean /= n;
-    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-    for (size_t i = 0; i < points.size(); ++i) {
-      if (keep[i]) scatter += (points[i] - mean) * (points[i] - mean).transpose();
-    }
-    normal = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvectors().col(0);
-    if (normal.z() > 0) normal = -normal;
-    offset = normal.dot(mean);
-    double sum = 0.0;
-    for (size_t i = 0; i < points.size(); ++i) {
-      if (keep[i]) sum += std::pow(normal.dot(points[i]) - offset, 2);
-    }
-    const double rms = std::sqrt(sum / n);
-    for (size_t i = 0; i < points.size(); ++i) {
-      keep[i] = std::abs(normal.dot(points[i]) - offset) < 3.0 * rms;
-    }
-  }
-  return {normal, offset};
-}
-
 // The real K10 pair (NASA Ames, rocks on pavement; ASP .tsai cameras), at half resolution.
 TEST(DenseStereoK10, PavementIsAPlaneWithinTheErrorModelAndRocksStandAboveIt) {
   SKIP_WITHOUT_SHARED_DATA();
@@ -323,55 +292,24 @@ TEST(DenseStereoK10, PavementIsAPlaneWithinTheErrorModelAndRocksStandAboveIt) {
   ::testing::Test::RecordProperty("valid_fraction", std::to_string(result.summary.valid_fraction));
   std::printf("K10 half size: %.1f%% of the overlap valid, %zu points\n",
               100.0 * result.summary.valid_fraction, result.summary.points);
-  EXPECT_GT(result.summary.valid_fraction, 0.5);
-  // Pavement: points 1.5-4 m away, outside the rock columns of the near rock (full-size left
-  // image x 430-720) and the rover body (rows > 600).
-  std::vector<Eigen::Vector3d> pavement;
-  std::vector<double> sigma_sq;
-  std::vector<const StereoPoint*> rock;
-  for (const StereoPoint& p : result.cloud.points) {
-    const double r = (p.position - result.cloud.camera_center).norm();
-    const double x = 2.0 * p.left_x, y = 2.0 * p.left_y;
-    if (x > 450 && x < 700 && y > 340 && y < 580) rock.push_back(&p);
-    if (r < 1.5 || r > 4.0 || (x > 400 && x < 760) || y > 600) continue;
-    pavement.push_back(p.position);
-  }
-  ASSERT_GT(pavement.size(), 2000u);
-  const auto [normal, offset] = FitPlane(pavement);
-  std::vector<double> residuals;
-  double model_sq = 0.0;
-  int n = 0;
-  for (const StereoPoint& p : result.cloud.points) {
-    const double r = (p.position - result.cloud.camera_center).norm();
-    const double x = 2.0 * p.left_x, y = 2.0 * p.left_y;
-    if (r < 1.5 || r > 4.0 || (x > 400 && x < 760) || y > 600) continue;
-    residuals.push_back(normal.dot(p.position) - offset);
-    model_sq += normal.dot(p.covariance * normal);
-    ++n;
-  }
-  std::vector<double> abs_residuals;
-  for (double e : residuals) abs_residuals.push_back(std::abs(e));
-  std::sort(abs_residuals.begin(), abs_residuals.end());
-  // Robust RMS: 1.4826 x median absolute residual.
-  const double robust_rms = 1.4826 * abs_residuals[abs_residuals.size() / 2];
-  const double model_rms = std::sqrt(model_sq / n);
+  EXPECT_GT(result.summary.valid_fraction, 0.7);
+  const testing::K10Pavement k10 = testing::EvaluateK10Pavement(result.cloud, 2.0);
   std::printf(
-      "pavement plane: %d points, robust RMS %.4f m, error model %.4f m (ratio %.2f), "
+      "pavement plane: %zu points, robust RMS %.4f m, error model %.4f m (ratio %.2f), "
       "normal %.3f %.3f %.3f\n",
-      n, robust_rms, model_rms, robust_rms / model_rms, normal.x(), normal.y(), normal.z());
-  ::testing::Test::RecordProperty("plane_rms_over_model", std::to_string(robust_rms / model_rms));
-  EXPECT_LT(robust_rms, 2.0 * model_rms);
-  EXPECT_GT(robust_rms, 0.25 * model_rms);
+      k10.pavement_points, k10.robust_rms_m, k10.model_rms_m, k10.robust_rms_m / k10.model_rms_m,
+      k10.normal.x(), k10.normal.y(), k10.normal.z());
+  ::testing::Test::RecordProperty("plane_rms_over_model",
+                                  std::to_string(k10.robust_rms_m / k10.model_rms_m));
+  ASSERT_GT(k10.pavement_points, 2000u);
+  EXPECT_LT(k10.robust_rms_m, 2.0 * k10.model_rms_m);
+  EXPECT_GT(k10.robust_rms_m, 0.25 * k10.model_rms_m);
   // The near rock (about 0.4 m tall) stands above the plane; its top is well clear of the noise.
-  ASSERT_GT(rock.size(), 500u);
-  std::vector<double> heights;
-  for (const StereoPoint* p : rock) heights.push_back(normal.dot(p->position) - offset);
-  std::sort(heights.begin(), heights.end());
-  const double top = heights[heights.size() * 95 / 100];
-  std::printf("near rock: %zu points, 95th percentile height above the plane %.3f m\n", rock.size(),
-              top);
-  EXPECT_GT(top, 0.2);
-  EXPECT_GT(top, 5.0 * robust_rms);
+  ASSERT_GT(k10.rock_points, 500u);
+  std::printf("near rock: %zu points, 95th percentile height above the plane %.3f m\n",
+              k10.rock_points, k10.rock_top_m);
+  EXPECT_GT(k10.rock_top_m, 0.2);
+  EXPECT_GT(k10.rock_top_m, 5.0 * k10.robust_rms_m);
 }
 
 }  // namespace

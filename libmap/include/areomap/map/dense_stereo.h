@@ -47,9 +47,10 @@ struct DenseStereoOptions {
   int speckle_range_px = 2;     // Disparity variation within one blob [px].
   double lr_max_diff_px = 1.0;  // Left-right consistency tolerance [px].
   double max_disparity_step_px = 2.0;  // Jumps larger than this between neighbours mark an
-                                       // occlusion edge; pixels within block_size / 2 of one are
-                                       // dropped (SGBM's foreground fattening). 0: keep them.
-  int disparity_margin_px = 16;        // Also searched below zero (calibration errors) [px].
+                                       // occlusion edge; pixels within occlusion_margin_px of one
+                                       // are dropped (SGBM foreground fattening). 0: keep.
+  int occlusion_margin_px = -1;  // Pixels dropped beside an occlusion edge; -1: block_size / 2.
+  int disparity_margin_px = 16;  // Also searched below zero (calibration errors) [px].
   Eigen::Vector2i output_size = Eigen::Vector2i::Zero();  // Rectified size; zero: input size.
   double parallax_sigma_px = 0.5;                         // sigma_p of eq. 4.3 for the covariances.
   double azimuth_sigma_px = 1.0;                          // Across-track sigma [px] (ch. 4.1).
