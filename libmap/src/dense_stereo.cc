@@ -213,11 +213,14 @@ cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_di
     return cv::Mat(disparity, cv::Rect(pad, 0, first.cols, first.rows)).clone();
   };
   const cv::Mat left_disparity = match(left8, right8);
-  // The right image's disparity: the same matcher on the mirrored pair.
-  cv::Mat left_flipped, right_flipped, right_disparity;
-  cv::flip(left8, left_flipped, 1);
-  cv::flip(right8, right_flipped, 1);
-  cv::flip(match(right_flipped, left_flipped), right_disparity, 1);
+  // The right image's disparity: the same matcher on the pair turned by 180 degrees (mirrored
+  // and upside down). SGBM_3WAY aggregates along paths from the rows above only, which pulls
+  // disparities toward those of the rows above (on ground seen from a mast: smaller, ranges too
+  // long); upside down, the pull comes from below. The average of the two runs cancels it.
+  cv::Mat left_turned, right_turned, right_disparity;
+  cv::flip(left8, left_turned, -1);
+  cv::flip(right8, right_turned, -1);
+  cv::flip(match(right_turned, left_turned), right_disparity, -1);
 
   cv::Mat out(left8.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   const float tolerance = static_cast<float>(options.lr_max_diff_px);
@@ -231,7 +234,8 @@ cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_di
       const float disparity = static_cast<float>(dl[x]) / 16.0f;
       const int xr = static_cast<int>(std::lround(static_cast<float>(x) - disparity));
       if (xr < 0 || xr >= out.cols || dr[xr] < invalid_below) continue;
-      if (std::abs(disparity - static_cast<float>(dr[xr]) / 16.0f) <= tolerance) d[x] = disparity;
+      const float other = static_cast<float>(dr[xr]) / 16.0f;
+      if (std::abs(disparity - other) <= tolerance) d[x] = 0.5f * (disparity + other);
     }
   });
   if (options.max_disparity_step_px > 0.0) {

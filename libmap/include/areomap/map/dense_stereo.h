@@ -10,7 +10,10 @@
 // few pixels, ASP's "affine epipolar" idea); SGBM on 8-bit images (both scaled by one gain:
 // the 99.9th percentile of the pair); SGBM's own subpixel fit (1/16 px), uniqueness test and
 // speckle filter; an explicit left-right consistency check against a second SGBM run on the
-// mirrored pair (|d_left(x) - d_right(x - d_left)| <= lr_max_diff_px); pixels near disparity
+// pair turned by 180 degrees (|d_left(x) - d_right(x - d_left)| <= lr_max_diff_px), the
+// disparity kept being the mean of the two (SGBM_3WAY's smoothness pulls each run toward the
+// rows it aggregates from, above for one, below for the other: the mean cancels that bias, which
+// made near ground ranges ~0.4 px of disparity too long); pixels near disparity
 // jumps (occlusion edges) dropped; ray triangulation
 // (TriangulateRays) of the rectified rays; points farther than max_range_m from the left camera are
 // dropped.
@@ -45,7 +48,8 @@ struct DenseStereoOptions {
   int uniqueness_ratio = 10;    // SGBM uniqueness margin [%].
   int speckle_window_px = 100;  // Largest disparity blob removed as a speckle [px].
   int speckle_range_px = 2;     // Disparity variation within one blob [px].
-  double lr_max_diff_px = 1.0;  // Left-right consistency tolerance [px].
+  double lr_max_diff_px = 2.0;  // Left-right tolerance [px]: the two runs' opposite pulls can
+                                // differ by ~1 px on steep near ground.
   double max_disparity_step_px = 2.0;  // Jumps larger than this between neighbours mark an
                                        // occlusion edge; pixels within occlusion_margin_px of one
                                        // are dropped (SGBM foreground fattening). 0: keep.
