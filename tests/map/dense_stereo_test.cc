@@ -299,6 +299,16 @@ TEST(DenseStereoK10, PavementIsAPlaneWithinTheErrorModelAndRocksStandAboveIt) {
   std::printf("K10 half size: %.1f%% of the overlap valid, %zu points\n",
               100.0 * result.summary.valid_fraction, result.summary.points);
   EXPECT_GT(result.summary.valid_fraction, 0.7);
+  // The .tsai centres put the baseline a few degrees off: the vertical disparity grows with
+  // the horizontal one until the relative-orientation fit takes it out.
+  const DisparityResult& d = result.disparity;
+  std::printf(
+      "relative orientation: %zu corners, %.2f -> %.2f px, baseline %.2f deg, right %.2f deg\n",
+      d.orientation_features, d.orientation_rms_before_px, d.orientation_rms_after_px,
+      d.baseline_tilt_deg, d.right_rotation_deg);
+  EXPECT_GT(d.orientation_features, 100u);
+  EXPECT_GT(d.orientation_rms_before_px, 0.5);
+  EXPECT_LT(d.orientation_rms_after_px, 0.5 * d.orientation_rms_before_px);
   const testing::K10Pavement k10 = testing::EvaluateK10Pavement(result.cloud, 2.0);
   std::printf(
       "pavement plane: %zu points, robust RMS %.4f m, error model %.4f m (ratio %.2f), "
