@@ -150,6 +150,13 @@ bool FitRelativeOrientation(const StereoRectification& rect, const cv::Mat& left
   if (tracks.size() < 20) return false;
   const RectificationFit fit = EstimateRectificationCorrection(rect, {}, tracks);
   if (fit.rms_before_px < kMinRowShiftRmsPx) return false;
+  // A fit that does not help, or turns the geometry further than any calibration error would,
+  // comes from wrong tracks: keep the models as given.
+  constexpr double kMaxCorrectionDeg = 15.0;
+  if (!(fit.rms_after_px < fit.rms_before_px) || fit.baseline_tilt_deg > kMaxCorrectionDeg ||
+      fit.right_rotation_deg > kMaxCorrectionDeg) {
+    return false;
+  }
   *correction = fit.correction;
   out->orientation_features = fit.inliers;
   out->orientation_rms_before_px = fit.rms_before_px;

@@ -3,14 +3,15 @@
 //
 // Steps: epipolar rectification (rectification.h); when corners tracked on it show more than
 // 0.5 px of vertical disparity, the pair's relative orientation (baseline direction, right camera
-// rotation) fitted to them and the rectification redone; a residual row alignment: sparse features
-// (Shi-Tomasi corners tracked by pyramidal Lucas-Kanade, forward-backward checked) give the
-// vertical offset of the right image, the median dy of each cell of an 8 x 8 grid, interpolated,
-// applied when their RMS exceeds 0.5 px, shifts the right image's rows (real calibrations leave a
-// few pixels, ASP's "affine epipolar" idea); SGBM on 8-bit images (both scaled by one gain:
-// the 99.9th percentile of the pair); SGBM's own subpixel fit (1/16 px), uniqueness test and
-// speckle filter; an explicit left-right consistency check against a second SGBM run on the
-// pair turned by 180 degrees (|d_left(x) - d_right(x - d_left)| <= lr_max_diff_px), the
+// rotation) fitted to them and the rectification redone (unless the fit does not lower the
+// vertical disparity or turns either by more than 15 degrees); a residual row alignment: sparse
+// features (Shi-Tomasi corners tracked by pyramidal Lucas-Kanade, forward-backward checked) give
+// the vertical offset of the right image, the median dy of each cell of an 8 x 8 grid,
+// interpolated, applied when their RMS exceeds 0.5 px, shifts the right image's rows (real
+// calibrations leave a few pixels, ASP's "affine epipolar" idea); SGBM on 8-bit images (both scaled
+// by one gain: the 99.9th percentile of the pair); SGBM's own subpixel fit (1/16 px), uniqueness
+// test and speckle filter; an explicit left-right consistency check against a second SGBM run on
+// the pair turned by 180 degrees (|d_left(x) - d_right(x - d_left)| <= lr_max_diff_px), the
 // disparity kept being the mean of the two (SGBM_3WAY's smoothness pulls each run toward the
 // rows it aggregates from, above for one, below for the other: the mean cancels that bias, which
 // made near ground ranges ~0.4 px of disparity too long); pixels near disparity
