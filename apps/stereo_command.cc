@@ -58,6 +58,12 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   cmd->add_option("--lr-max-diff", s.lr_max_diff_px, "Left-right consistency tolerance [px]")
       ->capture_default_str();
+  cmd->add_option("--max-disparity-step", s.max_disparity_step_px,
+                  "Disparity jump marking an occlusion edge [px] (0: keep edges)")
+      ->capture_default_str();
+  cmd->add_option("--occlusion-margin", s.occlusion_margin_px,
+                  "Pixels dropped on each side of an occlusion edge [px] (-1: block size / 2)")
+      ->capture_default_str();
   cmd->add_option("--parallax-sigma", s.parallax_sigma_px, "sigma_p of eq. 4.3 [px]")
       ->capture_default_str();
   cmd->add_flag("--rectified", o->write_rectified,
@@ -112,6 +118,11 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
                        {"overlap_pixels", m.overlap_pixels},
                        {"valid_pixels", m.valid_pixels},
                        {"valid_fraction", m.valid_fraction},
+                       {"orientation_features", disparity.orientation_features},
+                       {"orientation_rms_px_before", disparity.orientation_rms_before_px},
+                       {"orientation_rms_px_after", disparity.orientation_rms_after_px},
+                       {"right_rotation_deg", disparity.right_rotation_deg},
+                       {"baseline_tilt_deg", disparity.baseline_tilt_deg},
                        {"row_shift_features", disparity.row_shift_features},
                        {"vertical_disparity_rms_px_before", disparity.row_shift_before_rms_px},
                        {"vertical_disparity_rms_px_after", disparity.row_shift_rms_px},

@@ -13,6 +13,7 @@
 // pairs 0 and 5 of every site, and compares each sampled point's range along its pixel's ray with
 // the range at which that ray meets the analytic scene (rebuilt from the demo preset), placed
 // with the TRUE site pose (truth/sites.csv): the labels carry the telemetry heading.
+// With `--k10 DIR` (../shared/data/k10) it runs the real K10 pair at full size (see RunK10).
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -29,6 +30,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "../tests/map/k10_pavement.h"
 #include "areomap/map/camera_models.h"
 #include "areomap/map/dense_stereo.h"
 #include "areomap/map/geodesy.h"
@@ -264,10 +266,42 @@ int RunDemo(const std::filesystem::path& dir) {
   return 0;
 }
 
+// --k10 DIR: the real K10 pair (DIR = ../shared/data/k10) at full size with the default options
+// (nearest range 0.6 m): valid fraction of the overlap, the relative-orientation fit, the
+// pavement plane against the error model and the near rock's height (tests/map/k10_pavement.h).
+int RunK10(const std::filesystem::path& dir) {
+  const CameraFile left = ReadCameraFile(dir / "black_left.tsai");
+  const CameraFile right = ReadCameraFile(dir / "black_right.tsai");
+  DenseStereoOptions options;
+  options.min_range_m = 0.6;
+  const auto start = std::chrono::steady_clock::now();
+  const DenseStereoResult result = RunDenseStereo(
+      ReadImage(dir / "left4.png"), ReadImage(dir / "right4.png"), left, right, options);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const DisparityResult& d = result.disparity;
+  std::printf(
+      "K10 full size (1024x768): %.1f%% of the overlap valid (%zu of %zu px), %zu points, %.2f s\n"
+      "relative orientation: %zu corners, vertical disparity RMS %.2f -> %.2f px, right camera "
+      "turned %.2f deg, baseline tilted %.2f deg; residual row field %.2f -> %.2f px\n",
+      100.0 * result.summary.valid_fraction, result.summary.valid_pixels,
+      result.summary.overlap_pixels, result.summary.points, seconds, d.orientation_features,
+      d.orientation_rms_before_px, d.orientation_rms_after_px, d.right_rotation_deg,
+      d.baseline_tilt_deg, d.row_shift_before_rms_px, d.row_shift_rms_px);
+  const testing::K10Pavement k10 = testing::EvaluateK10Pavement(result.cloud, 1.0);
+  std::printf(
+      "pavement 1.5-4 m: %zu points, robust RMS %.4f m, error model %.4f m (ratio %.2f); near "
+      "rock: %zu points, 95th percentile %.3f m above the plane\n",
+      k10.pavement_points, k10.robust_rms_m, k10.model_rms_m, k10.robust_rms_m / k10.model_rms_m,
+      k10.rock_points, k10.rock_top_m);
+  return 0;
+}
+
 }  // namespace
 }  // namespace areomap
 
 int main(int argc, char** argv) {
   if (argc > 2 && std::string(argv[1]) == "--demo") return areomap::RunDemo(argv[2]);
+  if (argc > 2 && std::string(argv[1]) == "--k10") return areomap::RunK10(argv[2]);
   return areomap::Run(argc > 1 ? std::max(1, std::atoi(argv[1])) : 5);
 }

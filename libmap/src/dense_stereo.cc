@@ -42,10 +42,11 @@ double HighPercentile(const cv::Mat& a, const cv::Mat& b) {
   return std::max(1.0, static_cast<double>(values[k]));
 }
 
-// Vertical disparity of corners tracked from left to right (pyramidal Lucas-Kanade with a
-// forward-backward check), as (x_right, y_right, dy).
-std::vector<Eigen::Vector3d> TrackVerticalDisparity(const cv::Mat& left8, const cv::Mat& right8,
-                                                    int cells) {
+// Corners tracked from left to right (pyramidal Lucas-Kanade with a forward-backward check), as
+// (left pixel, right pixel) pairs.
+using PixelPairs = std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>;
+
+PixelPairs TrackCorners(const cv::Mat& left8, const cv::Mat& right8, int cells) {
   std::vector<cv::Point2f> left_points, right_points, back_points;
   for (int cy = 0; cy < cells; ++cy) {  // The best corners of each cell, spread over the image.
     for (int cx = 0; cx < cells; ++cx) {
@@ -59,7 +60,7 @@ std::vector<Eigen::Vector3d> TrackVerticalDisparity(const cv::Mat& left8, const 
       }
     }
   }
-  std::vector<Eigen::Vector3d> out;
+  PixelPairs out;
   if (left_points.empty()) return out;
   std::vector<uint8_t> status, back_status;
   std::vector<float> error;
@@ -71,8 +72,8 @@ std::vector<Eigen::Vector3d> TrackVerticalDisparity(const cv::Mat& left8, const 
                            stop);
   for (size_t i = 0; i < left_points.size(); ++i) {
     if (!status[i] || !back_status[i] || cv::norm(back_points[i] - left_points[i]) > 0.5) continue;
-    const cv::Point2f r = right_points[i];
-    out.emplace_back(r.x, r.y, static_cast<double>(r.y - left_points[i].y));
+    out.emplace_back(Eigen::Vector2d(left_points[i].x, left_points[i].y),
+                     Eigen::Vector2d(right_points[i].x, right_points[i].y));
   }
   return out;
 }
@@ -91,7 +92,10 @@ constexpr double kMinRowShiftRmsPx = 0.5;
 void EstimateRowShift(const cv::Mat& left8, const cv::Mat& right8, DisparityResult* out) {
   constexpr int kCells = 8;
   if (left8.cols < 8 * kCells || left8.rows < 8 * kCells) return;  // Too small to grid.
-  const std::vector<Eigen::Vector3d> tracks = TrackVerticalDisparity(left8, right8, kCells);
+  std::vector<Eigen::Vector3d> tracks;                             // (x_right, y_right, dy).
+  for (const auto& [l, r] : TrackCorners(left8, right8, kCells)) {
+    tracks.emplace_back(r.x(), r.y(), r.y() - l.y());
+  }
   if (tracks.size() < 20) return;
   std::vector<double> all;
   std::vector<std::vector<double>> per_cell(kCells * kCells);
@@ -134,6 +138,34 @@ void EstimateRowShift(const cv::Mat& left8, const cv::Mat& right8, DisparityResu
   }
 }
 
+// Real calibrations: when corners tracked on the rectified pair leave more than
+// kMinRowShiftRmsPx of vertical disparity, the relative orientation (baseline direction, right
+// camera rotation) fitted to them. Returns false (and leaves `out` alone) otherwise.
+bool FitRelativeOrientation(const StereoRectification& rect, const cv::Mat& left8,
+                            const cv::Mat& right8, DisparityResult* out,
+                            RectificationCorrection* correction) {
+  constexpr int kCells = 8;
+  if (left8.cols < 8 * kCells || left8.rows < 8 * kCells) return false;  // Too small to grid.
+  const PixelPairs tracks = TrackCorners(left8, right8, kCells);
+  if (tracks.size() < 20) return false;
+  const RectificationFit fit = EstimateRectificationCorrection(rect, {}, tracks);
+  if (fit.rms_before_px < kMinRowShiftRmsPx) return false;
+  // A fit that does not help, or turns the geometry further than any calibration error would,
+  // comes from wrong tracks: keep the models as given.
+  constexpr double kMaxCorrectionDeg = 15.0;
+  if (!(fit.rms_after_px < fit.rms_before_px) || fit.baseline_tilt_deg > kMaxCorrectionDeg ||
+      fit.right_rotation_deg > kMaxCorrectionDeg) {
+    return false;
+  }
+  *correction = fit.correction;
+  out->orientation_features = fit.inliers;
+  out->orientation_rms_before_px = fit.rms_before_px;
+  out->orientation_rms_after_px = fit.rms_after_px;
+  out->right_rotation_deg = fit.right_rotation_deg;
+  out->baseline_tilt_deg = fit.baseline_tilt_deg;
+  return true;
+}
+
 double RowShiftAt(const cv::Mat& row_shift, double x, int y) {
   if (row_shift.empty()) return 0.0;
   const int column = std::clamp(static_cast<int>(std::lround(x)), 0, row_shift.cols - 1);
@@ -160,6 +192,8 @@ void DenseStereoOptions::Check() const {
   RequireOption(lr_max_diff_px >= 0.0, "DenseStereoOptions.lr_max_diff_px", ">= 0 px");
   RequireOption(max_disparity_step_px >= 0.0, "DenseStereoOptions.max_disparity_step_px",
                 ">= 0 px (0: no occlusion-edge filter)");
+  RequireOption(occlusion_margin_px >= -1 && occlusion_margin_px <= 64,
+                "DenseStereoOptions.occlusion_margin_px", "-1 (block_size / 2) or 0..64 px");
   RequireOption(disparity_margin_px >= 0 && disparity_margin_px % 16 == 0,
                 "DenseStereoOptions.disparity_margin_px", "a multiple of 16 px, >= 0");
   RequireOption(output_size.minCoeff() >= 0, "DenseStereoOptions.output_size",
@@ -186,11 +220,14 @@ cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_di
     return cv::Mat(disparity, cv::Rect(pad, 0, first.cols, first.rows)).clone();
   };
   const cv::Mat left_disparity = match(left8, right8);
-  // The right image's disparity: the same matcher on the mirrored pair.
-  cv::Mat left_flipped, right_flipped, right_disparity;
-  cv::flip(left8, left_flipped, 1);
-  cv::flip(right8, right_flipped, 1);
-  cv::flip(match(right_flipped, left_flipped), right_disparity, 1);
+  // The right image's disparity: the same matcher on the pair turned by 180 degrees (mirrored
+  // and upside down). SGBM_3WAY aggregates along paths from the rows above only, which pulls
+  // disparities toward those of the rows above (on ground seen from a mast: smaller, ranges too
+  // long); upside down, the pull comes from below. The average of the two runs cancels it.
+  cv::Mat left_turned, right_turned, right_disparity;
+  cv::flip(left8, left_turned, -1);
+  cv::flip(right8, right_turned, -1);
+  cv::flip(match(right_turned, left_turned), right_disparity, -1);
 
   cv::Mat out(left8.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   const float tolerance = static_cast<float>(options.lr_max_diff_px);
@@ -204,7 +241,8 @@ cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_di
       const float disparity = static_cast<float>(dl[x]) / 16.0f;
       const int xr = static_cast<int>(std::lround(static_cast<float>(x) - disparity));
       if (xr < 0 || xr >= out.cols || dr[xr] < invalid_below) continue;
-      if (std::abs(disparity - static_cast<float>(dr[xr]) / 16.0f) <= tolerance) d[x] = disparity;
+      const float other = static_cast<float>(dr[xr]) / 16.0f;
+      if (std::abs(disparity - other) <= tolerance) d[x] = 0.5f * (disparity + other);
     }
   });
   if (options.max_disparity_step_px > 0.0) {
@@ -220,7 +258,8 @@ cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_di
         if (std::abs(d[x] - right) > step || std::abs(d[x] - below[x]) > step) j[x] = 255;
       }
     });  // Comparisons with NaN are false: invalid neighbours are not jumps.
-    const int r = options.block_size / 2;
+    const int r =
+        options.occlusion_margin_px >= 0 ? options.occlusion_margin_px : options.block_size / 2;
     cv::dilate(jump, jump,
                cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * r + 2, 2 * r + 2)));
     out.setTo(std::numeric_limits<float>::quiet_NaN(), jump);
@@ -262,14 +301,25 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
       RectifyStereoPair(left.model, right.model, {left_image.cols, left_image.rows}, rect_options);
   const StereoRectification& rect = result.rectification;
   const cv::Mat left_grey = ToGrey(left_image), right_grey = ToGrey(right_image);
-  const cv::Mat left_rect = RemapToRectified(left_grey, rect.left_map_x, rect.left_map_y);
-  const cv::Mat right_rect = RemapToRectified(right_grey, rect.right_map_x, rect.right_map_y);
-  const double gain = 255.0 / HighPercentile(left_rect, right_rect);
   DisparityResult& disparity = result.disparity;
-  left_rect.convertTo(disparity.left8, CV_8U, gain);
-  right_rect.convertTo(disparity.right8, CV_8U, gain);
+  double gain = 0.0;  // One gain for both images: the 99.9th percentile of the first pair.
+  const auto rectify_images = [&] {
+    const cv::Mat left_rect = RemapToRectified(left_grey, rect.left_map_x, rect.left_map_y);
+    const cv::Mat right_rect = RemapToRectified(right_grey, rect.right_map_x, rect.right_map_y);
+    if (gain == 0.0) gain = 255.0 / HighPercentile(left_rect, right_rect);
+    left_rect.convertTo(disparity.left8, CV_8U, gain);
+    right_rect.convertTo(disparity.right8, CV_8U, gain);
+  };
+  rectify_images();
+  if (options.align_rows && FitRelativeOrientation(rect, disparity.left8, disparity.right8,
+                                                   &disparity, &rect_options.correction)) {
+    result.rectification = RectifyStereoPair(left.model, right.model,
+                                             {left_image.cols, left_image.rows}, rect_options);
+    rectify_images();
+  }
   disparity.valid_left = rect.left_map_x >= 0.0f;
-  cv::Mat right_map_x = rect.right_map_x, right_map_y = rect.right_map_y;
+  // Own buffers: cv::remap below must not write into the maps it reads (rect's).
+  cv::Mat right_map_x = rect.right_map_x.clone(), right_map_y = rect.right_map_y.clone();
   if (options.align_rows) {
     EstimateRowShift(disparity.left8, disparity.right8, &disparity);
     if (disparity.row_shift_features > 0) {

@@ -1,6 +1,9 @@
 #include "areomap/map/rectification.h"
 
 #include <cmath>
+#include <string>
+
+#include <Eigen/Geometry>
 
 #include <tbb/parallel_for.h>
 #include <opencv2/imgproc.hpp>
@@ -11,10 +14,11 @@
 namespace areomap {
 namespace {
 
-// Fills the maps from rectified pixel to input pixel of `model` (-1 outside the input).
+// Fills the maps from rectified pixel to input pixel of `model` (-1 outside the input). The
+// model sees the rectified ray d where it would see model_from_true * d.
 void BuildMaps(const CahvorModel& rectified, const CameraModel& model,
-               const Eigen::Vector2i& input_size, const Eigen::Vector2i& size, cv::Mat* map_x,
-               cv::Mat* map_y) {
+               const Eigen::Matrix3d& model_from_true, const Eigen::Vector2i& input_size,
+               const Eigen::Vector2i& size, cv::Mat* map_x, cv::Mat* map_y) {
   *map_x = cv::Mat(size.y(), size.x(), CV_32F);
   *map_y = cv::Mat(size.y(), size.x(), CV_32F);
   const double max_x = input_size.x() - 1.0, max_y = input_size.y() - 1.0;
@@ -22,7 +26,8 @@ void BuildMaps(const CahvorModel& rectified, const CameraModel& model,
     auto* mx = map_x->ptr<float>(y);
     auto* my = map_y->ptr<float>(y);
     for (int x = 0; x < size.x(); ++x) {
-      const Eigen::Vector3d direction = rectified.Unproject(Eigen::Vector2d(x, y));
+      const Eigen::Vector3d direction =
+          model_from_true * rectified.Unproject(Eigen::Vector2d(x, y));
       const auto pixel = model.Project(Eigen::Vector3d(model.Center() + 1000.0 * direction));
       const bool inside = pixel && pixel->x() >= 0.0 && pixel->x() <= max_x && pixel->y() >= 0.0 &&
                           pixel->y() <= max_y;
@@ -49,7 +54,8 @@ StereoRectification RectifyStereoPair(const CameraModel& left, const CameraModel
                 "a positive width and height");
   StereoRectification out;
   out.size = options.output_size.minCoeff() > 0 ? options.output_size : input_size;
-  const Eigen::Vector3d baseline = right.Center() - left.Center();
+  const RectificationCorrection& correction = options.correction;
+  const Eigen::Vector3d baseline = correction.baseline_rotation * (right.Center() - left.Center());
   out.baseline_m = baseline.norm();
   if (!(out.baseline_m > 1e-6)) {
     throw Error("stereo pair: the two camera centres coincide (baseline " +
@@ -65,7 +71,7 @@ StereoRectification RectifyStereoPair(const CameraModel& left, const CameraModel
         "stereo pair: the right camera is not to the right of the left one (baseline "
         "points to the left image's left): are the images swapped?");
   }
-  Eigen::Vector3d axis = (left_linear.a + right_linear.a).normalized();
+  Eigen::Vector3d axis = (left_linear.a + correction.right_rotation * right_linear.a).normalized();
   axis = (axis - axis.dot(x_axis) * x_axis).normalized();
   const Eigen::Vector3d down = axis.cross(x_axis).normalized();
   const double hs = 0.5 * (left_linear.FocalLengths().x() + right_linear.FocalLengths().x());
@@ -79,10 +85,12 @@ StereoRectification RectifyStereoPair(const CameraModel& left, const CameraModel
     m->r.setZero();
   }
   out.left.c = left.Center();
-  out.right.c = right.Center();
+  out.right.c = left.Center() + baseline;
   out.focal_px = hs;
-  BuildMaps(out.left, left, input_size, out.size, &out.left_map_x, &out.left_map_y);
-  BuildMaps(out.right, right, input_size, out.size, &out.right_map_x, &out.right_map_y);
+  BuildMaps(out.left, left, Eigen::Matrix3d::Identity(), input_size, out.size, &out.left_map_x,
+            &out.left_map_y);
+  BuildMaps(out.right, right, correction.right_rotation.transpose(), input_size, out.size,
+            &out.right_map_x, &out.right_map_y);
   const cv::Mat both = (out.left_map_x >= 0.0f) & (out.right_map_x >= 0.0f);
   out.overlap_fraction =
       static_cast<double>(cv::countNonZero(both)) / (static_cast<double>(out.size.prod()));
@@ -94,6 +102,96 @@ StereoRectification RectifyStereoPair(const CameraModel& left, const CameraModel
                 "% (do the cameras look the same way?)");
   }
   return out;
+}
+
+RectificationFit EstimateRectificationCorrection(
+    const StereoRectification& rect, const RectificationCorrection& current,
+    const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& left_right_pixels) {
+  const size_t n = left_right_pixels.size();
+  if (n < 20) {
+    throw Error("rectification correction: " + std::to_string(n) +
+                " correspondences: expected at least 20");
+  }
+  // The rectified frame: x along the baseline, `down`, and the common axis a.
+  const Eigen::Vector3d x_axis = (rect.right.c - rect.left.c).normalized();
+  const Eigen::Vector3d axis = rect.left.a;
+  const Eigen::Vector3d down = axis.cross(x_axis).normalized();
+  const double vs = rect.left.FocalLengths().y();
+  std::vector<Eigen::Vector3d> left_rays(n), right_rays(n);
+  for (size_t i = 0; i < n; ++i) {
+    left_rays[i] = rect.left.Unproject(left_right_pixels[i].first);
+    right_rays[i] = rect.right.Unproject(left_right_pixels[i].second);
+  }
+  // theta: baseline turned about `down` (forward tilt) and about the axis (vertical tilt); the
+  // right camera turned about x, down and the axis [rad].
+  using Vector5d = Eigen::Matrix<double, 5, 1>;
+  const auto rotations = [&](const Vector5d& t) {
+    const Eigen::Vector3d b = t[0] * down + t[1] * axis;
+    const Eigen::Vector3d w = t[2] * x_axis + t[3] * down + t[4] * axis;
+    const auto rotation = [](const Eigen::Vector3d& v) -> Eigen::Matrix3d {
+      const double angle = v.norm();
+      return angle > 0.0 ? Eigen::AngleAxisd(angle, v / angle).toRotationMatrix()
+                         : Eigen::Matrix3d::Identity();
+    };
+    return std::pair<Eigen::Matrix3d, Eigen::Matrix3d>{rotation(b), rotation(w)};
+  };
+  const auto residuals = [&](const Vector5d& t) {
+    const auto [turn_baseline, turn_right] = rotations(t);
+    const Eigen::Vector3d x = turn_baseline * x_axis;
+    const Eigen::Vector3d a = (axis - axis.dot(x) * x).normalized();
+    const Eigen::Vector3d d = a.cross(x).normalized();
+    Eigen::VectorXd r(static_cast<Eigen::Index>(n));
+    for (size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d& l = left_rays[i];
+      const Eigen::Vector3d rr = turn_right * right_rays[i];
+      r[static_cast<Eigen::Index>(i)] = vs * (rr.dot(d) / rr.dot(a) - l.dot(d) / l.dot(a));
+    }
+    return r;
+  };
+  RectificationFit fit;
+  Vector5d theta = Vector5d::Zero();
+  std::vector<double> weight(n, 1.0);
+  constexpr double kHuberPx = 1.0, kOutlierPx = 5.0, kPriorRad = 0.1, kStep = 1e-6;
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    const Eigen::VectorXd r = residuals(theta);
+    Eigen::Matrix<double, Eigen::Dynamic, 5> jacobian(r.size(), 5);
+    for (int k = 0; k < 5; ++k) {
+      Vector5d step = theta;
+      step[k] += kStep;
+      jacobian.col(k) = (residuals(step) - r) / kStep;
+    }
+    Eigen::Matrix<double, 5, 5> normal =
+        Eigen::Matrix<double, 5, 5>::Identity() / (kPriorRad * kPriorRad);
+    Vector5d gradient = -theta / (kPriorRad * kPriorRad);
+    for (size_t i = 0; i < n; ++i) {
+      const double e = std::abs(r[static_cast<Eigen::Index>(i)]);
+      weight[i] = iteration > 0 && e > kOutlierPx ? 0.0 : (e <= kHuberPx ? 1.0 : kHuberPx / e);
+      const auto row = jacobian.row(static_cast<Eigen::Index>(i)).transpose();
+      normal += weight[i] * row * row.transpose();
+      gradient -= weight[i] * row * r[static_cast<Eigen::Index>(i)];
+    }
+    theta += normal.ldlt().solve(gradient);
+  }
+  const Eigen::VectorXd before = residuals(Vector5d::Zero()), after = residuals(theta);
+  double sum_before = 0.0, sum_after = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    const auto k = static_cast<Eigen::Index>(i);
+    if (std::abs(after[k]) > kOutlierPx) continue;
+    sum_before += before[k] * before[k];
+    sum_after += after[k] * after[k];
+    ++fit.inliers;
+  }
+  if (fit.inliers > 0) {
+    fit.rms_before_px = std::sqrt(sum_before / static_cast<double>(fit.inliers));
+    fit.rms_after_px = std::sqrt(sum_after / static_cast<double>(fit.inliers));
+  }
+  const auto [turn_baseline, turn_right] = rotations(theta);
+  fit.correction.baseline_rotation = turn_baseline * current.baseline_rotation;
+  fit.correction.right_rotation = turn_right * current.right_rotation;
+  constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
+  fit.baseline_tilt_deg = kDegPerRad * Eigen::AngleAxisd(fit.correction.baseline_rotation).angle();
+  fit.right_rotation_deg = kDegPerRad * Eigen::AngleAxisd(fit.correction.right_rotation).angle();
+  return fit;
 }
 
 cv::Mat RemapToRectified(const cv::Mat& image, const cv::Mat& map_x, const cv::Mat& map_y) {

@@ -1,14 +1,20 @@
 // Dense stereo: rectified pair → disparity (OpenCV's semi-global matcher) → 3D points with
 // covariance (the stereo error model, eqs. 4.1-4.3) in the site frame.
 //
-// Steps: epipolar rectification (rectification.h); a residual row alignment: sparse features
-// (Shi-Tomasi corners tracked by pyramidal Lucas-Kanade, forward-backward checked) give the
-// vertical offset of the right image, the median dy of each cell of an 8 x 8 grid, interpolated,
-// applied when their RMS exceeds 0.5 px, shifts the right image's rows (real calibrations leave a
-// few pixels, ASP's "affine epipolar" idea); SGBM on 8-bit images (both scaled by one gain:
-// the 99.9th percentile of the pair); SGBM's own subpixel fit (1/16 px), uniqueness test and
-// speckle filter; an explicit left-right consistency check against a second SGBM run on the
-// mirrored pair (|d_left(x) - d_right(x - d_left)| <= lr_max_diff_px); pixels near disparity
+// Steps: epipolar rectification (rectification.h); when corners tracked on it show more than
+// 0.5 px of vertical disparity, the pair's relative orientation (baseline direction, right camera
+// rotation) fitted to them and the rectification redone (unless the fit does not lower the
+// vertical disparity or turns either by more than 15 degrees); a residual row alignment: sparse
+// features (Shi-Tomasi corners tracked by pyramidal Lucas-Kanade, forward-backward checked) give
+// the vertical offset of the right image, the median dy of each cell of an 8 x 8 grid,
+// interpolated, applied when their RMS exceeds 0.5 px, shifts the right image's rows (real
+// calibrations leave a few pixels, ASP's "affine epipolar" idea); SGBM on 8-bit images (both scaled
+// by one gain: the 99.9th percentile of the pair); SGBM's own subpixel fit (1/16 px), uniqueness
+// test and speckle filter; an explicit left-right consistency check against a second SGBM run on
+// the pair turned by 180 degrees (|d_left(x) - d_right(x - d_left)| <= lr_max_diff_px), the
+// disparity kept being the mean of the two (SGBM_3WAY's smoothness pulls each run toward the
+// rows it aggregates from, above for one, below for the other: the mean cancels that bias, which
+// made near ground ranges ~0.4 px of disparity too long); pixels near disparity
 // jumps (occlusion edges) dropped; ray triangulation
 // (TriangulateRays) of the rectified rays; points farther than max_range_m from the left camera are
 // dropped.
@@ -43,11 +49,13 @@ struct DenseStereoOptions {
   int uniqueness_ratio = 10;    // SGBM uniqueness margin [%].
   int speckle_window_px = 100;  // Largest disparity blob removed as a speckle [px].
   int speckle_range_px = 2;     // Disparity variation within one blob [px].
-  double lr_max_diff_px = 1.0;  // Left-right consistency tolerance [px].
+  double lr_max_diff_px = 2.0;  // Left-right tolerance [px]: the two runs' opposite pulls can
+                                // differ by ~1 px on steep near ground.
   double max_disparity_step_px = 2.0;  // Jumps larger than this between neighbours mark an
-                                       // occlusion edge; pixels within block_size / 2 of one are
-                                       // dropped (SGBM's foreground fattening). 0: keep them.
-  int disparity_margin_px = 16;        // Also searched below zero (calibration errors) [px].
+                                       // occlusion edge; pixels within occlusion_margin_px of one
+                                       // are dropped (SGBM foreground fattening). 0: keep.
+  int occlusion_margin_px = -1;  // Pixels dropped beside an occlusion edge; -1: block_size / 2.
+  int disparity_margin_px = 16;  // Also searched below zero (calibration errors) [px].
   Eigen::Vector2i output_size = Eigen::Vector2i::Zero();  // Rectified size; zero: input size.
   double parallax_sigma_px = 0.5;                         // sigma_p of eq. 4.3 for the covariances.
   double azimuth_sigma_px = 1.0;                          // Across-track sigma [px] (ch. 4.1).
@@ -68,6 +76,11 @@ struct DisparityResult {
   size_t row_shift_features = 0;         // Features the fit used (0: no correction).
   double row_shift_rms_px = 0.0;         // Residual vertical disparity of those features.
   double row_shift_before_rms_px = 0.0;  // Their vertical disparity before the correction.
+  // Relative orientation fitted to tracked corners (real calibrations: vertical disparity above
+  // 0.5 px), the rectification redone with it (rectification.h); 0 features: not needed.
+  size_t orientation_features = 0;
+  double orientation_rms_before_px = 0.0, orientation_rms_after_px = 0.0;
+  double right_rotation_deg = 0.0, baseline_tilt_deg = 0.0;
   size_t overlap_pixels = 0;  // Left pixels whose right partner at min disparity is inside.
   size_t valid_pixels = 0;    // Overlap pixels with a disparity after all filters.
 };

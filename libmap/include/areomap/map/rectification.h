@@ -16,6 +16,9 @@
 // share less than `min_overlap_fraction` of their pixels at infinity (no overlap).
 #pragma once
 
+#include <utility>
+#include <vector>
+
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
@@ -24,9 +27,19 @@
 
 namespace areomap {
 
+// A small correction of the pair's relative orientation (a real calibration's error), in the
+// models' frame: the right camera's rays are turned by `right_rotation` (the direction the right
+// model gives for a pixel, rotated, is where that pixel really looks), and the baseline (right
+// centre minus left centre, length kept) by `baseline_rotation`. Identity: the models as given.
+struct RectificationCorrection {
+  Eigen::Matrix3d right_rotation = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d baseline_rotation = Eigen::Matrix3d::Identity();
+};
+
 struct RectificationOptions {
   Eigen::Vector2i output_size = Eigen::Vector2i::Zero();  // [px]; zero: the input size.
   double min_overlap_fraction = 0.02;  // Of the output pixels seen by both at infinity.
+  RectificationCorrection correction;  // Applied to the right model and the baseline.
   void Check() const;                  // Throws areomap::Error naming the field.
 };
 
@@ -44,6 +57,25 @@ struct StereoRectification {
 StereoRectification RectifyStereoPair(const CameraModel& left, const CameraModel& right,
                                       const Eigen::Vector2i& input_size,
                                       const RectificationOptions& options);
+
+// Relative-orientation correction from point correspondences between the rectified pair of
+// `rect` (rectified pixels, left and right): the baseline's direction (2 angles) and the right
+// camera's rotation (3 angles) that bring every correspondence to one row, by iteratively
+// reweighted Gauss-Newton (Huber weights at 1 px; pairs off by more than 5 px after the first
+// iteration are dropped). A baseline tilt makes the vertical disparity grow with the horizontal
+// one, a rotation does not, so points at several depths are needed to tell them apart; a small
+// damping keeps unobservable angles at zero. The correction composes with the one `rect` was
+// built with. `rms_before_px` / `rms_after_px` receive the inliers' vertical disparity.
+// Failure: throws areomap::Error with fewer than 20 correspondences.
+struct RectificationFit {
+  RectificationCorrection correction;
+  double rms_before_px = 0.0, rms_after_px = 0.0;
+  double right_rotation_deg = 0.0, baseline_tilt_deg = 0.0;
+  size_t inliers = 0;
+};
+RectificationFit EstimateRectificationCorrection(
+    const StereoRectification& rect, const RectificationCorrection& current,
+    const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& left_right_pixels);
 
 // Resamples `image` (any depth, 1 channel) onto the rectified grid (bilinear; 0 outside).
 cv::Mat RemapToRectified(const cv::Mat& image, const cv::Mat& map_x, const cv::Mat& map_y);
