@@ -6,6 +6,7 @@
 // common traverse grid (with both poses) and dropped; the windows are merged afterwards
 // (MergeGriddedLayers), as MakeDtm does for clouds held together.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -235,6 +236,14 @@ json RunProductsUnit(const RunContext& run, const std::vector<Rigid3d>& traverse
   dtm_options.grid.reset();
   const GridSpec grid = GridSpec::Covering(min, max, dtm_options.posting_m);
 
+  // Wall time of the unit's parts [s].
+  json seconds = json::object();
+  auto clock = std::chrono::steady_clock::now();
+  const auto lap = [&](const char* part) {
+    seconds[part] = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock).count();
+    clock = std::chrono::steady_clock::now();
+  };
+
   report(0.0, "traverse DTM");
   std::vector<GriddedLayers> adjusted_layers(site_count), telemetry_layers(site_count);
   tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
@@ -242,25 +251,35 @@ json RunProductsUnit(const RunContext& run, const std::vector<Rigid3d>& traverse
     adjusted_layers[i] = std::move(layers.adjusted);
     telemetry_layers[i] = std::move(layers.telemetry);
   });
-  Dtm dtm{MergeGriddedLayers(adjusted_layers, grid), run.map.Wkt()};
-  const GriddedLayers telemetry_dtm = MergeGriddedLayers(telemetry_layers, grid);
+  const Dtm dtm{MergeGriddedLayers(adjusted_layers, grid), run.map.Wkt()};
+  const Dtm telemetry_dtm{MergeGriddedLayers(telemetry_layers, grid), run.map.Wkt()};
   adjusted_layers.clear();
+  telemetry_layers.clear();
   WriteDtm(dir / "traverse_dtm.tif", dtm);
   WriteImage(dir / "traverse_dtm.png", Thumbnail(dtm.layers.elevation, 1000));
+  lap("dtm");
 
+  // The orthomosaic with both poses (the telemetry one only to be compared with the orbital
+  // image, not written).
   report(0.4, "traverse orthomosaic");
-  std::vector<Orthophoto> orthophotos(site_count);
+  std::vector<Orthophoto> orthophotos(site_count), telemetry_orthophotos(site_count);
   tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
     const int first_id = static_cast<int>(i * 1000);  // Unique image ids across the mosaic.
-    orthophotos[i] = MakeOrthophoto(dtm, adjusted[i], run.map,
-                                    SiteOrthoImages(mission.sites[i], first_id), options.ortho);
+    const std::vector<OrthoSourceImage> images = SiteOrthoImages(mission.sites[i], first_id);
+    orthophotos[i] = MakeOrthophoto(dtm, adjusted[i], run.map, images, options.ortho);
+    telemetry_orthophotos[i] =
+        MakeOrthophoto(telemetry_dtm, telemetry[i], run.map, images, options.ortho);
   });
   report(0.8, "traverse orthomosaic");
   const Orthophoto mosaic =
       MakeOrthomosaic(orthophotos, dtm.layers.grid, dtm.crs_wkt, options.mosaic);
+  const Orthophoto telemetry_mosaic =
+      MakeOrthomosaic(telemetry_orthophotos, grid, dtm.crs_wkt, options.mosaic);
   orthophotos.clear();
+  telemetry_orthophotos.clear();
   WriteOrthophoto(dir / "traverse_ortho.tif", mosaic);
   WriteImage(dir / "traverse_ortho.png", Thumbnail(mosaic.image, 1000));
+  lap("orthomosaic");
 
   report(0.9, "comparison with the orbital data");
   const double cell_area = grid.posting * grid.posting;
@@ -278,13 +297,18 @@ json RunProductsUnit(const RunContext& run, const std::vector<Rigid3d>& traverse
         ResampleOntoGrid(OrbitalImage::Open(orbital_dtm->path), grid, run.map.Wkt());
     summary["orbital_dtm"] = orbital_dtm->path.filename().string();
     summary["dtm_minus_orbital_adjusted"] = DifferenceStats(dtm.layers.elevation, reference);
-    summary["dtm_minus_orbital_telemetry"] = DifferenceStats(telemetry_dtm.elevation, reference);
+    summary["dtm_minus_orbital_telemetry"] =
+        DifferenceStats(telemetry_dtm.layers.elevation, reference);
   }
   if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
     const cv::Mat reference =
         ResampleOntoGrid(OrbitalImage::Open(image->path), grid, run.map.Wkt());
-    summary["ortho_vs_orbital_image"] = Correlation(mosaic.image, reference);
+    summary["orbital_image"] = image->path.filename().string();
+    summary["ortho_vs_orbital_adjusted"] = Correlation(mosaic.image, reference);
+    summary["ortho_vs_orbital_telemetry"] = Correlation(telemetry_mosaic.image, reference);
   }
+  lap("comparison");
+  summary["seconds"] = seconds;
   report(1.0, "traverse products");
   return summary;
 }

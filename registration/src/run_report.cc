@@ -147,7 +147,8 @@ std::string StageTimes(const json& summary) {
     html += std::string("<tr><th>") + stage + "</th><td>" +
             Number(stages.value(stage, json()), "%.1f s") + "</td></tr>";
   }
-  for (const auto& [stage, value] : stages.value("site_stages_summed", json::object()).items()) {
+  const json summed = stages.value("site_stages_summed", json::object());
+  for (const auto& [stage, value] : summed.items()) {
     html += "<tr><th>sites: " + Escape(stage) + " (summed)</th><td>" + Number(value, "%.1f s") +
             "</td></tr>";
   }
@@ -186,11 +187,13 @@ std::string ProductsSection(const fs::path& run_dir, const json& summary) {
         DifferenceRow("telemetry", products["dtm_minus_orbital_telemetry"]) +
         DifferenceRow("adjusted", products["dtm_minus_orbital_adjusted"]) + "</table>";
   }
-  if (products.contains("ortho_vs_orbital_image")) {
-    html += "<p>Orthomosaic vs orbital image: correlation " +
-            Number(products["ortho_vs_orbital_image"].value("correlation", json()), "%.3f") +
-            " over " + Number(products["ortho_vs_orbital_image"].value("cells", json()), "%.0f") +
-            " cells.</p>";
+  if (products.contains("ortho_vs_orbital_adjusted")) {
+    const auto correlation = [&](const char* key) {
+      return Number(products[key].value("correlation", json()), "%.3f");
+    };
+    html += "<p>Orthomosaic vs orbital image, correlation over the cells both cover: " +
+            correlation("ortho_vs_orbital_telemetry") + " with the telemetry poses, " +
+            correlation("ortho_vs_orbital_adjusted") + " with the adjusted poses.</p>";
   }
   return html;
 }
