@@ -107,9 +107,15 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   EXPECT_EQ(second.json["units"]["products"], "reused");
   EXPECT_EQ(second.json["units"]["craters"], "reused");
   fs::remove(out / "sites" / "site_001" / "unit.json");
+  // Products made with other poses (here: recorded 1 cm off) are made again.
+  nlohmann::json products_unit = nlohmann::json::parse(ReadText(out / "products" / "unit.json"));
+  products_unit["summary"]["poses"][1][0] =
+      products_unit["summary"]["poses"][1][0].get<double>() + 0.01;
+  std::ofstream(out / "products" / "unit.json") << products_unit.dump();
   const MissionRunSummary third = RunMission(mission, out, options);
   EXPECT_EQ(third.sites_computed, 1);
   EXPECT_EQ(third.sites_reused, 1);
+  EXPECT_EQ(third.json["units"]["products"], "computed");
   // Different options invalidate the finished units (the whole-run stages off, to stay fast).
   options.point_spacing_m = 0.03;
   options.detect_craters = false;
