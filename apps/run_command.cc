@@ -65,7 +65,7 @@ void PrintRunSummary(const nlohmann::json& s) {
         p["dtm_minus_orbital_telemetry"].value("rms_m", 0.0),
         p["dtm_minus_orbital_adjusted"].value("rms_m", 0.0));
   }
-  const nlohmann::json& t = s.value("stage_seconds", nlohmann::json::object());
+  const nlohmann::json t = s.value("stage_seconds", nlohmann::json::object());
   std::printf(
       "time: sites %.0f s, legs %.0f s, craters %.0f s, adjustment %.0f s, products %.0f s\n",
       t.value("sites", 0.0), t.value("legs", 0.0), t.value("craters", 0.0),

@@ -260,27 +260,18 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   if (cancelled) throw Error("cancelled during the site units");
   for (bool r : reused) (r ? summary.sites_reused : summary.sites_computed)++;
   lap("sites");
-  // The sites' own stages, summed over the sites computed now (they ran in parallel, so the
-  // sum is CPU-like time, not wall time).
-  json site_stage_seconds = {{"stereo", 0.0}, {"dtm", 0.0}, {"ortho", 0.0}, {"registration", 0.0}};
-  for (size_t i = 0; i < site_count; ++i) {
-    if (reused[i]) continue;
-    for (auto& [stage, value] : site_stage_seconds.items()) {
-      value = value.get<double>() +
-              site_summaries[i].value("seconds", json::object()).value(stage, 0.0);
-    }
-  }
-
   std::vector<json> leg_summaries(leg_count);
   for (size_t i = 0; i < leg_count; ++i) {
     const fs::path dir = LegDir(run, mission.sites[i].site, mission.sites[i + 1].site);
     json done = FinishedUnit(run, dir);
     if (done.is_null()) {
+      const auto leg_start = std::chrono::steady_clock::now();
       done = RunLegUnit(run, i, i + 1, [&](double f, std::string_view stage) {
         return report(kSites + (kLegs - kSites) * (static_cast<double>(i) + f) /
                                    static_cast<double>(leg_count),
                       stage);
       });
+      done["seconds"] = SecondsSince(leg_start);
       FinishUnit(run, dir, done);
       ++summary.legs_computed;
     } else {
@@ -299,6 +290,7 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
     craters_unit = craters.is_null() ? "computed" : "reused";
     if (craters.is_null()) {
       craters = RunCratersUnit(run, span(kLegs, kCraters));
+      craters["seconds"] = SecondsSince(clock);  // Since the legs' lap.
       if (fs::exists(dir)) FinishUnit(run, dir, craters);
     }
   }
@@ -343,8 +335,25 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   lap("products");
   report(1.0, "done");
 
-  json stages = stage_seconds;
-  stages["site_stages_summed"] = site_stage_seconds;
+  // What each stage cost when its units were computed (this run or an earlier one), from the
+  // units' records: per-site stages and legs summed (sites ran two or more at a time).
+  json computed = {{"stereo", 0.0}, {"dtm", 0.0}, {"ortho", 0.0}, {"registration", 0.0}};
+  for (const json& site : site_summaries) {
+    for (auto& [stage, value] : computed.items()) {
+      value = value.get<double>() + site.value("seconds", json::object()).value(stage, 0.0);
+    }
+  }
+  double legs_seconds = 0.0;
+  for (const json& leg : leg_summaries) legs_seconds += leg.value("seconds", 0.0);
+  computed["legs"] = legs_seconds;
+  computed["craters"] = craters.is_object() ? craters.value("seconds", 0.0) : 0.0;
+  computed["adjustment"] = stage_seconds["adjustment"];
+  double products_seconds = 0.0;
+  if (products.is_object()) {
+    const json parts = products.value("seconds", json::object());
+    for (const auto& [part, value] : parts.items()) products_seconds += value.get<double>();
+  }
+  computed["products"] = products_seconds;
   summary.json = {{"mission", mission.root.string()},
                   {"name", mission.name},
                   {"sites", site_summaries},
@@ -359,7 +368,8 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
                     {"legs_reused", summary.legs_reused},
                     {"craters", craters_unit},
                     {"products", products_unit}}},
-                  {"stage_seconds", stages},
+                  {"stage_seconds", stage_seconds},
+                  {"computed_seconds", computed},
                   {"seconds", SecondsSince(start)}};
   return summary;
 }

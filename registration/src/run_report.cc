@@ -135,22 +135,27 @@ std::string KeyFigures(const json& summary) {
   return html + "</table>";
 }
 
-// Wall time per stage of the invocation that wrote the summary.
+// Wall time per stage: of the invocation that wrote the summary, and as recorded by the units
+// when they were computed (a resumed run reuses most of them).
 std::string StageTimes(const json& summary) {
-  const json& stages = summary.value("stage_seconds", json::object());
+  const json stages = summary.value("stage_seconds", json::object());
+  const json computed = summary.value("computed_seconds", json::object());
   if (!stages.is_object() || stages.empty()) return "";
   std::string html =
-      "<h2>Run time per stage</h2><p>Wall time of the run that wrote this folder (units reused "
-      "from an earlier run cost almost nothing); the sites' own stages are summed over the sites "
-      "computed, which ran in parallel.</p><table class=\"figures\">";
-  for (const char* stage : {"sites", "legs", "craters", "adjustment", "products"}) {
-    html += std::string("<tr><th>") + stage + "</th><td>" +
-            Number(stages.value(stage, json()), "%.1f s") + "</td></tr>";
+      "<h2>Run time per stage</h2><p>Wall time of the run that wrote this folder, and what each "
+      "stage cost when its units were computed (this run or an earlier one; per-site stages and "
+      "legs summed over the units, the sites ran in parallel).</p><table><tr><th>stage</th>"
+      "<th>this run [s]</th><th>when computed [s]</th></tr>";
+  const auto row = [&](const std::string& name, const json& now, const json& then) {
+    html += "<tr><th>" + name + "</th><td>" + Number(now, "%.1f") + "</td><td>" +
+            Number(then, "%.1f") + "</td></tr>";
+  };
+  row("sites", stages.value("sites", json()), json());
+  for (const char* stage : {"stereo", "dtm", "ortho", "registration"}) {
+    row(std::string("&nbsp;&nbsp;") + stage, json(), computed.value(stage, json()));
   }
-  const json summed = stages.value("site_stages_summed", json::object());
-  for (const auto& [stage, value] : summed.items()) {
-    html += "<tr><th>sites: " + Escape(stage) + " (summed)</th><td>" + Number(value, "%.1f s") +
-            "</td></tr>";
+  for (const char* stage : {"legs", "craters", "adjustment", "products"}) {
+    row(stage, stages.value(stage, json()), computed.value(stage, json()));
   }
   return html + "</table>";
 }

@@ -90,6 +90,8 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   for (const char* stage : {"sites", "legs", "craters", "adjustment", "products"}) {
     EXPECT_GE(first.json["stage_seconds"][stage].get<double>(), 0.0) << stage;
   }
+  EXPECT_GT(first.json["computed_seconds"]["stereo"].get<double>(), 0.0);
+  EXPECT_GT(first.json["computed_seconds"]["products"].get<double>(), 0.0);
 
   std::ofstream(out / "summary.json") << first.json.dump();
   WriteRunReport(out);
@@ -106,6 +108,9 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   EXPECT_EQ(second.legs_reused, 1);
   EXPECT_EQ(second.json["units"]["products"], "reused");
   EXPECT_EQ(second.json["units"]["craters"], "reused");
+  // A resumed run still reports what its reused units cost when they were computed.
+  EXPECT_DOUBLE_EQ(second.json["computed_seconds"]["stereo"].get<double>(),
+                   first.json["computed_seconds"]["stereo"].get<double>());
   fs::remove(out / "sites" / "site_001" / "unit.json");
   // Products made with other poses (here: recorded 1 cm off) are made again.
   nlohmann::json products_unit = nlohmann::json::parse(ReadText(out / "products" / "unit.json"));
