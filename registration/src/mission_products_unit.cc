@@ -13,6 +13,9 @@
 #include <string>
 #include <vector>
 
+#include <cpl_string.h>
+#include <gdal.h>
+#include <gdal_utils.h>
 #include <tbb/parallel_for.h>
 #include <opencv2/imgproc.hpp>
 
@@ -150,6 +153,33 @@ cv::Mat Thumbnail(const cv::Mat& values, int max_side) {
   return picture;
 }
 
+// A shaded relief of a DTM GeoTIFF (GDAL's hillshade: sun from the north-west, 45 degrees
+// high, slopes in the DTM's own metres), 0 where unknown, shrunk to at most `max_side` px.
+cv::Mat ShadedRelief(const fs::path& dtm_tif, int max_side) {
+  GDALDatasetH source = GDALOpen(dtm_tif.string().c_str(), GA_ReadOnly);
+  if (source == nullptr) throw Error(dtm_tif.string() + ": cannot open the DTM for its relief");
+  CPLStringList arguments;
+  for (const char* argument : {"-of", "MEM", "-compute_edges", "-b", "1"}) {
+    arguments.AddString(argument);
+  }
+  GDALDEMProcessingOptions* options = GDALDEMProcessingOptionsNew(arguments.List(), nullptr);
+  int usage_error = 0;
+  GDALDatasetH shaded = GDALDEMProcessing("", source, "hillshade", nullptr, options, &usage_error);
+  GDALDEMProcessingOptionsFree(options);
+  GDALClose(source);
+  if (shaded == nullptr) throw Error(dtm_tif.string() + ": GDAL could not shade the DTM");
+  cv::Mat relief(GDALGetRasterYSize(shaded), GDALGetRasterXSize(shaded), CV_8U);
+  const CPLErr status =
+      GDALRasterIO(GDALGetRasterBand(shaded, 1), GF_Read, 0, 0, relief.cols, relief.rows,
+                   relief.data, relief.cols, relief.rows, GDT_Byte, 0, 0);
+  GDALClose(shaded);
+  if (status != CE_None) throw Error(dtm_tif.string() + ": GDAL could not read the relief");
+  const double scale =
+      std::min(1.0, static_cast<double>(max_side) / std::max(relief.cols, relief.rows));
+  if (scale < 1.0) cv::resize(relief, relief, cv::Size(), scale, scale, cv::INTER_AREA);
+  return relief;
+}
+
 struct SiteLayers {
   GriddedLayers adjusted;
   GriddedLayers telemetry;
@@ -256,7 +286,7 @@ json RunProductsUnit(const RunContext& run, const std::vector<Rigid3d>& traverse
   adjusted_layers.clear();
   telemetry_layers.clear();
   WriteDtm(dir / "traverse_dtm.tif", dtm);
-  WriteImage(dir / "traverse_dtm.png", Thumbnail(dtm.layers.elevation, 1000));
+  WriteImage(dir / "traverse_dtm.png", ShadedRelief(dir / "traverse_dtm.tif", 1000));
   lap("dtm");
 
   // The orthomosaic with both poses (the telemetry one only to be compared with the orbital

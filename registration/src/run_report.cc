@@ -182,7 +182,7 @@ std::string ProductsSection(const fs::path& run_dir, const json& summary) {
       "(<code>products/traverse_ortho.tif</code>, " +
       Number(products.value("ortho_valid_area_m2", json()), "%.0f") + " m&sup2;).</p>" +
       EmbeddedPng(run_dir / "products" / "traverse_ortho.png", "traverse orthomosaic", 1000) +
-      EmbeddedPng(run_dir / "products" / "traverse_dtm.png", "traverse DTM (elevation)", 1000);
+      EmbeddedPng(run_dir / "products" / "traverse_dtm.png", "traverse DTM (shaded relief)", 1000);
   if (products.contains("dtm_minus_orbital_adjusted")) {
     html +=
         "<h3>Rover DTM &minus; orbital DTM</h3><p>Over the cells both know; a misplaced site "
