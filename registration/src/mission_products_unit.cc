@@ -198,7 +198,10 @@ SiteLayers GridSite(const RunContext& run, size_t index, const SiteGeoreference&
     const Eigen::Vector2d centre = SiteOnMap(run, *georef);
     DtmOptions options = dtm_options;
     options.grid = grid.Window(centre - reach, centre + reach);
-    if (!options.grid) throw Error("traverse DTM: site outside the traverse grid");
+    if (!options.grid) {
+      throw Error("traverse DTM: site " + std::to_string(run.mission->sites[index].site) +
+                  " lies outside the traverse grid");
+    }
     *out = MakeDtm({SiteCloud{&cloud, *georef}}, run.map, options).layers;
   }
   return layers;
@@ -221,7 +224,8 @@ bool SamePoses(const json& recorded, const std::vector<Rigid3d>& poses) {
   if (!recorded.is_array() || recorded.size() != now.size()) return false;
   for (size_t i = 0; i < now.size(); ++i) {
     for (size_t k = 0; k < 7; ++k) {
-      // 0.1 mm and 1e-7 rad: far below the products' posting, above solver round-off.
+      // 0.1 mm, 1e-4 in a quaternion component (~2e-4 rad, 3 mm at 15 m): far below the
+      // products' posting, above solver round-off.
       if (!recorded[i][k].is_number() ||
           std::abs(recorded[i][k].get<double>() - now[i][k].get<double>()) > 1e-4) {
         return false;
