@@ -47,6 +47,29 @@ void PrintRunSummary(const nlohmann::json& s) {
                 a.value("length_m", 0.0), a.value("initial_end_error_m", 0.0),
                 a.value("adjusted_end_error_m", 0.0));
   }
+  const nlohmann::json& c = s.value("craters", nlohmann::json::object());
+  if (c.is_object() && c.contains("craters")) {
+    std::printf("craters on the orbital image: %d", c["craters"].get<int>());
+    if (c.contains("score")) {
+      std::printf(" (truth %d: precision %.2f, recall %.2f)", c["score"].value("truth", 0),
+                  c["score"].value("precision", 0.0), c["score"].value("recall", 0.0));
+    }
+    std::printf("\n");
+  }
+  const nlohmann::json& p = s.value("products", nlohmann::json::object());
+  if (p.is_object() && p.contains("dtm_minus_orbital_adjusted")) {
+    std::printf(
+        "traverse DTM - orbital DTM over %d cells: RMS %.3f m with telemetry poses, %.3f m "
+        "adjusted (products/traverse_dtm.tif, traverse_ortho.tif)\n",
+        p["dtm_minus_orbital_adjusted"].value("cells", 0),
+        p["dtm_minus_orbital_telemetry"].value("rms_m", 0.0),
+        p["dtm_minus_orbital_adjusted"].value("rms_m", 0.0));
+  }
+  const nlohmann::json t = s.value("stage_seconds", nlohmann::json::object());
+  std::printf(
+      "time: sites %.0f s, legs %.0f s, craters %.0f s, adjustment %.0f s, products %.0f s\n",
+      t.value("sites", 0.0), t.value("legs", 0.0), t.value("craters", 0.0),
+      t.value("adjustment", 0.0), t.value("products", 0.0));
 }
 
 }  // namespace
@@ -56,6 +79,8 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     std::string mission;
     std::string out;
     MissionRunOptions run;
+    bool no_craters = false;
+    bool no_products = false;
   };
   auto o = std::make_shared<Options>();
   auto* run = app.add_subcommand(
@@ -72,7 +97,18 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
   run->add_option("--prior-sigma-per-m", o->run.prior_sigma_per_m,
                   "Orbital search prior: telemetry sigma per metre driven")
       ->capture_default_str();
+  run->add_option("--traverse-posting", o->run.traverse_posting_m,
+                  "Whole-traverse DTM and orthomosaic posting [m]")
+      ->capture_default_str();
+  run->add_option("--crater-min-diameter", o->run.crater_min_diameter_m,
+                  "Smallest crater rim diameter on the orbital image [m]")
+      ->capture_default_str();
+  run->add_flag("--no-craters", o->no_craters, "Skip crater detection on the orbital image");
+  run->add_flag("--no-products", o->no_products,
+                "Skip the whole-traverse DTM and orthomosaic (products/)");
   run->callback([o, &global] {
+    if (o->no_craters) o->run.detect_craters = false;
+    if (o->no_products) o->run.traverse_products = false;
     // Every file the manifest names is checked before any work starts.
     const MissionManifest mission = ReadMissionManifest(o->mission);
     PrepareOutputFolder(o->out);

@@ -14,8 +14,9 @@ areomap=./build/release/apps/areomap
 echo "== areomap simulate: the demo mission (terrain, craters, rocks, HiRISE-like products, traverse)"
 "$areomap" simulate --preset demo --seed 1 --out "$out/mission"
 echo
-echo "== areomap run: stereo, DTM/orthophoto, registration onto HiRISE, rock tie points, bundle adjustment"
+echo "== areomap run: stereo, DTM/orthophoto, registration onto HiRISE, rock tie points, craters, bundle adjustment, traverse DTM/orthomosaic"
 "$areomap" run "$out/mission" --out "$out/run"
 echo
 echo "outputs in $out (mission/ is the generated input, run/ the products; open run/report.html,"
-echo "run/adjustment/traverse.gpkg and run/sites/*/ortho.tif in a browser or QGIS)"
+echo "run/adjustment/traverse.gpkg, run/products/traverse_ortho.tif, run/products/traverse_dtm.tif and"
+echo "run/craters/craters.gpkg in a browser or QGIS)"

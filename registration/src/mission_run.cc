@@ -111,6 +111,34 @@ json NetworkJson(const MissionManifest& mission, const MissionRunOptions& option
   return BundleInputToJson(network, truth);
 }
 
+// The adjusted site poses (traverse_from_site) from adjustment.json (BundleResult's JSON).
+std::vector<Rigid3d> AdjustedPoses(const fs::path& adjustment_json, size_t site_count) {
+  const json result = ReadJsonFile(adjustment_json);
+  const json sites = result.is_object() ? result.value("sites", json()) : json();
+  if (!sites.is_array() || sites.size() != site_count) {
+    throw Error(adjustment_json.string() + ": expected \"sites\" with " +
+                std::to_string(site_count) + " adjusted poses");
+  }
+  std::vector<Rigid3d> poses;
+  for (const json& site : sites) {
+    try {
+      const auto p = site.at("adjusted").at("position_m").get<std::vector<double>>();
+      const auto q = site.at("adjusted").at("rotation_wxyz").get<std::vector<double>>();
+      if (p.size() != 3 || q.size() != 4) throw Error("");
+      poses.emplace_back(Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized(),
+                         Eigen::Vector3d(p[0], p[1], p[2]));
+    } catch (const std::exception&) {
+      throw Error(adjustment_json.string() + ": sites[" + std::to_string(poses.size()) +
+                  "].adjusted: expected position_m [3] and rotation_wxyz [4]");
+    }
+  }
+  return poses;
+}
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 }  // namespace
 }  // namespace mission_run
 
@@ -131,6 +159,12 @@ void MissionRunOptions::Check() const {
                 "a non-negative fraction of the distance driven");
   RequireOption(leg_scale_sigma > 0.0, "MissionRunOptions.leg_scale_sigma",
                 "a positive relative leg-length sigma");
+  craters.Check();
+  mosaic.Check();
+  RequireOption(crater_min_diameter_m > 0.0, "MissionRunOptions.crater_min_diameter_m",
+                "a positive rim diameter in metres");
+  RequireOption(traverse_posting_m > 0.0, "MissionRunOptions.traverse_posting_m",
+                "a positive posting in metres");
   RequireOption(leg_heading_sigma_deg > 0.0, "MissionRunOptions.leg_heading_sigma_deg",
                 "a positive heading drift sigma in degrees");
 }
@@ -153,7 +187,11 @@ nlohmann::json MissionRunOptions::ToJson() const {
           {"leg_heading_sigma_deg", leg_heading_sigma_deg},
           {"bundle_huber_scale", bundle.huber_scale},
           {"bundle_rejection_alpha", bundle.rejection_alpha},
-          {"detect_craters", detect_craters}};
+          {"detect_craters", detect_craters},
+          {"crater_min_diameter_m", crater_min_diameter_m},
+          {"traverse_products", traverse_products},
+          {"traverse_posting_m", traverse_posting_m},
+          {"mosaic_feather_m", mosaic.feather_m}};
 }
 
 MissionRunSummary RunMission(const MissionManifest& mission, const std::filesystem::path& out_dir,
@@ -164,7 +202,8 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   fs::create_directories(out_dir);
   const RunContext run(mission, options, out_dir);
 
-  // One bar for the run: sites 70 %, legs 20 %, the adjustment 10 %.
+  // One bar for the run: sites 60 %, legs 15 %, craters 3 %, the adjustment 5 %, products 17 %.
+  constexpr double kSites = 0.6, kLegs = 0.75, kCraters = 0.78, kAdjustment = 0.83;
   const size_t site_count = mission.sites.size();
   const size_t leg_count = site_count > 0 ? site_count - 1 : 0;
   std::mutex progress_mutex;
@@ -180,7 +219,19 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   const auto sites_fraction = [&] {
     double sum = 0.0;
     for (double d : site_done) sum += d;
-    return 0.7 * sum / static_cast<double>(std::max<size_t>(1, site_count));
+    return kSites * sum / static_cast<double>(std::max<size_t>(1, site_count));
+  };
+  const auto span = [&](double from, double to) -> ProgressCallback {
+    return [&report, from, to](double f, std::string_view stage) {
+      return report(from + (to - from) * f, stage);
+    };
+  };
+  // Wall time of each stage of this invocation [s] (reused units cost ~0).
+  json stage_seconds = json::object();
+  auto clock = std::chrono::steady_clock::now();
+  const auto lap = [&](const char* stage) {
+    stage_seconds[stage] = SecondsSince(clock);
+    clock = std::chrono::steady_clock::now();
   };
 
   MissionRunSummary summary;
@@ -208,16 +259,19 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   });
   if (cancelled) throw Error("cancelled during the site units");
   for (bool r : reused) (r ? summary.sites_reused : summary.sites_computed)++;
-
+  lap("sites");
   std::vector<json> leg_summaries(leg_count);
   for (size_t i = 0; i < leg_count; ++i) {
     const fs::path dir = LegDir(run, mission.sites[i].site, mission.sites[i + 1].site);
     json done = FinishedUnit(run, dir);
     if (done.is_null()) {
+      const auto leg_start = std::chrono::steady_clock::now();
       done = RunLegUnit(run, i, i + 1, [&](double f, std::string_view stage) {
-        return report(0.7 + 0.2 * (static_cast<double>(i) + f) / static_cast<double>(leg_count),
+        return report(kSites + (kLegs - kSites) * (static_cast<double>(i) + f) /
+                                   static_cast<double>(leg_count),
                       stage);
       });
+      done["seconds"] = SecondsSince(leg_start);
       FinishUnit(run, dir, done);
       ++summary.legs_computed;
     } else {
@@ -225,6 +279,22 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
     }
     leg_summaries[i] = done;
   }
+  lap("legs");
+
+  // How the whole-run units went: "computed", "reused" or "off".
+  std::string craters_unit = "off", products_unit = "off";
+  json craters;
+  if (options.detect_craters) {
+    const fs::path dir = out_dir / "craters";
+    craters = FinishedUnit(run, dir);
+    craters_unit = craters.is_null() ? "computed" : "reused";
+    if (craters.is_null()) {
+      craters = RunCratersUnit(run, span(kLegs, kCraters));
+      craters["seconds"] = SecondsSince(clock);  // Since the legs' lap.
+      if (fs::exists(dir)) FinishUnit(run, dir, craters);
+    }
+  }
+  lap("craters");
 
   // The adjustment reads everything the units wrote: the network, every site's control
   // points and every leg's tie points.
@@ -244,24 +314,63 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
     adjustment.orbital_image = image->path;
   }
-  const json adjusted = AdjustTraverse(
-      inputs, adjustment_dir, adjustment,
-      [&](double f, std::string_view stage) { return report(0.9 + 0.1 * f, stage); });
+  const json adjusted =
+      AdjustTraverse(inputs, adjustment_dir, adjustment, span(kCraters, kAdjustment));
+  lap("adjustment");
+
+  json products;
+  if (options.traverse_products && site_count > 0) {
+    const std::vector<Rigid3d> poses =
+        AdjustedPoses(adjustment_dir / "adjustment.json", site_count);
+    const fs::path dir = out_dir / "products";
+    products = FinishedUnit(run, dir);
+    products_unit = "reused";
+    if (products.is_null() || !SamePoses(products.value("poses", json()), poses)) {
+      products_unit = "computed";
+      products = RunProductsUnit(run, poses, span(kAdjustment, 1.0));
+      FinishUnit(run, dir, products);
+    }
+    products.erase("poses");  // In products/unit.json; summary.json keeps the figures.
+  }
+  lap("products");
   report(1.0, "done");
 
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // What each stage cost when its units were computed (this run or an earlier one), from the
+  // units' records: per-site stages and legs summed (sites ran two or more at a time).
+  json computed = {{"stereo", 0.0}, {"dtm", 0.0}, {"ortho", 0.0}, {"registration", 0.0}};
+  for (const json& site : site_summaries) {
+    for (auto& [stage, value] : computed.items()) {
+      value = value.get<double>() + site.value("seconds", json::object()).value(stage, 0.0);
+    }
+  }
+  double legs_seconds = 0.0;
+  for (const json& leg : leg_summaries) legs_seconds += leg.value("seconds", 0.0);
+  computed["legs"] = legs_seconds;
+  computed["craters"] = craters.is_object() ? craters.value("seconds", 0.0) : 0.0;
+  computed["adjustment"] = stage_seconds["adjustment"];
+  double products_seconds = 0.0;
+  if (products.is_object()) {
+    const json parts = products.value("seconds", json::object());
+    for (const auto& [part, value] : parts.items()) products_seconds += value.get<double>();
+  }
+  computed["products"] = products_seconds;
   summary.json = {{"mission", mission.root.string()},
                   {"name", mission.name},
                   {"sites", site_summaries},
                   {"legs", leg_summaries},
+                  {"craters", craters},
                   {"adjustment", adjusted},
+                  {"products", products},
                   {"units",
                    {{"sites_computed", summary.sites_computed},
                     {"sites_reused", summary.sites_reused},
                     {"legs_computed", summary.legs_computed},
-                    {"legs_reused", summary.legs_reused}}},
-                  {"seconds", seconds}};
+                    {"legs_reused", summary.legs_reused},
+                    {"craters", craters_unit},
+                    {"products", products_unit}}},
+                  {"stage_seconds", stage_seconds},
+                  {"computed_seconds", computed},
+                  {"seconds", SecondsSince(start)}};
   return summary;
 }
 

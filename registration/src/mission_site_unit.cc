@@ -1,6 +1,7 @@
 // One site of a mission run: dense stereo of every pair into one site cloud, the site's DTM and
 // orthophoto on the mission map at the telemetry pose, and the orthophoto's registration onto
 // the orbital image, which yields the site's control points.
+#include <chrono>
 #include <optional>
 #include <string>
 #include <variant>
@@ -120,7 +121,20 @@ json RegisterSite(const RunContext& run, const Orthophoto& ortho, const SiteGeor
   return report;
 }
 
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 }  // namespace
+
+std::vector<OrthoSourceImage> SiteOrthoImages(const MissionSite& site, int first_id) {
+  std::vector<OrthoSourceImage> images;
+  for (const MissionStereoPair& pair : site.pairs) {
+    images.push_back({first_id + static_cast<int>(images.size()), ReadImage(pair.left_image),
+                      CameraInSite(ReadCameraFile(pair.left_label))});
+  }
+  return images;
+}
 
 json RunSiteUnit(const RunContext& run, size_t site_index, const ProgressCallback& progress) {
   const MissionSite& site = run.mission->sites.at(site_index);
@@ -134,24 +148,34 @@ json RunSiteUnit(const RunContext& run, size_t site_index, const ProgressCallbac
     if (!progress) return nullptr;
     return [=](double f, std::string_view name) { return progress(from + (to - from) * f, name); };
   };
+  // Wall time of each stage [s] (the summary.json timing table).
+  json seconds = json::object();
+  auto clock = std::chrono::steady_clock::now();
   SiteStereo stereo = RunSiteStereo(run, site, stage(0.0, 0.5));
   if (stereo.cloud.points.empty()) {
     throw Error(SiteName(site.site) + ": stereo gave no 3D points in " +
                 std::to_string(site.pairs.size()) + " pairs; check the images and labels");
   }
   WritePointCloudPly(stereo.cloud, dir / "points.ply");
+  seconds["stereo"] = SecondsSince(clock);
+  clock = std::chrono::steady_clock::now();
 
   const Dtm dtm =
       MakeDtm({SiteCloud{&stereo.cloud, georef}}, run.map, run.options->dtm, stage(0.5, 0.6));
   WriteDtm(dir / "dtm.tif", dtm);
+  seconds["dtm"] = SecondsSince(clock);
+  clock = std::chrono::steady_clock::now();
   const Orthophoto ortho =
       MakeOrthophoto(dtm, georef, run.map, stereo.images, run.options->ortho, stage(0.6, 0.8));
   WriteOrthophoto(dir / "ortho.tif", ortho);
+  seconds["ortho"] = SecondsSince(clock);
+  clock = std::chrono::steady_clock::now();
 
   const double prior_sigma =
       run.options->prior_sigma_floor_m +
       run.options->prior_sigma_per_m * DrivenDistance(*run.mission, site_index);
   json registration = RegisterSite(run, ortho, georef, site.site, prior_sigma, dir);
+  seconds["registration"] = SecondsSince(clock);
   if (progress) progress(1.0, "registration");
 
   const double cell_area = dtm.layers.grid.posting * dtm.layers.grid.posting;
@@ -160,7 +184,8 @@ json RunSiteUnit(const RunContext& run, size_t site_index, const ProgressCallbac
           {"points", stereo.cloud.points.size()},
           {"dtm_known_area_m2", dtm.layers.known_cells * cell_area},
           {"ortho_valid_area_m2", ortho.valid_cells * cell_area},
-          {"registration", registration}};
+          {"registration", registration},
+          {"seconds", seconds}};
 }
 
 }  // namespace areomap::mission_run

@@ -5,11 +5,14 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "areomap/map/dtm.h"
 #include "areomap/map/mission_manifest.h"
+#include "areomap/map/orthophoto.h"
+#include "areomap/map/rigid3d.h"
 #include "areomap/map/site_georeference.h"
 #include "areomap/registration/mission_run.h"
 
@@ -47,5 +50,24 @@ nlohmann::json RunSiteUnit(const RunContext& run, size_t site_index,
 // Stage of one leg (consecutive site indices): rocks, matching, fault detection, tie points.
 nlohmann::json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
                           const ProgressCallback& progress);
+
+// The left image of every stereo pair of a site with its camera in the site frame, the
+// orthophoto's sources; ids are first_id, first_id + 1, ...
+std::vector<OrthoSourceImage> SiteOrthoImages(const MissionSite& site, int first_id);
+
+// Stage of the whole traverse (products/): every site's points.ply gridded into one DTM with the
+// adjusted poses (`traverse_from_site`, one per mission site), each site's images draped on it
+// and blended into one orthomosaic; both also compared with the orbital DTM, and the DTM made
+// with the telemetry poses too, to show what the adjustment changed.
+// Whether a finished products unit's recorded "poses" are `traverse_from_site` (to 0.1 mm /
+// 1e-4 in the quaternion: above solver round-off, far below the products' posting).
+bool SamePoses(const nlohmann::json& recorded, const std::vector<Rigid3d>& traverse_from_site);
+nlohmann::json RunProductsUnit(const RunContext& run,
+                               const std::vector<Rigid3d>& traverse_from_site,
+                               const ProgressCallback& progress);
+
+// Stage of the orbital image (craters/): crater detection, catalogue files, overlay PNG, and the
+// score against truth/craters.csv when the mission has it.
+nlohmann::json RunCratersUnit(const RunContext& run, const ProgressCallback& progress);
 
 }  // namespace areomap::mission_run

@@ -112,8 +112,117 @@ std::string KeyFigures(const json& summary) {
              "%.2f %%"));
   row("largest 1&sigma; ellipse",
       Number(adjustment.value("largest_horizontal_sigma_m", json()), "%.3f m"));
+  const json& products = summary.value("products", json::object());
+  if (products.is_object() && products.contains("dtm_minus_orbital_adjusted")) {
+    const auto rms = [&](const char* key) {
+      return Number(products[key].value("rms_m", json()), "%.3f m");
+    };
+    row("traverse DTM &minus; orbital DTM, RMS: telemetry / adjusted poses",
+        rms("dtm_minus_orbital_telemetry") + " / " + rms("dtm_minus_orbital_adjusted"));
+  }
+  const json& craters = summary.value("craters", json::object());
+  if (craters.is_object() && craters.contains("craters")) {
+    std::string text = Number(craters["craters"], "%.0f");
+    if (craters.contains("score")) {
+      const json& score = craters["score"];
+      text += " (truth " + Number(score.value("truth", json()), "%.0f") + ": precision " +
+              Number(score.value("precision", json()), "%.2f") + ", recall " +
+              Number(score.value("recall", json()), "%.2f") + ")";
+    }
+    row("craters on the orbital image", text);
+  }
   row("run time", Number(summary.value("seconds", json()), "%.0f s"));
   return html + "</table>";
+}
+
+// Wall time per stage: of the invocation that wrote the summary, and as recorded by the units
+// when they were computed (a resumed run reuses most of them).
+std::string StageTimes(const json& summary) {
+  const json stages = summary.value("stage_seconds", json::object());
+  const json computed = summary.value("computed_seconds", json::object());
+  if (!stages.is_object() || stages.empty()) return "";
+  std::string html =
+      "<h2>Run time per stage</h2><p>Wall time of the run that wrote this folder, and what each "
+      "stage cost when its units were computed (this run or an earlier one; per-site stages and "
+      "legs summed over the units, the sites ran in parallel).</p><table><tr><th>stage</th>"
+      "<th>this run [s]</th><th>when computed [s]</th></tr>";
+  const auto row = [&](const std::string& name, const json& now, const json& then) {
+    html += "<tr><th>" + name + "</th><td>" + Number(now, "%.1f") + "</td><td>" +
+            Number(then, "%.1f") + "</td></tr>";
+  };
+  row("sites", stages.value("sites", json()), json());
+  for (const char* stage : {"stereo", "dtm", "ortho", "registration"}) {
+    row(std::string("&nbsp;&nbsp;") + stage, json(), computed.value(stage, json()));
+  }
+  for (const char* stage : {"legs", "craters", "adjustment", "products"}) {
+    row(stage, stages.value(stage, json()), computed.value(stage, json()));
+  }
+  return html + "</table>";
+}
+
+std::string DifferenceRow(const std::string& name, const json& stats) {
+  return "<tr><th>" + name + "</th><td>" + Number(stats.value("cells", json()), "%.0f") +
+         "</td><td>" + Number(stats.value("mean_m", json()), "%.3f") + "</td><td>" +
+         Number(stats.value("stddev_m", json()), "%.3f") + "</td><td>" +
+         Number(stats.value("rms_m", json()), "%.3f") + "</td><td>" +
+         Number(stats.value("median_abs_m", json()), "%.3f") + "</td></tr>";
+}
+
+// The whole-traverse DTM and orthomosaic, and how they sit on the orbital data.
+std::string ProductsSection(const fs::path& run_dir, const json& summary) {
+  const json& products = summary.value("products", json::object());
+  if (!products.is_object() || products.empty()) return "";
+  std::string html =
+      "<h2>Traverse DTM and orthomosaic (adjusted poses)</h2><p>Every site's stereo points "
+      "gridded at " +
+      Number(products.value("posting_m", json()), "%.2f m") +
+      " with the bundle-adjusted site poses (<code>products/traverse_dtm.tif</code>, " +
+      Number(products.value("dtm_known_area_m2", json()), "%.0f") +
+      " m&sup2;) and every site's images draped on it "
+      "(<code>products/traverse_ortho.tif</code>, " +
+      Number(products.value("ortho_valid_area_m2", json()), "%.0f") + " m&sup2;).</p>" +
+      EmbeddedPng(run_dir / "products" / "traverse_ortho.png", "traverse orthomosaic", 1000) +
+      EmbeddedPng(run_dir / "products" / "traverse_dtm.png", "traverse DTM (shaded relief)", 1000);
+  if (products.contains("dtm_minus_orbital_adjusted")) {
+    html +=
+        "<h3>Rover DTM &minus; orbital DTM</h3><p>Over the cells both know; a misplaced site "
+        "shows as a height difference where the ground slopes.</p><table><tr><th>site "
+        "poses</th><th>cells</th><th>mean [m]</th><th>std [m]</th><th>RMS [m]</th><th>median "
+        "|d| [m]</th></tr>" +
+        DifferenceRow("telemetry", products["dtm_minus_orbital_telemetry"]) +
+        DifferenceRow("adjusted", products["dtm_minus_orbital_adjusted"]) + "</table>";
+  }
+  if (products.contains("ortho_vs_orbital_adjusted")) {
+    const auto correlation = [&](const char* key) {
+      return Number(products[key].value("correlation", json()), "%.3f");
+    };
+    html += "<p>Orthomosaic vs orbital image, correlation over the cells both cover: " +
+            correlation("ortho_vs_orbital_telemetry") + " with the telemetry poses, " +
+            correlation("ortho_vs_orbital_adjusted") + " with the adjusted poses.</p>";
+  }
+  return html;
+}
+
+std::string CratersSection(const fs::path& run_dir, const json& summary) {
+  if (!fs::exists(run_dir / "craters")) return "";
+  const json& craters = summary.value("craters", json::object());
+  std::string html = "<h2>Craters on the orbital image</h2>";
+  if (craters.is_object() && craters.contains("craters")) {
+    html += "<p>" + Number(craters["craters"], "%.0f") + " rims from " +
+            Number(craters.value("min_diameter_m", json()), "%.1f m") +
+            " across (<code>craters/craters.csv</code>, <code>craters.gpkg</code>).";
+    if (craters.contains("score")) {
+      const json& s = craters["score"];
+      html += " Against the truth catalogue (" + Escape(s.value("rule", std::string())) +
+              "): " + Number(s.value("matched_truth", json()), "%.0f") + " of " +
+              Number(s.value("truth", json()), "%.0f") + " true craters found, precision " +
+              Number(s.value("precision", json()), "%.2f") + ", recall " +
+              Number(s.value("recall", json()), "%.2f") + ", median centre error " +
+              Number(s.value("median_center_error_px", json()), "%.2f px") + ".";
+    }
+    html += "</p>";
+  }
+  return html + EmbeddedPng(run_dir / "craters" / "overlay.png", "crater overlay", 1000);
 }
 
 std::string SiteSection(const fs::path& run_dir, const json& site) {
@@ -197,10 +306,9 @@ void WriteRunReport(const fs::path& run_dir) {
   for (const json& site : summary["sites"]) html += SiteSection(run_dir, site);
   html += "<h2>Tie points and fault detection per leg</h2>";
   for (const json& leg : summary["legs"]) html += LegSection(leg);
-  if (fs::exists(run_dir / "craters")) {
-    html += "<h2>Craters on the orbital image</h2>" +
-            EmbeddedPng(run_dir / "craters" / "overlay.png", "crater overlay", 1000);
-  }
+  html += ProductsSection(run_dir, summary);
+  html += CratersSection(run_dir, summary);
+  html += StageTimes(summary);
   html += "</body></html>\n";
   WriteFileAtomically(run_dir / "report.html", html);
 }

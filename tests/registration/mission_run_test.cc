@@ -1,5 +1,6 @@
-// The end-to-end run on a small generated mission: every unit's products, the report, and
-// resuming (finished units reused, a removed unit recomputed alone).
+// The end-to-end run on a small generated mission: every unit's products (sites, legs, craters,
+// the whole-traverse DTM and orthomosaic), the report, and resuming (finished units reused, a
+// removed unit recomputed alone).
 #include "areomap/registration/mission_run.h"
 
 #include <filesystem>
@@ -8,8 +9,10 @@
 
 #include <gtest/gtest.h>
 
+#include "areomap/map/dtm.h"
 #include "areomap/map/error.h"
 #include "areomap/map/mission_manifest.h"
+#include "areomap/map/orthophoto.h"
 #include "areomap/registration/run_report.h"
 #include "areomap/samples/mission.h"
 #include "test_support.h"
@@ -63,22 +66,65 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   EXPECT_TRUE(fs::exists(out / "adjustment" / "sites.csv"));
   EXPECT_GT(first.json["sites"][1]["points"].get<int>(), 200);  // Stereo produced a cloud.
 
+  // Whole-traverse products: GeoTIFFs on the mission map at the traverse posting, covering at
+  // least what each site's own DTM covers.
+  EXPECT_EQ(first.json["units"]["products"], "computed");
+  const Dtm traverse = ReadDtm(out / "products" / "traverse_dtm.tif");
+  EXPECT_DOUBLE_EQ(traverse.layers.grid.posting, options.traverse_posting_m);
+  EXPECT_FALSE(traverse.crs_wkt.empty());
+  const double cell_area = options.traverse_posting_m * options.traverse_posting_m;
+  for (const auto& site : first.json["sites"]) {
+    EXPECT_GE(traverse.layers.known_cells * cell_area + cell_area * 8,
+              site["dtm_known_area_m2"].get<double>());
+  }
+  EXPECT_GT(ReadOrthophoto(out / "products" / "traverse_ortho.tif").valid_cells, 0);
+  for (const char* file : {"traverse_dtm.png", "traverse_ortho.png"}) {
+    EXPECT_TRUE(fs::exists(out / "products" / file)) << file;
+  }
+  EXPECT_GT(first.json["products"]["dtm_minus_orbital_adjusted"]["cells"].get<int>(), 0);
+  // Craters: the mission's one crater is found and scored against truth/craters.csv.
+  EXPECT_TRUE(fs::exists(out / "craters" / "craters.csv"));
+  EXPECT_TRUE(fs::exists(out / "craters" / "overlay.png"));
+  EXPECT_EQ(first.json["craters"]["score"]["truth"].get<int>(), 1);
+  EXPECT_EQ(first.json["craters"]["score"]["matched_truth"].get<int>(), 1);
+  for (const char* stage : {"sites", "legs", "craters", "adjustment", "products"}) {
+    EXPECT_GE(first.json["stage_seconds"][stage].get<double>(), 0.0) << stage;
+  }
+  EXPECT_GT(first.json["computed_seconds"]["stereo"].get<double>(), 0.0);
+  EXPECT_GT(first.json["computed_seconds"]["products"].get<double>(), 0.0);
+
   std::ofstream(out / "summary.json") << first.json.dump();
   WriteRunReport(out);
   const std::string html = ReadText(out / "report.html");
   EXPECT_NE(html.find("Leg 0 &rarr; 1"), std::string::npos);
   EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
+  EXPECT_NE(html.find("Traverse DTM and orthomosaic"), std::string::npos);
+  EXPECT_NE(html.find("Craters on the orbital image"), std::string::npos);
+  EXPECT_NE(html.find("Run time per stage"), std::string::npos);
 
   // A second run reuses everything; removing one site's marker recomputes that site alone.
   const MissionRunSummary second = RunMission(mission, out, options);
   EXPECT_EQ(second.sites_reused, 2);
   EXPECT_EQ(second.legs_reused, 1);
+  EXPECT_EQ(second.json["units"]["products"], "reused");
+  EXPECT_EQ(second.json["units"]["craters"], "reused");
+  // A resumed run still reports what its reused units cost when they were computed.
+  EXPECT_DOUBLE_EQ(second.json["computed_seconds"]["stereo"].get<double>(),
+                   first.json["computed_seconds"]["stereo"].get<double>());
   fs::remove(out / "sites" / "site_001" / "unit.json");
+  // Products made with other poses (here: recorded 1 cm off) are made again.
+  nlohmann::json products_unit = nlohmann::json::parse(ReadText(out / "products" / "unit.json"));
+  products_unit["summary"]["poses"][1][0] =
+      products_unit["summary"]["poses"][1][0].get<double>() + 0.01;
+  std::ofstream(out / "products" / "unit.json") << products_unit.dump();
   const MissionRunSummary third = RunMission(mission, out, options);
   EXPECT_EQ(third.sites_computed, 1);
   EXPECT_EQ(third.sites_reused, 1);
-  // Different options invalidate the finished units.
+  EXPECT_EQ(third.json["units"]["products"], "computed");
+  // Different options invalidate the finished units (the whole-run stages off, to stay fast).
   options.point_spacing_m = 0.03;
+  options.detect_craters = false;
+  options.traverse_products = false;
   EXPECT_EQ(RunMission(mission, out, options).sites_computed, 2);
 }
 

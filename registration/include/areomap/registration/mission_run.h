@@ -11,11 +11,14 @@
 //   craters/          crater detection on the first orbital image (CSV, JSON, overlay PNG)
 //   adjustment/       network.json (sites, telemetry priors, truth), the bundle adjustment and
 //                     the anchored traverse: sites.csv, legs.csv, traverse.gpkg, traverse_map.png
-//   mosaic/           DTM and orthomosaic of the whole traverse with the adjusted poses
-//   summary.json      key figures; report.html is written from the folder by WriteRunReport.
+//   products/         DTM (traverse_dtm.tif) and orthomosaic (traverse_ortho.tif) of the whole
+//                     traverse with the adjusted poses, PNG thumbnails, and their differences
+//                     from the orbital DTM and image with adjusted and with telemetry poses
+//   summary.json      key figures, wall time per stage ("stage_seconds"); report.html is
+//                     written from the folder by WriteRunReport.
 // A unit is finished when its `unit.json` exists (written last, atomically) and records the
-// same options fingerprint as this run; finished units are skipped, so an interrupted run
-// resumes where it stopped. Site units run in parallel (TBB).
+// same options fingerprint as this run (products/: and the same adjusted poses); finished units
+// are skipped, so an interrupted run resumes where it stopped. Site units run in parallel (TBB).
 //
 // Frames: site frames are MER SITE_FRAMEs (x north, y east, z down [m]); the traverse frame is
 // site 0's; the mission map is equirectangular on the local-radius sphere at the mission origin
@@ -30,9 +33,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "areomap/crater/crater_detector.h"
 #include "areomap/map/dense_stereo.h"
 #include "areomap/map/dtm.h"
 #include "areomap/map/mission_manifest.h"
+#include "areomap/map/mosaic.h"
 #include "areomap/map/orthophoto.h"
 #include "areomap/map/progress.h"
 #include "areomap/registration/bundle_adjustment.h"
@@ -70,6 +75,15 @@ struct MissionRunOptions {
   double leg_scale_sigma = 0.05;
   double leg_heading_sigma_deg = 2.0;
   bool detect_craters = true;
+  // Craters: rims from this diameter up [m] on the orbital image; the detector's other options.
+  double crater_min_diameter_m = 4.0;
+  CraterDetectorOptions craters;
+  // Whole-traverse DTM and orthomosaic (products/) with the adjusted poses: posting [m] (the
+  // traverse covers far more ground than a site; HiRISE's 0.25 m keeps it comparable with the
+  // orbital image) and the mosaic's seam feathering.
+  bool traverse_products = true;
+  double traverse_posting_m = 0.25;
+  MosaicOptions mosaic;
   void Check() const;  // Throws areomap::Error naming the field.
   // The options as JSON: recorded in every unit.json; a change invalidates finished units.
   nlohmann::json ToJson() const;

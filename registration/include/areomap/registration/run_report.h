@@ -6,7 +6,9 @@
 // the traverse map over the orbital image, the anchored sites and per-leg RE tables (the
 // adjustment's CSVs), each site's registration (verdict, shift with 1 sigma, correlation, the
 // correlation surface), each leg's tie points and fault-detection table (Table 4.5 rules with
-// value, threshold and verdict), and the crater overlay when craters were detected.
+// value, threshold and verdict), the whole-traverse orthomosaic and DTM thumbnails with their
+// differences from the orbital DTM (telemetry vs adjusted poses), the crater overlay with its
+// score against truth when craters were detected, and the wall time per stage.
 // Failure: throws areomap::Error naming the folder when summary.json is missing or not a run's.
 #pragma once
 

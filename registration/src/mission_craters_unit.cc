@@ -1,0 +1,130 @@
+// The crater stage of a mission run (craters/): rims detected on the mission's first orbital
+// image (the sun azimuth from the manifest enables the shading checks), the catalogue as CSV,
+// JSON and GeoPackage, an overlay PNG, and the score against the generator's truth/craters.csv.
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "areomap/crater/crater_output.h"
+#include "areomap/crater/crater_raster.h"
+#include "areomap/crater/crater_score.h"
+#include "areomap/map/error.h"
+#include "mission_units.h"
+
+namespace areomap::mission_run {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// truth/craters.csv (docs/mission-format.md): centres col_px, row_px in the orbital image's
+// pixels (GDAL convention) and semi-axes [m]; rim diameter a + b in pixels of `pixel_size_m`.
+std::vector<CraterCircle> ReadTruthCraters(const fs::path& path, double pixel_size_m) {
+  std::ifstream in(path);
+  if (!in) throw Error(path.string() + ": cannot open the truth crater table");
+  const auto split = [](const std::string& line) {
+    std::vector<std::string> fields;
+    std::stringstream stream(line);
+    for (std::string field; std::getline(stream, field, ',');) fields.push_back(field);
+    return fields;
+  };
+  std::string line;
+  std::getline(in, line);
+  std::map<std::string, size_t> column;
+  const std::vector<std::string> header = split(line);
+  for (size_t i = 0; i < header.size(); ++i) column[header[i]] = i;
+  for (const char* name : {"col_px", "row_px", "semi_major_m", "semi_minor_m"}) {
+    if (!column.contains(name)) {
+      throw Error(path.string() + ": expected a column \"" + name + "\" in the header");
+    }
+  }
+  std::vector<CraterCircle> truth;
+  for (int number = 2; std::getline(in, line); ++number) {
+    if (line.empty()) continue;
+    const std::vector<std::string> fields = split(line);
+    const auto value = [&](const char* name) {
+      const size_t index = column.at(name);
+      try {
+        if (index < fields.size()) return std::stod(fields[index]);
+      } catch (const std::exception&) {
+      }
+      throw Error(path.string() + ":" + std::to_string(number) + ": expected a number in column " +
+                  name);
+    };
+    truth.push_back({{value("col_px"), value("row_px")},
+                     (value("semi_major_m") + value("semi_minor_m")) / pixel_size_m});
+  }
+  return truth;
+}
+
+json StatsJson(const CraterMatchStats& s) {
+  const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(); };
+  return {{"min_diameter_px", s.min_diameter},
+          {"max_diameter_px", number(s.max_diameter)},
+          {"truth", s.truth},
+          {"detected", s.detected},
+          {"matched_truth", s.matched_truth},
+          {"precision", number(s.precision)},
+          {"recall", number(s.recall)},
+          {"f1", number(s.f1)},
+          {"median_center_error_px", number(s.median_center_error)},
+          {"median_diameter_error", number(s.median_diameter_error)}};
+}
+
+}  // namespace
+
+json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
+  const MissionOrbitalProduct* image = run.mission->FirstOrbital("image");
+  if (image == nullptr)
+    return {{"status", "skipped"}, {"reason", "the mission has no orbital image"}};
+  const fs::path dir = run.out_dir / "craters";
+  fs::create_directories(dir);
+  const RasterDataset dataset = RasterDataset::Open(image->path);
+  const RasterInfo& info = dataset.info();
+  const CraterCatalog probe = MakeCraterCatalog({}, info);
+  if (!(probe.pixel_size_m > 0.0)) {
+    throw Error(image->path.string() + ": crater detection needs a projected Mars CRS");
+  }
+  CraterDetectorOptions options = run.options->craters;
+  options.min_diameter_px = run.options->crater_min_diameter_m / probe.pixel_size_m;
+  options.sun_azimuth_deg = image->sun_azimuth_deg;  // North-up: clockwise from image up.
+  options.Check();
+  const std::vector<CraterDetection> found =
+      DetectCratersInRaster(dataset, RimSource::kImage, options, progress);
+  const CraterCatalog catalog = MakeCraterCatalog(found, info);
+  WriteCratersCsv(dir / "craters.csv", catalog);
+  WriteCratersJson(dir / "craters.json", catalog);
+  WriteCratersGeoPackage(dir / "craters.gpkg", catalog);
+  int factor = 1;
+  while (std::max(info.width, info.height) / factor > 2048) factor *= 2;
+  WriteCraterOverlay(dir / "overlay.png", ReadDecimated(dataset, dataset.FullWindow(), factor),
+                     found, 2048);
+
+  json summary = {{"image", image->path.filename().string()},
+                  {"pixel_size_m", probe.pixel_size_m},
+                  {"min_diameter_m", run.options->crater_min_diameter_m},
+                  {"craters", found.size()},
+                  {"files", {"craters.csv", "craters.json", "craters.gpkg", "overlay.png"}}};
+  if (run.mission->truth_craters_csv) {
+    const std::vector<CraterCircle> truth =
+        ReadTruthCraters(*run.mission->truth_craters_csv, probe.pixel_size_m);
+    std::vector<CraterCircle> detections;
+    for (const CraterDetection& d : found) {
+      detections.push_back({d.ellipse.center, d.ellipse.semi_major + d.ellipse.semi_minor});
+    }
+    const double lo = options.min_diameter_px;
+    const CraterScore score =
+        ScoreCraters(truth, detections, {lo, 4 * lo, std::numeric_limits<double>::infinity()});
+    summary["score"] = StatsJson(score.all);
+    summary["score"]["rule"] =
+        "centre distance < 0.5 x truth radius and detected/true diameter in [0.7, 1.3]";
+  }
+  return summary;
+}
+
+}  // namespace areomap::mission_run
