@@ -27,7 +27,7 @@ constexpr int kSectors = 12;   // 30 degree normal-direction sectors
 constexpr int kArcWindow = 3;  // sectors per arc window (90 degrees)
 constexpr int kMinArcPoints = 5;
 constexpr int kCoverageBins = 36;
-constexpr size_t kMaxFitPoints = 256;
+constexpr size_t kMaxFitPoints = 128;
 // Arcs are built from edges at least this share of the rim strength threshold (min_edge_contrast
 // x the high Canny threshold): a rim passing that threshold on average has most edges above half
 // of it, while texture edges mostly stay below.
@@ -38,7 +38,8 @@ constexpr double kPrescreenSlack = 0.5;
 struct Level {
   cv::Mat image;  // CV_32F, NaN = nodata
   RimEdges edges;
-  double scale = 1.0;  // one level px = `scale` full-resolution px (0.5: upsampled)
+  bool has_edges = false;  // edges are computed only for levels that are searched or refined on
+  double scale = 1.0;      // one level px = `scale` full-resolution px (0.5: upsampled)
 };
 
 struct Arc {
@@ -620,12 +621,13 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
   std::vector<CraterDetection> candidates;
   for (size_t li = 0; li < levels.size(); ++li) {
     Level& level = levels[li];
-    level.edges = EdgesOf(level.image, source, o, level.scale);
-    double r_lo = li == 0 ? min_radius / level.scale : kCoarseMinRadius;
+    double r_lo = std::max(li == 0 ? 0.0 : kCoarseMinRadius, min_radius / level.scale);
     double r_hi = std::min(kLevelMaxRadius, max_radius / level.scale * 1.1);
     if (upsample && li == 0) r_hi = std::min(r_hi, 2.0 * kCoarseMinRadius + 2.0);
     if (upsample && li == base) r_lo = kCoarseMinRadius - 1.0;
-    if (r_hi < r_lo * 0.8) continue;
+    if (r_hi < r_lo * 0.8) continue;  // no crater of the asked sizes at this level
+    level.edges = EdgesOf(level.image, source, o, level.scale);
+    level.has_edges = true;
     const std::vector<Arc> arcs =
         ExtractArcs(level.edges, r_lo, r_hi, sun,
                     kArcStrengthShare * o.min_edge_contrast * level.edges.high_threshold);
@@ -680,12 +682,24 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
   // Phase 2: one geometric fit per distinct crater, on the finest level, the coarse fit refined
   // down the pyramid on the way.
   candidates = SuppressDuplicateCraters(std::move(candidates));
+  // The refinement walks down from a candidate's level to full resolution: edges of the finer
+  // levels that phase 1 skipped (sizes outside their search range) are needed now.
+  int coarsest = -1;
+  for (const CraterDetection& c : candidates) coarsest = std::max(coarsest, c.pyramid_level);
+  if (!o.refine_to_full_resolution) coarsest = -1;
+  for (int k = static_cast<int>(base); k < coarsest; ++k) {
+    Level& level = levels[static_cast<size_t>(k)];
+    if (!level.has_edges) {
+      level.edges = EdgesOf(level.image, source, o, level.scale);
+      level.has_edges = true;
+    }
+  }
   std::vector<std::optional<CraterDetection>> final_fits(candidates.size());
   tbb::parallel_for(size_t{0}, candidates.size(), [&](size_t i) {
     const CraterDetection& c = candidates[i];
     int k = c.pyramid_level;
     Ellipse e = Scaled(c.ellipse, 1.0 / levels[static_cast<size_t>(k)].scale);
-    const int finest = static_cast<int>(base);
+    const int finest = o.refine_to_full_resolution ? static_cast<int>(base) : k;
     while (k > finest) {
       const Level& finer = levels[static_cast<size_t>(k - 1)];
       const auto refined =

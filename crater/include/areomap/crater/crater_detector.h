@@ -50,7 +50,7 @@ enum class RimSource {
 
 struct CraterDetection {
   Ellipse ellipse;  // rim crest [px]
-  // 1-sigma from the geometric fit's covariance [px, rad] (the fit uses at most 256 rim edges,
+  // 1-sigma from the geometric fit's covariance [px, rad] (the fit uses at most 128 rim edges,
   // evenly spread); NaN where not available.
   double center_x_sigma = 0.0;
   double center_y_sigma = 0.0;
@@ -95,9 +95,13 @@ struct CraterDetectorOptions {
   double max_axis_ratio = 1.6;  // a / b
   // Search craters below 16 px across on a 2x upsampled copy (about 2.5x the work).
   bool upsample_small_craters = true;
+  // false: each crater gets its geometric fit on the pyramid level where it was found, not
+  // refined down to full resolution (for a caller that refines it itself, e.g. the overview of
+  // DetectCratersInRaster).
+  bool refine_to_full_resolution = true;
   double dtm_posting = 1.0;  // DTM: ground size of a pixel in height units
   int tile_size = 2048;      // DetectCratersInRaster: tile core edge [px]
-  int tile_overlap = 256;    // and margin [px]; bounds in-tile diameters
+  int tile_overlap = 128;    // and margin [px]; bounds in-tile diameters
 
   void Check() const;  // throws areomap::Error naming the bad field
 };
