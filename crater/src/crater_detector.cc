@@ -32,6 +32,10 @@ constexpr size_t kMaxFitPoints = 128;
 // x the high Canny threshold): a rim passing that threshold on average has most edges above half
 // of it, while texture edges mostly stay below.
 constexpr double kArcStrengthShare = 0.5;
+// Robust loop: reject when the first (most tolerant) support covers less than this share of
+// min_coverage; stop refitting once centre and axes move less than kConvergedShift [px] together.
+constexpr double kEarlyCoverageShare = 0.75;
+constexpr double kConvergedShift = 0.05;
 // Signature pre-screen of a hypothesis before its robust fit: fraction of the threshold.
 constexpr double kPrescreenSlack = 0.5;
 
@@ -273,7 +277,7 @@ std::vector<Eigen::Vector2d> GatherSupport(const RimEdges& edges, const Ellipse&
 
 std::optional<Ellipse> SaneFit(const std::vector<Eigen::Vector2d>& points, const Ellipse& prior,
                                double max_axis_ratio) {
-  const std::optional<Ellipse> fit = FitEllipseDirect(points);
+  const std::optional<Ellipse> fit = FitEllipseFast(points);
   if (!fit) return std::nullopt;
   const double r = prior.MeanRadius();
   if ((fit->center - prior.center).norm() > 0.35 * r + 1.0) return std::nullopt;
@@ -431,9 +435,18 @@ std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEd
     const double tolerance = std::max(1.5, (iteration == 0 ? 0.12 : 0.06) * e.MeanRadius());
     support = GatherSupport(edges, e, tolerance, sun);
     if (support.size() < 8) return std::nullopt;
+    // Early rejection: the first gathering is the most tolerant one; a rim covering far fewer
+    // sectors than required cannot pass the final coverage check on the tighter band.
+    if (iteration == 0 && AngularCoverage(e, support) < kEarlyCoverageShare * o.min_coverage) {
+      return std::nullopt;
+    }
     const std::optional<Ellipse> fit = SaneFit(support, e, o.max_axis_ratio);
     if (!fit) break;
+    const double moved = (fit->center - e.center).norm() +
+                         std::abs(fit->semi_major - e.semi_major) +
+                         std::abs(fit->semi_minor - e.semi_minor);
     e = *fit;
+    if (moved < kConvergedShift) break;  // a refit would gather the same edges
   }
   double mean_strength = 0.0;
   support = GatherSupport(edges, e, std::max(1.5, 0.04 * e.MeanRadius()), sun, &mean_strength);
