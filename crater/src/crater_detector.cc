@@ -599,8 +599,12 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
                                      : static_cast<double>(std::max(raster.cols, raster.rows)));
   const double min_radius = 0.5 * o.min_diameter_px;
   std::vector<Level> levels;
-  cv::Mat full;
-  raster.convertTo(full, CV_32F);
+  cv::Mat full;  // read only: shares a float input's pixels
+  if (raster.depth() == CV_32F) {
+    full = raster;
+  } else {
+    raster.convertTo(full, CV_32F);
+  }
   // Small craters (radius < kCoarseMinRadius) are searched on a 2x upsampled copy, where their
   // rims hold four times the edge points; GDAL coordinates scale exactly by 2 under cv::resize.
   const bool upsample = o.upsample_small_craters && min_radius < kCoarseMinRadius;

@@ -13,9 +13,14 @@ namespace {
 // Float copy with nodata filled by the mean of the valid pixels, and the mask of pixels whose
 // 5x5 neighbourhood is all valid (edges there see no filled values through a 3x3 operator on a
 // smoothed image).
+// `filled` may share the input's pixels (float input without nodata): read it only.
 void PrepareInput(const cv::Mat& input, cv::Mat* filled, cv::Mat* usable) {
   if (input.channels() != 1) throw Error("crater edges: expected a single-band raster");
-  input.convertTo(*filled, CV_32F);
+  if (input.depth() == CV_32F) {
+    *filled = input;
+  } else {
+    input.convertTo(*filled, CV_32F);
+  }
   if (cv::checkRange(*filled, true)) {
     // No nodata (the common case): only the 2 px frame is unusable.
     *usable = cv::Mat::zeros(filled->size(), CV_8U);
@@ -24,6 +29,7 @@ void PrepareInput(const cv::Mat& input, cv::Mat* filled, cv::Mat* usable) {
     }
     return;
   }
+  if (filled->data == input.data) *filled = input.clone();  // the holes are filled below
   cv::Mat valid;
   cv::compare(*filled, *filled, valid, cv::CMP_EQ);  // NaN compares unequal to itself
   cv::Mat finite = cv::abs(*filled) < std::numeric_limits<float>::infinity();
@@ -138,9 +144,9 @@ void EdgeOptions::Check() const {
 RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& o) {
   o.Check();
   if (image.rows < 8 || image.cols < 8) return Empty(image, true);
-  cv::Mat f, usable;
-  PrepareInput(image, &f, &usable);
-  cv::GaussianBlur(f, f, cv::Size(), o.smoothing_sigma_px);
+  cv::Mat input, usable, f;
+  PrepareInput(image, &input, &usable);
+  cv::GaussianBlur(input, f, cv::Size(), o.smoothing_sigma_px);
   cv::Mat gx, gy, mag;
   cv::Sobel(f, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
   cv::Sobel(f, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
@@ -164,9 +170,9 @@ RimEdges DetectDtmCrests(const cv::Mat& dtm, double posting, const EdgeOptions& 
   o.Check();
   RequireOption(std::isfinite(posting) && posting > 0.0, "DetectDtmCrests.posting", "> 0");
   if (dtm.rows < 8 || dtm.cols < 8) return Empty(dtm, false);
-  cv::Mat h, usable;
-  PrepareInput(dtm, &h, &usable);
-  cv::GaussianBlur(h, h, cv::Size(), o.smoothing_sigma_px);
+  cv::Mat input, usable, h;
+  PrepareInput(dtm, &input, &usable);
+  cv::GaussianBlur(input, h, cv::Size(), o.smoothing_sigma_px);
   cv::Mat hxx, hyy, hxy;
   cv::Sobel(h, hxx, CV_32F, 2, 0, 3, 0.25);
   cv::Sobel(h, hyy, CV_32F, 0, 2, 3, 0.25);
