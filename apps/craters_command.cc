@@ -3,6 +3,8 @@
 #include <iomanip>
 #include <iostream>
 
+#include <glog/logging.h>
+
 #include "areomap/crater/crater_output.h"
 #include "areomap/crater/crater_raster.h"
 #include "areomap/crater/crater_score.h"
@@ -42,6 +44,9 @@ nlohmann::json StatsJson(const CraterMatchStats& s) {
 }
 
 void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
+  // Ceres (the geometric ellipse fits) logs through glog; a failed fit is a rejected crater, not
+  // news for the user, so only fatal glog messages may reach stderr.
+  FLAGS_minloglevel = google::GLOG_FATAL;
   const RasterDataset dataset = RasterDataset::Open(a.input);
   const RasterInfo& info = dataset.info();
   CraterDetectorOptions options = a.detector;
@@ -148,7 +153,7 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
                   "Rim edge strength / high Canny threshold")
       ->capture_default_str();
 
-  auto score_args = std::make_shared<std::array<std::string, 3>>();
+  auto score_args = std::make_shared<std::array<std::string, 4>>();
   auto min_score_diameter = std::make_shared<double>(8.0);
   auto* score = cmd->add_subcommand(
       "score",
@@ -159,6 +164,9 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
   score->add_option("--min-diameter", *min_score_diameter, "Smallest diameter scored [px]")
       ->capture_default_str();
   score->add_option("--out", (*score_args)[2], "Also write DIR/summary.json");
+  score->add_option("--image", (*score_args)[3],
+                    "With --out: also write DIR/score_overlay.png on this image (truth green when "
+                    "matched, red when missed; false alarms yellow)");
   score->callback([score_args, min_score_diameter, &global] {
     const std::vector<CraterCircle> detections = ReadCraterCsv((*score_args)[0]);
     const std::vector<CraterCircle> truth = ReadCraterCsv((*score_args)[1]);
@@ -173,8 +181,17 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
         {"all", StatsJson(s.all)},
         {"bins", nlohmann::json::array()}};
     for (const auto& b : s.bins) summary["bins"].push_back(StatsJson(b));
+    if (!(*score_args)[3].empty() && (*score_args)[2].empty()) {
+      throw Error("craters score: --image needs --out DIR for the overlay");
+    }
     if (!(*score_args)[2].empty()) {
       PrepareOutputFolder((*score_args)[2]);
+      if (!(*score_args)[3].empty()) {
+        const RasterDataset image = RasterDataset::Open((*score_args)[3]);
+        WriteScoreOverlay(std::filesystem::path((*score_args)[2]) / "score_overlay.png",
+                          image.ReadWindowFloat(1, image.FullWindow()), truth, detections, s, lo);
+        summary["overlay"] = "score_overlay.png";
+      }
       WriteSummary((*score_args)[2], summary);
     }
     std::cout << std::fixed << std::setprecision(3);

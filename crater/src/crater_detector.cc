@@ -27,12 +27,23 @@ constexpr int kSectors = 12;   // 30 degree normal-direction sectors
 constexpr int kArcWindow = 3;  // sectors per arc window (90 degrees)
 constexpr int kMinArcPoints = 5;
 constexpr int kCoverageBins = 36;
-constexpr size_t kMaxFitPoints = 256;
+constexpr size_t kMaxFitPoints = 128;
+// Arcs are built from edges at least this share of the rim strength threshold (min_edge_contrast
+// x the high Canny threshold): a rim passing that threshold on average has most edges above half
+// of it, while texture edges mostly stay below.
+constexpr double kArcStrengthShare = 0.5;
+// Robust loop: reject when the first (most tolerant) support covers less than this share of
+// min_coverage; stop refitting once centre and axes move less than kConvergedShift [px] together.
+constexpr double kEarlyCoverageShare = 0.75;
+constexpr double kConvergedShift = 0.05;
+// Signature pre-screen of a hypothesis before its robust fit: fraction of the threshold.
+constexpr double kPrescreenSlack = 0.5;
 
 struct Level {
   cv::Mat image;  // CV_32F, NaN = nodata
   RimEdges edges;
-  double scale = 1.0;  // one level px = `scale` full-resolution px (0.5: upsampled)
+  bool has_edges = false;  // edges are computed only for levels that are searched or refined on
+  double scale = 1.0;      // one level px = `scale` full-resolution px (0.5: upsampled)
 };
 
 struct Arc {
@@ -99,43 +110,77 @@ std::optional<Arc> FitArc(const RimEdges& edges, std::vector<int> members, doubl
   return arc;
 }
 
+// 8-neighbour adjacency of the edge points in compressed rows: the neighbours of point i are
+// neighbours[offsets[i] .. offsets[i + 1]). Built once, shared by the 12 direction windows.
+struct EdgeAdjacency {
+  std::vector<int> offsets;
+  std::vector<int> neighbours;
+};
+
+EdgeAdjacency BuildAdjacency(const RimEdges& edges) {
+  const int n = static_cast<int>(edges.points.size());
+  EdgeAdjacency adjacency;
+  adjacency.offsets.resize(static_cast<size_t>(n) + 1);
+  adjacency.neighbours.reserve(static_cast<size_t>(n) * 2);
+  for (int i = 0; i < n; ++i) {
+    adjacency.offsets[static_cast<size_t>(i)] = static_cast<int>(adjacency.neighbours.size());
+    const int col = static_cast<int>(edges.points[i].x);
+    const int row = static_cast<int>(edges.points[i].y);
+    for (int dr = -1; dr <= 1; ++dr) {
+      const int r = row + dr;
+      if (r < 0 || r >= edges.index.rows) continue;
+      const int* index = edges.index.ptr<int>(r);
+      for (int dc = -1; dc <= 1; ++dc) {
+        const int c = col + dc;
+        if (c < 0 || c >= edges.index.cols || (dr == 0 && dc == 0)) continue;
+        if (index[c] >= 0) adjacency.neighbours.push_back(index[c]);
+      }
+    }
+  }
+  adjacency.offsets[static_cast<size_t>(n)] = static_cast<int>(adjacency.neighbours.size());
+  return adjacency;
+}
+
+// Arcs from the edges at least `min_strength` strong (weaker edges still count as rim support
+// when hypotheses are fitted, GatherSupport). Sector -1 marks an excluded edge.
 std::vector<Arc> ExtractArcs(const RimEdges& edges, double r_lo, double r_hi,
-                             const std::optional<Eigen::Vector2d>& sun) {
+                             const std::optional<Eigen::Vector2d>& sun, double min_strength) {
   const int n = static_cast<int>(edges.points.size());
   std::vector<int> sector(static_cast<size_t>(n));
-  for (int i = 0; i < n; ++i) sector[i] = SectorOf(edges.points[i], edges.signed_normals);
+  for (int i = 0; i < n; ++i) {
+    sector[i] = edges.points[i].strength >= min_strength
+                    ? SectorOf(edges.points[i], edges.signed_normals)
+                    : -1;
+  }
+  const EdgeAdjacency adjacency = BuildAdjacency(edges);
   std::vector<std::vector<Arc>> per_window(kSectors);
   tbb::parallel_for(0, kSectors, [&](int window) {
-    const auto in_window = [&](int s) { return (s - window + kSectors) % kSectors < kArcWindow; };
+    const auto in_window = [&](int s) {
+      return s >= 0 && (s - window + kSectors) % kSectors < kArcWindow;
+    };
     std::vector<char> visited(static_cast<size_t>(n), 0);
-    std::vector<int> stack;
+    std::vector<int> stack, members;
     for (int seed = 0; seed < n; ++seed) {
       if (visited[seed] || !in_window(sector[seed])) continue;
-      std::vector<int> members;
+      members.clear();
       stack.assign(1, seed);
       visited[seed] = 1;
       while (!stack.empty()) {
         const int i = stack.back();
         stack.pop_back();
         members.push_back(i);
-        const int col = static_cast<int>(edges.points[i].x);
-        const int row = static_cast<int>(edges.points[i].y);
-        for (int dr = -1; dr <= 1; ++dr) {
-          const int r = row + dr;
-          if (r < 0 || r >= edges.index.rows) continue;
-          const int* index = edges.index.ptr<int>(r);
-          for (int dc = -1; dc <= 1; ++dc) {
-            const int c = col + dc;
-            if (c < 0 || c >= edges.index.cols) continue;
-            const int j = index[c];
-            if (j < 0 || visited[j] || !in_window(sector[j])) continue;
-            visited[j] = 1;
-            stack.push_back(j);
-          }
+        const int* it = adjacency.neighbours.data() + adjacency.offsets[static_cast<size_t>(i)];
+        const int* last =
+            adjacency.neighbours.data() + adjacency.offsets[static_cast<size_t>(i) + 1];
+        for (; it != last; ++it) {
+          const int j = *it;
+          if (visited[j] || !in_window(sector[j])) continue;
+          visited[j] = 1;
+          stack.push_back(j);
         }
       }
       if (static_cast<int>(members.size()) < kMinArcPoints) continue;
-      if (auto arc = FitArc(edges, std::move(members), r_lo, r_hi, sun)) {
+      if (auto arc = FitArc(edges, members, r_lo, r_hi, sun)) {
         per_window[window].push_back(std::move(*arc));
       }
     }
@@ -232,7 +277,7 @@ std::vector<Eigen::Vector2d> GatherSupport(const RimEdges& edges, const Ellipse&
 
 std::optional<Ellipse> SaneFit(const std::vector<Eigen::Vector2d>& points, const Ellipse& prior,
                                double max_axis_ratio) {
-  const std::optional<Ellipse> fit = FitEllipseDirect(points);
+  const std::optional<Ellipse> fit = FitEllipseFast(points);
   if (!fit) return std::nullopt;
   const double r = prior.MeanRadius();
   if ((fit->center - prior.center).norm() > 0.35 * r + 1.0) return std::nullopt;
@@ -337,10 +382,12 @@ SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse
   return out;
 }
 
-bool SignaturePasses(const SignatureValues& s, RimSource source, const CraterDetectorOptions& o) {
-  if (source == RimSource::kDtm) return s.value / o.dtm_posting >= o.min_depth_ratio;
+// `slack` < 1 relaxes the threshold (a pre-screen on a rough ellipse).
+bool SignaturePasses(const SignatureValues& s, RimSource source, const CraterDetectorOptions& o,
+                     double slack = 1.0) {
+  if (source == RimSource::kDtm) return s.value / o.dtm_posting >= slack * o.min_depth_ratio;
   if (!o.sun_azimuth_deg) return true;
-  return s.value >= o.min_shading_contrast;
+  return s.value >= slack * o.min_shading_contrast;
 }
 
 // Fraction of 36 sectors of polar angle around the centre (in the ellipse's frame) holding a
@@ -388,9 +435,18 @@ std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEd
     const double tolerance = std::max(1.5, (iteration == 0 ? 0.12 : 0.06) * e.MeanRadius());
     support = GatherSupport(edges, e, tolerance, sun);
     if (support.size() < 8) return std::nullopt;
+    // Early rejection: the first gathering is the most tolerant one; a rim covering far fewer
+    // sectors than required cannot pass the final coverage check on the tighter band.
+    if (iteration == 0 && AngularCoverage(e, support) < kEarlyCoverageShare * o.min_coverage) {
+      return std::nullopt;
+    }
     const std::optional<Ellipse> fit = SaneFit(support, e, o.max_axis_ratio);
     if (!fit) break;
+    const double moved = (fit->center - e.center).norm() +
+                         std::abs(fit->semi_major - e.semi_major) +
+                         std::abs(fit->semi_minor - e.semi_minor);
     e = *fit;
+    if (moved < kConvergedShift) break;  // a refit would gather the same edges
   }
   double mean_strength = 0.0;
   support = GatherSupport(edges, e, std::max(1.5, 0.04 * e.MeanRadius()), sun, &mean_strength);
@@ -543,8 +599,12 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
                                      : static_cast<double>(std::max(raster.cols, raster.rows)));
   const double min_radius = 0.5 * o.min_diameter_px;
   std::vector<Level> levels;
-  cv::Mat full;
-  raster.convertTo(full, CV_32F);
+  cv::Mat full;  // read only: shares a float input's pixels
+  if (raster.depth() == CV_32F) {
+    full = raster;
+  } else {
+    raster.convertTo(full, CV_32F);
+  }
   // Small craters (radius < kCoarseMinRadius) are searched on a 2x upsampled copy, where their
   // rims hold four times the edge points; GDAL coordinates scale exactly by 2 under cv::resize.
   const bool upsample = o.upsample_small_craters && min_radius < kCoarseMinRadius;
@@ -578,13 +638,16 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
   std::vector<CraterDetection> candidates;
   for (size_t li = 0; li < levels.size(); ++li) {
     Level& level = levels[li];
-    level.edges = EdgesOf(level.image, source, o, level.scale);
-    double r_lo = li == 0 ? min_radius / level.scale : kCoarseMinRadius;
+    double r_lo = std::max(li == 0 ? 0.0 : kCoarseMinRadius, min_radius / level.scale);
     double r_hi = std::min(kLevelMaxRadius, max_radius / level.scale * 1.1);
     if (upsample && li == 0) r_hi = std::min(r_hi, 2.0 * kCoarseMinRadius + 2.0);
     if (upsample && li == base) r_lo = kCoarseMinRadius - 1.0;
-    if (r_hi < r_lo * 0.8) continue;
-    const std::vector<Arc> arcs = ExtractArcs(level.edges, r_lo, r_hi, sun);
+    if (r_hi < r_lo * 0.8) continue;  // no crater of the asked sizes at this level
+    level.edges = EdgesOf(level.image, source, o, level.scale);
+    level.has_edges = true;
+    const std::vector<Arc> arcs =
+        ExtractArcs(level.edges, r_lo, r_hi, sun,
+                    kArcStrengthShare * o.min_edge_contrast * level.edges.high_threshold);
     const std::vector<std::vector<int>> groups = GroupArcs(arcs, r_hi);
     std::vector<std::optional<CraterDetection>> found(groups.size());
     tbb::parallel_for(size_t{0}, groups.size(), [&](size_t g) {
@@ -611,6 +674,12 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
       if (points.size() >= 12) {
         if (auto fit = SaneFit(points, circle, o.max_axis_ratio)) start = *fit;
       }
+      // Cheap rejection before the robust loop: the bowl signature of the rough ellipse, with
+      // slack for its error (the fitted rim is checked at the full threshold).
+      if (!SignaturePasses(Signature(level.image, source, start, sun), source, o,
+                           kPrescreenSlack)) {
+        return;
+      }
       std::optional<CraterDetection> d =
           FitAndValidate(level.image, level.edges, source, start, o, false);
       if (!d) return;
@@ -630,12 +699,24 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
   // Phase 2: one geometric fit per distinct crater, on the finest level, the coarse fit refined
   // down the pyramid on the way.
   candidates = SuppressDuplicateCraters(std::move(candidates));
+  // The refinement walks down from a candidate's level to full resolution: edges of the finer
+  // levels that phase 1 skipped (sizes outside their search range) are needed now.
+  int coarsest = -1;
+  for (const CraterDetection& c : candidates) coarsest = std::max(coarsest, c.pyramid_level);
+  if (!o.refine_to_full_resolution) coarsest = -1;
+  for (int k = static_cast<int>(base); k < coarsest; ++k) {
+    Level& level = levels[static_cast<size_t>(k)];
+    if (!level.has_edges) {
+      level.edges = EdgesOf(level.image, source, o, level.scale);
+      level.has_edges = true;
+    }
+  }
   std::vector<std::optional<CraterDetection>> final_fits(candidates.size());
   tbb::parallel_for(size_t{0}, candidates.size(), [&](size_t i) {
     const CraterDetection& c = candidates[i];
     int k = c.pyramid_level;
     Ellipse e = Scaled(c.ellipse, 1.0 / levels[static_cast<size_t>(k)].scale);
-    const int finest = static_cast<int>(base);
+    const int finest = o.refine_to_full_resolution ? static_cast<int>(base) : k;
     while (k > finest) {
       const Level& finer = levels[static_cast<size_t>(k - 1)];
       const auto refined =

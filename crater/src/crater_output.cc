@@ -195,14 +195,18 @@ void WriteCratersGeoPackage(const std::filesystem::path& path, const CraterCatal
   file.Commit();
 }
 
-void WriteCraterOverlay(const std::filesystem::path& path, const cv::Mat& image,
-                        const std::vector<CraterDetection>& detections, int max_side) {
+namespace {
+
+// `image` stretched between its 1st and 99th percentiles into 8-bit RGB, decimated by a power
+// of two (*factor) so the longer side is at most `max_side`.
+cv::Mat StretchedRgb(const cv::Mat& image, int max_side, int* factor) {
   cv::Mat f;
   image.convertTo(f, CV_32F);
-  int factor = 1;
-  while (std::max(f.cols, f.rows) / factor > max_side) factor *= 2;
-  if (factor > 1)
-    cv::resize(f, f, cv::Size(f.cols / factor, f.rows / factor), 0, 0, cv::INTER_AREA);
+  *factor = 1;
+  while (std::max(f.cols, f.rows) / *factor > max_side) *factor *= 2;
+  if (*factor > 1) {
+    cv::resize(f, f, cv::Size(f.cols / *factor, f.rows / *factor), 0, 0, cv::INTER_AREA);
+  }
   std::vector<float> values;
   for (int r = 0; r < f.rows; r += 2) {
     for (int c = 0; c < f.cols; c += 2) {
@@ -220,17 +224,62 @@ void WriteCraterOverlay(const std::filesystem::path& path, const cv::Mat& image,
   f.convertTo(gray, CV_8U, 255.0 / (hi - lo), -lo * 255.0 / (hi - lo));
   cv::Mat rgb;
   cv::cvtColor(gray, rgb, cv::COLOR_GRAY2RGB);
+  return rgb;
+}
+
+constexpr int kDrawShift = 4;  // sub-pixel drawing
+
+// GDAL pixel coordinates [px of the full image] -> fixed-point drawing coordinates.
+cv::Point DrawPoint(const Eigen::Vector2d& p, int factor) {
+  const double s = (1 << kDrawShift) / static_cast<double>(factor);
+  return {static_cast<int>(std::lround((p.x() - 0.5 * factor) * s)),
+          static_cast<int>(std::lround((p.y() - 0.5 * factor) * s))};
+}
+
+int DrawLength(double length, int factor) {
+  return static_cast<int>(std::lround(length * (1 << kDrawShift) / static_cast<double>(factor)));
+}
+
+}  // namespace
+
+void WriteCraterOverlay(const std::filesystem::path& path, const cv::Mat& image,
+                        const std::vector<CraterDetection>& detections, int max_side) {
+  int factor = 1;
+  cv::Mat rgb = StretchedRgb(image, max_side, &factor);
   for (const CraterDetection& d : detections) {
     const Ellipse& e = d.ellipse;
-    constexpr int kShift = 4;  // sub-pixel drawing
-    const double s = (1 << kShift) / static_cast<double>(factor);
-    const cv::Point center(static_cast<int>(std::lround((e.center.x() - 0.5 * factor) * s)),
-                           static_cast<int>(std::lround((e.center.y() - 0.5 * factor) * s)));
-    const cv::Size axes(static_cast<int>(std::lround(e.semi_major * s)),
-                        static_cast<int>(std::lround(e.semi_minor * s)));
+    const cv::Size axes(DrawLength(e.semi_major, factor), DrawLength(e.semi_minor, factor));
     const cv::Scalar color = d.partial ? cv::Scalar(255, 220, 0) : cv::Scalar(0, 255, 0);
-    cv::ellipse(rgb, center, axes, e.angle * 180.0 / std::numbers::pi, 0, 360, color, 1,
-                cv::LINE_AA, kShift);
+    cv::ellipse(rgb, DrawPoint(e.center, factor), axes, e.angle * 180.0 / std::numbers::pi, 0, 360,
+                color, 1, cv::LINE_AA, kDrawShift);
+  }
+  WriteImage(path, rgb);
+}
+
+void WriteScoreOverlay(const std::filesystem::path& path, const cv::Mat& image,
+                       const std::vector<CraterCircle>& truth,
+                       const std::vector<CraterCircle>& detections, const CraterScore& score,
+                       double min_diameter, int max_side) {
+  int factor = 1;
+  cv::Mat rgb = StretchedRgb(image, max_side, &factor);
+  std::vector<char> truth_matched(truth.size(), 0), detection_matched(detections.size(), 0);
+  for (const auto& [t, d] : score.matches) {
+    if (t >= 0 && static_cast<size_t>(t) < truth.size()) truth_matched[static_cast<size_t>(t)] = 1;
+    if (d >= 0 && static_cast<size_t>(d) < detections.size()) {
+      detection_matched[static_cast<size_t>(d)] = 1;
+    }
+  }
+  const auto circle = [&](const CraterCircle& c, double radius_pad, const cv::Scalar& color) {
+    cv::circle(rgb, DrawPoint(c.center, factor), DrawLength(0.5 * c.diameter + radius_pad, factor),
+               color, 1, cv::LINE_AA, kDrawShift);
+  };
+  for (size_t i = 0; i < truth.size(); ++i) {
+    if (truth[i].diameter < min_diameter) continue;
+    circle(truth[i], 0.0, truth_matched[i] ? cv::Scalar(0, 255, 0) : cv::Scalar(255, 0, 0));
+  }
+  for (size_t i = 0; i < detections.size(); ++i) {
+    if (detections[i].diameter < min_diameter || detection_matched[i]) continue;
+    circle(detections[i], 2.0 * factor, cv::Scalar(255, 220, 0));
   }
   WriteImage(path, rgb);
 }

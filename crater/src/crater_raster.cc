@@ -75,7 +75,16 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
   std::atomic<int> done{0};
   std::atomic<bool> cancelled{false};
   const double overview_share = need_overview ? 0.2 : 0.0;
-  if (tile_options.max_diameter_px >= o.min_diameter_px) {
+  // The overview, decimated so it fits one padded tile. Tile cores start at multiples of
+  // tile_size, a multiple of the factor, so each tile fills its core's share of the overview
+  // (2 x 2 box averages, as ReadDecimated) and the raster is read once.
+  int factor = 1;
+  while (std::max(width, height) / factor > padded) factor *= 2;
+  const bool run_tiles = tile_options.max_diameter_px >= o.min_diameter_px;
+  const bool overview_from_tiles = need_overview && run_tiles && o.tile_size % factor == 0;
+  cv::Mat overview;
+  if (overview_from_tiles) overview = cv::Mat(height / factor, width / factor, CV_32F);
+  if (run_tiles) {
     tbb::parallel_for(0, tile_count, [&](int t) {
       if (cancelled) return;
       const int tx = t % tiles_x, ty = t / tiles_x;
@@ -92,6 +101,18 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
         std::lock_guard<std::mutex> read_lock(read_mutex);
         tile = dataset.ReadWindowFloat(1, {c0, r0, c1 - c0, r1 - r0});
       }
+      if (overview_from_tiles) {
+        const int out_c0 = core_c0 / factor, out_r0 = core_r0 / factor;
+        const int out_w = std::min(overview.cols, core_c1 / factor) - out_c0;
+        const int out_h = std::min(overview.rows, core_r1 / factor) - out_r0;
+        if (out_w > 0 && out_h > 0) {
+          const cv::Mat core =
+              tile(cv::Rect(core_c0 - c0, core_r0 - r0, out_w * factor, out_h * factor));
+          cv::Mat small;
+          cv::resize(core, small, cv::Size(out_w, out_h), 0, 0, cv::INTER_AREA);
+          small.copyTo(overview(cv::Rect(out_c0, out_r0, out_w, out_h)));  // disjoint per tile
+        }
+      }
       std::vector<CraterDetection> found = DetectCraters(tile, source, tile_options);
       std::lock_guard<std::mutex> lock(mutex);
       for (const CraterDetection& d : found) {
@@ -106,10 +127,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
     if (cancelled) throw Error("crater detection cancelled");
   }
   if (need_overview) {
-    // Decimate so the overview fits one padded tile.
-    int factor = 1;
-    while (std::max(width, height) / factor > padded) factor *= 2;
-    const cv::Mat overview = ReadDecimated(dataset, dataset.FullWindow(), factor);
+    if (!overview_from_tiles) overview = ReadDecimated(dataset, dataset.FullWindow(), factor);
     CraterDetectorOptions overview_options = o;
     overview_options.min_diameter_px = std::max(4.0, 0.9 * tile_max_diameter / factor);
     overview_options.max_diameter_px = o.max_diameter_px == 0.0 ? 0.0 : o.max_diameter_px / factor;
@@ -117,6 +135,8 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
         overview_options.max_diameter_px < overview_options.min_diameter_px) {
       overview_options.max_diameter_px = overview_options.min_diameter_px;
     }
+    // Each overview crater is re-fitted below at the finest resolution that fits a tile.
+    overview_options.refine_to_full_resolution = false;
     const std::vector<CraterDetection> big = DetectCraters(overview, source, overview_options);
     for (const CraterDetection& coarse : big) {
       CraterDetection d = Shifted(coarse, 0.0, 0.0, factor);

@@ -23,21 +23,43 @@ bool HasPositiveAxes(const Ellipse& e) {
          e.semi_minor > 0.0 && e.center.allFinite() && std::isfinite(e.angle);
 }
 
-// Root u > 0 of G(u) = (r0 z0 / (u + r0 - 1))^2 + (z1 / u)^2 - 1, which is decreasing in u,
-// by bisection on [z1, 1] (point inside) or [z1, |(r0 z0, z1)|] (outside). This is Eberly's
-// GetRoot with his s shifted to u = s + 1, so that u, and with it x1 = y1 / u, keeps full
-// relative precision for points close to the major axis (z1 -> 0).
+// Root u > 0 of G(u) = (r0 z0 / (u + r0 - 1))^2 + (z1 / u)^2 - 1, which is decreasing and
+// convex in u, bracketed by [z1, 1] (point inside) or [z1, |(r0 z0, z1)|] (outside). This is
+// Eberly's GetRoot with his s shifted to u = s + 1, so that u, and with it x1 = y1 / u, keeps
+// full relative precision for points close to the major axis (z1 -> 0). Newton steps from the
+// left end first: on a convex decreasing function they approach the root monotonically from
+// below (each iterate stays a valid lower bound) and converge quadratically near it; where they
+// are slow (far from the root), bisection on the remaining bracket finishes.
 double GetRoot(double r0, double r0_minus_1, double z0, double z1, double g) {
+  constexpr int kMaxNewtonSteps = 12;
   const double n0 = r0 * z0;
   double u0 = z1;
   double u1 = g < 0.0 ? 1.0 : std::hypot(n0, z1);
-  double u = u1;
-  for (int i = 0; i < kMaxBisections; ++i) {
-    u = 0.5 * (u0 + u1);
-    if (u == u0 || u == u1) break;
+  const auto value_at = [&](double u) {
+    const double ratio0 = n0 / (u + r0_minus_1);
+    const double ratio1 = z1 / u;
+    return ratio0 * ratio0 + ratio1 * ratio1 - 1.0;
+  };
+  double u = u0;
+  for (int i = 0; i < kMaxNewtonSteps; ++i) {
     const double ratio0 = n0 / (u + r0_minus_1);
     const double ratio1 = z1 / u;
     const double value = ratio0 * ratio0 + ratio1 * ratio1 - 1.0;
+    if (value <= 0.0) return u;  // the root, to rounding (iterates never pass it otherwise)
+    u0 = u;
+    const double slope = -2.0 * (ratio0 * ratio0 / (u + r0_minus_1) + ratio1 * ratio1 / u);
+    const double next = std::min(u - value / slope, u1);
+    if (!(next > u)) return u;  // no representable progress: converged
+    if (next - u <= 1e-15 * next) {
+      // Quadratic convergence: the step is at rounding level.
+      return value_at(next) < 0.0 ? u : next;
+    }
+    u = next;
+  }
+  for (int i = 0; i < kMaxBisections; ++i) {
+    u = 0.5 * (u0 + u1);
+    if (u == u0 || u == u1) break;
+    const double value = value_at(u);
     if (value > 0.0) {
       u0 = u;
     } else if (value < 0.0) {

@@ -188,7 +188,12 @@ std::optional<Ellipse> FromRotatedRect(const cv::RotatedRect& box, const Eigen::
 
 }  // namespace
 
-std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& points) {
+namespace {
+
+// OpenCV's algebraic fits number `first_method` .. `last_method` (0 direct, 1 AMS, 2 plain) on
+// centred and scaled points; the one with the smallest RMS Sampson distance wins.
+std::optional<Ellipse> FitEllipseOpenCv(const std::vector<Eigen::Vector2d>& points,
+                                        int first_method, int last_method) {
   const std::vector<Eigen::Vector2d> finite = FinitePoints(points);
   if (finite.size() < 5) return std::nullopt;
 
@@ -225,7 +230,7 @@ std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& poin
   // and for near-exact points its eigenvector is inaccurate (1e-3 of the size). Its two
   // siblings are tried as well and the candidate with the smallest RMS orthogonal distance
   // wins (the direct fit on ties).
-  for (int method = 0; method < 3; ++method) {
+  for (int method = first_method; method <= last_method; ++method) {
     rng.state = 0x6172656f6d6170ULL;  // fixed seed: "areomap"
     cv::RotatedRect box;
     try {
@@ -245,6 +250,17 @@ std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& poin
   }
   rng.state = saved_state;
   return best;
+}
+
+}  // namespace
+
+std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& points) {
+  return FitEllipseOpenCv(points, 0, 2);
+}
+
+std::optional<Ellipse> FitEllipseFast(const std::vector<Eigen::Vector2d>& points) {
+  if (std::optional<Ellipse> ams = FitEllipseOpenCv(points, 1, 1)) return ams;
+  return FitEllipseOpenCv(points, 0, 2);
 }
 
 void GeometricFitOptions::Check() const {

@@ -13,9 +13,23 @@ namespace {
 // Float copy with nodata filled by the mean of the valid pixels, and the mask of pixels whose
 // 5x5 neighbourhood is all valid (edges there see no filled values through a 3x3 operator on a
 // smoothed image).
+// `filled` may share the input's pixels (float input without nodata): read it only.
 void PrepareInput(const cv::Mat& input, cv::Mat* filled, cv::Mat* usable) {
   if (input.channels() != 1) throw Error("crater edges: expected a single-band raster");
-  input.convertTo(*filled, CV_32F);
+  if (input.depth() == CV_32F) {
+    *filled = input;
+  } else {
+    input.convertTo(*filled, CV_32F);
+  }
+  if (cv::checkRange(*filled, true)) {
+    // No nodata (the common case): only the 2 px frame is unusable.
+    *usable = cv::Mat::zeros(filled->size(), CV_8U);
+    if (filled->rows > 4 && filled->cols > 4) {
+      (*usable)(cv::Rect(2, 2, filled->cols - 4, filled->rows - 4)).setTo(255);
+    }
+    return;
+  }
+  if (filled->data == input.data) *filled = input.clone();  // the holes are filled below
   cv::Mat valid;
   cv::compare(*filled, *filled, valid, cv::CMP_EQ);  // NaN compares unequal to itself
   cv::Mat finite = cv::abs(*filled) < std::numeric_limits<float>::infinity();
@@ -82,8 +96,9 @@ RimEdgePoint SubPixel(const cv::Mat& strength, int r, int c, float nx, float ny)
   return p;
 }
 
+// `dx`, `dy`: a direction field (any length, e.g. the gradient), normalised per edge point.
 RimEdges Collect(const cv::Mat& edge_mask, const cv::Mat& usable, const cv::Mat& strength,
-                 const cv::Mat& nx, const cv::Mat& ny, bool signed_normals, double high,
+                 const cv::Mat& dx, const cv::Mat& dy, bool signed_normals, double high,
                  double low) {
   RimEdges out;
   out.signed_normals = signed_normals;
@@ -96,8 +111,11 @@ RimEdges Collect(const cv::Mat& edge_mask, const cv::Mat& usable, const cv::Mat&
     int* index = out.index.ptr<int>(r);
     for (int c = 1; c + 1 < strength.cols; ++c) {
       if (!e[c] || !u[c]) continue;
+      const float gx = dx.at<float>(r, c), gy = dy.at<float>(r, c);
+      const float norm = std::hypot(gx, gy);
+      if (!(norm > 0.0f)) continue;
       index[c] = static_cast<int>(out.points.size());
-      out.points.push_back(SubPixel(strength, r, c, nx.at<float>(r, c), ny.at<float>(r, c)));
+      out.points.push_back(SubPixel(strength, r, c, gx / norm, gy / norm));
     }
   }
   return out;
@@ -126,9 +144,9 @@ void EdgeOptions::Check() const {
 RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& o) {
   o.Check();
   if (image.rows < 8 || image.cols < 8) return Empty(image, true);
-  cv::Mat f, usable;
-  PrepareInput(image, &f, &usable);
-  cv::GaussianBlur(f, f, cv::Size(), o.smoothing_sigma_px);
+  cv::Mat input, usable, f;
+  PrepareInput(image, &input, &usable);
+  cv::GaussianBlur(input, f, cv::Size(), o.smoothing_sigma_px);
   cv::Mat gx, gy, mag;
   cv::Sobel(f, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
   cv::Sobel(f, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
@@ -145,20 +163,16 @@ RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& o) {
   gx.convertTo(dx16, CV_16S, scale);
   gy.convertTo(dy16, CV_16S, scale);
   cv::Canny(dx16, dy16, edges, low * scale, high * scale, true);
-  cv::Mat nx, ny, safe_mag;
-  cv::max(mag, 1e-20, safe_mag);
-  cv::divide(gx, safe_mag, nx);
-  cv::divide(gy, safe_mag, ny);
-  return Collect(edges, usable, mag, nx, ny, true, high, low);
+  return Collect(edges, usable, mag, gx, gy, true, high, low);
 }
 
 RimEdges DetectDtmCrests(const cv::Mat& dtm, double posting, const EdgeOptions& o) {
   o.Check();
   RequireOption(std::isfinite(posting) && posting > 0.0, "DetectDtmCrests.posting", "> 0");
   if (dtm.rows < 8 || dtm.cols < 8) return Empty(dtm, false);
-  cv::Mat h, usable;
-  PrepareInput(dtm, &h, &usable);
-  cv::GaussianBlur(h, h, cv::Size(), o.smoothing_sigma_px);
+  cv::Mat input, usable, h;
+  PrepareInput(dtm, &input, &usable);
+  cv::GaussianBlur(input, h, cv::Size(), o.smoothing_sigma_px);
   cv::Mat hxx, hyy, hxy;
   cv::Sobel(h, hxx, CV_32F, 2, 0, 3, 0.25);
   cv::Sobel(h, hyy, CV_32F, 0, 2, 3, 0.25);

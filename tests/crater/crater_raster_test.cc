@@ -13,6 +13,7 @@
 #include "areomap/map/crs.h"
 #include "areomap/map/error.h"
 #include "areomap/map/geodesy.h"
+#include "areomap/map/image_io.h"
 #include "test_support.h"
 
 namespace areomap {
@@ -166,6 +167,30 @@ TEST(ScoreCraters, AppliesTheMatchingRule) {
   EXPECT_DOUBLE_EQ(s.all.precision, 0.25);
   ASSERT_EQ(s.matches.size(), 1u);
   EXPECT_EQ(s.matches[0].second, 3);  // the closer of the two candidates
+}
+
+TEST(WriteScoreOverlay, MatchedGreenMissedRedFalseAlarmYellow) {
+  // Uniform grey 200 x 100 image; RGB in file order. Rims are drawn at the circle radius
+  // (truth) and 2 px outside it (false alarms), so probe pixels on those circles.
+  const cv::Mat image(100, 200, CV_32F, cv::Scalar(10.0));
+  const std::vector<CraterCircle> truth = {{{50.5, 50.5}, 40}, {{150.5, 50.5}, 40}};
+  const std::vector<CraterCircle> det = {{{50.5, 50.5}, 40}, {{150.5, 20.5}, 10}};
+  const CraterScore score = ScoreCraters(truth, det, {8.0, 1e9});
+  ASSERT_EQ(score.matches.size(), 1u);
+  areomap::testing::TempDir dir;
+  const auto path = dir.path() / "overlay.png";
+  WriteScoreOverlay(path, image, truth, det, score, 8.0);
+  const cv::Mat rgb = ReadImage(path);
+  ASSERT_EQ(rgb.type(), CV_8UC3);
+  const auto pixel = [&](int x, int y) { return rgb.at<cv::Vec3b>(y, x); };
+  EXPECT_GT(pixel(70, 50)[1], 150);  // matched truth rim: green
+  EXPECT_LT(pixel(70, 50)[0], 100);
+  EXPECT_GT(pixel(170, 50)[0], 150);  // missed truth rim: red
+  EXPECT_LT(pixel(170, 50)[1], 100);
+  const cv::Vec3b alarm = pixel(157, 20);  // false alarm, radius 5 + 2 px: yellow
+  EXPECT_GT(alarm[0], 150);
+  EXPECT_GT(alarm[1], 150);
+  EXPECT_LT(alarm[2], 100);
 }
 
 TEST(ReadCraterCsv, NamesFileAndLineOfBadInput) {

@@ -5,23 +5,27 @@
 //  1. Rim edges (rim_edges.h): sub-pixel Canny edges with gradient direction for an image,
 //     curvature crests for a DTM.
 //  2. Arcs: 8-connected edge pixels whose normals lie within a 90 degree window (12 overlapping
-//     windows, so a rim falls into several arcs). Each arc estimates its circle centre as the
-//     least-squares intersection of its normals, its radius and its polarity (gradient pointing
-//     out of or into the circle). With a known sun, arcs whose polarity contradicts the shading
-//     of a bowl (brightness must rise towards the sun across the rim, ch. 2.2.1) are dropped:
-//     this removes the shadow edge on the floor and positive relief (mounds).
-//  3. Hypotheses: arcs whose centres and radii agree are grouped; groups of weak edges are
-//     dropped at once; the group's points seed FitEllipseDirect (OpenCV's direct least
-//     squares). A trimmed robust loop then gathers all edges near the ellipse with a normal
-//     aligned to it, refits, and repeats.
+//     windows, so a rim falls into several arcs), built from edges at least half as strong as
+//     the rim threshold (min_edge_contrast x high Canny threshold). Each arc estimates its circle
+//     centre as the least-squares intersection of its normals, its radius and its polarity
+//     (gradient pointing out of or into the circle). With a known sun, arcs whose polarity
+//     contradicts the shading of a bowl (brightness must rise towards the sun across the rim,
+//     ch. 2.2.1) are dropped: this removes the shadow edge on the floor and positive relief
+//     (mounds).
+//  3. Hypotheses: arcs whose centres and radii agree are grouped; groups of weak edges, and
+//     groups whose rough circle shows less than half the required bowl signature, are dropped
+//     at once; the group's points seed FitEllipseFast (one OpenCV algebraic fit). A trimmed
+//     robust loop then gathers all edges near the ellipse with a normal aligned to it (giving
+//     up when they cover under 3/4 of min_coverage), refits, and repeats until it converges.
 //  4. Validation: mean rim edge strength over the high Canny threshold, the signature of a bowl
 //     (for an image with known sun azimuth the inner wall facing the sun must be brighter than
 //     the one facing away; for a DTM the interior must lie below the rim), sector coverage and
 //     fit residual.
 //  5. Candidates of all levels are compared in full-resolution pixels and duplicates
 //     suppressed; each remaining crater is refined down the pyramid on the finer levels' edges
-//     and gets one orthogonal-distance fit with a Huber loss (RefineEllipseGeometric, Ceres) on
-//     the finest level where it validates, then duplicates are suppressed again.
+//     (unless refine_to_full_resolution is false) and gets one orthogonal-distance fit with a Huber
+//     loss (RefineEllipseGeometric, Ceres) on the finest level where it validates, then duplicates
+//     are suppressed again.
 //
 // Frame: pixel coordinates of the input, GDAL convention (pixel (col, row) covers
 // [col, col + 1) x [row, row + 1)), x right, y down; lengths in pixels, angles in radians from
@@ -50,7 +54,7 @@ enum class RimSource {
 
 struct CraterDetection {
   Ellipse ellipse;  // rim crest [px]
-  // 1-sigma from the geometric fit's covariance [px, rad] (the fit uses at most 256 rim edges,
+  // 1-sigma from the geometric fit's covariance [px, rad] (the fit uses at most 128 rim edges,
   // evenly spread); NaN where not available.
   double center_x_sigma = 0.0;
   double center_y_sigma = 0.0;
@@ -95,9 +99,13 @@ struct CraterDetectorOptions {
   double max_axis_ratio = 1.6;  // a / b
   // Search craters below 16 px across on a 2x upsampled copy (about 2.5x the work).
   bool upsample_small_craters = true;
+  // false: each crater gets its geometric fit on the pyramid level where it was found, not
+  // refined down to full resolution (for a caller that refines it itself, e.g. the overview of
+  // DetectCratersInRaster).
+  bool refine_to_full_resolution = true;
   double dtm_posting = 1.0;  // DTM: ground size of a pixel in height units
   int tile_size = 2048;      // DetectCratersInRaster: tile core edge [px]
-  int tile_overlap = 256;    // and margin [px]; bounds in-tile diameters
+  int tile_overlap = 128;    // and margin [px]; bounds in-tile diameters
 
   void Check() const;  // throws areomap::Error naming the bad field
 };

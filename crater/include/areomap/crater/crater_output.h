@@ -17,6 +17,7 @@
 
 #include "areomap/crater/crater_detector.h"
 #include "areomap/crater/crater_model.h"
+#include "areomap/crater/crater_score.h"
 #include "areomap/map/raster.h"
 
 namespace areomap {
@@ -55,5 +56,14 @@ void WriteCratersGeoPackage(const std::filesystem::path& path, const CraterCatal
 // (green; yellow when partial), decimated so the longer side is at most `max_side` px.
 void WriteCraterOverlay(const std::filesystem::path& path, const cv::Mat& image,
                         const std::vector<CraterDetection>& detections, int max_side = 4096);
+
+// Scoring overlay, same stretch and decimation: truth craters of at least `min_diameter`
+// [px] drawn green when matched, red when missed; detections of at least `min_diameter` that
+// match nothing (false alarms) in yellow, 2 px outside their rim. `score` comes from
+// ScoreCraters(truth, detections, ...); all coordinates in pixels of `image`.
+void WriteScoreOverlay(const std::filesystem::path& path, const cv::Mat& image,
+                       const std::vector<CraterCircle>& truth,
+                       const std::vector<CraterCircle>& detections, const CraterScore& score,
+                       double min_diameter, int max_side = 4096);
 
 }  // namespace areomap

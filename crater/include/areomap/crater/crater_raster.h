@@ -1,6 +1,7 @@
 // Crater detection on rasters of any size, read by windows: tiles with overlap at full
-// resolution for craters up to the overlap in diameter, plus one decimated overview (read in
-// strips) for larger ones, which are then re-fitted on a window read at the finest resolution
+// resolution for craters up to the overlap in diameter, plus one decimated overview (no larger
+// than a padded tile; averaged from the tiles as they are read, or read in strips when no tile
+// runs) for larger ones, which are then re-fitted on a window read at the finest resolution
 // that fits a tile. Memory is bounded by a few tiles, not by the raster.
 //
 // Frame: full-resolution pixel coordinates of the raster (GDAL convention), as DetectCraters.

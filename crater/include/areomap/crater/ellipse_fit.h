@@ -41,6 +41,12 @@ namespace areomap {
 // ratio > 1e6, major axis > 1e6 times the point spread).
 std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& points);
 
+// One algebraic fit (cv::fitEllipseAMS) instead of FitEllipseDirect's comparison of three:
+// about 3x cheaper, accurate to ~1e-3 of the size on near-exact points, for screening
+// hypotheses whose final fit is geometric. Falls back to FitEllipseDirect when AMS gives no
+// proper ellipse. Same frame, scaling, determinism and failure rules as FitEllipseDirect.
+std::optional<Ellipse> FitEllipseFast(const std::vector<Eigen::Vector2d>& points);
+
 enum class RobustLoss {
   kNone,    // plain least squares
   kHuber,   // quadratic below loss_scale, linear above
