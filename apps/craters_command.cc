@@ -3,8 +3,6 @@
 #include <iomanip>
 #include <iostream>
 
-#include <glog/logging.h>
-
 #include "areomap/crater/crater_output.h"
 #include "areomap/crater/crater_raster.h"
 #include "areomap/crater/crater_score.h"
@@ -44,9 +42,6 @@ nlohmann::json StatsJson(const CraterMatchStats& s) {
 }
 
 void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
-  // Ceres (the geometric ellipse fits) logs through glog; a failed fit is a rejected crater, not
-  // news for the user, so only fatal glog messages may reach stderr.
-  FLAGS_minloglevel = google::GLOG_FATAL;
   const RasterDataset dataset = RasterDataset::Open(a.input);
   const RasterInfo& info = dataset.info();
   CraterDetectorOptions options = a.detector;

@@ -3,12 +3,16 @@
 #include <exception>
 #include <iostream>
 
+#include <glog/logging.h>
 #include <CLI/CLI.hpp>
 
 #include "areomap/map/error.h"
 #include "commands.h"
 
 int main(int argc, char** argv) {
+  // Ceres logs through glog (a failed crater fit, a rank-deficient Jacobian in the adjustment);
+  // the commands report what matters in their summaries, so only fatal glog messages reach stderr.
+  FLAGS_minloglevel = google::GLOG_FATAL;
   CLI::App app{"areomap: register Mars rover data to orbital data and make maps from both"};
   app.set_version_flag("--version", std::string("areomap ") + AREOMAP_VERSION);
   app.require_subcommand(1);
