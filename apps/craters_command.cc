@@ -23,24 +23,6 @@ struct CratersArgs {
   CraterDetectorOptions detector;
 };
 
-nlohmann::json StatsJson(const CraterMatchStats& s) {
-  const auto number = [](double v) {
-    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
-  };
-  return {{"min_diameter_px", s.min_diameter},
-          {"max_diameter_px",
-           std::isfinite(s.max_diameter) ? nlohmann::json(s.max_diameter) : nlohmann::json("inf")},
-          {"truth", s.truth},
-          {"detected", s.detected},
-          {"matched_truth", s.matched_truth},
-          {"matched_detected", s.matched_detected},
-          {"precision", number(s.precision)},
-          {"recall", number(s.recall)},
-          {"f1", number(s.f1)},
-          {"median_center_error_px", number(s.median_center_error)},
-          {"median_diameter_error", number(s.median_diameter_error)}};
-}
-
 void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   const RasterDataset dataset = RasterDataset::Open(a.input);
   const RasterInfo& info = dataset.info();
@@ -173,9 +155,9 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
         {"detections", (*score_args)[0]},
         {"truth", (*score_args)[1]},
         {"rule", "centre distance < 0.5 x truth radius and detected/true diameter in [0.7, 1.3]"},
-        {"all", StatsJson(s.all)},
+        {"all", CraterMatchStatsJson(s.all)},
         {"bins", nlohmann::json::array()}};
-    for (const auto& b : s.bins) summary["bins"].push_back(StatsJson(b));
+    for (const auto& b : s.bins) summary["bins"].push_back(CraterMatchStatsJson(b));
     if (!(*score_args)[3].empty() && (*score_args)[2].empty()) {
       throw Error("craters score: --image needs --out DIR for the overlay");
     }

@@ -102,6 +102,24 @@ CraterCatalog MakeCraterCatalog(const std::vector<CraterDetection>& detections,
   return catalog;
 }
 
+nlohmann::json CraterMatchStatsJson(const CraterMatchStats& s) {
+  const auto number = [](double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+  };
+  return {{"min_diameter_px", s.min_diameter},
+          {"max_diameter_px",
+           std::isfinite(s.max_diameter) ? nlohmann::json(s.max_diameter) : nlohmann::json("inf")},
+          {"truth", s.truth},
+          {"detected", s.detected},
+          {"matched_truth", s.matched_truth},
+          {"matched_detected", s.matched_detected},
+          {"precision", number(s.precision)},
+          {"recall", number(s.recall)},
+          {"f1", number(s.f1)},
+          {"median_center_error_px", number(s.median_center_error)},
+          {"median_diameter_error", number(s.median_diameter_error)}};
+}
+
 nlohmann::json CraterCatalogJson(const CraterCatalog& catalog) {
   nlohmann::json j;
   j["georeferenced"] = catalog.IsGeoreferenced();

@@ -62,20 +62,6 @@ std::vector<CraterCircle> ReadTruthCraters(const fs::path& path, double pixel_si
   return truth;
 }
 
-json StatsJson(const CraterMatchStats& s) {
-  const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(); };
-  return {{"min_diameter_px", s.min_diameter},
-          {"max_diameter_px", number(s.max_diameter)},
-          {"truth", s.truth},
-          {"detected", s.detected},
-          {"matched_truth", s.matched_truth},
-          {"precision", number(s.precision)},
-          {"recall", number(s.recall)},
-          {"f1", number(s.f1)},
-          {"median_center_error_px", number(s.median_center_error)},
-          {"median_diameter_error", number(s.median_diameter_error)}};
-}
-
 }  // namespace
 
 json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
@@ -120,7 +106,7 @@ json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
     const double lo = options.min_diameter_px;
     const CraterScore score =
         ScoreCraters(truth, detections, {lo, 4 * lo, std::numeric_limits<double>::infinity()});
-    summary["score"] = StatsJson(score.all);
+    summary["score"] = CraterMatchStatsJson(score.all);
     summary["score"]["rule"] =
         "centre distance < 0.5 x truth radius and detected/true diameter in [0.7, 1.3]";
   }

@@ -48,6 +48,8 @@ CraterCatalog MakeCraterCatalog(const std::vector<CraterDetection>& detections,
                                 const RasterInfo& info);
 
 nlohmann::json CraterCatalogJson(const CraterCatalog& catalog);
+// One bin of a crater score (crater_score.h) as JSON; NaN rates are null, an open bin edge "inf".
+nlohmann::json CraterMatchStatsJson(const CraterMatchStats& stats);
 void WriteCratersCsv(const std::filesystem::path& path, const CraterCatalog& catalog);
 void WriteCratersJson(const std::filesystem::path& path, const CraterCatalog& catalog);
 // Layer "craters": rim polygons (72 vertices) in the raster's CRS with the CSV's attributes.
