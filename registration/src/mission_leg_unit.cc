@@ -1,5 +1,10 @@
 // One leg of a mission run (two consecutive sites): rocks extracted from both sites' clouds,
 // matched across the sites with fault detection (ch. 3.2, 4.2), tie points for the adjustment.
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <optional>
 #include <string>
 
 #include "areomap/map/atomic_file.h"
@@ -22,6 +27,89 @@ SiteRocks ExtractSiteRocks(const RunContext& run, int site, RockExtractionSummar
   rocks.camera_center = cloud.camera_center;
   rocks.rocks = ExtractRocks(cloud, run.options->rocks, summary);
   return rocks;
+}
+
+// A site's pose in the mission frame as corrected by its orbital registration (registration.json
+// of the site unit): position shifted by the match, heading turned by the solved rotation (a
+// counter-clockwise rotation on the map is a heading decrease). Null when the registration was not
+// confident or did not solve the rotation. `sigma_m`: 1-sigma horizontal position error (the
+// match's shift sigma, at least a quarter orbital pixel).
+std::optional<Rigid3d> RegisteredTraverseFromSite(const RunContext& run, int site,
+                                                  const MissionSitePose& telemetry,
+                                                  double* sigma_m) {
+  const fs::path path = SiteDir(run, site) / "registration.json";
+  if (!fs::exists(path)) return std::nullopt;
+  std::ifstream in(path);
+  const json reg = json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (!reg.is_object() || !reg.value("matched", false) || !reg.contains("rotation_deg")) {
+    return std::nullopt;
+  }
+  const double north = reg.value("shift_north_m", 0.0), east = reg.value("shift_east_m", 0.0);
+  const double rotation = reg.value("rotation_deg", 0.0) * std::numbers::pi / 180.0;
+  *sigma_m = std::max({reg.value("sigma_north_m", 0.0), reg.value("sigma_east_m", 0.0),
+                       0.25 * reg.value("gsd_m", 0.0)});
+  if (!std::isfinite(north) || !std::isfinite(east) || !std::isfinite(rotation) ||
+      !std::isfinite(*sigma_m)) {
+    return std::nullopt;
+  }
+  const Eigen::Vector3d position = telemetry.position + Eigen::Vector3d(north, east, 0.0);
+  return Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(-rotation, Eigen::Vector3d::UnitZ())),
+                 position);
+}
+
+// The leg's prior for the rock search: from both sites' registration-corrected poses when both
+// registrations are confident and agree with telemetry within three combined sigmas, else from
+// telemetry (dead reckoning: leg_scale_sigma x length, leg_heading_sigma_deg). `info` records
+// which and why.
+RockMatchingPrior LegPrior(const RunContext& run, size_t index_a, size_t index_b, json* info) {
+  const MissionManifest& mission = *run.mission;
+  const MissionRunOptions& options = *run.options;
+  RockMatchingPrior telemetry;
+  telemetry.a_from_b = TelemetryTraverseFromSite(mission.telemetry[index_a]).Inverse() *
+                       TelemetryTraverseFromSite(mission.telemetry[index_b]);
+  telemetry.position_sigma_m =
+      options.leg_scale_sigma * telemetry.a_from_b.translation.head<2>().norm();
+  telemetry.heading_sigma_deg = options.leg_heading_sigma_deg;
+  telemetry.source = "telemetry";
+  double sigma_a = 0.0, sigma_b = 0.0;
+  const std::optional<Rigid3d> reg_a = RegisteredTraverseFromSite(
+      run, mission.sites[index_a].site, mission.telemetry[index_a], &sigma_a);
+  const std::optional<Rigid3d> reg_b = RegisteredTraverseFromSite(
+      run, mission.sites[index_b].site, mission.telemetry[index_b], &sigma_b);
+  *info = {{"source", "telemetry"}};
+  if (!reg_a || !reg_b) {
+    (*info)["reason"] = "orbital registration not confident at both sites";
+  } else {
+    RockMatchingPrior registered;
+    registered.a_from_b = reg_a->Inverse() * *reg_b;
+    registered.position_sigma_m = std::hypot(sigma_a, sigma_b);
+    // The rotation is refined from a grid of rotation_step_deg: half a step per site.
+    registered.heading_sigma_deg = std::sqrt(2.0) * 0.5 * options.match.rotation_step_deg;
+    registered.source = "orbital registration";
+    const double shift =
+        (registered.a_from_b.translation - telemetry.a_from_b.translation).head<2>().norm();
+    const double turn =
+        Eigen::AngleAxisd(registered.a_from_b.rotation * telemetry.a_from_b.rotation.conjugate())
+            .angle() *
+        180.0 / std::numbers::pi;
+    const double shift_limit =
+        3.0 * std::sqrt(2.0) * std::hypot(telemetry.position_sigma_m, registered.position_sigma_m);
+    const double turn_limit =
+        3.0 * std::hypot(telemetry.heading_sigma_deg, registered.heading_sigma_deg);
+    (*info)["registration_minus_telemetry_m"] = shift;
+    (*info)["registration_minus_telemetry_deg"] = turn;
+    if (shift <= shift_limit && turn <= turn_limit) {
+      *info = {{"source", registered.source},
+               {"registration_minus_telemetry_m", shift},
+               {"registration_minus_telemetry_deg", turn}};
+      telemetry = registered;
+    } else {
+      (*info)["reason"] = "orbital registration disagrees with telemetry beyond 3 sigma";
+    }
+  }
+  (*info)["position_sigma_m"] = telemetry.position_sigma_m;
+  (*info)["heading_sigma_deg"] = telemetry.heading_sigma_deg;
+  return telemetry;
 }
 
 json ExtractionJson(const RockExtractionSummary& s) {
@@ -49,9 +137,9 @@ json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
   const SiteRocks rocks_b = ExtractSiteRocks(run, site_b, &summary_b);
   if (progress && !progress(0.8, "rocks")) throw Error("cancelled during rock extraction");
 
-  const Rigid3d a_from_b = TelemetryTraverseFromSite(mission.telemetry[index_a]).Inverse() *
-                           TelemetryTraverseFromSite(mission.telemetry[index_b]);
-  const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, a_from_b, run.options->matching);
+  json prior_info;
+  const RockMatchingPrior prior = LegPrior(run, index_a, index_b, &prior_info);
+  const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, prior, run.options->matching);
   WriteFileAtomically(dir / "faults.json", match.report.ToJson().dump(2));
   WriteFileAtomically(dir / "faults.txt", match.report.ToText());
 
@@ -61,7 +149,11 @@ json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
 
   json summary = {{"site_a", site_a},
                   {"site_b", site_b},
-                  {"telemetry_distance_m", a_from_b.translation.head<2>().norm()},
+                  {"telemetry_distance_m",
+                   (mission.telemetry[index_b].position - mission.telemetry[index_a].position)
+                       .head<2>()
+                       .norm()},
+                  {"prior", prior_info},
                   {"outcome", ToString(match.report.outcome)},
                   {"tie_points", match.tie_points.size()},
                   {"rock_matches", match.matches.size()},

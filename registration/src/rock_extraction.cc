@@ -23,6 +23,7 @@ struct Plane {
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal = Eigen::Vector3d(0, 0, -1);  // Up in the site frame (z down).
   int inliers = 0;
+  double residual_sigma = 0.0;  // Robust (MAD) sigma of the inliers' distances to the plane [m].
 };
 
 // Least-squares plane through `points` (smallest principal axis), normal pointing up.
@@ -39,6 +40,18 @@ Plane FitPlane(const std::vector<Eigen::Vector3d>& points) {
   if (plane.normal.z() > 0.0) plane.normal = -plane.normal;
   plane.inliers = static_cast<int>(points.size());
   return plane;
+}
+
+// Robust sigma (1.4826 MAD) of the points' distances to the plane [m].
+double ResidualSigma(const Plane& plane, const std::vector<Eigen::Vector3d>& points) {
+  std::vector<double> residuals;
+  for (const Eigen::Vector3d& p : points) residuals.push_back(plane.normal.dot(p - plane.point));
+  const auto mid = residuals.begin() + static_cast<long>(residuals.size() / 2);
+  std::nth_element(residuals.begin(), mid, residuals.end());
+  const double median = *mid;
+  for (double& r : residuals) r = std::abs(r - median);
+  std::nth_element(residuals.begin(), mid, residuals.end());
+  return 1.4826 * *mid;
 }
 
 // Ground plane around a rock: refit while dropping the points standing above it (the rock),
@@ -66,6 +79,7 @@ std::optional<Plane> FitBackgroundPlane(std::vector<Eigen::Vector3d> points) {
     plane = FitPlane(points);
     if (unchanged) break;
   }
+  plane.residual_sigma = ResidualSigma(plane, points);
   return plane;
 }
 
@@ -178,6 +192,7 @@ class Extractor {
     rock.height_m = plane->normal.dot(peak - plane->point);
     rock.peak_foot = peak - rock.height_m * plane->normal;
     rock.background_points = plane->inliers;
+    rock.ground_sigma_m = plane->residual_sigma;
     if (rock.height_m < options_.min_height_m) return std::nullopt;
     GrowSurface(*plane, &rock);
     rock.rock_from_site = RockFromSite(rock.peak_foot, plane->normal);
@@ -222,11 +237,13 @@ class Extractor {
   }
   double Elevation(int i) const { return -cloud_.points[i].position.z(); }
 
+  // The ground's own scatter about its plane (noise and roughness, measured) is the yardstick:
+  // the a-priori stereo sigma of a single point (eq. 4.3) grows as r^2 and, for dense stereo
+  // whose neighbouring points share their correlation windows, overstates the relative height
+  // error between neighbouring points several times, which would strip far rocks of their surface.
   bool AbovePlane(const Plane& plane, int j) const {
-    const StereoPoint& p = cloud_.points[j];
-    const double h = plane.normal.dot(p.position - plane.point);
-    const double sigma = std::sqrt(std::max(0.0, plane.normal.dot(p.covariance * plane.normal)));
-    return h > std::max(options_.above_plane_m, options_.above_plane_sigmas * sigma);
+    const double h = plane.normal.dot(cloud_.points[j].position - plane.point);
+    return h > std::max(options_.above_plane_m, options_.above_plane_sigmas * plane.residual_sigma);
   }
 
   // Ch. 2.2.2 steps 2-3: dynamic search range from 0.3 H to 1.7 H by MaxD_Neighbor steps.
