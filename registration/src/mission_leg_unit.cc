@@ -12,6 +12,7 @@
 #include "areomap/map/point_cloud_io.h"
 #include "areomap/registration/bundle_io.h"
 #include "areomap/registration/rock_matching.h"
+#include "areomap/registration/rock_output.h"
 #include "mission_units.h"
 
 namespace areomap::mission_run {
@@ -112,15 +113,6 @@ RockMatchingPrior LegPrior(const RunContext& run, size_t index_a, size_t index_b
   return telemetry;
 }
 
-json ExtractionJson(const RockExtractionSummary& s) {
-  return {{"points", s.points},
-          {"peak_candidates", s.peak_candidates},
-          {"beyond_range", s.beyond_range},
-          {"too_low", s.too_low},
-          {"rocks", s.rocks},
-          {"modeled", s.modeled}};
-}
-
 }  // namespace
 
 json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
@@ -157,8 +149,8 @@ json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
                   {"outcome", ToString(match.report.outcome)},
                   {"tie_points", match.tie_points.size()},
                   {"rock_matches", match.matches.size()},
-                  {"rocks_a", ExtractionJson(summary_a)},
-                  {"rocks_b", ExtractionJson(summary_b)},
+                  {"rocks_a", RockExtractionSummaryToJson(summary_a)},
+                  {"rocks_b", RockExtractionSummaryToJson(summary_b)},
                   {"faults", match.report.ToJson()}};
   if (match.error) summary["relative_error_percent"] = match.error->relative_error_percent;
   return summary;
