@@ -62,28 +62,32 @@ RockMatchingPrior ParsePrior(const RocksArgs& a) {
 }
 
 SiteRocks ExtractFrom(const std::string& path, const RocksArgs& a, int fallback_site,
-                      RockExtractionSummary* summary, const GlobalOptions& global) {
-  const PointCloud cloud = ReadPointCloudPly(path);
+                      RockExtractionSummary* summary, const GlobalOptions& global,
+                      PointCloud* keep = nullptr) {
+  PointCloud cloud = ReadPointCloudPly(path);
   SiteRocks rocks;
   rocks.site = cloud.site >= 0 ? cloud.site : fallback_site;
   rocks.camera_center = cloud.camera_center;
   rocks.rocks = ExtractRocks(cloud, a.extraction, summary, MakeProgressBar(global, "rocks"));
+  if (keep) *keep = std::move(cloud);
   return rocks;
 }
 
 void RunExtract(const RocksArgs& a, const GlobalOptions& global) {
   a.extraction.Check();
   RockExtractionSummary summary;
-  const SiteRocks rocks = ExtractFrom(a.cloud, a, 0, &summary, global);
+  PointCloud cloud;
+  const SiteRocks rocks = ExtractFrom(a.cloud, a, 0, &summary, global, &cloud);
   PrepareOutputFolder(a.out_dir);
   const std::filesystem::path out(a.out_dir);
   WriteRocksCsv(out / "rocks.csv", rocks.rocks);
   WriteRocksJson(out / "rocks.json", rocks.rocks);
+  WriteRocksPlotPng(out / "rocks.png", cloud, rocks.rocks, a.extraction.max_peak_range_m);
   WriteSummary(out, {{"command", "rocks extract"},
                      {"input", a.cloud},
                      {"site", rocks.site},
                      {"extraction", RockExtractionSummaryToJson(summary)},
-                     {"files", {"rocks.csv", "rocks.json"}}});
+                     {"files", {"rocks.csv", "rocks.json", "rocks.png"}}});
   if (!global.quiet) {
     std::cout << summary.rocks << " rocks (" << summary.modeled << " modeled) from "
               << summary.points << " points; wrote " << a.out_dir << "\n";

@@ -171,17 +171,31 @@ class Extractor {
     grid_.ForEachNear(peak.head<2>(), 0.5 * options_.peak_window_m,
                       [&](int j) { window_low = std::min(window_low, Elevation(j)); });
     const double relief = -peak.z() - window_low;
+    // The ground must reach beyond the rock: when the fitted height says the rock is wider than
+    // the neighbourhood (1.7 H + 0.3 m, the surface search's reach plus a margin), refit once
+    // over the wider neighbourhood (at most 4 m: boulders bigger than that are not landmarks).
+    const auto fit = [&](double radius) {
+      std::vector<int> near;
+      grid_.ForEachNear(peak.head<2>(), radius, [&](int j) {
+        if ((cloud_.points[j].position - peak).head<2>().norm() <= radius) near.push_back(j);
+      });
+      constexpr size_t kMaxPlanePoints = 800;
+      const size_t stride = std::max<size_t>(1, near.size() / kMaxPlanePoints);
+      std::vector<Eigen::Vector3d> sample;
+      for (size_t k = 0; k < near.size(); k += stride)
+        sample.push_back(cloud_.points[near[k]].position);
+      return FitBackgroundPlane(std::move(sample));
+    };
+    constexpr double kMaxPlaneRadius = 4.0;
     const double radius = std::max(options_.plane_radius_m, 1.7 * relief + 0.3);
-    std::vector<int> near;
-    grid_.ForEachNear(peak.head<2>(), radius, [&](int j) {
-      if ((cloud_.points[j].position - peak).head<2>().norm() <= radius) near.push_back(j);
-    });
-    constexpr size_t kMaxPlanePoints = 800;
-    const size_t stride = std::max<size_t>(1, near.size() / kMaxPlanePoints);
-    std::vector<Eigen::Vector3d> sample;
-    for (size_t k = 0; k < near.size(); k += stride)
-      sample.push_back(cloud_.points[near[k]].position);
-    const std::optional<Plane> plane = FitBackgroundPlane(std::move(sample));
+    std::optional<Plane> plane = fit(radius);
+    if (plane) {
+      const double wider =
+          std::min(kMaxPlaneRadius, 1.7 * plane->normal.dot(peak - plane->point) + 0.3);
+      if (wider > 1.25 * radius) {
+        if (std::optional<Plane> refit = fit(wider)) plane = refit;
+      }
+    }
     if (!plane) return std::nullopt;
     ExtractedRock rock;
     rock.peak_index = peak_index;

@@ -6,7 +6,13 @@
 #include <sstream>
 #include <string>
 
+#include <algorithm>
+
+#include <opencv2/imgproc.hpp>
+
 #include "areomap/map/atomic_file.h"
+#include "areomap/map/error.h"
+#include "areomap/map/image_io.h"
 
 namespace areomap {
 
@@ -128,6 +134,63 @@ void WriteRockMatchesCsv(const std::filesystem::path& path, const SiteRocks& a, 
         << Number(m.normal_angle_deg, "%.2f") << ',' << Number(m.distance_ratio, "%.3f") << '\n';
   }
   WriteFileAtomically(path, out.str());
+}
+
+void WriteRocksPlotPng(const std::filesystem::path& path, const PointCloud& cloud,
+                       const std::vector<ExtractedRock>& rocks, double max_range_m, int pixels) {
+  std::vector<const StereoPoint*> shown;
+  for (const StereoPoint& p : cloud.points) {
+    if ((p.position - cloud.camera_center).head<2>().norm() <= max_range_m) shown.push_back(&p);
+  }
+  if (shown.empty()) {
+    throw Error(path.string() + ": no point of the cloud lies within " +
+                std::to_string(max_range_m) + " m of the camera to plot");
+  }
+  Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
+  std::vector<double> elevations;
+  for (const StereoPoint* p : shown) {
+    lo = lo.cwiseMin(p->position.head<2>());
+    hi = hi.cwiseMax(p->position.head<2>());
+    elevations.push_back(-p->position.z());
+  }
+  std::sort(elevations.begin(), elevations.end());
+  const double e_lo = elevations[elevations.size() / 50];
+  const double e_hi = std::max(e_lo + 1e-3, elevations[elevations.size() * 49 / 50]);
+  const double span = std::max({hi.x() - lo.x(), hi.y() - lo.y(), 1e-3});
+  const double scale = (pixels - 40) / span;  // Pixels per metre, 20 px margins.
+  // Image column from y (east / right), row from x (north / forward, up in the image).
+  const auto to_pixel = [&](const Eigen::Vector3d& p) {
+    return cv::Point(static_cast<int>(20 + (p.y() - lo.y()) * scale),
+                     static_cast<int>(20 + (hi.x() - p.x()) * scale));
+  };
+  cv::Mat gray(pixels, pixels, CV_8UC1, cv::Scalar(0));
+  for (const StereoPoint* p : shown) {
+    const cv::Point q = to_pixel(p->position);
+    if (q.x < 0 || q.y < 0 || q.x >= pixels || q.y >= pixels) continue;
+    const double t = std::clamp((-p->position.z() - e_lo) / (e_hi - e_lo), 0.0, 1.0);
+    gray.at<uint8_t>(q) =
+        std::max<uint8_t>(gray.at<uint8_t>(q), static_cast<uint8_t>(40 + 215 * t));
+  }
+  cv::Mat image;
+  cv::applyColorMap(gray, image, cv::COLORMAP_VIRIDIS);
+  cv::cvtColor(image, image, cv::COLOR_BGR2RGB);  // WriteImage takes RGB.
+  image.setTo(cv::Scalar(0, 0, 0), gray == 0);
+  cv::circle(image, to_pixel(cloud.camera_center), 6, cv::Scalar(255, 255, 255), cv::FILLED);
+  for (const ExtractedRock& r : rocks) {
+    if (r.range_m > max_range_m) continue;
+    const cv::Scalar colour = r.modeled() ? cv::Scalar(255, 0, 0) : cv::Scalar(255, 165, 0);
+    const int radius = std::max(4, static_cast<int>(std::max(r.surface_radius_m, 0.05) * scale));
+    cv::circle(image, to_pixel(r.peak), radius, colour, 2);
+    cv::putText(image, std::to_string(r.id), to_pixel(r.peak) + cv::Point(radius + 2, 0),
+                cv::FONT_HERSHEY_SIMPLEX, 0.5, colour, 1);
+  }
+  char legend[160];
+  std::snprintf(legend, sizeof(legend),
+                "top view, x up, y right; %.1f m across; elevation %.2f..%.2f m; red: modeled",
+                (pixels - 40) / scale, e_lo, e_hi);
+  cv::putText(image, legend, cv::Point(10, pixels - 8), cv::FONT_HERSHEY_SIMPLEX, 0.45,
+              cv::Scalar(255, 255, 255), 1);
+  WriteImage(path, image);
 }
 
 }  // namespace areomap
