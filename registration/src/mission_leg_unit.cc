@@ -134,6 +134,7 @@ json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
   const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, prior, run.options->matching);
   WriteFileAtomically(dir / "faults.json", match.report.ToJson().dump(2));
   WriteFileAtomically(dir / "faults.txt", match.report.ToText());
+  WriteRockMatchesCsv(dir / "matches.csv", rocks_a, rocks_b, match);
 
   WriteFileAtomically(dir / "tie_points.json",
                       json{{"tie_points", TiePointsToJson(match.tie_points)}}.dump(2));

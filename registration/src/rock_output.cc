@@ -8,6 +8,7 @@
 
 #include <algorithm>
 
+#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/atomic_file.h"
@@ -123,15 +124,22 @@ void WriteRocksJson(const std::filesystem::path& path, const std::vector<Extract
 void WriteRockMatchesCsv(const std::filesystem::path& path, const SiteRocks& a, const SiteRocks& b,
                          const SitePairMatch& match) {
   std::ostringstream out;
-  out << "rock_a,rock_b,xa_m,ya_m,za_m,xb_m,yb_m,zb_m,model_cost,pattern_votes,normal_angle_deg,"
-         "distance_ratio\n";
+  out << "rock_a,rock_b,xa_m,ya_m,za_m,xb_m,yb_m,zb_m,sigma_a_m,sigma_b_m,model_cost,"
+         "pattern_votes,normal_angle_deg,distance_ratio\n";
+  const auto horizontal_sigma = [](const ExtractedRock& r) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(
+        r.peak_covariance.topLeftCorner<2, 2>());
+    return std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
+  };
   for (const RockMatch& m : match.matches) {
     const ExtractedRock& p = a.rocks.at(static_cast<size_t>(m.rock_a));
     const ExtractedRock& q = b.rocks.at(static_cast<size_t>(m.rock_b));
     out << p.id << ',' << q.id << ',' << Number(p.peak.x()) << ',' << Number(p.peak.y()) << ','
         << Number(p.peak.z()) << ',' << Number(q.peak.x()) << ',' << Number(q.peak.y()) << ','
-        << Number(q.peak.z()) << ',' << Number(m.model_cost) << ',' << m.pattern_count << ','
-        << Number(m.normal_angle_deg, "%.2f") << ',' << Number(m.distance_ratio, "%.3f") << '\n';
+        << Number(q.peak.z()) << ',' << Number(horizontal_sigma(p)) << ','
+        << Number(horizontal_sigma(q)) << ',' << Number(m.model_cost) << ',' << m.pattern_count
+        << ',' << Number(m.normal_angle_deg, "%.2f") << ',' << Number(m.distance_ratio, "%.3f")
+        << '\n';
   }
   WriteFileAtomically(path, out.str());
 }

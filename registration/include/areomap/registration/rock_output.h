@@ -24,8 +24,8 @@ nlohmann::json RockExtractionSummaryToJson(const RockExtractionSummary& summary)
 void WriteRocksCsv(const std::filesystem::path& path, const std::vector<ExtractedRock>& rocks);
 void WriteRocksJson(const std::filesystem::path& path, const std::vector<ExtractedRock>& rocks);
 
-// matches.csv: one row per accepted rock pair (rock ids, both peaks, model cost, votes, normal
-// angle, distance ratio).
+// matches.csv: one row per accepted rock pair (rock ids, both peaks in their own site frames,
+// their largest horizontal sigmas, model cost, votes, normal angle, distance ratio).
 void WriteRockMatchesCsv(const std::filesystem::path& path, const SiteRocks& a, const SiteRocks& b,
                          const SitePairMatch& match);
 
