@@ -33,11 +33,18 @@ SiteRocks ExtractSiteRocks(const RunContext& run, int site, RockExtractionSummar
 // A site's pose in the mission frame as corrected by its orbital registration (registration.json
 // of the site unit): position shifted by the match, heading turned by the solved rotation (a
 // counter-clockwise rotation on the map is a heading decrease). Null when the registration was not
-// confident or did not solve the rotation. `sigma_m`: 1-sigma horizontal position error (the
-// match's shift sigma, at least a quarter orbital pixel).
-std::optional<Rigid3d> RegisteredTraverseFromSite(const RunContext& run, int site,
-                                                  const MissionSitePose& telemetry,
-                                                  double* sigma_m) {
+// confident or did not solve the rotation. Its 1-sigma errors: horizontal position, the match's
+// shift sigma (at least a quarter orbital pixel); heading, half the rotation grid step, or the
+// telemetry's per-leg heading sigma when the rotation sits at the edge of the searched range (the
+// true rotation may lie beyond it).
+struct RegisteredSite {
+  Rigid3d traverse_from_site;
+  double position_sigma_m = 0.0;
+  double heading_sigma_deg = 0.0;
+};
+
+std::optional<RegisteredSite> RegisteredTraverseFromSite(const RunContext& run, int site,
+                                                         const MissionSitePose& telemetry) {
   const fs::path path = SiteDir(run, site) / "registration.json";
   if (!fs::exists(path)) return std::nullopt;
   std::ifstream in(path);
@@ -45,17 +52,25 @@ std::optional<Rigid3d> RegisteredTraverseFromSite(const RunContext& run, int sit
   if (!reg.is_object() || !reg.value("matched", false) || !reg.contains("rotation_deg")) {
     return std::nullopt;
   }
+  const OrbitalMatchOptions& match = run.options->match;
   const double north = reg.value("shift_north_m", 0.0), east = reg.value("shift_east_m", 0.0);
-  const double rotation = reg.value("rotation_deg", 0.0) * std::numbers::pi / 180.0;
-  *sigma_m = std::max({reg.value("sigma_north_m", 0.0), reg.value("sigma_east_m", 0.0),
-                       0.25 * reg.value("gsd_m", 0.0)});
-  if (!std::isfinite(north) || !std::isfinite(east) || !std::isfinite(rotation) ||
-      !std::isfinite(*sigma_m)) {
+  const double rotation_deg = reg.value("rotation_deg", 0.0);
+  RegisteredSite out;
+  out.position_sigma_m = std::max({reg.value("sigma_north_m", 0.0), reg.value("sigma_east_m", 0.0),
+                                   0.25 * reg.value("gsd_m", 0.0)});
+  const bool at_edge =
+      std::abs(rotation_deg) >= match.max_rotation_deg - 0.5 * match.rotation_step_deg - 1e-9;
+  out.heading_sigma_deg =
+      at_edge ? run.options->leg_heading_sigma_deg : 0.5 * match.rotation_step_deg;
+  if (!std::isfinite(north) || !std::isfinite(east) || !std::isfinite(rotation_deg) ||
+      !std::isfinite(out.position_sigma_m)) {
     return std::nullopt;
   }
   const Eigen::Vector3d position = telemetry.position + Eigen::Vector3d(north, east, 0.0);
-  return Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(-rotation, Eigen::Vector3d::UnitZ())),
-                 position);
+  const double rotation = rotation_deg * std::numbers::pi / 180.0;
+  out.traverse_from_site =
+      Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(-rotation, Eigen::Vector3d::UnitZ())), position);
+  return out;
 }
 
 // The leg's prior for the rock search: from both sites' registration-corrected poses when both
@@ -72,20 +87,18 @@ RockMatchingPrior LegPrior(const RunContext& run, size_t index_a, size_t index_b
       options.leg_scale_sigma * telemetry.a_from_b.translation.head<2>().norm();
   telemetry.heading_sigma_deg = options.leg_heading_sigma_deg;
   telemetry.source = "telemetry";
-  double sigma_a = 0.0, sigma_b = 0.0;
-  const std::optional<Rigid3d> reg_a = RegisteredTraverseFromSite(
-      run, mission.sites[index_a].site, mission.telemetry[index_a], &sigma_a);
-  const std::optional<Rigid3d> reg_b = RegisteredTraverseFromSite(
-      run, mission.sites[index_b].site, mission.telemetry[index_b], &sigma_b);
+  const std::optional<RegisteredSite> reg_a =
+      RegisteredTraverseFromSite(run, mission.sites[index_a].site, mission.telemetry[index_a]);
+  const std::optional<RegisteredSite> reg_b =
+      RegisteredTraverseFromSite(run, mission.sites[index_b].site, mission.telemetry[index_b]);
   *info = {{"source", "telemetry"}};
   if (!reg_a || !reg_b) {
     (*info)["reason"] = "orbital registration not confident at both sites";
   } else {
     RockMatchingPrior registered;
-    registered.a_from_b = reg_a->Inverse() * *reg_b;
-    registered.position_sigma_m = std::hypot(sigma_a, sigma_b);
-    // The rotation is refined from a grid of rotation_step_deg: half a step per site.
-    registered.heading_sigma_deg = std::sqrt(2.0) * 0.5 * options.match.rotation_step_deg;
+    registered.a_from_b = reg_a->traverse_from_site.Inverse() * reg_b->traverse_from_site;
+    registered.position_sigma_m = std::hypot(reg_a->position_sigma_m, reg_b->position_sigma_m);
+    registered.heading_sigma_deg = std::hypot(reg_a->heading_sigma_deg, reg_b->heading_sigma_deg);
     registered.source = "orbital registration";
     const double shift =
         (registered.a_from_b.translation - telemetry.a_from_b.translation).head<2>().norm();
