@@ -34,9 +34,8 @@ SiteRocks ExtractSiteRocks(const RunContext& run, int site, RockExtractionSummar
 // of the site unit): position shifted by the match, heading turned by the solved rotation (a
 // counter-clockwise rotation on the map is a heading decrease). Null when the registration was not
 // confident or did not solve the rotation. Its 1-sigma errors: horizontal position, the match's
-// shift sigma (at least a quarter orbital pixel); heading, half the rotation grid step, or the
-// telemetry's per-leg heading sigma when the rotation sits at the edge of the searched range (the
-// true rotation may lie beyond it).
+// shift sigma (at least a quarter orbital pixel); heading, half the rotation grid step, or a whole
+// step when the rotation sits at the edge of the searched range (its refinement was clamped there).
 struct RegisteredSite {
   Rigid3d traverse_from_site;
   double position_sigma_m = 0.0;
@@ -60,8 +59,7 @@ std::optional<RegisteredSite> RegisteredTraverseFromSite(const RunContext& run, 
                                    0.25 * reg.value("gsd_m", 0.0)});
   const bool at_edge =
       std::abs(rotation_deg) >= match.max_rotation_deg - 0.5 * match.rotation_step_deg - 1e-9;
-  out.heading_sigma_deg =
-      at_edge ? run.options->leg_heading_sigma_deg : 0.5 * match.rotation_step_deg;
+  out.heading_sigma_deg = (at_edge ? 1.0 : 0.5) * match.rotation_step_deg;
   if (!std::isfinite(north) || !std::isfinite(east) || !std::isfinite(rotation_deg) ||
       !std::isfinite(out.position_sigma_m)) {
     return std::nullopt;
