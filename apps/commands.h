@@ -22,5 +22,6 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global);
 void AddRegisterCommand(CLI::App& app, const GlobalOptions& global);
 void AddOrthoCommand(CLI::App& app, const GlobalOptions& global);
 void AddMosaicCommand(CLI::App& app, const GlobalOptions& global);
+void AddRocksCommand(CLI::App& app, const GlobalOptions& global);
 
 }  // namespace areomap::cli

@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   areomap::cli::AddRegisterCommand(app, global);
   areomap::cli::AddOrthoCommand(app, global);
   areomap::cli::AddMosaicCommand(app, global);
+  areomap::cli::AddRocksCommand(app, global);
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

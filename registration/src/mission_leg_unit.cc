@@ -1,5 +1,10 @@
 // One leg of a mission run (two consecutive sites): rocks extracted from both sites' clouds,
 // matched across the sites with fault detection (ch. 3.2, 4.2), tie points for the adjustment.
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <optional>
 #include <string>
 
 #include "areomap/map/atomic_file.h"
@@ -7,6 +12,7 @@
 #include "areomap/map/point_cloud_io.h"
 #include "areomap/registration/bundle_io.h"
 #include "areomap/registration/rock_matching.h"
+#include "areomap/registration/rock_output.h"
 #include "mission_units.h"
 
 namespace areomap::mission_run {
@@ -24,13 +30,98 @@ SiteRocks ExtractSiteRocks(const RunContext& run, int site, RockExtractionSummar
   return rocks;
 }
 
-json ExtractionJson(const RockExtractionSummary& s) {
-  return {{"points", s.points},
-          {"peak_candidates", s.peak_candidates},
-          {"beyond_range", s.beyond_range},
-          {"too_low", s.too_low},
-          {"rocks", s.rocks},
-          {"modeled", s.modeled}};
+// A site's pose in the mission frame as corrected by its orbital registration (registration.json
+// of the site unit): position shifted by the match, heading turned by the solved rotation (a
+// counter-clockwise rotation on the map is a heading decrease). Null when the registration was not
+// confident or did not solve the rotation. Its 1-sigma errors: horizontal position, the match's
+// shift sigma (at least a quarter orbital pixel); heading, half the rotation grid step, or a whole
+// step when the rotation sits at the edge of the searched range (its refinement was clamped there).
+struct RegisteredSite {
+  Rigid3d traverse_from_site;
+  double position_sigma_m = 0.0;
+  double heading_sigma_deg = 0.0;
+};
+
+std::optional<RegisteredSite> RegisteredTraverseFromSite(const RunContext& run, int site,
+                                                         const MissionSitePose& telemetry) {
+  const fs::path path = SiteDir(run, site) / "registration.json";
+  if (!fs::exists(path)) return std::nullopt;
+  std::ifstream in(path);
+  const json reg = json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (!reg.is_object() || !reg.value("matched", false) || !reg.contains("rotation_deg")) {
+    return std::nullopt;
+  }
+  const OrbitalMatchOptions& match = run.options->match;
+  const double north = reg.value("shift_north_m", 0.0), east = reg.value("shift_east_m", 0.0);
+  const double rotation_deg = reg.value("rotation_deg", 0.0);
+  RegisteredSite out;
+  out.position_sigma_m = std::max({reg.value("sigma_north_m", 0.0), reg.value("sigma_east_m", 0.0),
+                                   0.25 * reg.value("gsd_m", 0.0)});
+  const bool at_edge =
+      std::abs(rotation_deg) >= match.max_rotation_deg - 0.5 * match.rotation_step_deg - 1e-9;
+  out.heading_sigma_deg = (at_edge ? 1.0 : 0.5) * match.rotation_step_deg;
+  if (!std::isfinite(north) || !std::isfinite(east) || !std::isfinite(rotation_deg) ||
+      !std::isfinite(out.position_sigma_m)) {
+    return std::nullopt;
+  }
+  const Eigen::Vector3d position = telemetry.position + Eigen::Vector3d(north, east, 0.0);
+  const double rotation = rotation_deg * std::numbers::pi / 180.0;
+  out.traverse_from_site =
+      Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(-rotation, Eigen::Vector3d::UnitZ())), position);
+  return out;
+}
+
+// The leg's prior for the rock search: from both sites' registration-corrected poses when both
+// registrations are confident and agree with telemetry within three combined sigmas, else from
+// telemetry (dead reckoning: leg_scale_sigma x length, leg_heading_sigma_deg). `info` records
+// which and why.
+RockMatchingPrior LegPrior(const RunContext& run, size_t index_a, size_t index_b, json* info) {
+  const MissionManifest& mission = *run.mission;
+  const MissionRunOptions& options = *run.options;
+  RockMatchingPrior telemetry;
+  telemetry.a_from_b = TelemetryTraverseFromSite(mission.telemetry[index_a]).Inverse() *
+                       TelemetryTraverseFromSite(mission.telemetry[index_b]);
+  telemetry.position_sigma_m =
+      options.leg_scale_sigma * telemetry.a_from_b.translation.head<2>().norm();
+  telemetry.heading_sigma_deg = options.leg_heading_sigma_deg;
+  telemetry.source = "telemetry";
+  const std::optional<RegisteredSite> reg_a =
+      RegisteredTraverseFromSite(run, mission.sites[index_a].site, mission.telemetry[index_a]);
+  const std::optional<RegisteredSite> reg_b =
+      RegisteredTraverseFromSite(run, mission.sites[index_b].site, mission.telemetry[index_b]);
+  *info = {{"source", "telemetry"}};
+  if (!reg_a || !reg_b) {
+    (*info)["reason"] = "orbital registration not confident at both sites";
+  } else {
+    RockMatchingPrior registered;
+    registered.a_from_b = reg_a->traverse_from_site.Inverse() * reg_b->traverse_from_site;
+    registered.position_sigma_m = std::hypot(reg_a->position_sigma_m, reg_b->position_sigma_m);
+    registered.heading_sigma_deg = std::hypot(reg_a->heading_sigma_deg, reg_b->heading_sigma_deg);
+    registered.source = "orbital registration";
+    const double shift =
+        (registered.a_from_b.translation - telemetry.a_from_b.translation).head<2>().norm();
+    const double turn =
+        Eigen::AngleAxisd(registered.a_from_b.rotation * telemetry.a_from_b.rotation.conjugate())
+            .angle() *
+        180.0 / std::numbers::pi;
+    const double shift_limit =
+        3.0 * std::sqrt(2.0) * std::hypot(telemetry.position_sigma_m, registered.position_sigma_m);
+    const double turn_limit =
+        3.0 * std::hypot(telemetry.heading_sigma_deg, registered.heading_sigma_deg);
+    (*info)["registration_minus_telemetry_m"] = shift;
+    (*info)["registration_minus_telemetry_deg"] = turn;
+    if (shift <= shift_limit && turn <= turn_limit) {
+      *info = {{"source", registered.source},
+               {"registration_minus_telemetry_m", shift},
+               {"registration_minus_telemetry_deg", turn}};
+      telemetry = registered;
+    } else {
+      (*info)["reason"] = "orbital registration disagrees with telemetry beyond 3 sigma";
+    }
+  }
+  (*info)["position_sigma_m"] = telemetry.position_sigma_m;
+  (*info)["heading_sigma_deg"] = telemetry.heading_sigma_deg;
+  return telemetry;
 }
 
 }  // namespace
@@ -49,11 +140,12 @@ json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
   const SiteRocks rocks_b = ExtractSiteRocks(run, site_b, &summary_b);
   if (progress && !progress(0.8, "rocks")) throw Error("cancelled during rock extraction");
 
-  const Rigid3d a_from_b = TelemetryTraverseFromSite(mission.telemetry[index_a]).Inverse() *
-                           TelemetryTraverseFromSite(mission.telemetry[index_b]);
-  const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, a_from_b, run.options->matching);
+  json prior_info;
+  const RockMatchingPrior prior = LegPrior(run, index_a, index_b, &prior_info);
+  const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, prior, run.options->matching);
   WriteFileAtomically(dir / "faults.json", match.report.ToJson().dump(2));
   WriteFileAtomically(dir / "faults.txt", match.report.ToText());
+  WriteRockMatchesCsv(dir / "matches.csv", rocks_a, rocks_b, match);
 
   WriteFileAtomically(dir / "tie_points.json",
                       json{{"tie_points", TiePointsToJson(match.tie_points)}}.dump(2));
@@ -61,12 +153,16 @@ json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
 
   json summary = {{"site_a", site_a},
                   {"site_b", site_b},
-                  {"telemetry_distance_m", a_from_b.translation.head<2>().norm()},
+                  {"telemetry_distance_m",
+                   (mission.telemetry[index_b].position - mission.telemetry[index_a].position)
+                       .head<2>()
+                       .norm()},
+                  {"prior", prior_info},
                   {"outcome", ToString(match.report.outcome)},
                   {"tie_points", match.tie_points.size()},
                   {"rock_matches", match.matches.size()},
-                  {"rocks_a", ExtractionJson(summary_a)},
-                  {"rocks_b", ExtractionJson(summary_b)},
+                  {"rocks_a", RockExtractionSummaryToJson(summary_a)},
+                  {"rocks_b", RockExtractionSummaryToJson(summary_b)},
                   {"faults", match.report.ToJson()}};
   if (match.error) summary["relative_error_percent"] = match.error->relative_error_percent;
   return summary;

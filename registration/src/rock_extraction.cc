@@ -23,6 +23,7 @@ struct Plane {
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal = Eigen::Vector3d(0, 0, -1);  // Up in the site frame (z down).
   int inliers = 0;
+  double residual_sigma = 0.0;  // Robust (MAD) sigma of the inliers' distances to the plane [m].
 };
 
 // Least-squares plane through `points` (smallest principal axis), normal pointing up.
@@ -39,6 +40,18 @@ Plane FitPlane(const std::vector<Eigen::Vector3d>& points) {
   if (plane.normal.z() > 0.0) plane.normal = -plane.normal;
   plane.inliers = static_cast<int>(points.size());
   return plane;
+}
+
+// Robust sigma (1.4826 MAD) of the points' distances to the plane [m].
+double ResidualSigma(const Plane& plane, const std::vector<Eigen::Vector3d>& points) {
+  std::vector<double> residuals;
+  for (const Eigen::Vector3d& p : points) residuals.push_back(plane.normal.dot(p - plane.point));
+  const auto mid = residuals.begin() + static_cast<long>(residuals.size() / 2);
+  std::nth_element(residuals.begin(), mid, residuals.end());
+  const double median = *mid;
+  for (double& r : residuals) r = std::abs(r - median);
+  std::nth_element(residuals.begin(), mid, residuals.end());
+  return 1.4826 * *mid;
 }
 
 // Ground plane around a rock: refit while dropping the points standing above it (the rock),
@@ -66,6 +79,7 @@ std::optional<Plane> FitBackgroundPlane(std::vector<Eigen::Vector3d> points) {
     plane = FitPlane(points);
     if (unchanged) break;
   }
+  plane.residual_sigma = ResidualSigma(plane, points);
   return plane;
 }
 
@@ -157,17 +171,31 @@ class Extractor {
     grid_.ForEachNear(peak.head<2>(), 0.5 * options_.peak_window_m,
                       [&](int j) { window_low = std::min(window_low, Elevation(j)); });
     const double relief = -peak.z() - window_low;
+    // The ground must reach beyond the rock: when the fitted height says the rock is wider than
+    // the neighbourhood (1.7 H + 0.3 m, the surface search's reach plus a margin), refit once
+    // over the wider neighbourhood (at most 4 m: boulders bigger than that are not landmarks).
+    const auto fit = [&](double radius) {
+      std::vector<int> near;
+      grid_.ForEachNear(peak.head<2>(), radius, [&](int j) {
+        if ((cloud_.points[j].position - peak).head<2>().norm() <= radius) near.push_back(j);
+      });
+      constexpr size_t kMaxPlanePoints = 800;
+      const size_t stride = std::max<size_t>(1, near.size() / kMaxPlanePoints);
+      std::vector<Eigen::Vector3d> sample;
+      for (size_t k = 0; k < near.size(); k += stride)
+        sample.push_back(cloud_.points[near[k]].position);
+      return FitBackgroundPlane(std::move(sample));
+    };
+    constexpr double kMaxPlaneRadius = 4.0;
     const double radius = std::max(options_.plane_radius_m, 1.7 * relief + 0.3);
-    std::vector<int> near;
-    grid_.ForEachNear(peak.head<2>(), radius, [&](int j) {
-      if ((cloud_.points[j].position - peak).head<2>().norm() <= radius) near.push_back(j);
-    });
-    constexpr size_t kMaxPlanePoints = 800;
-    const size_t stride = std::max<size_t>(1, near.size() / kMaxPlanePoints);
-    std::vector<Eigen::Vector3d> sample;
-    for (size_t k = 0; k < near.size(); k += stride)
-      sample.push_back(cloud_.points[near[k]].position);
-    const std::optional<Plane> plane = FitBackgroundPlane(std::move(sample));
+    std::optional<Plane> plane = fit(radius);
+    if (plane) {
+      const double wider =
+          std::min(kMaxPlaneRadius, 1.7 * plane->normal.dot(peak - plane->point) + 0.3);
+      if (wider > 1.25 * radius) {
+        if (std::optional<Plane> refit = fit(wider)) plane = refit;
+      }
+    }
     if (!plane) return std::nullopt;
     ExtractedRock rock;
     rock.peak_index = peak_index;
@@ -178,6 +206,7 @@ class Extractor {
     rock.height_m = plane->normal.dot(peak - plane->point);
     rock.peak_foot = peak - rock.height_m * plane->normal;
     rock.background_points = plane->inliers;
+    rock.ground_sigma_m = plane->residual_sigma;
     if (rock.height_m < options_.min_height_m) return std::nullopt;
     GrowSurface(*plane, &rock);
     rock.rock_from_site = RockFromSite(rock.peak_foot, plane->normal);
@@ -222,11 +251,13 @@ class Extractor {
   }
   double Elevation(int i) const { return -cloud_.points[i].position.z(); }
 
+  // The ground's own scatter about its plane (noise and roughness, measured) is the yardstick:
+  // the a-priori stereo sigma of a single point (eq. 4.3) grows as r^2 and, for dense stereo
+  // whose neighbouring points share their correlation windows, overstates the relative height
+  // error between neighbouring points several times, which would strip far rocks of their surface.
   bool AbovePlane(const Plane& plane, int j) const {
-    const StereoPoint& p = cloud_.points[j];
-    const double h = plane.normal.dot(p.position - plane.point);
-    const double sigma = std::sqrt(std::max(0.0, plane.normal.dot(p.covariance * plane.normal)));
-    return h > std::max(options_.above_plane_m, options_.above_plane_sigmas * sigma);
+    const double h = plane.normal.dot(cloud_.points[j].position - plane.point);
+    return h > std::max(options_.above_plane_m, options_.above_plane_sigmas * plane.residual_sigma);
   }
 
   // Ch. 2.2.2 steps 2-3: dynamic search range from 0.3 H to 1.7 H by MaxD_Neighbor steps.

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <numbers>
 
@@ -111,6 +112,18 @@ class AmbiguityTest {
   rock_internal::PointGrid grid_;
 };
 
+// Search radius around a rock of a at `peak`: the pattern tolerance plus three sigmas of the
+// prior's displacement there (its position sigma and its heading sigma acting on the distance
+// from site b's camera, about which b's rocks are turned), capped at options.search_radius_m.
+double SearchRadius(const Eigen::Vector3d& peak, const Eigen::Vector3d& camera_b_in_a,
+                    const RockMatchingPrior& prior, const RockMatchingOptions& options) {
+  if (std::isinf(prior.position_sigma_m)) return options.search_radius_m;
+  const double lever =
+      (peak - camera_b_in_a).head<2>().norm() * prior.heading_sigma_deg / kRadToDeg;
+  const double sigma = std::hypot(prior.position_sigma_m, lever);
+  return std::min(options.search_radius_m, options.pattern_tolerance_m + 3.0 * sigma);
+}
+
 double NormalAngleDeg(const Eigen::Vector3d& n1, const Eigen::Vector3d& n2) {
   return std::acos(std::clamp(n1.normalized().dot(n2.normalized()), -1.0, 1.0)) * kRadToDeg;
 }
@@ -146,10 +159,31 @@ double ModelMatchCost(const RockModelParameters& p, const RockModelParameters& q
          options.cost_area_weight * RelativeDifference(p.SurfaceAreaExact(), q.SurfaceAreaExact());
 }
 
+void RockMatchingPrior::Check() const {
+  RequireOption(position_sigma_m >= 0.0, "RockMatchingPrior.position_sigma_m",
+                ">= 0 m (infinity: unknown)");
+  RequireOption(std::isfinite(heading_sigma_deg) && heading_sigma_deg >= 0.0,
+                "RockMatchingPrior.heading_sigma_deg", ">= 0 degrees");
+  RequireOption(a_from_b.translation.allFinite() && a_from_b.rotation.coeffs().allFinite(),
+                "RockMatchingPrior.a_from_b", "a finite pose");
+}
+
 SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3d& a_from_b_prior,
                             const RockMatchingOptions& options,
                             const std::optional<StereoQuality>& stereo) {
+  RockMatchingPrior prior;
+  prior.a_from_b = a_from_b_prior;
+  prior.position_sigma_m = std::numeric_limits<double>::infinity();
+  prior.heading_sigma_deg = options.prior_heading_sigma_deg;
+  return MatchSitePair(a, b, prior, options, stereo);
+}
+
+SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMatchingPrior& prior,
+                            const RockMatchingOptions& options,
+                            const std::optional<StereoQuality>& stereo) {
   options.Check();
+  prior.Check();
+  const Rigid3d& a_from_b_prior = prior.a_from_b;
   const FaultDetectionOptions& fd = options.fault_detection;
   SitePairMatch result;
   PairFaultReport& report = result.report;
@@ -298,8 +332,9 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3
     const ExtractedRock& p = a.rocks[i];
     Candidates c;
     c.rock_a = i;
-    q_grid.ForEachNear(p.peak.head<2>(), options.search_radius_m, [&](int j) {
-      if ((q_in_a[j] - p.peak).head<2>().norm() > options.search_radius_m) return;
+    const double radius = SearchRadius(p.peak, camera_b_in_a, prior, options);
+    q_grid.ForEachNear(p.peak.head<2>(), radius, [&](int j) {
+      if ((q_in_a[j] - p.peak).head<2>().norm() > radius) return;
       const int votes = count_votes(p.peak - q_in_a[j]);
       if (votes > c.votes[0] || (votes == c.votes[0] && c.pattern[0] >= 0 && j < c.pattern[0])) {
         c.votes[1] = c.votes[0];
@@ -360,7 +395,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3
     }
     const Eigen::Vector3d deviation = p.peak - q_in_a[winner] - result.median_translation;
     const double lever =
-        options.prior_heading_sigma_deg / kRadToDeg * (p.peak - a.camera_center).head<2>().norm();
+        prior.heading_sigma_deg / kRadToDeg * (p.peak - a.camera_center).head<2>().norm();
     const Eigen::Matrix3d cov = p.peak_covariance +
                                 rotation_a_from_b * b.rocks[eb.rocks[winner]].peak_covariance *
                                     rotation_a_from_b.transpose() +

@@ -65,6 +65,14 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   }
   EXPECT_TRUE(fs::exists(out / "adjustment" / "sites.csv"));
   EXPECT_GT(first.json["sites"][1]["points"].get<int>(), 200);  // Stereo produced a cloud.
+  // The leg's rock search prior: orbital registration when both sites registered confidently
+  // and agree with telemetry, else telemetry; always with its sigmas.
+  const nlohmann::json leg = nlohmann::json::parse(
+      ReadText(out / "legs" / "leg_000_001" / "unit.json"))["summary"]["prior"];
+  const std::string source = leg.value("source", "");
+  EXPECT_TRUE(source == "telemetry" || source == "orbital registration") << leg.dump();
+  EXPECT_GT(leg.value("position_sigma_m", 0.0), 0.0) << leg.dump();
+  EXPECT_GT(leg.value("heading_sigma_deg", 0.0), 0.0) << leg.dump();
 
   // Whole-traverse products: GeoTIFFs on the mission map at the traverse posting, covering at
   // least what each site's own DTM covers.

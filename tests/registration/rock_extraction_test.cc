@@ -1,14 +1,20 @@
 #include "areomap/registration/rock_extraction.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
+#include <string>
 
 #include <gtest/gtest.h>
 #include <Eigen/Eigenvalues>
 
 #include "areomap/map/error.h"
+#include "areomap/registration/rock_output.h"
 #include "areomap/samples/simulated_points.h"
+#include "test_support.h"
 
 namespace areomap {
 namespace {
@@ -123,6 +129,43 @@ TEST(RockExtraction, FindsTheSceneRocksWithHeightsWithinTheStereoError) {
     }
   }
   EXPECT_GE(near_modeled, 0.8 * near_total);
+}
+
+// The catalogue files: one CSV row per rock (best model or empty model fields), the JSON with
+// every model, and the plot; a cloud with nothing in range cannot be plotted.
+TEST(RockExtraction, CatalogueFilesHoldEveryRock) {
+  const Scene scene = RockyScene();
+  SimulatedPointsOptions sim;
+  sim.azimuth_max_deg = 60.0;
+  sim.max_range_m = 8.0;
+  const PointCloud cloud = SimulateSitePointCloud(scene, {0.0, 0.0}, 0, sim);
+  const std::vector<ExtractedRock> rocks = ExtractRocks(cloud, {});
+  ASSERT_GE(rocks.size(), 3u);
+  testing::TempDir dir;
+  WriteRocksCsv(dir.path() / "rocks.csv", rocks);
+  WriteRocksJson(dir.path() / "rocks.json", rocks);
+  WriteRocksPlotPng(dir.path() / "rocks.png", cloud, rocks, 30.0, 400);
+  std::ifstream csv(dir.path() / "rocks.csv");
+  std::string line;
+  std::vector<std::string> lines;
+  while (std::getline(csv, line)) lines.push_back(line);
+  ASSERT_EQ(lines.size(), rocks.size() + 1);
+  EXPECT_EQ(lines[0].rfind("id,x_m,y_m,z_m,", 0), 0u);
+  const auto fields = [](const std::string& row) {
+    return static_cast<int>(std::count(row.begin(), row.end(), ',')) + 1;
+  };
+  for (const std::string& row : lines) EXPECT_EQ(fields(row), fields(lines[0])) << row;
+  std::ifstream json_file(dir.path() / "rocks.json");
+  const nlohmann::json json = nlohmann::json::parse(json_file);
+  ASSERT_EQ(json["rocks"].size(), rocks.size());
+  EXPECT_EQ(json["rocks"][0]["id"].get<int>(), rocks[0].id);
+  EXPECT_EQ(json["rocks"][0]["models"].size(), rocks[0].models.size());
+  EXPECT_NEAR(json["rocks"][0]["height_m"].get<double>(), rocks[0].height_m, 1e-12);
+  EXPECT_GT(std::filesystem::file_size(dir.path() / "rocks.png"), 1000u);
+  PointCloud far = cloud;
+  far.camera_center = Eigen::Vector3d(1000.0, 0.0, 0.0);
+  EXPECT_THROW(WriteRocksPlotPng(dir.path() / "far.png", far, rocks, 30.0), Error);
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "far.png"));
 }
 
 TEST(RockExtraction, RocklessGroundGivesNoRocks) {

@@ -177,6 +177,37 @@ TEST(RockMatching, ReportListsEveryRuleWithValueThresholdAndVerdict) {
   EXPECT_NE(with_stereo.report.ToText().find("excluded by pre-screening"), std::string::npos);
 }
 
+// A prior with its sigmas bounds the search: the true pose stated precisely gives the same correct
+// tie points; the same pose 2 m off but claiming 0.1 m / 0.5 degree cannot reach the partners
+// (the 2.5 m radius of a bare prior would), so it matches nothing rather than something wrong.
+TEST(RockMatching, PriorSigmaBoundsTheSearch) {
+  const Scene& scene = SharedScene();
+  const SimulatedSite& a = SiteA();
+  const SimulatedSite& b = SiteB();
+  const Eigen::Vector2d d = b.enu - a.enu;
+  RockMatchingPrior precise;
+  precise.a_from_b =
+      Rigid3d(Eigen::Matrix3d::Identity(), Eigen::Vector3d(d.y(), d.x(), -(b.ground - a.ground)));
+  precise.position_sigma_m = 0.1;
+  precise.heading_sigma_deg = 0.5;
+  precise.source = "orbital registration";
+  const SitePairMatch match = MatchSitePair(a.rocks, b.rocks, precise, {});
+  EXPECT_EQ(match.report.outcome, PairOutcome::kMatched) << match.report.ToText();
+  ASSERT_GE(match.tie_points.size(), 3u) << match.report.ToText();
+  for (const TiePoint& t : match.tie_points) {
+    const int truth_a = TrueRock(scene, a, t.position_in_a);
+    EXPECT_GE(truth_a, 0) << t.id;
+    EXPECT_EQ(truth_a, TrueRock(scene, b, t.position_in_b)) << t.id;
+  }
+  RockMatchingPrior off = precise;
+  off.a_from_b.translation += Eigen::Vector3d(2.0, 0.0, 0.0);
+  const SitePairMatch none = MatchSitePair(a.rocks, b.rocks, off, {});
+  EXPECT_TRUE(none.tie_points.empty()) << none.report.ToText();
+  EXPECT_NE(none.report.outcome, PairOutcome::kMatched);
+  off.position_sigma_m = std::nan("");
+  EXPECT_THROW(MatchSitePair(a.rocks, b.rocks, off, {}), Error);
+}
+
 TEST(RockMatching, ModelCostIsEq328) {
   RockModelParameters p, q;
   p.height = q.height = 0.3;

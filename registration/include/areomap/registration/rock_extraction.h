@@ -48,7 +48,7 @@ struct RockExtractionOptions {
   double surface_k_min = 0.3;       // Surface search starts within k_min H of the peak ...
   double surface_k_max = 1.7;       // ... and stops at k_max H.
   double above_plane_m = 0.02;      // A surface point stands this far above the plane [m] ...
-  double above_plane_sigmas = 2.0;  // ... or this many of its own vertical sigmas, if more.
+  double above_plane_sigmas = 2.0;  // ... or this many of the ground's robust residual sigmas.
   int max_model_points = 80;        // Surface points passed to the model fits (evenly thinned).
   bool fit_models = true;
   double model_min_height_m = 0.15;  // Lower rocks are not modeled (Table 4.5 drops them) [m].
@@ -66,6 +66,7 @@ struct ExtractedRock {
   Eigen::Vector3d plane_normal = Eigen::Vector3d(0, 0, -1);  // Unit, pointing up, site frame.
   Eigen::Vector3d peak_foot = Eigen::Vector3d::Zero();       // Peak projected on the plane.
   int background_points = 0;
+  double ground_sigma_m = 0.0;       // Robust sigma of the ground points about the plane [m].
   std::vector<int> surface_indices;  // Cloud indices of the rock's surface points.
   double surface_radius_m = 0.0;     // Largest horizontal reach of the surface points [m].
   Rigid3d rock_from_site;            // Into the rock frame of rock_model.h.

@@ -32,6 +32,7 @@
 #pragma once
 
 #include <optional>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -50,14 +51,28 @@ struct SiteRocks {
   std::vector<ExtractedRock> rocks;
 };
 
+// The prior pose of site b in site a with its uncertainty (1 sigma): telemetry (dead reckoning),
+// or both sites' poses corrected by orbital registration (much tighter). It bounds the search:
+// a rock of b is a candidate for a rock of a within pattern_tolerance_m plus three sigmas of the
+// prior's displacement at that rock (position sigma and heading sigma times the rock's distance
+// from site b), never beyond RockMatchingOptions::search_radius_m.
+struct RockMatchingPrior {
+  Rigid3d a_from_b;
+  double position_sigma_m = 0.0;   // Horizontal, per axis [m], >= 0; infinity: unknown.
+  double heading_sigma_deg = 0.0;  // Relative heading [deg], >= 0.
+  std::string source = "telemetry";
+  void Check() const;  // Throws areomap::Error naming the field.
+};
+
 struct RockMatchingOptions {
   double significant_cell_m = 3.0;      // Grid cell for significant rocks [m].
   int significant_per_cell = 1;         // Highest rocks kept per cell.
-  double search_radius_m = 2.5;         // Candidates of b within this of a rock of a (prior) [m].
+  double search_radius_m = 2.5;         // Largest search radius around a rock of a (prior) [m].
   double pattern_tolerance_m = 0.6;     // epsilon of eq. 3.31 [m].
   double max_vector_deviation_m = 1.0;  // Winner's V from the median V [m], and ...
   // ... its chi-square against the two peaks' covariances plus the prior's heading error acting
-  // on the rock's distance from site a (chi-square 3 dof, 99 %: 11.34).
+  // on the rock's distance from site a (chi-square 3 dof, 99 %: 11.34). The heading sigma is the
+  // one of a prior given as a bare pose (the first MatchSitePair overload).
   double prior_heading_sigma_deg = 2.0;
   double max_vector_chi2 = 11.34;
   // The highest point of a rock seen from two sides is not the same surface point: this sigma
@@ -72,8 +87,9 @@ struct RockMatchingOptions {
   double max_model_cost = 0.6;    // Model matching accepts costs up to this.
   double ambiguity_sigmas = 1.0;  // Neighbour within epsilon + this many sigmas: ambiguous.
   // Rocks whose peak's largest horizontal sigma exceeds this are not used as tie points (eq. 4.3
-  // range error grows as r^2: 0.3 m at ~12 m for the Navcam) [m].
-  double max_peak_sigma_m = 0.3;
+  // range error grows as r^2: 0.6 m at ~17 m for the Navcam with sigma_p = 0.5 px; on the demo
+  // mission's dense stereo the peaks of such rocks lie within 0.3 m of the true rock tops) [m].
+  double max_peak_sigma_m = 0.6;
   FaultDetectionOptions fault_detection;
   void Check() const;  // Throws areomap::Error naming the field.
 };
@@ -98,7 +114,13 @@ struct SitePairMatch {
   int model_matches = 0, pattern_matches = 0;
 };
 
+// With a bare prior pose: the search radius is options.search_radius_m everywhere and the heading
+// sigma options.prior_heading_sigma_deg.
 SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3d& a_from_b_prior,
+                            const RockMatchingOptions& options,
+                            const std::optional<StereoQuality>& stereo = std::nullopt);
+// With a prior and its sigmas: the search radius follows the prior's uncertainty at each rock.
+SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMatchingPrior& prior,
                             const RockMatchingOptions& options,
                             const std::optional<StereoQuality>& stereo = std::nullopt);
 

@@ -1,0 +1,138 @@
+// Rock tie points of a finished `areomap run` against the generated mission's truth: per leg, the
+// prior the leg used, its rock matches, how many join the same true rock, RE and the outcome.
+//
+// Truth: each site frame is the rover's believed (level, north-up) frame, so a point of site k
+// lies in site 0's frame at Rz(h_true - h_telemetry) p + T_true (truth/sites.csv, telemetry/).
+// A peak belongs to the tallest truth rock whose footprint (base radius + 15 cm + half the peak's
+// largest horizontal sigma, for the stereo range error) holds it; a match is correct when both
+// peaks belong to the same truth rock.
+//
+// Run: build/release/bench/areomap_bench_rock_legs MISSION_DIR RUN_DIR
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "areomap/map/error.h"
+#include "areomap/map/mission_manifest.h"
+#include "areomap/map/rigid3d.h"
+
+namespace areomap {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct TruthRock {
+  int id = 0;
+  Eigen::Vector2d north_east = Eigen::Vector2d::Zero();
+  double height = 0.0;
+  double radius = 0.0;
+};
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> fields;
+  std::stringstream in(line);
+  std::string field;
+  while (std::getline(in, field, ',')) fields.push_back(field);
+  return fields;
+}
+
+// truth/rocks.csv: id, shape, east_m, north_m, ground_z_m, height_m, a_m, ...
+std::vector<TruthRock> ReadTruthRocks(const fs::path& csv) {
+  std::ifstream in(csv);
+  if (!in) throw Error(csv.string() + ": cannot open the truth rocks");
+  std::string line;
+  std::getline(in, line);
+  std::vector<TruthRock> rocks;
+  while (std::getline(in, line)) {
+    const std::vector<std::string> f = SplitCsv(line);
+    if (f.size() < 7) throw Error(csv.string() + ": expected 7+ fields in '" + line + "'");
+    rocks.push_back({std::stoi(f[0]), Eigen::Vector2d(std::stod(f[3]), std::stod(f[2])),
+                     std::stod(f[5]), std::stod(f[6])});
+  }
+  return rocks;
+}
+
+int RockUnder(const std::vector<TruthRock>& truth, const Eigen::Vector2d& north_east,
+              double sigma) {
+  int best = -1;
+  double height = 0.0;
+  for (const TruthRock& r : truth) {
+    if ((r.north_east - north_east).norm() <= r.radius + 0.15 + 0.5 * sigma && r.height > height) {
+      height = r.height;
+      best = r.id;
+    }
+  }
+  return best;
+}
+
+int Main(const fs::path& mission_dir, const fs::path& run_dir) {
+  const MissionManifest mission = ReadMissionManifest(mission_dir);
+  if (mission.truth_sites.size() != mission.sites.size() || !mission.truth_rocks_csv) {
+    throw Error(mission_dir.string() + ": the mission has no truth (truth/sites.csv, rocks.csv)");
+  }
+  const std::vector<TruthRock> truth = ReadTruthRocks(*mission.truth_rocks_csv);
+  std::vector<Rigid3d> world_from_site;
+  for (size_t k = 0; k < mission.sites.size(); ++k) {
+    const double turn = mission.truth_sites[k].heading - mission.telemetry[k].heading;
+    world_from_site.emplace_back(
+        Eigen::Quaterniond(Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitZ())),
+        mission.truth_sites[k].position);
+  }
+  int all = 0, all_correct = 0;
+  std::printf("leg      prior                 matches correct  RE [%%]  outcome\n");
+  for (size_t k = 0; k + 1 < mission.sites.size(); ++k) {
+    char name[64];
+    std::snprintf(name, sizeof(name), "legs/leg_%03d_%03d", mission.sites[k].site,
+                  mission.sites[k + 1].site);
+    const fs::path leg = run_dir / name;
+    std::ifstream unit_file(leg / "unit.json"), matches_file(leg / "matches.csv");
+    if (!unit_file || !matches_file) {
+      throw Error(leg.string() + ": no unit.json or matches.csv; run `areomap run` first");
+    }
+    const nlohmann::json summary = nlohmann::json::parse(unit_file)["summary"];
+    std::string line;
+    std::getline(matches_file, line);
+    int matches = 0, correct = 0;
+    while (std::getline(matches_file, line)) {
+      const std::vector<std::string> f = SplitCsv(line);
+      if (f.size() < 10) throw Error(leg.string() + "/matches.csv: short row '" + line + "'");
+      const Eigen::Vector3d a(std::stod(f[2]), std::stod(f[3]), std::stod(f[4]));
+      const Eigen::Vector3d b(std::stod(f[5]), std::stod(f[6]), std::stod(f[7]));
+      const int rock_a = RockUnder(truth, (world_from_site[k] * a).head<2>(), std::stod(f[8]));
+      const int rock_b = RockUnder(truth, (world_from_site[k + 1] * b).head<2>(), std::stod(f[9]));
+      ++matches;
+      correct += rock_a >= 0 && rock_a == rock_b ? 1 : 0;
+    }
+    all += matches;
+    all_correct += correct;
+    const nlohmann::json prior = summary.value("prior", nlohmann::json::object());
+    const double re = summary.value("relative_error_percent", std::nan(""));
+    std::printf("%zu -> %zu  %-20s  %7d %7d  %6.2f  %s\n", k, k + 1,
+                prior.value("source", std::string("?")).c_str(), matches, correct, re,
+                summary.value("outcome", std::string("?")).c_str());
+  }
+  std::printf("all legs: %d matches, %d correct (precision %.1f %%)\n", all, all_correct,
+              all > 0 ? 100.0 * all_correct / all : 100.0);
+  return 0;
+}
+
+}  // namespace
+}  // namespace areomap
+
+int main(int argc, char** argv) {
+  if (argc != 3) {
+    std::fprintf(stderr, "usage: %s MISSION_DIR RUN_DIR\n", argv[0]);
+    return 2;
+  }
+  try {
+    return areomap::Main(argv[1], argv[2]);
+  } catch (const areomap::Error& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+}
