@@ -11,12 +11,12 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "areomap/map/csv.h"
 #include "areomap/map/error.h"
 #include "areomap/map/mission_manifest.h"
 #include "areomap/map/rigid3d.h"
@@ -33,14 +33,6 @@ struct TruthRock {
   double radius = 0.0;
 };
 
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> fields;
-  std::stringstream in(line);
-  std::string field;
-  while (std::getline(in, field, ',')) fields.push_back(field);
-  return fields;
-}
-
 // truth/rocks.csv: id, shape, east_m, north_m, ground_z_m, height_m, a_m, ...
 std::vector<TruthRock> ReadTruthRocks(const fs::path& csv) {
   std::ifstream in(csv);
@@ -49,7 +41,7 @@ std::vector<TruthRock> ReadTruthRocks(const fs::path& csv) {
   std::getline(in, line);
   std::vector<TruthRock> rocks;
   while (std::getline(in, line)) {
-    const std::vector<std::string> f = SplitCsv(line);
+    const std::vector<std::string> f = SplitCsvLine(line);
     if (f.size() < 7) throw Error(csv.string() + ": expected 7+ fields in '" + line + "'");
     rocks.push_back({std::stoi(f[0]), Eigen::Vector2d(std::stod(f[3]), std::stod(f[2])),
                      std::stod(f[5]), std::stod(f[6])});
@@ -99,7 +91,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
     std::getline(matches_file, line);
     int matches = 0, correct = 0;
     while (std::getline(matches_file, line)) {
-      const std::vector<std::string> f = SplitCsv(line);
+      const std::vector<std::string> f = SplitCsvLine(line);
       if (f.size() < 10) throw Error(leg.string() + "/matches.csv: short row '" + line + "'");
       const Eigen::Vector3d a(std::stod(f[2]), std::stod(f[3]), std::stod(f[4]));
       const Eigen::Vector3d b(std::stod(f[5]), std::stod(f[6]), std::stod(f[7]));

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
-#include <sstream>
 
+#include "areomap/map/csv.h"
 #include "areomap/map/error.h"
 
 namespace areomap {
@@ -106,14 +106,9 @@ std::vector<CraterCircle> ReadCraterCsv(const std::filesystem::path& path) {
   if (!in) throw Error(path.string() + ": cannot open crater CSV");
   std::string line;
   if (!std::getline(in, line)) throw Error(path.string() + ": empty file, expected a CSV header");
-  std::vector<std::string> header;
-  {
-    std::stringstream ss(line);
-    std::string cell;
-    while (std::getline(ss, cell, ',')) {
-      cell.erase(std::remove_if(cell.begin(), cell.end(), ::isspace), cell.end());
-      header.push_back(cell);
-    }
+  std::vector<std::string> header = SplitCsvLine(line);
+  for (std::string& cell : header) {
+    cell.erase(std::remove_if(cell.begin(), cell.end(), ::isspace), cell.end());
   }
   const auto column = [&](const std::string& name) {
     const auto it = std::find(header.begin(), header.end(), name);
@@ -129,10 +124,7 @@ std::vector<CraterCircle> ReadCraterCsv(const std::filesystem::path& path) {
   while (std::getline(in, line)) {
     ++line_number;
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    std::string cell;
-    while (std::getline(ss, cell, ',')) cells.push_back(cell);
+    const std::vector<std::string> cells = SplitCsvLine(line);
     const auto value = [&](size_t i) {
       if (i >= cells.size()) {
         throw Error(path.string() + " line " + std::to_string(line_number) + ": too few columns");

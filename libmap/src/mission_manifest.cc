@@ -5,10 +5,10 @@
 #include <fstream>
 #include <map>
 #include <numbers>
-#include <sstream>
 
 #include <nlohmann/json.hpp>
 
+#include "areomap/map/csv.h"
 #include "areomap/map/error.h"
 
 namespace areomap {
@@ -41,14 +41,6 @@ fs::path ExistingFile(const fs::path& root, const std::string& relative, const s
                 ", which does not exist");
   }
   return path;
-}
-
-std::vector<std::string> SplitCsvLine(const std::string& line) {
-  std::vector<std::string> fields;
-  std::stringstream stream(line);
-  std::string field;
-  while (std::getline(stream, field, ',')) fields.push_back(field);
-  return fields;
 }
 
 double ParseNumber(const std::string& text, const fs::path& csv, int line, const std::string& col) {

@@ -6,13 +6,13 @@
 #include <fstream>
 #include <limits>
 #include <map>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "areomap/crater/crater_output.h"
 #include "areomap/crater/crater_raster.h"
 #include "areomap/crater/crater_score.h"
+#include "areomap/map/csv.h"
 #include "areomap/map/error.h"
 #include "mission_units.h"
 
@@ -27,16 +27,10 @@ using nlohmann::json;
 std::vector<CraterCircle> ReadTruthCraters(const fs::path& path, double pixel_size_m) {
   std::ifstream in(path);
   if (!in) throw Error(path.string() + ": cannot open the truth crater table");
-  const auto split = [](const std::string& line) {
-    std::vector<std::string> fields;
-    std::stringstream stream(line);
-    for (std::string field; std::getline(stream, field, ',');) fields.push_back(field);
-    return fields;
-  };
   std::string line;
   std::getline(in, line);
   std::map<std::string, size_t> column;
-  const std::vector<std::string> header = split(line);
+  const std::vector<std::string> header = SplitCsvLine(line);
   for (size_t i = 0; i < header.size(); ++i) column[header[i]] = i;
   for (const char* name : {"col_px", "row_px", "semi_major_m", "semi_minor_m"}) {
     if (!column.contains(name)) {
@@ -46,7 +40,7 @@ std::vector<CraterCircle> ReadTruthCraters(const fs::path& path, double pixel_si
   std::vector<CraterCircle> truth;
   for (int number = 2; std::getline(in, line); ++number) {
     if (line.empty()) continue;
-    const std::vector<std::string> fields = split(line);
+    const std::vector<std::string> fields = SplitCsvLine(line);
     const auto value = [&](const char* name) {
       const size_t index = column.at(name);
       try {

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "areomap/map/atomic_file.h"
+#include "areomap/map/csv.h"
 #include "areomap/map/error.h"
 
 namespace areomap {
@@ -70,9 +71,7 @@ std::string CsvTable(const fs::path& path) {
   std::string line;
   for (bool header = true; std::getline(in, line); header = false) {
     html += "<tr>";
-    std::stringstream fields(line);
-    std::string field;
-    while (std::getline(fields, field, ',')) {
+    for (const std::string& field : SplitCsvLine(line)) {
       html += (header ? "<th>" : "<td>") + Escape(field) + (header ? "</th>" : "</td>");
     }
     html += "</tr>";
