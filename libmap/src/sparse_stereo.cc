@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include <tbb/parallel_for.h>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
@@ -121,6 +122,20 @@ SparseStereoMatch MatchPixel(const cv::Mat& left, const cv::Mat& right,
   out.point = hit->point;
   out.range_m = hit->range_first_m;
   out.ok = true;
+  return out;
+}
+
+std::vector<SparseTiePoint> MatchInterestPoints(const cv::Mat& left, const cv::Mat& right,
+                                                const CahvorModel& left_camera,
+                                                const CahvorModel& right_camera,
+                                                const std::vector<InterestPoint>& points,
+                                                const SparseStereoOptions& options) {
+  options.Check();
+  std::vector<SparseTiePoint> out(points.size());
+  tbb::parallel_for(size_t{0}, points.size(), [&](size_t i) {
+    out[i].left = points[i];
+    out[i].match = MatchPixel(left, right, left_camera, right_camera, points[i].pixel, options);
+  });
   return out;
 }
 

@@ -10,11 +10,13 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include "areomap/map/cahvor.h"
+#include "areomap/map/interest_points.h"
 
 namespace areomap {
 
@@ -44,5 +46,21 @@ SparseStereoMatch MatchPixel(const cv::Mat& left, const cv::Mat& right,
                              const CahvorModel& left_camera, const CahvorModel& right_camera,
                              const Eigen::Vector2d& left_pixel,
                              const SparseStereoOptions& options = {});
+
+// One interest point of the left image and what MatchPixel made of it (accepted or the filter
+// that rejected it).
+struct SparseTiePoint {
+  InterestPoint left;
+  SparseStereoMatch match;
+};
+
+// Stereo tie points as in ch. 2.2.2: every interest point (e.g. DetectForstnerPoints on `left`)
+// matched along its epipolar curve with the Table 4.5 filters; one result per point, in order.
+// Runs over the points in parallel (TBB).
+std::vector<SparseTiePoint> MatchInterestPoints(const cv::Mat& left, const cv::Mat& right,
+                                                const CahvorModel& left_camera,
+                                                const CahvorModel& right_camera,
+                                                const std::vector<InterestPoint>& points,
+                                                const SparseStereoOptions& options = {});
 
 }  // namespace areomap
