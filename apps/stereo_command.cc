@@ -1,17 +1,23 @@
 // areomap stereo LEFT RIGHT --out DIR: dense stereo of one pair into a point cloud (points.ply),
-// a disparity quick-look (disparity.png) and summary.json.
+// a disparity quick-look (disparity.png) and summary.json; with --tie-points also the sparse
+// Förstner + NCC tie points of ch. 2.2.2 (tie_points.csv).
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <iomanip>
+#include <sstream>
 
 #include <opencv2/core.hpp>
 
+#include "areomap/map/atomic_file.h"
 #include "areomap/map/camera_models.h"
 #include "areomap/map/dense_stereo.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
+#include "areomap/map/interest_points.h"
 #include "areomap/map/point_cloud_io.h"
 #include "areomap/map/raster.h"
+#include "areomap/map/sparse_stereo.h"
 #include "commands.h"
 
 namespace areomap::cli {
@@ -21,8 +27,40 @@ struct StereoCommandOptions {
   std::string left, right, out;
   std::string left_camera, right_camera;  // Default: the labels beside (or inside) the images.
   bool write_rectified = false;
+  bool tie_points = false;
   DenseStereoOptions stereo;
 };
+
+// Förstner points of the rectified left image matched into the rectified right image along the
+// common CAHV pair's epipolar lines with the Table 4.5 filters (sparse_stereo.h). Pixels are
+// rectified pixels; points are in the cloud's frame.
+std::vector<SparseTiePoint> MatchSparseTiePoints(const DenseStereoResult& result,
+                                                 const DenseStereoOptions& stereo) {
+  cv::Mat left, right;
+  result.disparity.left8.convertTo(left, CV_32F);
+  result.disparity.right8.convertTo(right, CV_32F);
+  SparseStereoOptions options;
+  options.min_range_m = stereo.min_range_m;
+  options.max_range_m = stereo.max_range_m;
+  return MatchInterestPoints(left, right, result.rectification.left, result.rectification.right,
+                             DetectForstnerPoints(left), options);
+}
+
+std::string TiePointsCsv(const std::vector<SparseTiePoint>& ties) {
+  std::ostringstream csv;
+  csv << "left_x_px,left_y_px,right_x_px,right_y_px,correlation,vertical_disparity_px,range_m,"
+         "x_m,y_m,z_m,forstner_weight,forstner_roundness\n"
+      << std::setprecision(10);
+  for (const SparseTiePoint& t : ties) {
+    if (!t.match.ok) continue;
+    const SparseStereoMatch& m = t.match;
+    csv << t.left.pixel.x() << ',' << t.left.pixel.y() << ',' << m.right_pixel.x() << ','
+        << m.right_pixel.y() << ',' << m.correlation << ',' << m.vertical_disparity_px << ','
+        << m.range_m << ',' << m.point.x() << ',' << m.point.y() << ',' << m.point.z() << ','
+        << t.left.weight << ',' << t.left.roundness << '\n';
+  }
+  return csv.str();
+}
 
 // PNG/TIFF through OpenImageIO; planetary products (MER .IMG) through GDAL.
 cv::Mat ReadStereoImage(const std::filesystem::path& path) {
@@ -70,6 +108,9 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
                 "Also write the rectified 8-bit pair (left_rectified.png, right_rectified.png)");
   cmd->add_flag("!--no-align-rows", s.align_rows,
                 "Do not estimate the residual vertical disparity from tracked features");
+  cmd->add_flag("--tie-points", o->tie_points,
+                "Also match Förstner interest points (NCC >= 0.85 and the other Table 4.5 "
+                "filters) into tie_points.csv");
   cmd->add_option("--image-id", s.image_id, "Pair id written into every point")
       ->capture_default_str();
   cmd->callback([o, &global] {
@@ -82,6 +123,8 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
     const cv::Mat right_image = ReadStereoImage(o->right);
     const DenseStereoResult result = RunDenseStereo(left_image, right_image, left, right, o->stereo,
                                                     MakeProgressBar(global, "stereo"));
+    const std::vector<SparseTiePoint> ties =
+        o->tie_points ? MatchSparseTiePoints(result, o->stereo) : std::vector<SparseTiePoint>{};
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -95,6 +138,9 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
         quicklook, CV_8U, 254.0 / disparity.num_disparities,
         1.0 - 254.0 * disparity.min_disparity / disparity.num_disparities);  // NaN -> 0.
     WriteImage(out / "disparity.png", quicklook);
+    size_t accepted_ties = 0;
+    for (const SparseTiePoint& t : ties) accepted_ties += t.match.ok ? 1 : 0;
+    if (o->tie_points) WriteFileAtomically(out / "tie_points.csv", TiePointsCsv(ties));
     if (o->write_rectified) {
       WriteImage(out / "left_rectified.png", result.disparity.left8);
       WriteImage(out / "right_rectified.png", result.disparity.right8);
@@ -129,11 +175,17 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
                        {"points", m.points},
                        {"dropped_beyond_range", m.beyond_range},
                        {"max_range_m", o->stereo.max_range_m},
+                       {"interest_points", ties.size()},
+                       {"tie_points", accepted_ties},
                        {"seconds", seconds}});
     if (!global.quiet) {
       std::printf("%zu points (%.1f%% of the overlap has a disparity), %zu beyond %.0f m -> %s\n",
                   m.points, 100.0 * m.valid_fraction, m.beyond_range, o->stereo.max_range_m,
                   (out / "points.ply").c_str());
+      if (o->tie_points) {
+        std::printf("%zu of %zu Förstner points matched as tie points -> %s\n", accepted_ties,
+                    ties.size(), (out / "tie_points.csv").c_str());
+      }
     }
   });
 }
