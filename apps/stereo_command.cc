@@ -36,14 +36,12 @@ struct StereoCommandOptions {
 // rectified pixels; points are in the cloud's frame.
 std::vector<SparseTiePoint> MatchSparseTiePoints(const DenseStereoResult& result,
                                                  const DenseStereoOptions& stereo) {
-  cv::Mat left, right;
-  result.disparity.left8.convertTo(left, CV_32F);
-  result.disparity.right8.convertTo(right, CV_32F);
+  const cv::Mat& left = result.disparity.left8;  // Both functions take 8-bit images as they are.
   SparseStereoOptions options;
   options.min_range_m = stereo.min_range_m;
   options.max_range_m = stereo.max_range_m;
-  return MatchInterestPoints(left, right, result.rectification.left, result.rectification.right,
-                             DetectForstnerPoints(left), options);
+  return MatchInterestPoints(left, result.disparity.right8, result.rectification.left,
+                             result.rectification.right, DetectForstnerPoints(left), options);
 }
 
 std::string TiePointsCsv(const std::vector<SparseTiePoint>& ties) {

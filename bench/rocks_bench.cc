@@ -78,17 +78,7 @@ int BruteForcePeaks(const PointCloud& cloud, const RockExtractionOptions& option
 // least 10 cm high (a pebble cannot make a peak 15 cm above its ground), or -1.
 int TrueRock(const Scene& scene, const Eigen::Vector2d& site_enu, const Eigen::Vector3d& peak) {
   const Eigen::Vector2d enu = site_enu + Eigen::Vector2d(peak.y(), peak.x());
-  int best = -1;
-  double best_gap = 0.5;
-  for (const Rock& r : scene.rocks()) {
-    if (r.height < 0.10) continue;
-    const double gap = (r.center - enu).norm() - r.a;
-    if (gap < best_gap) {
-      best_gap = gap;
-      best = r.id;
-    }
-  }
-  return best;
+  return scene.RockNear(enu, 0.10, 0.5);
 }
 
 // Matching quality against the scene (a report like Table 5.3): pairs 10-25 m apart along the

@@ -318,4 +318,18 @@ Eigen::Vector3d Scene::NormalAt(double x, double y, double step) const {
   return Eigen::Vector3d(-dzdx, -dzdy, 1.0).normalized();
 }
 
+int Scene::RockNear(const Eigen::Vector2d& enu, double min_height_m, double max_gap_m) const {
+  int best = -1;
+  double best_gap = max_gap_m;
+  for (const Rock& r : rocks_) {
+    if (r.height < min_height_m) continue;
+    const double gap = (r.center - enu).norm() - r.a;
+    if (gap < best_gap) {
+      best_gap = gap;
+      best = r.id;
+    }
+  }
+  return best;
+}
+
 }  // namespace areomap

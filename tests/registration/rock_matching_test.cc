@@ -56,17 +56,7 @@ SimulatedSite MakeSite(const Scene& scene, const Eigen::Vector2d& enu, int id, d
 // least 10 cm high (a pebble cannot make a peak 15 cm above its ground), or -1.
 int TrueRock(const Scene& scene, const SimulatedSite& site, const Eigen::Vector3d& peak) {
   const Eigen::Vector2d enu = site.enu + Eigen::Vector2d(peak.y(), peak.x());
-  int best = -1;
-  double best_gap = 0.5;
-  for (const Rock& r : scene.rocks()) {
-    if (r.height < 0.10) continue;
-    const double gap = (r.center - enu).norm() - r.a;
-    if (gap < best_gap) {
-      best_gap = gap;
-      best = r.id;
-    }
-  }
-  return best;
+  return scene.RockNear(enu, 0.10, 0.5);
 }
 
 // Site b's true pose in a (site frames share their axes) with a telemetry-like error: 1.5 degree

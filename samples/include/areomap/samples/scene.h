@@ -90,6 +90,10 @@ class Scene {
 
   const std::vector<Crater>& craters() const { return craters_; }
   const std::vector<Rock>& rocks() const { return rocks_; }
+  // Id of the rock whose footprint edge is nearest to `enu` [m] (gap = centre distance - a,
+  // negative inside), among rocks at least `min_height_m` high, when that gap is below
+  // `max_gap_m`; -1 otherwise. Truth for "which rock is this peak on".
+  int RockNear(const Eigen::Vector2d& enu, double min_height_m, double max_gap_m) const;
   const SceneOptions& options() const { return options_; }
 
  private:
