@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/crater/ellipse_fit.h"
+#include "areomap/crater/shading_hypotheses.h"
 #include "areomap/map/error.h"
 
 namespace areomap {
@@ -558,6 +559,7 @@ void CraterDetectorOptions::Check() const {
   RequireOption(tile_size >= 256, "CraterDetectorOptions.tile_size", ">= 256 px");
   RequireOption(tile_overlap >= 32 && tile_overlap <= tile_size,
                 "CraterDetectorOptions.tile_overlap", "in [32, tile_size] px");
+  shading_template.Check();
 }
 
 std::vector<CraterDetection> SuppressDuplicateCraters(std::vector<CraterDetection> detections) {
@@ -634,6 +636,13 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
     levels.push_back(std::move(next));
   }
   const std::optional<Eigen::Vector2d> sun = SunVector(o, source);
+  // Bowl-shading template hypotheses (shading_hypotheses.h), tried on their level below.
+  std::vector<ShadingHypothesis> shading;
+  if (sun && o.shading_template.enabled) {
+    shading =
+        FindShadingHypotheses(full, *o.sun_azimuth_deg, min_radius, max_radius, o.shading_template);
+  }
+  std::vector<char> shading_tried(shading.size(), 0);
   // Phase 1: screen hypotheses on every level with the cheap direct fit.
   std::vector<CraterDetection> candidates;
   for (size_t li = 0; li < levels.size(); ++li) {
@@ -693,6 +702,22 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
     for (auto& d : found) {
       if (d) candidates.push_back(*d);
     }
+    // Shading hypotheses of this level's sizes as starts of the same edge fit and validation.
+    std::vector<std::optional<CraterDetection>> from_shading(shading.size());
+    tbb::parallel_for(size_t{0}, shading.size(), [&](size_t h) {
+      const double r = shading[h].radius / level.scale;
+      if (shading_tried[h] || r < r_lo || r > r_hi) return;
+      shading_tried[h] = 1;
+      const Ellipse start =
+          Scaled({shading[h].center, shading[h].radius, shading[h].radius, 0.0}, 1.0 / level.scale);
+      from_shading[h] = FitAndValidate(level.image, level.edges, source, start, o, false);
+      if (!from_shading[h]) return;
+      from_shading[h]->pyramid_level = static_cast<int>(li);
+      from_shading[h]->ellipse = Scaled(from_shading[h]->ellipse, level.scale);
+    });
+    for (auto& d : from_shading) {
+      if (d) candidates.push_back(*d);
+    }
     Report(progress, static_cast<double>(li + 1) / static_cast<double>(levels.size()),
            "craters: pyramid level");
   }
@@ -750,6 +775,16 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
     if (d && d->Diameter() >= o.min_diameter_px * 0.9 &&
         (o.max_diameter_px <= 0.0 || d->Diameter() <= o.max_diameter_px * 1.1)) {
       all.push_back(*d);
+    }
+  }
+  if (!shading.empty()) {
+    // Template-only craters where the edge pipeline found none.
+    Level& level = levels[base];
+    if (!level.has_edges) level.edges = EdgesOf(level.image, source, o, level.scale);
+    all = SuppressDuplicateCraters(std::move(all));
+    for (const CraterDetection& d : AcceptShadingHypotheses(
+             full, level.edges, shading, all, *o.sun_azimuth_deg, o.shading_template)) {
+      if (d.Diameter() >= o.min_diameter_px * 0.9) all.push_back(d);
     }
   }
   return SuppressDuplicateCraters(std::move(all));

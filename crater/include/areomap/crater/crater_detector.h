@@ -43,6 +43,7 @@
 
 #include "areomap/crater/ellipse.h"
 #include "areomap/crater/rim_edges.h"
+#include "areomap/crater/shading_hypotheses.h"
 #include "areomap/map/progress.h"
 
 namespace areomap {
@@ -106,6 +107,10 @@ struct CraterDetectorOptions {
   double dtm_posting = 1.0;  // DTM: ground size of a pixel in height units
   int tile_size = 2048;      // DetectCratersInRaster: tile core edge [px]
   int tile_overlap = 128;    // and margin [px]; bounds in-tile diameters
+  // Image with sun: bowl-shading template hypotheses (shading_hypotheses.h) for small or
+  // degraded craters whose rims show edges only along the sun line; each is first tried as a
+  // start for the edge fit and validation above, then accepted on its own evidence.
+  ShadingTemplateOptions shading_template;
 
   void Check() const;  // throws areomap::Error naming the bad field
 };

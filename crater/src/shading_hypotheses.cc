@@ -1,0 +1,350 @@
+#include "areomap/crater/shading_hypotheses.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <optional>
+
+#include <tbb/parallel_for.h>
+#include <opencv2/imgproc.hpp>
+
+#include "areomap/crater/crater_detector.h"
+#include "areomap/map/error.h"
+
+namespace areomap {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Template window half-width over the radius: room for the flat plain around the bowl.
+constexpr double kWindowHalfWidth = 1.6;
+// Template radii within one image copy [copy px]: from 4 to 8, then the next 2x2-averaged copy.
+constexpr double kMaxCopyRadius = 8.0;
+constexpr int kCoverageBins = 36;
+
+// Unit vector towards the sun in pixel coordinates (x right, y down), azimuth clockwise from up.
+Eigen::Vector2d SunDirection(double azimuth_deg) {
+  const double az = azimuth_deg * kPi / 180.0;
+  return {std::sin(az), -std::cos(az)};
+}
+
+// One template radius: its correlation map on one image copy.
+struct Scale {
+  double radius = 0.0;  // [full-resolution px]
+  int copy = 0;         // index of the image copy (2^copy full px per copy px)
+  int half = 0;         // template half size [copy px]
+  cv::Mat
+      correlation;  // CV_32F; element (r, c): template centre at copy pixel (c + half, r + half)
+};
+
+double Lerp(double a, double b, double t) { return a + (b - a) * t; }
+
+// Correlation of `scale` at full-resolution point p (bilinear), NaN outside the map.
+double CorrelationAt(const Scale& scale, const Eigen::Vector2d& p) {
+  const double f = std::ldexp(1.0, scale.copy);
+  // GDAL coordinate in the copy -> index of the map (template centre pixel centres at +0.5).
+  const double x = p.x() / f - 0.5 - scale.half, y = p.y() / f - 0.5 - scale.half;
+  const int c = static_cast<int>(std::floor(x)), r = static_cast<int>(std::floor(y));
+  const cv::Mat& m = scale.correlation;
+  if (c < 0 || r < 0 || c + 1 >= m.cols || r + 1 >= m.rows) return kNaN;
+  const double tx = x - c, ty = y - r;
+  return Lerp(Lerp(m.at<float>(r, c), m.at<float>(r, c + 1), tx),
+              Lerp(m.at<float>(r + 1, c), m.at<float>(r + 1, c + 1), tx), ty);
+}
+
+// Vertex offset of the parabola through (-1, a), (0, b), (1, c), within [-0.5, 0.5].
+double ParabolaPeak(double a, double b, double c) {
+  const double denominator = a - 2.0 * b + c;
+  if (!(denominator < 0.0)) return 0.0;
+  return std::clamp(0.5 * (a - c) / denominator, -0.5, 0.5);
+}
+
+// Local maxima of one map at least `threshold`, as hypotheses in full-resolution pixels.
+std::vector<ShadingHypothesis> LocalMaxima(const Scale& scale, double threshold,
+                                           const cv::Mat& nodata_count) {
+  const cv::Mat& m = scale.correlation;
+  const double copy_radius = scale.radius / std::ldexp(1.0, scale.copy);
+  const int reach = std::max(1, static_cast<int>(std::lround(0.5 * copy_radius)));
+  cv::Mat dilated;
+  cv::dilate(m, dilated, cv::getStructuringElement(cv::MORPH_RECT, {2 * reach + 1, 2 * reach + 1}));
+  const double f = std::ldexp(1.0, scale.copy);
+  std::vector<ShadingHypothesis> out;
+  for (int r = 1; r + 1 < m.rows; ++r) {
+    const float* row = m.ptr<float>(r);
+    const float* peak = dilated.ptr<float>(r);
+    for (int c = 1; c + 1 < m.cols; ++c) {
+      if (row[c] < threshold || row[c] < peak[c]) continue;
+      if (!nodata_count.empty() && nodata_count.at<float>(r + scale.half, c + scale.half) > 0.0f) {
+        continue;  // the window touches a nodata hole
+      }
+      const double dx = ParabolaPeak(row[c - 1], row[c], row[c + 1]);
+      const double dy = ParabolaPeak(m.at<float>(r - 1, c), row[c], m.at<float>(r + 1, c));
+      ShadingHypothesis h;
+      h.center = f * Eigen::Vector2d(c + scale.half + 0.5 + dx, r + scale.half + 0.5 + dy);
+      h.radius = scale.radius;
+      h.correlation = row[c];
+      out.push_back(h);
+    }
+  }
+  return out;
+}
+
+double SampleBilinear(const cv::Mat& m, double x, double y) {
+  const double fx = x - 0.5, fy = y - 0.5;  // GDAL coordinates -> OpenCV indices
+  const int c = static_cast<int>(std::floor(fx)), r = static_cast<int>(std::floor(fy));
+  if (c < 0 || r < 0 || c + 1 >= m.cols || r + 1 >= m.rows) return kNaN;
+  const double tx = fx - c, ty = fy - r;
+  return Lerp(Lerp(m.at<float>(r, c), m.at<float>(r, c + 1), tx),
+              Lerp(m.at<float>(r + 1, c), m.at<float>(r + 1, c + 1), tx), ty);
+}
+
+// Dipole contrast of a hypothesis: least-squares fit of brightness = a + b w over the interior
+// (rho <= 0.9, w = -(d . s) / R), 2 b (far rim minus sunward rim) over the standard deviation of
+// the annulus 1.25-1.75 R. NaN where nodata or no texture leaves it undefined.
+double DipoleContrast(const cv::Mat& image, const ShadingHypothesis& h,
+                      const Eigen::Vector2d& sun) {
+  const double step = std::max(0.5, h.radius / 10.0);
+  const double reach = 1.75 * h.radius;
+  double sw = 0, sv = 0, sww = 0, swv = 0, n_in = 0;
+  double so = 0, soo = 0, n_out = 0;
+  for (double dy = -reach; dy <= reach; dy += step) {
+    for (double dx = -reach; dx <= reach; dx += step) {
+      const double rho = std::hypot(dx, dy) / h.radius;
+      if (rho > 0.9 && (rho < 1.25 || rho > 1.75)) continue;
+      const double v = SampleBilinear(image, h.center.x() + dx, h.center.y() + dy);
+      if (!std::isfinite(v)) return kNaN;
+      if (rho <= 0.9) {
+        const double w = -(dx * sun.x() + dy * sun.y()) / h.radius;
+        sw += w;
+        sv += v;
+        sww += w * w;
+        swv += w * v;
+        ++n_in;
+      } else {
+        so += v;
+        soo += v * v;
+        ++n_out;
+      }
+    }
+  }
+  if (n_in < 8 || n_out < 8) return kNaN;
+  const double var_w = sww / n_in - (sw / n_in) * (sw / n_in);
+  const double slope = (swv / n_in - (sw / n_in) * (sv / n_in)) / var_w;
+  const double std_out = std::sqrt(std::max(0.0, soo / n_out - (so / n_out) * (so / n_out)));
+  if (!(std_out > 0.0) || !(var_w > 0.0)) return kNaN;
+  return 2.0 * slope / std_out;
+}
+
+// Share of the 16 rim sectors (of 36) centred within 40 degrees of the sun line that hold an edge
+// of bowl polarity near the circle.
+double SunLineCoverage(const RimEdges& edges, const ShadingHypothesis& h,
+                       const Eigen::Vector2d& sun) {
+  if (edges.index.empty()) return 0.0;
+  const double tolerance = std::max(1.5, 0.15 * h.radius);
+  const double reach = h.radius + tolerance + 1.0;
+  const int c0 = std::max(0, static_cast<int>(std::floor(h.center.x() - reach)));
+  const int c1 = std::min(edges.index.cols - 1, static_cast<int>(std::ceil(h.center.x() + reach)));
+  const int r0 = std::max(0, static_cast<int>(std::floor(h.center.y() - reach)));
+  const int r1 = std::min(edges.index.rows - 1, static_cast<int>(std::ceil(h.center.y() + reach)));
+  std::array<bool, kCoverageBins> hit{};
+  for (int r = r0; r <= r1; ++r) {
+    const int* index = edges.index.ptr<int>(r);
+    for (int c = c0; c <= c1; ++c) {
+      if (index[c] < 0) continue;
+      const RimEdgePoint& p = edges.points[static_cast<size_t>(index[c])];
+      const Eigen::Vector2d d = Eigen::Vector2d(p.x, p.y) - h.center;
+      const double dist = d.norm();
+      if (dist <= 0.0 || std::abs(dist - h.radius) > tolerance) continue;
+      const Eigen::Vector2d u = d / dist, n(p.nx, p.ny);
+      if (std::abs(n.dot(u)) < 0.8 || n.dot(sun) <= 0.0) continue;  // radial, towards the sun
+      // 36 sectors of polar angle from the sun direction; the 16 whose centres lie within 40
+      // degrees of the sun line count.
+      const double t = std::atan2(u.x() * sun.y() - u.y() * sun.x(), u.dot(sun));
+      const int bin =
+          std::clamp(static_cast<int>(std::floor((t + kPi) / (2.0 * kPi) * kCoverageBins)), 0,
+                     kCoverageBins - 1);
+      const double centre = (bin + 0.5) / kCoverageBins * 2.0 * kPi - kPi;
+      if (std::abs(std::cos(centre)) < std::cos(kPi / 4.0) + 1e-6) continue;  // off the sun line
+      hit[static_cast<size_t>(bin)] = true;
+    }
+  }
+  return static_cast<double>(std::count(hit.begin(), hit.end(), true)) / 16.0;
+}
+
+}  // namespace
+
+void ShadingTemplateOptions::Check() const {
+  RequireOption(radii_per_octave >= 1 && radii_per_octave <= 16,
+                "ShadingTemplateOptions.radii_per_octave", "in [1, 16]");
+  RequireOption(min_correlation > 0.0 && min_correlation < 1.0,
+                "ShadingTemplateOptions.min_correlation", "in (0, 1)");
+  RequireOption(std::isfinite(min_dipole_contrast) && min_dipole_contrast >= 0.0,
+                "ShadingTemplateOptions.min_dipole_contrast", ">= 0");
+  RequireOption(min_sun_line_coverage >= 0.0 && min_sun_line_coverage <= 1.0,
+                "ShadingTemplateOptions.min_sun_line_coverage", "in [0, 1]");
+}
+
+cv::Mat BowlShadingTemplate(double radius_px, double sun_azimuth_deg) {
+  RequireOption(std::isfinite(radius_px) && radius_px >= 1.0, "BowlShadingTemplate radius_px",
+                ">= 1 px");
+  RequireOption(std::isfinite(sun_azimuth_deg), "BowlShadingTemplate sun_azimuth_deg", "finite");
+  const Eigen::Vector2d sun = SunDirection(sun_azimuth_deg);
+  const int half = static_cast<int>(std::ceil(kWindowHalfWidth * radius_px));
+  cv::Mat t(2 * half + 1, 2 * half + 1, CV_32F);
+  for (int r = 0; r < t.rows; ++r) {
+    for (int c = 0; c < t.cols; ++c) {
+      const double dx = c - half, dy = r - half;
+      const double inside = std::clamp(radius_px + 0.5 - std::hypot(dx, dy), 0.0, 1.0);
+      t.at<float>(r, c) = static_cast<float>(-inside * (dx * sun.x() + dy * sun.y()) / radius_px);
+    }
+  }
+  t -= cv::mean(t)[0];
+  return t;
+}
+
+std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, double sun_azimuth_deg,
+                                                     double min_radius_px, double max_radius_px,
+                                                     const ShadingTemplateOptions& options) {
+  options.Check();
+  RequireOption(std::isfinite(min_radius_px) && min_radius_px >= 1.0,
+                "FindShadingHypotheses min_radius_px", ">= 1 px");
+  RequireOption(std::isfinite(sun_azimuth_deg), "FindShadingHypotheses sun_azimuth_deg", "finite");
+  if (image.channels() != 1) throw Error("shading hypotheses: expected a single-band image");
+  if (image.empty() || !(max_radius_px >= min_radius_px)) return {};
+  // Image copies: full resolution, then 2x2 averages (the GDAL grid scales exactly by 2).
+  std::vector<cv::Mat> copies(1), nodata(1);
+  image.convertTo(copies[0], CV_32F);
+  const auto prepare = [](cv::Mat& copy, cv::Mat& count, int half_max) {
+    cv::Mat mask = copy != copy;  // NaN
+    if (cv::countNonZero(mask) > 0) {
+      const double fill = cv::mean(copy, ~mask)[0];
+      copy.setTo(std::isfinite(fill) ? fill : 0.0, mask);
+      mask.convertTo(count, CV_32F, 1.0 / 255.0);
+      cv::boxFilter(count, count, -1, {2 * half_max + 1, 2 * half_max + 1}, {-1, -1}, false);
+    }
+  };
+  std::vector<Scale> scales;
+  const double step = std::exp2(1.0 / options.radii_per_octave);
+  for (double r = min_radius_px; r <= max_radius_px * 1.0001; r *= step) {
+    int copy = 0;
+    while (r / std::ldexp(1.0, copy) > kMaxCopyRadius * 1.0001) ++copy;
+    Scale s;
+    s.radius = r;
+    s.copy = copy;
+    s.half = static_cast<int>(std::ceil(kWindowHalfWidth * r / std::ldexp(1.0, copy)));
+    scales.push_back(s);
+  }
+  const int copies_needed = scales.empty() ? 0 : scales.back().copy + 1;
+  // Unfilled copies first (2x2 averages keep NaN where any input is nodata), then filled.
+  for (int k = 1; k < copies_needed; ++k) {
+    const cv::Mat& src = copies.back();
+    if (src.cols < 4 || src.rows < 4) break;
+    cv::Mat next;
+    cv::resize(src(cv::Rect(0, 0, src.cols / 2 * 2, src.rows / 2 * 2)), next,
+               cv::Size(src.cols / 2, src.rows / 2), 0, 0, cv::INTER_AREA);
+    copies.push_back(next);
+  }
+  nodata.resize(copies.size());
+  const int half_max = static_cast<int>(std::ceil(kWindowHalfWidth * kMaxCopyRadius)) + 1;
+  for (size_t k = 0; k < copies.size(); ++k) prepare(copies[k], nodata[k], half_max);
+  std::erase_if(scales, [&](const Scale& s) {
+    const cv::Mat& c = copies.size() > static_cast<size_t>(s.copy) ? copies[s.copy] : cv::Mat();
+    return c.empty() || c.cols < 2 * s.half + 3 || c.rows < 2 * s.half + 3;
+  });
+  tbb::parallel_for(size_t{0}, scales.size(), [&](size_t i) {
+    Scale& s = scales[i];
+    const cv::Mat t = BowlShadingTemplate(s.radius / std::ldexp(1.0, s.copy), sun_azimuth_deg);
+    cv::matchTemplate(copies[s.copy], t, s.correlation, cv::TM_CCOEFF_NORMED);
+    // A flat window has no normalised correlation (OpenCV gives 0 or noise there).
+    cv::patchNaNs(s.correlation, 0.0);
+  });
+  std::vector<std::vector<ShadingHypothesis>> per_scale(scales.size());
+  tbb::parallel_for(size_t{0}, scales.size(), [&](size_t i) {
+    per_scale[i] = LocalMaxima(scales[i], options.min_correlation, nodata[scales[i].copy]);
+    // Radius between the templates: parabola in log radius through the neighbouring scales.
+    for (ShadingHypothesis& h : per_scale[i]) {
+      const double below = i > 0 ? CorrelationAt(scales[i - 1], h.center) : kNaN;
+      const double above = i + 1 < scales.size() ? CorrelationAt(scales[i + 1], h.center) : kNaN;
+      if (std::isfinite(below) && std::isfinite(above)) {
+        h.radius *= std::pow(step, ParabolaPeak(below, h.correlation, above));
+      }
+    }
+  });
+  // Duplicates over neighbouring positions and radii: the detector's rule, correlation as
+  // confidence.
+  std::vector<CraterDetection> as_craters;
+  for (const auto& list : per_scale) {
+    for (const ShadingHypothesis& h : list) {
+      CraterDetection d;
+      d.ellipse = {h.center, h.radius, h.radius, 0.0};
+      d.confidence = h.correlation;
+      d.shading_correlation = h.correlation;
+      as_craters.push_back(d);
+    }
+  }
+  std::vector<ShadingHypothesis> out;
+  for (const CraterDetection& d : SuppressDuplicateCraters(std::move(as_craters))) {
+    out.push_back({d.ellipse.center, d.ellipse.semi_major, d.shading_correlation});
+  }
+  return out;
+}
+
+namespace {
+
+// True when `a` and `b` are one crater by SuppressDuplicateCraters' rule.
+bool SameCrater(const CraterDetection& a, const CraterDetection& b) {
+  CraterDetection first = a, second = b;
+  first.confidence = 1.0;
+  second.confidence = 0.0;
+  return SuppressDuplicateCraters({first, second}).size() == 1;
+}
+
+}  // namespace
+
+std::vector<CraterDetection> AcceptShadingHypotheses(
+    const cv::Mat& image, const RimEdges& edges, const std::vector<ShadingHypothesis>& hypotheses,
+    const std::vector<CraterDetection>& found, double sun_azimuth_deg,
+    const ShadingTemplateOptions& options) {
+  options.Check();
+  if (image.channels() != 1) throw Error("shading hypotheses: expected a single-band image");
+  cv::Mat f;
+  image.convertTo(f, CV_32F);
+  const Eigen::Vector2d sun = SunDirection(sun_azimuth_deg);
+  std::vector<std::optional<CraterDetection>> accepted(hypotheses.size());
+  tbb::parallel_for(size_t{0}, hypotheses.size(), [&](size_t i) {
+    const ShadingHypothesis& h = hypotheses[i];
+    if (h.correlation < options.min_correlation) return;
+    CraterDetection d;
+    d.ellipse = {h.center, h.radius, h.radius, 0.0};
+    for (const CraterDetection& k : found) {
+      const double rk = k.ellipse.MeanRadius(), distance = (k.ellipse.center - h.center).norm();
+      if (distance > rk + h.radius) continue;
+      if (SameCrater(k, d)) return;
+      // Inside or on the rim of a larger crater: its walls' shading explains the dipole.
+      if (rk > h.radius && distance < rk + 0.5 * h.radius) return;
+    }
+    const double contrast = DipoleContrast(f, h, sun);
+    if (!(contrast >= options.min_dipole_contrast)) return;
+    const double coverage = SunLineCoverage(edges, h, sun);
+    if (coverage < options.min_sun_line_coverage) return;
+    d.center_x_sigma = d.center_y_sigma = d.semi_major_sigma = d.semi_minor_sigma = d.angle_sigma =
+        d.rms_residual = d.efs = kNaN;
+    d.coverage = 0.5 * coverage;
+    d.signature = contrast;
+    d.shading_correlation = h.correlation;
+    d.confidence = 0.5 * h.correlation *
+                   std::min(1.0, contrast / std::max(1e-9, 3.0 * options.min_dipole_contrast));
+    d.partial = true;
+    accepted[i] = d;
+  });
+  std::vector<CraterDetection> out;
+  for (const auto& d : accepted) {
+    if (d) out.push_back(*d);
+  }
+  // Overlapping hypotheses accepted together: the more confident one stays.
+  return SuppressDuplicateCraters(std::move(out));
+}
+
+}  // namespace areomap
