@@ -8,6 +8,7 @@
 #include <optional>
 
 #include <tbb/parallel_for.h>
+#include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/crater/crater_detector.h"
@@ -137,11 +138,23 @@ double DipoleContrast(const cv::Mat& image, const ShadingHypothesis& h,
   return 2.0 * slope / std_out;
 }
 
-// Share of the 16 rim sectors (of 36) centred within 40 degrees of the sun line that hold an edge
-// of bowl polarity near the circle.
-double SunLineCoverage(const RimEdges& edges, const ShadingHypothesis& h,
-                       const Eigen::Vector2d& sun) {
-  if (edges.index.empty()) return 0.0;
+// Rim edges of bowl polarity near the circle along the sun line.
+struct SunLineRim {
+  double coverage = 0.0;  // share of the 16 sectors (of 36) centred within 40 degrees of the line
+  // Circle from the edges: both rim crossings of the sun line fix the centre along the line and
+  // the radius (least squares of the radial residuals e = dR + shift (u . s) over the edges,
+  // with the centre across the line kept); unset without 3 edges on each side.
+  std::optional<Eigen::Vector2d> center;
+  double radius = 0.0;
+};
+
+SunLineRim FindSunLineRim(const RimEdges& edges, const ShadingHypothesis& h,
+                          const Eigen::Vector2d& sun) {
+  SunLineRim out;
+  if (edges.index.empty()) return out;
+  Eigen::Matrix2d normal_matrix = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
+  int sunward = 0, far = 0;
   const double tolerance = std::max(1.5, 0.15 * h.radius);
   const double reach = h.radius + tolerance + 1.0;
   const int c0 = std::max(0, static_cast<int>(std::floor(h.center.x() - reach)));
@@ -168,9 +181,22 @@ double SunLineCoverage(const RimEdges& edges, const ShadingHypothesis& h,
       const double centre = (bin + 0.5) / kCoverageBins * 2.0 * kPi - kPi;
       if (std::abs(std::cos(centre)) < std::cos(kPi / 4.0) + 1e-6) continue;  // off the sun line
       hit[static_cast<size_t>(bin)] = true;
+      const Eigen::Vector2d row(1.0, u.dot(sun));
+      normal_matrix += row * row.transpose();
+      rhs += row * (dist - h.radius);
+      (row.y() > 0.0 ? sunward : far) += 1;
     }
   }
-  return static_cast<double>(std::count(hit.begin(), hit.end(), true)) / 16.0;
+  out.coverage = static_cast<double>(std::count(hit.begin(), hit.end(), true)) / 16.0;
+  if (sunward >= 3 && far >= 3) {
+    const Eigen::Vector2d solution = normal_matrix.ldlt().solve(rhs);  // (dR, shift)
+    if (solution.allFinite() && std::abs(solution.x()) < 0.2 * h.radius &&
+        std::abs(solution.y()) < 0.3 * h.radius) {
+      out.center = h.center + solution.y() * sun;
+      out.radius = h.radius + solution.x();
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -227,7 +253,9 @@ std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, doubl
   };
   std::vector<Scale> scales;
   const double step = std::exp2(1.0 / options.radii_per_octave);
-  for (double r = min_radius_px; r <= max_radius_px * 1.0001; r *= step) {
+  // One template beyond each end of the range, so that the radius interpolates there too.
+  for (double r = std::max(1.0, min_radius_px / step); r <= max_radius_px * step * 1.0001;
+       r *= step) {
     int copy = 0;
     while (r / std::ldexp(1.0, copy) > kMaxCopyRadius * 1.0001) ++copy;
     Scale s;
@@ -262,6 +290,10 @@ std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, doubl
   });
   std::vector<std::vector<ShadingHypothesis>> per_scale(scales.size());
   tbb::parallel_for(size_t{0}, scales.size(), [&](size_t i) {
+    if (scales[i].radius < min_radius_px / std::sqrt(step) ||
+        scales[i].radius > max_radius_px * std::sqrt(step)) {
+      return;  // the templates beyond the range only interpolate the radius
+    }
     per_scale[i] = LocalMaxima(scales[i], options.min_correlation, nodata[scales[i].copy]);
     // Radius between the templates: parabola in log radius through the neighbouring scales.
     for (ShadingHypothesis& h : per_scale[i]) {
@@ -327,11 +359,12 @@ std::vector<CraterDetection> AcceptShadingHypotheses(
     }
     const double contrast = DipoleContrast(f, h, sun);
     if (!(contrast >= options.min_dipole_contrast)) return;
-    const double coverage = SunLineCoverage(edges, h, sun);
-    if (coverage < options.min_sun_line_coverage) return;
+    const SunLineRim rim = FindSunLineRim(edges, h, sun);
+    if (rim.coverage < options.min_sun_line_coverage) return;
+    if (rim.center) d.ellipse = {*rim.center, rim.radius, rim.radius, 0.0};
     d.center_x_sigma = d.center_y_sigma = d.semi_major_sigma = d.semi_minor_sigma = d.angle_sigma =
         d.rms_residual = d.efs = kNaN;
-    d.coverage = 0.5 * coverage;
+    d.coverage = 0.5 * rim.coverage;
     d.signature = contrast;
     d.shading_correlation = h.correlation;
     d.confidence = 0.5 * h.correlation *
