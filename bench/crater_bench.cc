@@ -1,6 +1,7 @@
 // Crater detection speed and quality on a large generated tile, against OpenCV's HoughCircles on
-// the same image in the same run. Usage: areomap_bench_crater [SIZE_PX [UPSAMPLE]] (default
-// 4000 1; UPSAMPLE 0 skips the 2x upsampled level for craters under 16 px).
+// the same image in the same run. Usage: areomap_bench_crater [SIZE_PX [UPSAMPLE [SHADING]]]
+// (default 4000 1 1; UPSAMPLE 0 skips the 2x upsampled level for craters under 16 px, SHADING 0
+// the bowl-shading template hypotheses).
 //
 // The tile holds bowls lit from the east (bright western wall, dark eastern wall, sharp rim,
 // 12-120 px across, log-uniform) on a textured plain with noise; truth is exact. areomap runs end
@@ -88,6 +89,7 @@ int main(int argc, char** argv) {
   options.sun_azimuth_deg = 90.0;
   options.min_diameter_px = 10.0;
   options.upsample_small_craters = argc > 2 ? std::stoi(argv[2]) != 0 : true;
+  options.shading_template.enabled = argc > 3 ? std::stoi(argv[3]) != 0 : true;
   const auto found = areomap::DetectCratersInRaster(dataset, areomap::RimSource::kImage, options);
   const double ours_s = Seconds(start);
   const double ours_cpu = CpuSeconds() - cpu_start;

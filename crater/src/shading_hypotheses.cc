@@ -22,7 +22,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Template window half-width over the radius: room for the flat plain around the bowl.
 constexpr double kWindowHalfWidth = 1.6;
 // Template radii within one image copy [copy px]: from 4 to 8, then the next 2x2-averaged copy.
-constexpr double kMaxCopyRadius = 8.0;
+constexpr double kMaxCopyRadius = 4.0;
 constexpr int kCoverageBins = 36;
 
 // Unit vector towards the sun in pixel coordinates (x right, y down), azimuth clockwise from up.
@@ -36,8 +36,13 @@ struct Scale {
   double radius = 0.0;  // [full-resolution px]
   int copy = 0;         // index of the image copy (2^copy full px per copy px)
   int half = 0;         // template half size [copy px]
-  cv::Mat
-      correlation;  // CV_32F; element (r, c): template centre at copy pixel (c + half, r + half)
+  // CV_32F; element (r, c): template centre at copy pixel (c + half, r + half).
+  cv::Mat correlation;
+  // Least-squares amplitude of the template in each window [DN per unit of the ramp], and its
+  // median and robust spread (1.4826 MAD) over the map.
+  cv::Mat amplitude;
+  double amplitude_median = 0.0;
+  double amplitude_spread = 0.0;
 };
 
 double Lerp(double a, double b, double t) { return a + (b - a) * t; }
@@ -86,6 +91,10 @@ std::vector<ShadingHypothesis> LocalMaxima(const Scale& scale, double threshold,
       h.center = f * Eigen::Vector2d(c + scale.half + 0.5 + dx, r + scale.half + 0.5 + dy);
       h.radius = scale.radius;
       h.correlation = row[c];
+      h.significance =
+          scale.amplitude_spread > 0.0
+              ? (scale.amplitude.at<float>(r, c) - scale.amplitude_median) / scale.amplitude_spread
+              : 0.0;
       out.push_back(h);
     }
   }
@@ -138,6 +147,34 @@ double DipoleContrast(const cv::Mat& image, const ShadingHypothesis& h,
   return 2.0 * slope / std_out;
 }
 
+// The hypothesis' centre from the correlation peak at full resolution (cv::matchTemplate over
+// +-2 px around it): hypotheses of radius over kMaxCopyRadius come from a 2x2-averaged copy.
+ShadingHypothesis RefinedAtFullResolution(const cv::Mat& image, ShadingHypothesis h,
+                                          double sun_azimuth_deg) {
+  if (h.radius <= kMaxCopyRadius * 1.0001) return h;  // found at full resolution already
+  const cv::Mat t = BowlShadingTemplate(h.radius, sun_azimuth_deg);
+  const int half = t.rows / 2, margin = 2;
+  const int col = static_cast<int>(std::floor(h.center.x()));
+  const int row = static_cast<int>(std::floor(h.center.y()));
+  const cv::Rect roi(col - half - margin, row - half - margin, t.cols + 2 * margin,
+                     t.rows + 2 * margin);
+  if ((roi & cv::Rect(0, 0, image.cols, image.rows)) != roi) return h;
+  const cv::Mat window = image(roi);
+  if (!cv::checkRange(window)) return h;  // nodata
+  cv::Mat correlation;
+  cv::matchTemplate(window, t, correlation, cv::TM_CCOEFF_NORMED);
+  cv::Point peak;
+  cv::minMaxLoc(correlation, nullptr, nullptr, nullptr, &peak);
+  if (peak.x < 1 || peak.y < 1 || peak.x > 2 * margin - 1 || peak.y > 2 * margin - 1) return h;
+  const auto at = [&](int r, int c) { return static_cast<double>(correlation.at<float>(r, c)); };
+  const double dx =
+      ParabolaPeak(at(peak.y, peak.x - 1), at(peak.y, peak.x), at(peak.y, peak.x + 1));
+  const double dy =
+      ParabolaPeak(at(peak.y - 1, peak.x), at(peak.y, peak.x), at(peak.y + 1, peak.x));
+  h.center = {col + peak.x - margin + 0.5 + dx, row + peak.y - margin + 0.5 + dy};
+  return h;
+}
+
 // Rim edges of bowl polarity near the circle along the sun line.
 struct SunLineRim {
   double coverage = 0.0;  // share of the 16 sectors (of 36) centred within 40 degrees of the line
@@ -146,11 +183,13 @@ struct SunLineRim {
   // with the centre across the line kept); unset without 3 edges on each side.
   std::optional<Eigen::Vector2d> center;
   double radius = 0.0;
+  Eigen::Vector2d hypothesis_center = Eigen::Vector2d::Zero();  // the circle it started from
 };
 
 SunLineRim FindSunLineRim(const RimEdges& edges, const ShadingHypothesis& h,
                           const Eigen::Vector2d& sun) {
   SunLineRim out;
+  out.hypothesis_center = h.center;
   if (edges.index.empty()) return out;
   Eigen::Matrix2d normal_matrix = Eigen::Matrix2d::Zero();
   Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
@@ -206,6 +245,8 @@ void ShadingTemplateOptions::Check() const {
                 "ShadingTemplateOptions.radii_per_octave", "in [1, 16]");
   RequireOption(min_correlation > 0.0 && min_correlation < 1.0,
                 "ShadingTemplateOptions.min_correlation", "in (0, 1)");
+  RequireOption(std::isfinite(min_significance), "ShadingTemplateOptions.min_significance",
+                "finite");
   RequireOption(std::isfinite(min_dipole_contrast) && min_dipole_contrast >= 0.0,
                 "ShadingTemplateOptions.min_dipole_contrast", ">= 0");
   RequireOption(min_sun_line_coverage >= 0.0 && min_sun_line_coverage <= 1.0,
@@ -250,6 +291,8 @@ std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, doubl
       mask.convertTo(count, CV_32F, 1.0 / 255.0);
       cv::boxFilter(count, count, -1, {2 * half_max + 1, 2 * half_max + 1}, {-1, -1}, false);
     }
+    // Zero mean: the window sums of squares below keep their float precision.
+    copy -= cv::mean(copy)[0];
   };
   std::vector<Scale> scales;
   const double step = std::exp2(1.0 / options.radii_per_octave);
@@ -264,6 +307,11 @@ std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, doubl
     s.half = static_cast<int>(std::ceil(kWindowHalfWidth * r / std::ldexp(1.0, copy)));
     scales.push_back(s);
   }
+  // The template below the range only interpolates the radius: not worth a finer copy.
+  if (scales.size() > 1 && scales[0].radius < min_radius_px / std::sqrt(step) &&
+      scales[0].copy < scales[1].copy) {
+    scales.erase(scales.begin());
+  }
   const int copies_needed = scales.empty() ? 0 : scales.back().copy + 1;
   // Unfilled copies first (2x2 averages keep NaN where any input is nodata), then filled.
   for (int k = 1; k < copies_needed; ++k) {
@@ -276,7 +324,15 @@ std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, doubl
   }
   nodata.resize(copies.size());
   const int half_max = static_cast<int>(std::ceil(kWindowHalfWidth * kMaxCopyRadius)) + 1;
-  for (size_t k = 0; k < copies.size(); ++k) prepare(copies[k], nodata[k], half_max);
+  std::vector<cv::Mat> squares(copies.size());
+  for (size_t k = 0; k < copies.size(); ++k) {
+    if (std::none_of(scales.begin(), scales.end(),
+                     [&](const Scale& sc) { return sc.copy == static_cast<int>(k); })) {
+      continue;  // only a step of the pyramid
+    }
+    prepare(copies[k], nodata[k], half_max);
+    squares[k] = copies[k].mul(copies[k]);
+  }
   std::erase_if(scales, [&](const Scale& s) {
     const cv::Mat& c = copies.size() > static_cast<size_t>(s.copy) ? copies[s.copy] : cv::Mat();
     return c.empty() || c.cols < 2 * s.half + 3 || c.rows < 2 * s.half + 3;
@@ -284,9 +340,41 @@ std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, doubl
   tbb::parallel_for(size_t{0}, scales.size(), [&](size_t i) {
     Scale& s = scales[i];
     const cv::Mat t = BowlShadingTemplate(s.radius / std::ldexp(1.0, s.copy), sun_azimuth_deg);
-    cv::matchTemplate(copies[s.copy], t, s.correlation, cv::TM_CCOEFF_NORMED);
-    // A flat window has no normalised correlation (OpenCV gives 0 or noise there).
-    cv::patchNaNs(s.correlation, 0.0);
+    const cv::Mat& image_copy = copies[s.copy];
+    // Normalised cross-correlation (as cv::matchTemplate's TM_CCOEFF_NORMED) from one filter2D
+    // (OpenCV's filter2D correlates) and box sums over the template's window: T has zero mean,
+    // so sum T I = sum T (I - window mean). Maps keep matchTemplate's layout (valid windows).
+    const cv::Size window(t.cols, t.rows);
+    cv::Mat response, sum, sum_sq;
+    cv::filter2D(image_copy, response, CV_32F, t);
+    cv::boxFilter(image_copy, sum, CV_32F, window, {-1, -1}, false);
+    cv::boxFilter(squares[s.copy], sum_sq, CV_32F, window, {-1, -1}, false);
+    const cv::Rect valid(s.half, s.half, image_copy.cols - 2 * s.half,
+                         image_copy.rows - 2 * s.half);
+    const double t_norm = cv::norm(t);
+    cv::Mat spread = sum_sq(valid) - sum(valid).mul(sum(valid)) / window.area();
+    // A window flatter than 1e-3 DN RMS has no correlation.
+    const cv::Mat flat = spread < 1e-6 * window.area();
+    cv::max(spread, 1e-6 * window.area(), spread);
+    cv::sqrt(spread, spread);
+    cv::divide(response(valid), spread, s.correlation, 1.0 / t_norm);
+    s.correlation.setTo(0.0, flat);
+    cv::min(cv::max(s.correlation, -1.0), 1.0, s.correlation);
+    // Least-squares amplitude of the template: sum T I / sum T^2.
+    s.amplitude = response(valid) / (t_norm * t_norm);
+    // Robust statistics of the amplitude over the map (every 4th row and column).
+    std::vector<float> values;
+    for (int r = 0; r < s.amplitude.rows; r += 4) {
+      for (int c = 0; c < s.amplitude.cols; c += 4) values.push_back(s.amplitude.at<float>(r, c));
+    }
+    if (values.size() < 16) return;
+    const auto median = [](std::vector<float>& v) {
+      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+      return static_cast<double>(v[v.size() / 2]);
+    };
+    s.amplitude_median = median(values);
+    for (float& v : values) v = std::abs(v - static_cast<float>(s.amplitude_median));
+    s.amplitude_spread = 1.4826 * median(values);
   });
   std::vector<std::vector<ShadingHypothesis>> per_scale(scales.size());
   tbb::parallel_for(size_t{0}, scales.size(), [&](size_t i) {
@@ -295,14 +383,17 @@ std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, doubl
       return;  // the templates beyond the range only interpolate the radius
     }
     per_scale[i] = LocalMaxima(scales[i], options.min_correlation, nodata[scales[i].copy]);
-    // Radius between the templates: parabola in log radius through the neighbouring scales.
-    for (ShadingHypothesis& h : per_scale[i]) {
+    // Maxima over the radius too (the neighbouring templates correlate less at the same
+    // point); the radius between the templates from the parabola in log radius through them.
+    std::erase_if(per_scale[i], [&](ShadingHypothesis& h) {
       const double below = i > 0 ? CorrelationAt(scales[i - 1], h.center) : kNaN;
       const double above = i + 1 < scales.size() ? CorrelationAt(scales[i + 1], h.center) : kNaN;
+      if (below > h.correlation || above > h.correlation) return true;
       if (std::isfinite(below) && std::isfinite(above)) {
         h.radius *= std::pow(step, ParabolaPeak(below, h.correlation, above));
       }
-    }
+      return false;
+    });
   });
   // Duplicates over neighbouring positions and radii: the detector's rule, correlation as
   // confidence.
@@ -313,12 +404,13 @@ std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, doubl
       d.ellipse = {h.center, h.radius, h.radius, 0.0};
       d.confidence = h.correlation;
       d.shading_correlation = h.correlation;
+      d.signature = h.significance;
       as_craters.push_back(d);
     }
   }
   std::vector<ShadingHypothesis> out;
   for (const CraterDetection& d : SuppressDuplicateCraters(std::move(as_craters))) {
-    out.push_back({d.ellipse.center, d.ellipse.semi_major, d.shading_correlation});
+    out.push_back({d.ellipse.center, d.ellipse.semi_major, d.shading_correlation, d.signature});
   }
   return out;
 }
@@ -347,7 +439,9 @@ std::vector<CraterDetection> AcceptShadingHypotheses(
   std::vector<std::optional<CraterDetection>> accepted(hypotheses.size());
   tbb::parallel_for(size_t{0}, hypotheses.size(), [&](size_t i) {
     const ShadingHypothesis& h = hypotheses[i];
-    if (h.correlation < options.min_correlation) return;
+    if (h.correlation < options.min_correlation || h.significance < options.min_significance) {
+      return;
+    }
     CraterDetection d;
     d.ellipse = {h.center, h.radius, h.radius, 0.0};
     for (const CraterDetection& k : found) {
@@ -359,9 +453,11 @@ std::vector<CraterDetection> AcceptShadingHypotheses(
     }
     const double contrast = DipoleContrast(f, h, sun);
     if (!(contrast >= options.min_dipole_contrast)) return;
-    const SunLineRim rim = FindSunLineRim(edges, h, sun);
+    const SunLineRim rim =
+        FindSunLineRim(edges, RefinedAtFullResolution(f, h, sun_azimuth_deg), sun);
     if (rim.coverage < options.min_sun_line_coverage) return;
-    if (rim.center) d.ellipse = {*rim.center, rim.radius, rim.radius, 0.0};
+    d.ellipse = {rim.center ? *rim.center : rim.hypothesis_center,
+                 rim.center ? rim.radius : h.radius, rim.center ? rim.radius : h.radius, 0.0};
     d.center_x_sigma = d.center_y_sigma = d.semi_major_sigma = d.semi_minor_sigma = d.angle_sigma =
         d.rms_residual = d.efs = kNaN;
     d.coverage = 0.5 * rim.coverage;

@@ -140,7 +140,9 @@ TEST(ShadingHypotheses, PeakAtTheBowlAndNotAtAMoundOrAnEdge) {
   const cv::Mat bowl = BowlImage(80, center, 6.0, 0.1, kSunAzimuth);
   const std::vector<ShadingHypothesis> found = FindShadingHypotheses(bowl, kSunAzimuth, 3.0, 20.0);
   ASSERT_FALSE(found.empty());
-  EXPECT_LT((found[0].center - center).norm(), 0.5);
+  // Radius 6 runs on the 2x2-averaged copy (radius 3 there): the sub-pixel peak within half a
+  // pixel of that copy.
+  EXPECT_LT((found[0].center - center).norm(), 1.0);
   EXPECT_NEAR(found[0].radius, 6.0, 0.6);
   EXPECT_GT(found[0].correlation, 0.9);
   // The same relief raised (a mound) shades the other way round; the sun from the opposite side

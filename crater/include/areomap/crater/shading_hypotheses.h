@@ -11,7 +11,8 @@
 // brighter than the plain, so the gradient points towards the sun on both; across the sun line
 // the wall is as bright as the plain and there is no edge. The template is that ramp inside a
 // disc of radius R on a window of half-width 1.6 R with zero (flat plain) outside; its
-// normalised cross-correlation (cv::matchTemplate, TM_CCOEFF_NORMED) with the image is
+// normalised cross-correlation with the image (TM_CCOEFF_NORMED of cv::matchTemplate, computed
+// from one cv::filter2D and box sums) is
 // invariant to the brightness scale and offset, and is low for a plain brightness ramp (0.30)
 // or a straight step edge (0.47) filling the window.
 //
@@ -38,11 +39,17 @@ struct ShadingTemplateOptions {
   // Run the shading-template hypotheses in DetectCraters (image with a sun azimuth only).
   bool enabled = true;
   // Template radii per octave of crater size (each template covers +-1/(2 x this) octave).
-  int radii_per_octave = 4;
+  int radii_per_octave = 2;
   // Acceptance of a template-only crater (the edge pipeline did not validate one there):
   // normalised cross-correlation with the bowl template. A straight step edge filling the
   // window scores 0.47, a bowl on a plain with little texture 0.8-0.95.
   double min_correlation = 0.6;
+  // The template's least-squares amplitude at the peak, in robust standard deviations (1.4826
+  // MAD about the median) of the same template's amplitude over the whole image: a constant
+  // false alarm rate rule that adapts to how strongly the terrain's own texture resembles a
+  // dipole at that scale. 5 sigma of a Gaussian background leaves about 3e-7 false peaks per
+  // position and template.
+  double min_significance = 5.0;
   // Brightness difference between the far (lit) and the sunward (dark) wall at the rim, from a
   // least-squares fit of the template ramp to the interior, over the standard deviation of the
   // surroundings (annulus 1.25-1.75 R): a bowl's walls stand out of the plain's texture.
@@ -65,6 +72,10 @@ struct ShadingHypothesis {
   Eigen::Vector2d center = Eigen::Vector2d::Zero();  // [px], sub-pixel peak of the correlation
   double radius = 0.0;       // [px], interpolated between the template radii
   double correlation = 0.0;  // peak normalised cross-correlation in [-1, 1]
+  // Peak amplitude of the template (least squares, DN per unit ramp) minus the median over the
+  // image, over the robust spread (1.4826 MAD) of that amplitude over the image; 0 where the
+  // image has no spread.
+  double significance = 0.0;
 };
 
 // Local maxima (over position, radius and neighbouring hypotheses: duplicates suppressed as in
@@ -79,7 +90,7 @@ std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, doubl
 
 // Template-only craters: the hypotheses that no crater of `found` explains (not a duplicate
 // of one by SuppressDuplicateCraters' rule, not inside or on the rim of a larger one), accepted on
-// their own evidence (correlation, dipole contrast, rim edges along the sun line; see
+// their own evidence (correlation, significance, dipole contrast, rim edges along the sun line; see
 // ShadingTemplateOptions). `edges`: DetectImageEdges of `image` (same pixels; empty edges accept
 // nothing). The circle is the hypothesis' (sigmas, residual and EFS NaN: no rim fit); coverage is
 // the sun-line coverage times 0.5 (the share of the rim that can show edges), signature the dipole
