@@ -412,6 +412,12 @@ std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, doubl
   for (const CraterDetection& d : SuppressDuplicateCraters(std::move(as_craters))) {
     out.push_back({d.ellipse.center, d.ellipse.semi_major, d.shading_correlation, d.signature});
   }
+  // Hypotheses from the averaged copies: centre from the full-resolution peak.
+  cv::Mat full;
+  image.convertTo(full, CV_32F);
+  tbb::parallel_for(size_t{0}, out.size(), [&](size_t i) {
+    out[i] = RefinedAtFullResolution(full, out[i], sun_azimuth_deg);
+  });
   return out;
 }
 
@@ -453,8 +459,7 @@ std::vector<CraterDetection> AcceptShadingHypotheses(
     }
     const double contrast = DipoleContrast(f, h, sun);
     if (!(contrast >= options.min_dipole_contrast)) return;
-    const SunLineRim rim =
-        FindSunLineRim(edges, RefinedAtFullResolution(f, h, sun_azimuth_deg), sun);
+    const SunLineRim rim = FindSunLineRim(edges, h, sun);
     if (rim.coverage < options.min_sun_line_coverage) return;
     d.ellipse = {rim.center ? *rim.center : rim.hypothesis_center,
                  rim.center ? rim.radius : h.radius, rim.center ? rim.radius : h.radius, 0.0};

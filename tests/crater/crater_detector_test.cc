@@ -233,8 +233,9 @@ TEST(DetectCraters, HrscNanediLabelledCraters) {
                    std::to_string(b.f1));
   }
   RecordProperty("f1_ge_8px", std::to_string(score.all.f1));
-  // Regression guard, not the target: measured F1 0.53 for >= 8 px (target 0.80, not met).
-  EXPECT_GE(score.all.f1, 0.48);
+  // Regression guard, not the target: measured F1 0.546 for >= 8 px with the bowl-shading
+  // template hypotheses (0.53 without; target 0.80, not met).
+  EXPECT_GE(score.all.f1, 0.53);
 }
 
 }  // namespace

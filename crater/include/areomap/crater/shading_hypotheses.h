@@ -78,12 +78,15 @@ struct ShadingHypothesis {
   double significance = 0.0;
 };
 
-// Local maxima (over position, radius and neighbouring hypotheses: duplicates suppressed as in
-// SuppressDuplicateCraters) of the template correlation at least options.min_correlation, for
-// radii in [min_radius_px, max_radius_px]. Templates of radius over 8 px run on 2x2-averaged
-// copies of the image (one per octave), so each template has 4-8 px radius in its copy. Input:
-// single band, any depth, NaN = nodata (filled with the mean for the correlation; hypotheses whose
-// window holds nodata are dropped). Sorted by decreasing correlation.
+// Local maxima over position and radius of the template correlation at least
+// options.min_correlation, for radii in [min_radius_px, max_radius_px], duplicates suppressed as in
+// SuppressDuplicateCraters (correlation as confidence). Templates are options.radii_per_octave
+// per octave, plus one beyond each end of the range that only interpolates the radius (parabola
+// in log radius). A template of radius over 4 px runs on a 2x2-averaged copy of the image (one
+// per octave) where its radius is 2-4 px; the centres of those hypotheses come from the
+// correlation peak of the full-resolution template within +-2 px (cv::matchTemplate). Input:
+// single band, any depth, NaN = nodata (filled with the mean for the correlation; hypotheses
+// whose window holds nodata are dropped). Sorted by decreasing correlation.
 std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, double sun_azimuth_deg,
                                                      double min_radius_px, double max_radius_px,
                                                      const ShadingTemplateOptions& options = {});
