@@ -21,7 +21,8 @@ constexpr double kPi = std::numbers::pi;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Template window half-width over the radius: room for the flat plain around the bowl.
 constexpr double kWindowHalfWidth = 1.6;
-// Template radii within one image copy [copy px]: from 4 to 8, then the next 2x2-averaged copy.
+// Template radii within one image copy [copy px]: up to 4 (from 2 on the averaged copies), larger
+// ones on the next 2x2-averaged copy: 4 px resolve the ramp of a bowl, and each copy costs 1/4.
 constexpr double kMaxCopyRadius = 4.0;
 constexpr int kCoverageBins = 36;
 

@@ -40,8 +40,9 @@ struct ShadingTemplateOptions {
   bool enabled = true;
   // Template radii per octave of crater size (each template covers +-1/(2 x this) octave).
   int radii_per_octave = 2;
-  // Acceptance of a template-only crater (the edge pipeline did not validate one there):
-  // normalised cross-correlation with the bowl template. A straight step edge filling the
+  // Thresholds below were chosen on generated scenes of degraded bowls (docs/benchmarks.md).
+  // Normalised cross-correlation with the bowl template: local maxima at least this high become
+  // hypotheses, and a template-only crater needs it too. A straight step edge filling the
   // window scores 0.47, a bowl on a plain with little texture 0.8-0.95.
   double min_correlation = 0.6;
   // The template's least-squares amplitude at the peak, in robust standard deviations (1.4826
@@ -95,7 +96,8 @@ std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, doubl
 // of one by SuppressDuplicateCraters' rule, not inside or on the rim of a larger one), accepted on
 // their own evidence (correlation, significance, dipole contrast, rim edges along the sun line; see
 // ShadingTemplateOptions). `edges`: DetectImageEdges of `image` (same pixels; empty edges accept
-// nothing). The circle is the hypothesis' (sigmas, residual and EFS NaN: no rim fit); coverage is
+// nothing). The circle is the hypothesis', its centre along the sun line and its radius refitted
+// to the sun-line rim edges where each side has 3 (sigmas, residual and EFS NaN); coverage is
 // the sun-line coverage times 0.5 (the share of the rim that can show edges), signature the dipole
 // contrast, shading_correlation the template correlation, confidence 0.5 x correlation x min(1,
 // contrast / (3 x min_dipole_contrast)), partial always true.
