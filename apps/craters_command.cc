@@ -129,6 +129,9 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--min-edge-contrast", args->detector.min_edge_contrast,
                   "Rim edge strength / high Canny threshold")
       ->capture_default_str();
+  cmd->add_flag(
+      "--shading-templates", args->detector.shading_template.enabled,
+      "Also seek small degraded bowls by their shading (needs --sun-azimuth; ~1.35x time)");
 
   auto score_args = std::make_shared<std::array<std::string, 4>>();
   auto min_score_diameter = std::make_shared<double>(8.0);

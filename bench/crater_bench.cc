@@ -89,7 +89,7 @@ int main(int argc, char** argv) {
   options.sun_azimuth_deg = 90.0;
   options.min_diameter_px = 10.0;
   options.upsample_small_craters = argc > 2 ? std::stoi(argv[2]) != 0 : true;
-  options.shading_template.enabled = argc > 3 ? std::stoi(argv[3]) != 0 : true;
+  options.shading_template.enabled = argc > 3 && std::stoi(argv[3]) != 0;
   const auto found = areomap::DetectCratersInRaster(dataset, areomap::RimSource::kImage, options);
   const double ours_s = Seconds(start);
   const double ours_cpu = CpuSeconds() - cpu_start;

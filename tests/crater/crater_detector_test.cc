@@ -226,6 +226,7 @@ TEST(DetectCraters, HrscNanediLabelledCraters) {
   // (docs/benchmarks.md: tuned on the test image, no held-out set).
   options.min_shading_contrast = 1.8;
   options.min_edge_contrast = 1.6;
+  options.shading_template.enabled = true;
   const std::vector<CraterDetection> found = DetectCraters(image, RimSource::kImage, options);
   const CraterScore score = ScoreCraters(truth, Circles(found), {8.0, 16.0, 32.0, 1e9});
   for (const auto& b : score.bins) {

@@ -37,7 +37,9 @@ struct CraterDetection;  // crater_detector.h
 
 struct ShadingTemplateOptions {
   // Run the shading-template hypotheses in DetectCraters (image with a sun azimuth only).
-  bool enabled = true;
+  // Off by default: on the real HRSC image it adds ~0.02 F1 for ~1.35x the detector's CPU time
+  // (docs/benchmarks.md); worth it on fields of degraded, shallow bowls (CLI --shading-templates).
+  bool enabled = false;
   // Template radii per octave of crater size (each template covers +-1/(2 x this) octave).
   int radii_per_octave = 2;
   // Thresholds below were chosen on generated scenes of degraded bowls (docs/benchmarks.md).
