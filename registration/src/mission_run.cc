@@ -167,6 +167,11 @@ void MissionRunOptions::Check() const {
                 "a positive posting in metres");
   RequireOption(leg_heading_sigma_deg > 0.0, "MissionRunOptions.leg_heading_sigma_deg",
                 "a positive heading drift sigma in degrees");
+  RequireOption(guided_passes >= 0, "MissionRunOptions.guided_passes", ">= 0");
+  RequireOption(guided_sigma_floor_m > 0.0, "MissionRunOptions.guided_sigma_floor_m",
+                "a positive sigma in metres");
+  RequireOption(guided_null_windows >= 8, "MissionRunOptions.guided_null_windows",
+                ">= 8 windows for a chance level");
 }
 
 nlohmann::json MissionRunOptions::ToJson() const {
@@ -314,9 +319,61 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
     adjustment.orbital_image = image->path;
   }
-  const json adjusted =
-      AdjustTraverse(inputs, adjustment_dir, adjustment, span(kCraters, kAdjustment));
+  json adjusted = AdjustTraverse(inputs, adjustment_dir, adjustment, span(kCraters, kAdjustment));
   lap("adjustment");
+
+  // Guided re-registration: sites that did not register, again around their adjusted poses.
+  std::vector<bool> registered(site_count, false);
+  json first_pass_sites = json::array();
+  for (size_t i = 0; i < site_count; ++i) {
+    const json& r = site_summaries[i].value("registration", json::object());
+    registered[i] = r.value("matched", false) && r.value("control_points", 0) > 0;
+    if (registered[i]) first_pass_sites.push_back(mission.sites[i].site);
+  }
+  json guided = {{"registered_first_pass", first_pass_sites},
+                 {"first_adjustment", adjusted},
+                 {"passes", json::array()}};
+  for (int pass = 1; pass <= options.guided_passes; ++pass) {
+    std::vector<size_t> todo;
+    for (size_t i = 0; i < site_count; ++i) {
+      if (!registered[i]) todo.push_back(i);
+    }
+    if (todo.empty() || !mission.FirstOrbital("image")) break;
+    report(kAdjustment, "guided registration");
+    const json sites = ReadJsonFile(adjustment_dir / "adjustment.json").value("sites", json());
+    if (!sites.is_array() || sites.size() != site_count) {
+      throw Error((adjustment_dir / "adjustment.json").string() + ": expected " +
+                  std::to_string(site_count) + " sites");
+    }
+    std::vector<json> results(todo.size());
+    tbb::parallel_for(size_t{0}, todo.size(), [&](size_t k) {
+      const GuidedPrior prior =
+          GuidedPriorFromAdjustment(sites[todo[k]], options.guided_sigma_floor_m);
+      results[k] = RunGuidedRegistrationUnit(run, todo[k], pass, prior);
+    });
+    json record = {{"pass", pass}, {"attempted", json::array()}, {"registered", json::array()}};
+    for (size_t k = 0; k < todo.size(); ++k) {
+      const int site = mission.sites[todo[k]].site;
+      const json& r = results[k]["registration"];
+      record["attempted"].push_back({{"site", site},
+                                     {"prior", results[k]["prior"]},
+                                     {"matched", r.value("matched", false)},
+                                     {"reason", r.value("reason", "")}});
+      if (r.value("matched", false) && r.value("control_points", 0) > 0) {
+        registered[todo[k]] = true;
+        record["registered"].push_back(site);
+        inputs.push_back(GuidedDir(run, pass, site) / "control_points.json");
+      }
+    }
+    const bool any = !record["registered"].empty();
+    if (any) {
+      adjusted = AdjustTraverse(inputs, adjustment_dir, adjustment);
+      record["adjustment"] = adjusted;
+    }
+    guided["passes"].push_back(record);
+    if (!any) break;
+  }
+  lap("guided_registration");
 
   json products;
   if (options.traverse_products && site_count > 0) {
@@ -360,6 +417,7 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
                   {"legs", leg_summaries},
                   {"craters", craters},
                   {"adjustment", adjusted},
+                  {"guided_registration", guided},
                   {"products", products},
                   {"units",
                    {{"sites_computed", summary.sites_computed},

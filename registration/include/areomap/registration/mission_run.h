@@ -63,6 +63,16 @@ struct MissionRunOptions {
     return o;
   }();
   ControlPointOptions control;
+  // Guided re-registration: after the first adjustment, each site whose orthophoto did not
+  // register is matched again with the search centred on its adjusted position and heading and
+  // a window of match.search_sigmas x its adjusted horizontal 1 sigma (at least
+  // guided_sigma_floor_m [m]), with the chance-level test over guided_null_windows windows
+  // (OrbitalMatchOptions::null_windows); its control points join a re-adjustment. Repeated
+  // while new sites register, at most guided_passes times (0 = off). Recorded in the guided
+  // units themselves, not in the options fingerprint: changing them keeps the site units.
+  int guided_passes = 3;
+  double guided_sigma_floor_m = 0.5;
+  int guided_null_windows = 48;
   // Orbital prior: 1 sigma of the telemetry position = floor + fraction x distance driven from
   // site 0 (dead reckoning drifts with distance; ~10 % at Silver Lake, ch. 4).
   double prior_sigma_floor_m = 2.0;
