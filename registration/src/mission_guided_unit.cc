@@ -15,7 +15,8 @@
 #include "areomap/map/error.h"
 #include "mission_units.h"
 
-namespace areomap::mission_run {
+namespace areomap {
+namespace mission_run {
 namespace {
 
 namespace fs = std::filesystem;
@@ -61,36 +62,47 @@ bool SamePrior(const json& recorded, const GuidedPrior& prior) {
 }
 
 }  // namespace
+}  // namespace mission_run
+
+GuidedPrior GuidedPriorFromPoses(const Rigid3d& telemetry, const Rigid3d& adjusted,
+                                 const Matrix6d& covariance, double sigma_floor_m) {
+  if (!covariance.allFinite() || !telemetry.translation.allFinite() ||
+      !adjusted.translation.allFinite() || !adjusted.rotation.coeffs().allFinite()) {
+    throw Error("guided prior: the adjusted pose or its covariance is not finite");
+  }
+  const Eigen::Matrix3d turn =
+      (telemetry.rotation.inverse() * adjusted.rotation).toRotationMatrix();
+  const Eigen::Vector3d moved = adjusted.translation - telemetry.translation;
+  const double largest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(
+                             covariance.block<2, 2>(3, 3), Eigen::EigenvaluesOnly)
+                             .eigenvalues()
+                             .maxCoeff();
+  GuidedPrior prior;
+  prior.shift_en_m = Eigen::Vector2d(moved.y(), moved.x());
+  // A turn from north towards east (about z, down) is clockwise on the map.
+  prior.rotation_rad = -std::atan2(turn(1, 0), turn(0, 0));
+  prior.sigma_m = std::max(sigma_floor_m, std::sqrt(std::max(largest, 0.0)));
+  return prior;
+}
+
+namespace mission_run {
 
 GuidedPrior GuidedPriorFromAdjustment(const json& site, double sigma_floor_m) {
   const std::string what = "adjustment.json: site " + std::to_string(site.value("site", -1));
   try {
-    const Eigen::Vector3d initial = Vector3(site.at("initial").at("position_m"), what);
-    const Eigen::Vector3d adjusted = Vector3(site.at("adjusted").at("position_m"), what);
-    const Eigen::Matrix3d turn =
-        (Quaternion(site.at("initial").at("rotation_wxyz"), what).inverse() *
-         Quaternion(site.at("adjusted").at("rotation_wxyz"), what))
-            .toRotationMatrix();
+    const auto pose = [&](const char* which) {
+      return Rigid3d(Quaternion(site.at(which).at("rotation_wxyz"), what),
+                     Vector3(site.at(which).at("position_m"), what));
+    };
     const auto rows = site.at("covariance").get<std::vector<std::vector<double>>>();
-    if (rows.size() != 6 || rows[3].size() != 6 || rows[4].size() != 6) {
-      throw Error(what + ": expected a 6 x 6 \"covariance\"");
+    Matrix6d covariance;
+    for (int r = 0; r < 6; ++r) {
+      if (rows.size() != 6 || rows[r].size() != 6) {
+        throw Error(what + ": expected a 6 x 6 \"covariance\"");
+      }
+      for (int c = 0; c < 6; ++c) covariance(r, c) = rows[r][c];
     }
-    // Site frames: x north, y east, z down; the pose covariance is (rotation, translation).
-    Eigen::Matrix2d horizontal;
-    horizontal << rows[3][3], rows[3][4], rows[4][3], rows[4][4];
-    const double largest =
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(horizontal, Eigen::EigenvaluesOnly)
-            .eigenvalues()
-            .maxCoeff();
-    GuidedPrior prior;
-    prior.shift_en_m = Eigen::Vector2d(adjusted.y() - initial.y(), adjusted.x() - initial.x());
-    // A turn from north towards east (about z down) is clockwise on the map.
-    prior.rotation_rad = -std::atan2(turn(1, 0), turn(0, 0));
-    prior.sigma_m = std::max(sigma_floor_m, std::sqrt(std::max(largest, 0.0)));
-    if (!prior.shift_en_m.allFinite() || !std::isfinite(prior.sigma_m)) {
-      throw Error(what + ": the adjusted pose or covariance is not finite");
-    }
-    return prior;
+    return GuidedPriorFromPoses(pose("initial"), pose("adjusted"), covariance, sigma_floor_m);
   } catch (const json::exception& e) {
     throw Error(what + ": expected initial/adjusted position_m, rotation_wxyz and covariance (" +
                 e.what() + ")");
@@ -135,4 +147,5 @@ json RunGuidedRegistrationUnit(const RunContext& run, size_t site_index, int pas
   return summary;
 }
 
-}  // namespace areomap::mission_run
+}  // namespace mission_run
+}  // namespace areomap

@@ -323,11 +323,14 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   lap("adjustment");
 
   // Guided re-registration: sites that did not register, again around their adjusted poses.
-  std::vector<bool> registered(site_count, false);
+  // Sites whose orthophoto had too few valid template pixels are not tried again: a prior
+  // does not change the template.
+  std::vector<bool> registered(site_count, false), eligible(site_count, false);
   json first_pass_sites = json::array();
   for (size_t i = 0; i < site_count; ++i) {
     const json& r = site_summaries[i].value("registration", json::object());
     registered[i] = r.value("matched", false) && r.value("control_points", 0) > 0;
+    eligible[i] = r.value("template_pixels", 0) >= options.match.min_template_pixels;
     if (registered[i]) first_pass_sites.push_back(mission.sites[i].site);
   }
   json guided = {{"registered_first_pass", first_pass_sites},
@@ -336,7 +339,7 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   for (int pass = 1; pass <= options.guided_passes; ++pass) {
     std::vector<size_t> todo;
     for (size_t i = 0; i < site_count; ++i) {
-      if (!registered[i]) todo.push_back(i);
+      if (!registered[i] && eligible[i]) todo.push_back(i);
     }
     if (todo.empty() || !mission.FirstOrbital("image")) break;
     report(kAdjustment, "guided registration");
@@ -355,10 +358,15 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
     for (size_t k = 0; k < todo.size(); ++k) {
       const int site = mission.sites[todo[k]].site;
       const json& r = results[k]["registration"];
-      record["attempted"].push_back({{"site", site},
-                                     {"prior", results[k]["prior"]},
-                                     {"matched", r.value("matched", false)},
-                                     {"reason", r.value("reason", "")}});
+      record["attempted"].push_back(
+          {{"site", site},
+           {"prior", results[k]["prior"]},
+           {"matched", r.value("matched", false)},
+           {"reason", r.value("reason", "")},
+           {"correlation", r.value("correlation", json())},
+           {"null_highest_correlation", r.value("null_highest_correlation", json())},
+           {"search_radius_px", r.value("search_radius_px", 0)},
+           {"control_points", r.value("control_points", 0)}});
       if (r.value("matched", false) && r.value("control_points", 0) > 0) {
         registered[todo[k]] = true;
         record["registered"].push_back(site);

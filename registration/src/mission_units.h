@@ -60,15 +60,8 @@ nlohmann::json RegisterSiteOrtho(const RunContext& run, const Orthophoto& ortho,
                                  const OrbitalPrior& prior, const OrbitalMatchOptions& options,
                                  const std::filesystem::path& dir);
 
-// Guided re-registration (after an adjustment). The guided prior of a site: where the
-// adjustment moves it from its telemetry position (east, north [m]), how it turns it (counter-
-// clockwise on the map [rad]) and its horizontal 1 sigma (the largest of its adjusted
-// covariance, at least `sigma_floor_m`) [m], from the site's entry of adjustment.json.
-struct GuidedPrior {
-  Eigen::Vector2d shift_en_m = Eigen::Vector2d::Zero();
-  double rotation_rad = 0.0;
-  double sigma_m = 0.0;
-};
+// The guided prior of a site from its entry of adjustment.json (BundleResult's JSON: initial
+// and adjusted poses, 6 x 6 covariance); throws areomap::Error naming the site and field.
 GuidedPrior GuidedPriorFromAdjustment(const nlohmann::json& adjusted_site, double sigma_floor_m);
 // guided/pass_P/site_NNN/: registration.json, control_points.json, unit.json (the summary
 // records the prior; a finished unit is reused only when the prior and guided settings match).

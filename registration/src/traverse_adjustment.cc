@@ -132,7 +132,9 @@ nlohmann::json AdjustTraverse(const std::vector<std::filesystem::path>& inputs,
     }
     std::sort(errors.begin(), errors.end());
     if (!errors.empty()) {
-      summary["median_adjusted_error_m"] = errors[errors.size() / 2];
+      const size_t half = errors.size() / 2;
+      summary["median_adjusted_error_m"] =
+          errors.size() % 2 == 1 ? errors[half] : 0.5 * (errors[half - 1] + errors[half]);
       summary["worst_adjusted_error_m"] = errors.back();
       summary["sites_within_1sigma"] = within;
     }
