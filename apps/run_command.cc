@@ -43,6 +43,10 @@ void PrintRunSummary(const nlohmann::json& s) {
     std::printf("guided registration pass %d (around the adjusted poses): %zu of %zu sites matched",
                 pass.value("pass", 0), pass["registered"].size(), pass["attempted"].size());
     for (const nlohmann::json& site : pass["registered"]) std::printf(" %d", site.get<int>());
+    if (!pass.value("replaced", nlohmann::json::array()).empty()) {
+      std::printf("; re-matched with the turn beyond the first search:");
+      for (const nlohmann::json& site : pass["replaced"]) std::printf(" %d", site.get<int>());
+    }
     std::printf("\n");
   }
   const nlohmann::json& a = s["adjustment"];

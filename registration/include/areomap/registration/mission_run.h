@@ -73,8 +73,11 @@ struct MissionRunOptions {
   // adjusted position and heading and a window of match.search_sigmas x its adjusted horizontal 1
   // sigma (at least guided_sigma_floor_m [m]), with the chance-level test over guided_null_windows
   // windows (OrbitalMatchOptions::null_windows); its control points join a re-adjustment. Repeated
-  // while new sites register, at most guided_passes times (0 = off). Recorded in the guided
-  // units themselves, not in the options fingerprint: changing them keeps the site units.
+  // while new sites register, at most guided_passes times (0 = off). The first guided pass also
+  // re-matches sites whose first match turned the orthophoto by the most the rotation grid
+  // allows (max_rotation_deg: the true turn may lie beyond), a guided match replacing their
+  // control points. Recorded in the guided units themselves, not in the options fingerprint:
+  // changing them keeps the site units.
   int guided_passes = 3;
   double guided_sigma_floor_m = 0.5;
   int guided_null_windows = 48;
