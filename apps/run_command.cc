@@ -40,11 +40,12 @@ void PrintRunSummary(const nlohmann::json& s) {
   }
   const nlohmann::json& guided = s.value("guided_registration", nlohmann::json::object());
   for (const nlohmann::json& pass : guided.value("passes", nlohmann::json::array())) {
-    std::printf("guided registration pass %d (around the adjusted poses): %zu of %zu sites matched",
-                pass.value("pass", 0), pass["registered"].size(), pass["attempted"].size());
+    std::printf(
+        "guided registration pass %d (around the adjusted poses, %zu sites tried): %zu more",
+        pass.value("pass", 0), pass["attempted"].size(), pass["registered"].size());
     for (const nlohmann::json& site : pass["registered"]) std::printf(" %d", site.get<int>());
     if (!pass.value("replaced", nlohmann::json::array()).empty()) {
-      std::printf("; re-matched with the turn beyond the first search:");
+      std::printf("; re-matched (first turn at the rotation search's edge):");
       for (const nlohmann::json& site : pass["replaced"]) std::printf(" %d", site.get<int>());
     }
     std::printf("\n");

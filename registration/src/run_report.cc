@@ -356,8 +356,13 @@ void WriteRunReport(const fs::path& run_dir) {
             " sites registered around their telemetry positions";
     for (const json& pass : guided.value("passes", json::array())) {
       html += "; guided pass " + std::to_string(pass.value("pass", 0)) + " (around the adjusted " +
-              "poses): " + std::to_string(pass.value("registered", json::array()).size()) + " of " +
-              std::to_string(pass.value("attempted", json::array()).size()) + " more";
+              "poses, " + std::to_string(pass.value("attempted", json::array()).size()) +
+              " sites tried): " + std::to_string(pass.value("registered", json::array()).size()) +
+              " more";
+      if (const size_t replaced = pass.value("replaced", json::array()).size(); replaced > 0) {
+        html += " and " + std::to_string(replaced) +
+                " re-matched whose first turn was at the edge of the rotation search";
+      }
     }
     html += ".</p>";
   }
