@@ -123,7 +123,8 @@ std::string KeyFigures(const json& summary) {
     std::string text = std::to_string(guided["registered_first_pass"].size()) + " around telemetry";
     for (const json& pass : guided.value("passes", json::array())) {
       text += " + " + std::to_string(pass.value("registered", json::array()).size()) +
-              " guided (pass " + std::to_string(pass.value("pass", 0)) + ")";
+              " guided (pass " + std::to_string(pass.value("pass", 0)) + "; " +
+              std::to_string(pass.value("replaced", json::array()).size()) + " re-matched)";
     }
     row("sites registered on the orbital image", text);
   }
