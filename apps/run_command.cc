@@ -38,6 +38,18 @@ void PrintRunSummary(const nlohmann::json& s) {
     }
     std::printf("\n");
   }
+  const nlohmann::json& guided = s.value("guided_registration", nlohmann::json::object());
+  for (const nlohmann::json& pass : guided.value("passes", nlohmann::json::array())) {
+    std::printf(
+        "guided registration pass %d (around the adjusted poses, %zu sites tried): %zu more",
+        pass.value("pass", 0), pass["attempted"].size(), pass["registered"].size());
+    for (const nlohmann::json& site : pass["registered"]) std::printf(" %d", site.get<int>());
+    if (!pass.value("replaced", nlohmann::json::array()).empty()) {
+      std::printf("; re-matched (first turn at the rotation search's edge):");
+      for (const nlohmann::json& site : pass["replaced"]) std::printf(" %d", site.get<int>());
+    }
+    std::printf("\n");
+  }
   const nlohmann::json& a = s["adjustment"];
   std::printf("bundle adjustment: %d tie points, %d control points, %d rejected, sigma0 %.3f\n",
               a.value("tie_points", 0), a.value("control_points", 0), a.value("rejected", 0),
@@ -46,6 +58,13 @@ void PrintRunSummary(const nlohmann::json& s) {
     std::printf("end-point error against truth over %.1f m: telemetry %.2f m, adjusted %.2f m\n",
                 a.value("length_m", 0.0), a.value("initial_end_error_m", 0.0),
                 a.value("adjusted_end_error_m", 0.0));
+  }
+  if (a.contains("median_adjusted_error_m")) {
+    std::printf(
+        "adjusted horizontal error against truth: median %.3f m, worst %.3f m; %d of %d "
+        "sites within their 1-sigma ellipse's semi-major axis\n",
+        a.value("median_adjusted_error_m", 0.0), a.value("worst_adjusted_error_m", 0.0),
+        a.value("sites_within_1sigma", 0), a.value("sites", 0));
   }
   const nlohmann::json& c = s.value("craters", nlohmann::json::object());
   if (c.is_object() && c.contains("craters")) {

@@ -167,6 +167,11 @@ void MissionRunOptions::Check() const {
                 "a positive posting in metres");
   RequireOption(leg_heading_sigma_deg > 0.0, "MissionRunOptions.leg_heading_sigma_deg",
                 "a positive heading drift sigma in degrees");
+  RequireOption(guided_passes >= 0, "MissionRunOptions.guided_passes", ">= 0");
+  RequireOption(guided_sigma_floor_m > 0.0, "MissionRunOptions.guided_sigma_floor_m",
+                "a positive sigma in metres");
+  RequireOption(guided_null_windows >= 8, "MissionRunOptions.guided_null_windows",
+                ">= 8 windows for a chance level");
 }
 
 nlohmann::json MissionRunOptions::ToJson() const {
@@ -301,22 +306,101 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   const fs::path adjustment_dir = out_dir / "adjustment";
   fs::create_directories(adjustment_dir);
   WriteFileAtomically(adjustment_dir / "network.json", NetworkJson(mission, options).dump(2));
-  std::vector<fs::path> inputs = {adjustment_dir / "network.json"};
+  // Each site's control points: its own registration's, or a guided one's (below).
+  std::vector<fs::path> site_controls;
   for (const MissionSite& site : mission.sites) {
-    inputs.push_back(SiteDir(run, site.site) / "control_points.json");
+    site_controls.push_back(SiteDir(run, site.site) / "control_points.json");
   }
-  for (size_t i = 0; i < leg_count; ++i) {
-    inputs.push_back(LegDir(run, mission.sites[i].site, mission.sites[i + 1].site) /
-                     "tie_points.json");
-  }
+  const auto inputs = [&] {
+    std::vector<fs::path> files = {adjustment_dir / "network.json"};
+    files.insert(files.end(), site_controls.begin(), site_controls.end());
+    for (size_t i = 0; i < leg_count; ++i) {
+      files.push_back(LegDir(run, mission.sites[i].site, mission.sites[i + 1].site) /
+                      "tie_points.json");
+    }
+    return files;
+  };
   TraverseAdjustmentOptions adjustment;
   adjustment.bundle = options.bundle;
   if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
     adjustment.orbital_image = image->path;
   }
-  const json adjusted =
-      AdjustTraverse(inputs, adjustment_dir, adjustment, span(kCraters, kAdjustment));
+  json adjusted = AdjustTraverse(inputs(), adjustment_dir, adjustment, span(kCraters, kAdjustment));
   lap("adjustment");
+
+  // Guided re-registration: sites that did not register, again around their adjusted poses.
+  // Sites whose orthophoto had too few valid template pixels are not tried again: a prior
+  // does not change the template. Sites whose first match turned the orthophoto by the most
+  // the rotation grid allows (the true turn may lie beyond it; their control points are then
+  // turned too little) are matched again too in the first guided pass, and a guided match
+  // replaces their control points.
+  std::vector<bool> registered(site_count, false), eligible(site_count, false),
+      turn_at_edge(site_count, false);
+  json first_pass_sites = json::array();
+  for (size_t i = 0; i < site_count; ++i) {
+    const json& r = site_summaries[i].value("registration", json::object());
+    registered[i] = r.value("matched", false) && r.value("control_points", 0) > 0;
+    eligible[i] = r.value("template_pixels", 0) >= options.match.min_template_pixels;
+    const double turn = std::abs(r.value("rotation_deg", 0.0));
+    turn_at_edge[i] =
+        registered[i] && options.match.max_rotation_deg > 0.0 &&
+        turn >= options.match.max_rotation_deg - 0.5 * options.match.rotation_step_deg;
+    if (registered[i]) first_pass_sites.push_back(mission.sites[i].site);
+  }
+  json guided = {{"registered_first_pass", first_pass_sites},
+                 {"first_adjustment", adjusted},
+                 {"passes", json::array()}};
+  for (int pass = 1; pass <= options.guided_passes; ++pass) {
+    std::vector<size_t> todo;
+    for (size_t i = 0; i < site_count; ++i) {
+      if ((!registered[i] && eligible[i]) || (pass == 1 && turn_at_edge[i])) todo.push_back(i);
+    }
+    if (todo.empty() || !mission.FirstOrbital("image")) break;
+    report(kAdjustment, "guided registration");
+    const json sites = ReadJsonFile(adjustment_dir / "adjustment.json").value("sites", json());
+    if (!sites.is_array() || sites.size() != site_count) {
+      throw Error((adjustment_dir / "adjustment.json").string() + ": expected " +
+                  std::to_string(site_count) + " sites");
+    }
+    std::vector<json> results(todo.size());
+    tbb::parallel_for(size_t{0}, todo.size(), [&](size_t k) {
+      const GuidedPrior prior =
+          GuidedPriorFromAdjustment(sites[todo[k]], options.guided_sigma_floor_m);
+      results[k] = RunGuidedRegistrationUnit(run, todo[k], pass, prior);
+    });
+    json record = {{"pass", pass},
+                   {"attempted", json::array()},
+                   {"registered", json::array()},
+                   {"replaced", json::array()}};
+    for (size_t k = 0; k < todo.size(); ++k) {
+      const int site = mission.sites[todo[k]].site;
+      const json& r = results[k]["registration"];
+      record["attempted"].push_back(
+          {{"site", site},
+           {"prior", results[k]["prior"]},
+           {"matched", r.value("matched", false)},
+           {"reason", r.value("reason", "")},
+           {"correlation", r.value("correlation", json())},
+           {"null_highest_correlation", r.value("null_highest_correlation", json())},
+           {"search_radius_px", r.value("search_radius_px", 0)},
+           {"control_points", r.value("control_points", 0)},
+           {"turn_at_edge", turn_at_edge[todo[k]]}});
+      if (r.value("matched", false) && r.value("control_points", 0) > 0) {
+        record[registered[todo[k]] ? "replaced" : "registered"].push_back(site);
+        registered[todo[k]] = true;
+        site_controls[todo[k]] = GuidedDir(run, pass, site) / "control_points.json";
+      }
+      turn_at_edge[todo[k]] = false;
+    }
+    const bool any = !record["registered"].empty() || !record["replaced"].empty();
+    if (any) {
+      adjusted = AdjustTraverse(inputs(), adjustment_dir, adjustment);
+      record["adjustment"] = adjusted;
+    }
+    guided["passes"].push_back(record);
+    if (!any) break;
+  }
+  lap("guided_registration");
 
   json products;
   if (options.traverse_products && site_count > 0) {
@@ -360,6 +444,7 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
                   {"legs", leg_summaries},
                   {"craters", craters},
                   {"adjustment", adjusted},
+                  {"guided_registration", guided},
                   {"products", products},
                   {"units",
                    {{"sites_computed", summary.sites_computed},

@@ -84,9 +84,15 @@ SiteStereo RunSiteStereo(const RunContext& run, const MissionSite& site,
   return result;
 }
 
-// Orbital registration of the orthophoto and the control points it yields (BA input format).
-json RegisterSite(const RunContext& run, const Orthophoto& ortho, const SiteGeoreference& georef,
-                  int site, double prior_sigma_m, const fs::path& dir) {
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+json RegisterSiteOrtho(const RunContext& run, const Orthophoto& ortho, const fs::path& ortho_path,
+                       int site, const OrbitalPrior& prior, const OrbitalMatchOptions& options,
+                       const fs::path& dir) {
   const MissionOrbitalProduct* image = run.mission->FirstOrbital("image");
   if (image == nullptr)
     return {{"status", "skipped"}, {"reason", "the mission has no orbital image"}};
@@ -95,13 +101,11 @@ json RegisterSite(const RunContext& run, const Orthophoto& ortho, const SiteGeor
   if (const MissionOrbitalProduct* dtm = run.mission->FirstOrbital("dtm")) {
     orbital_dtm = OrbitalImage::Open(dtm->path);
   }
-  const Geographic origin = georef.Origin();
   const OrthoImage ortho_image =
-      OrthoImageFromOrthophoto(ortho, (dir / "ortho.tif").string(), site, origin);
-  const OrbitalPrior prior{origin, prior_sigma_m};
-  const OrbitalMatch match = MatchOrthoToOrbital(ortho_image, orbital, prior, run.options->match);
+      OrthoImageFromOrthophoto(ortho, ortho_path.string(), site, prior.position);
+  const OrbitalMatch match = MatchOrthoToOrbital(ortho_image, orbital, prior, options);
   json report = MatchJson(match);
-  report["prior_sigma_m"] = prior_sigma_m;
+  report["prior_sigma_m"] = prior.sigma_m;
   if (const cv::Mat surface = CorrelationSurfaceImage(match); !surface.empty()) {
     WriteImage(dir / "correlation_surface.png", surface);
   }
@@ -120,12 +124,6 @@ json RegisterSite(const RunContext& run, const Orthophoto& ortho, const SiteGeor
   WriteFileAtomically(dir / "registration.json", report.dump(2));
   return report;
 }
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-}  // namespace
 
 std::vector<OrthoSourceImage> SiteOrthoImages(const MissionSite& site, int first_id) {
   std::vector<OrthoSourceImage> images;
@@ -174,7 +172,9 @@ json RunSiteUnit(const RunContext& run, size_t site_index, const ProgressCallbac
   const double prior_sigma =
       run.options->prior_sigma_floor_m +
       run.options->prior_sigma_per_m * DrivenDistance(*run.mission, site_index);
-  json registration = RegisterSite(run, ortho, georef, site.site, prior_sigma, dir);
+  const OrbitalPrior prior{georef.Origin(), prior_sigma};
+  json registration =
+      RegisterSiteOrtho(run, ortho, dir / "ortho.tif", site.site, prior, run.options->match, dir);
   seconds["registration"] = SecondsSince(clock);
   if (progress) progress(1.0, "registration");
 

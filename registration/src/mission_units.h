@@ -51,6 +51,24 @@ nlohmann::json RunSiteUnit(const RunContext& run, size_t site_index,
 nlohmann::json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
                           const ProgressCallback& progress);
 
+// Orbital registration of a site's orthophoto (`ortho`, read from or written to `ortho_path`, at
+// its telemetry georeference) around `prior` with `options`; writes registration.json,
+// correlation_surface.png and control_points.json (BA input format, ids "site<N>-...") into
+// `dir` and returns the registration report. Without an orbital image: {"status": "skipped"}.
+nlohmann::json RegisterSiteOrtho(const RunContext& run, const Orthophoto& ortho,
+                                 const std::filesystem::path& ortho_path, int site,
+                                 const OrbitalPrior& prior, const OrbitalMatchOptions& options,
+                                 const std::filesystem::path& dir);
+
+// The guided prior of a site from its entry of adjustment.json (BundleResult's JSON: initial
+// and adjusted poses, 6 x 6 covariance); throws areomap::Error naming the site and field.
+GuidedPrior GuidedPriorFromAdjustment(const nlohmann::json& adjusted_site, double sigma_floor_m);
+// guided/pass_P/site_NNN/: registration.json, control_points.json, unit.json (the summary
+// records the prior; a finished unit is reused only when the prior and guided settings match).
+std::filesystem::path GuidedDir(const RunContext& run, int pass, int site);
+nlohmann::json RunGuidedRegistrationUnit(const RunContext& run, size_t site_index, int pass,
+                                         const GuidedPrior& prior);
+
 // The left image of every stereo pair of a site with its camera in the site frame, the
 // orthophoto's sources; ids are first_id, first_id + 1, ...
 std::vector<OrthoSourceImage> SiteOrthoImages(const MissionSite& site, int first_id);

@@ -302,9 +302,61 @@ CoarseResult CoarseGridSearch(const PyramidSearch& search, const std::vector<dou
   return best;
 }
 
+// The chance level of a search window (OrbitalMatchOptions::null_windows): the best CC of `t`
+// (template top-left on orbital pixel (x, y)) in each window of side 2 radius + 1 tiling a ring
+// around the window centred on (cx, cy), every shift of a tile farther than `exclusion_px` from
+// every shift of that window; the ring grows until `wanted` tiles fit. Tiles off the image (no
+// defined CC) are not counted. Sets m.null_windows, null_reaching (best >= m.correlation) and
+// null_highest.
+void NullWindowTest(const OrbitalImage& orbital, const MaskedImage& t, int cx, int cy, int radius,
+                    double exclusion_px, int wanted, double min_overlap_fraction, OrbitalMatch& m) {
+  const int side = 2 * radius + 1;
+  // Tile (i, j) is centred on (cx + i side, cy + j side); with max(|i|, |j|) = k its nearest
+  // shift is (k - 1) side + 1 away from the window's farthest.
+  const int k_min = 2 + static_cast<int>(std::floor(exclusion_px / side));
+  int k_max = k_min;
+  const auto count = [&](int k) {
+    return (2 * k + 1) * (2 * k + 1) - (2 * k_min - 1) * (2 * k_min - 1);
+  };
+  while (count(k_max) < wanted) ++k_max;
+  const int reach = k_max * side + radius;
+  PixelWindow window{cx - reach, cy - reach, t.image.cols + 2 * reach, t.image.rows + 2 * reach};
+  const cv::Mat patch = orbital.ReadWindow(window);
+  m.null_windows = 0;
+  m.null_reaching = 0;
+  m.null_highest = std::numeric_limits<double>::quiet_NaN();
+  if (patch.empty()) return;
+  MaskedNccOptions options;
+  options.min_overlap_fraction = min_overlap_fraction;
+  options.search_window = ShiftWindow::Around(cx - window.col0, cy - window.row0, reach);
+  const MaskedNccSurface surface = MaskedNcc(patch, {}, t.image, t.mask, options);
+  if (surface.empty()) return;
+  for (int j = -k_max; j <= k_max; ++j) {
+    for (int i = -k_max; i <= k_max; ++i) {
+      if (std::max(std::abs(i), std::abs(j)) < k_min) continue;
+      const int tx = cx + i * side - window.col0 - surface.shift_x0;
+      const int ty = cy + j * side - window.row0 - surface.shift_y0;
+      const cv::Rect tile = cv::Rect(tx - radius, ty - radius, side, side) &
+                            cv::Rect(0, 0, surface.ncc.cols, surface.ncc.rows);
+      double best = -2.0;
+      for (int r = tile.y; r < tile.y + tile.height; ++r) {
+        for (int c = tile.x; c < tile.x + tile.width; ++c) {
+          const float v = surface.ncc.at<float>(r, c);
+          if (std::isfinite(v)) best = std::max(best, static_cast<double>(v));
+        }
+      }
+      if (best < -1.5) continue;
+      ++m.null_windows;
+      if (best >= m.correlation) ++m.null_reaching;
+      if (!(best <= m.null_highest)) m.null_highest = best;
+    }
+  }
+}
+
 // Why a match is not confident, or "" if it is.
 std::string Verdict(const OrbitalMatch& m, bool coarse_on_border, bool fine_on_border,
                     const OrbitalMatchOptions& options) {
+  const int null_needed = (options.null_windows + 1) / 2;
   std::ostringstream why;
   why.precision(3);
   if (coarse_on_border) {
@@ -318,6 +370,14 @@ std::string Verdict(const OrbitalMatch& m, bool coarse_on_border, bool fine_on_b
   } else if (m.relative_sharpness < options.min_relative_sharpness) {
     why << "relative sharpness " << m.relative_sharpness << " < min_relative_sharpness "
         << options.min_relative_sharpness;
+  } else if (options.null_windows > 0 && m.null_windows < null_needed) {
+    why << "only " << m.null_windows << " windows at wrong offsets lie on the image, fewer than "
+        << null_needed << " for the chance level";
+  } else if (options.null_windows > 0 &&
+             m.null_reaching > options.max_null_fraction * m.null_windows) {
+    why << "peak CC " << m.correlation << " is reached in " << m.null_reaching << " of "
+        << m.null_windows << " windows at wrong offsets (max_null_fraction "
+        << options.max_null_fraction << ")";
   }
   return why.str();
 }
@@ -349,6 +409,9 @@ void OrbitalMatchOptions::Check() const {
   RequireOption(exclusion_radius_m >= 0.0, "OrbitalMatchOptions.exclusion_radius_m", ">= 0 m");
   RequireOption(min_template_pixels >= 16, "OrbitalMatchOptions.min_template_pixels", ">= 16");
   RequireOption(subpixel_floor_px >= 0.0, "OrbitalMatchOptions.subpixel_floor_px", ">= 0 px");
+  RequireOption(null_windows >= 0, "OrbitalMatchOptions.null_windows", ">= 0");
+  RequireOption(max_null_fraction >= 0.0 && max_null_fraction <= 1.0,
+                "OrbitalMatchOptions.max_null_fraction", "in [0, 1]");
 }
 
 Eigen::Vector2d OrbitalMatch::TemplateToOrbital(const Eigen::Vector2d& p) const {
@@ -387,6 +450,9 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   options.Check();
   RequireOption(std::isfinite(prior.sigma_m) && prior.sigma_m > 0.0, "OrbitalPrior.sigma_m",
                 "> 0 m");
+  RequireOption(std::isfinite(prior.expected_rotation_rad) &&
+                    std::abs(prior.expected_rotation_rad) < std::numbers::pi / 4.0,
+                "OrbitalPrior.expected_rotation_rad", "a finite turn within +-45 degrees");
   RequireOption(IsValid(prior.position), "OrbitalPrior.position",
                 "a finite latitude in [-90, 90] degrees and a finite longitude");
   OrbitalMatch out;
@@ -418,6 +484,18 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   out.centre_px =
       Eigen::Vector2d(templ.col0 + templ.image.cols / 2.0, templ.row0 + templ.image.rows / 2.0);
 
+  // The search centre: the guided prior's expected correction of the template centre, a shift
+  // of the rover plus the turn of the centre about it.
+  const Eigen::Matrix2d expected_turn = SimilarityMatrix(prior.expected_rotation_rad, 1.0);
+  out.expected_shift_px =
+      en_per_px.inverse() * prior.expected_shift_en_m +
+      (expected_turn - Eigen::Matrix2d::Identity()) * (out.centre_px - rover_in_orbital);
+  if (!out.expected_shift_px.allFinite()) {
+    throw Error("OrbitalPrior.expected_shift_en_m: expected a finite shift in metres");
+  }
+  const int ex = static_cast<int>(std::lround(out.expected_shift_px.x()));
+  const int ey = static_cast<int>(std::lround(out.expected_shift_px.y()));
+
   // Search radius and pyramid depth.
   const int radius = static_cast<int>(std::ceil(options.search_sigmas * prior.sigma_m / out.gsd_m));
   out.search_radius_px = radius;
@@ -432,7 +510,7 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
 
   // The orbital pixels the search can reach, read as one window.
   const int margin = 2 * unit;
-  PixelWindow window{templ.col0 - radius - margin, templ.row0 - radius - margin,
+  PixelWindow window{templ.col0 + ex - radius - margin, templ.row0 + ey - radius - margin,
                      templ.image.cols + 2 * (radius + margin),
                      templ.image.rows + 2 * (radius + margin)};
   const PixelWindow requested = window;
@@ -454,8 +532,9 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   const int x0 = templ.col0 - window.col0, y0 = templ.row0 - window.row0;
   MaskedNccOptions ncc_options;
   ncc_options.min_overlap_fraction = options.min_overlap_fraction;
-  ncc_options.search_window = ShiftWindow{FloorDiv(x0 - radius, unit), CeilDiv(x0 + radius, unit),
-                                          FloorDiv(y0 - radius, unit), CeilDiv(y0 + radius, unit)};
+  ncc_options.search_window =
+      ShiftWindow{FloorDiv(x0 + ex - radius, unit), CeilDiv(x0 + ex + radius, unit),
+                  FloorDiv(y0 + ey - radius, unit), CeilDiv(y0 + ey + radius, unit)};
   PeakOptions coarse_peak_options;
   coarse_peak_options.exclusion_radius = options.exclusion_radius_m / (out.gsd_m * unit);
   coarse_peak_options.min_peak = -1.0;
@@ -466,7 +545,8 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
 
   // Coarse search over the rotation and scale grid.
   const double step = options.rotation_step_deg * std::numbers::pi / 180.0;
-  const std::vector<double> rotations = SearchGrid(0.0, RadFromDeg(options.max_rotation_deg), step);
+  const std::vector<double> rotations =
+      SearchGrid(prior.expected_rotation_rad, RadFromDeg(options.max_rotation_deg), step);
   const std::vector<double> scales = SearchGrid(1.0, options.max_scale_change, options.scale_step);
   const CoarseResult best = CoarseGridSearch(search, rotations, scales, progress);
   if (!best.peak.found) {
@@ -566,6 +646,10 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   const auto corrected = orbital_grid.PixelToGeographic(rover_in_orbital + out.shift_px);
   if (corrected) out.corrected_position = *corrected;
 
+  if (options.null_windows > 0) {
+    NullWindowTest(orbital, final_template, templ.col0 + ex, templ.row0 + ey, radius, exclusion_px,
+                   options.null_windows, options.min_overlap_fraction, out);
+  }
   out.reason = Verdict(out, coarse_on_border, fine.on_border, options);
   out.matched = out.reason.empty();
   Report(progress, 1.0, "register: done");

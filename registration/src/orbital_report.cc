@@ -179,6 +179,15 @@ nlohmann::json MatchJson(const OrbitalMatch& m) {
     j["corrected_lon_deg"] = Deg(m.corrected_position.lon);
     if (m.rotation_solved) j["rotation_deg"] = Deg(m.rotation_rad);
     if (m.scale_solved) j["scale"] = m.scale;
+    j["relative_sharpness"] = Number(m.relative_sharpness);
+  }
+  if (m.expected_shift_px != Eigen::Vector2d::Zero()) {
+    j["expected_shift_px"] = {m.expected_shift_px.x(), m.expected_shift_px.y()};
+  }
+  if (m.null_windows > 0) {
+    j["null_windows"] = m.null_windows;
+    j["null_reaching"] = m.null_reaching;
+    j["null_highest_correlation"] = Number(m.null_highest);
   }
   return j;
 }

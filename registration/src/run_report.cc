@@ -111,6 +111,23 @@ std::string KeyFigures(const json& summary) {
              "%.2f %%"));
   row("largest 1&sigma; ellipse",
       Number(adjustment.value("largest_horizontal_sigma_m", json()), "%.3f m"));
+  if (adjustment.contains("median_adjusted_error_m")) {
+    row("adjusted horizontal error, median / worst (truth)",
+        Number(adjustment["median_adjusted_error_m"], "%.3f m") + " / " +
+            Number(adjustment.value("worst_adjusted_error_m", json()), "%.3f m"));
+    row("sites within their 1&sigma; ellipse's semi-major axis (truth)",
+        Number(adjustment.value("sites_within_1sigma", json()), "%.0f"));
+  }
+  const json& guided = summary.value("guided_registration", json::object());
+  if (guided.contains("registered_first_pass")) {
+    std::string text = std::to_string(guided["registered_first_pass"].size()) + " around telemetry";
+    for (const json& pass : guided.value("passes", json::array())) {
+      text += " + " + std::to_string(pass.value("registered", json::array()).size()) +
+              " guided (pass " + std::to_string(pass.value("pass", 0)) + "; " +
+              std::to_string(pass.value("replaced", json::array()).size()) + " re-matched)";
+    }
+    row("sites registered on the orbital image", text);
+  }
   const json& products = summary.value("products", json::object());
   if (products.is_object() && products.contains("dtm_minus_orbital_adjusted")) {
     const auto rms = [&](const char* key) {
@@ -224,6 +241,37 @@ std::string CratersSection(const fs::path& run_dir, const json& summary) {
   return html + EmbeddedPng(run_dir / "craters" / "overlay.png", "crater overlay", 1000);
 }
 
+// The guided re-registration of a site (summary.json "guided_registration"), as a paragraph;
+// empty when the site was not re-registered.
+std::string GuidedSiteParagraph(const fs::path& run_dir, const json& guided, int number) {
+  for (const json& pass : guided.value("passes", json::array())) {
+    for (const json& a : pass.value("attempted", json::array())) {
+      if (a.value("site", -1) != number) continue;
+      const json& prior = a.value("prior", json::object());
+      const int p = pass.value("pass", 0);
+      char folder[64];
+      std::snprintf(folder, sizeof(folder), "pass_%d/site_%03d", p, number);
+      std::string html = "<p>Guided registration, pass " + std::to_string(p) +
+                         " (around the adjusted position, turned " +
+                         Number(prior.value("rotation_deg", json()), "%.1f") + "&deg;, window " +
+                         Number(a.value("search_radius_px", json()), "&plusmn;%.0f px") +
+                         " = 3 &times; " + Number(prior.value("sigma_m", json()), "%.2f m") + "): ";
+      if (a.value("matched", false)) {
+        html += "<b>matched</b>, CC " + Number(a.value("correlation", json()), "%.3f") +
+                " (best at wrong offsets " +
+                Number(a.value("null_highest_correlation", json()), "%.3f") + "), " +
+                Number(a.value("control_points", json()), "%.0f") + " control points.";
+      } else {
+        html += "<b>no match</b> (" + Escape(a.value("reason", std::string("?"))) + ").";
+      }
+      return html + "</p>" +
+             EmbeddedPng(run_dir / "guided" / folder / "correlation_surface.png",
+                         "guided correlation surface", 160);
+    }
+  }
+  return "";
+}
+
 std::string SiteSection(const fs::path& run_dir, const json& site) {
   const int number = site.value("site", -1);
   char folder[32];
@@ -302,7 +350,27 @@ void WriteRunReport(const fs::path& run_dir) {
   html += "<h3>Legs (relative error, Tables 4.6 / 5.2)</h3>" +
           CsvTable(run_dir / "adjustment" / "legs.csv");
   html += "<h2>Orbital registration per site</h2>";
-  for (const json& site : summary["sites"]) html += SiteSection(run_dir, site);
+  const json guided = summary.value("guided_registration", json::object());
+  if (guided.contains("registered_first_pass")) {
+    html += "<p>" + std::to_string(guided["registered_first_pass"].size()) + " of " +
+            std::to_string(summary["sites"].size()) +
+            " sites registered around their telemetry positions";
+    for (const json& pass : guided.value("passes", json::array())) {
+      html += "; guided pass " + std::to_string(pass.value("pass", 0)) + " (around the adjusted " +
+              "poses, " + std::to_string(pass.value("attempted", json::array()).size()) +
+              " sites tried): " + std::to_string(pass.value("registered", json::array()).size()) +
+              " more";
+      if (const size_t replaced = pass.value("replaced", json::array()).size(); replaced > 0) {
+        html += " and " + std::to_string(replaced) +
+                " re-matched whose first turn was at the edge of the rotation search";
+      }
+    }
+    html += ".</p>";
+  }
+  for (const json& site : summary["sites"]) {
+    html +=
+        SiteSection(run_dir, site) + GuidedSiteParagraph(run_dir, guided, site.value("site", -1));
+  }
   html += "<h2>Tie points and fault detection per leg</h2>";
   for (const json& leg : summary["legs"]) html += LegSection(leg);
   html += ProductsSection(run_dir, summary);

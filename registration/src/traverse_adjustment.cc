@@ -1,5 +1,6 @@
 #include "areomap/registration/traverse_adjustment.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -121,6 +122,22 @@ nlohmann::json AdjustTraverse(const std::vector<std::filesystem::path>& inputs,
     summary["initial_end_error_m"] = traverse.initial_end_error_m;
     summary["adjusted_end_error_m"] = traverse.adjusted_end_error_m;
     summary["median_adjusted_leg_re"] = traverse.median_adjusted_re;
+    // Horizontal errors against the truth, and how many lie inside the reported 1 sigma (the
+    // semi-major axis of the site's error ellipse).
+    std::vector<double> errors;
+    int within = 0;
+    for (const AnchoredSite& s : traverse.sites) {
+      errors.push_back(s.adjusted_error_m);
+      within += s.adjusted_error_m <= s.ellipse.semi_major_m ? 1 : 0;
+    }
+    std::sort(errors.begin(), errors.end());
+    if (!errors.empty()) {
+      const size_t half = errors.size() / 2;
+      summary["median_adjusted_error_m"] =
+          errors.size() % 2 == 1 ? errors[half] : 0.5 * (errors[half - 1] + errors[half]);
+      summary["worst_adjusted_error_m"] = errors.back();
+      summary["sites_within_1sigma"] = within;
+    }
   }
   return summary;
 }

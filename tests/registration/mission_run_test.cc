@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -133,7 +134,37 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   options.point_spacing_m = 0.03;
   options.detect_craters = false;
   options.traverse_products = false;
-  EXPECT_EQ(RunMission(mission, out, options).sites_computed, 2);
+  const MissionRunSummary fourth = RunMission(mission, out, options);
+  EXPECT_EQ(fourth.sites_computed, 2);
+
+  // Guided re-registration: the tiny sites' orthophotos are too small to register at all, and a
+  // prior cannot change that, so no guided pass runs.
+  const nlohmann::json& guided = fourth.json["guided_registration"];
+  EXPECT_TRUE(guided["registered_first_pass"].empty()) << guided.dump();
+  EXPECT_TRUE(guided["passes"].empty()) << guided.dump();
+  EXPECT_TRUE(guided.contains("first_adjustment"));
+}
+
+TEST(MissionRun, GuidedPriorFollowsTheAdjustedPose) {
+  // Telemetry: level, north-up at (10, 20) m; the adjustment moves the site 1 m north, 0.5 m
+  // west and turns it 5 degrees from north towards east (about z, down): clockwise on the map.
+  const Rigid3d telemetry(Eigen::Quaterniond::Identity(), Eigen::Vector3d(10.0, 20.0, 0.0));
+  const double turn = 5.0 * std::numbers::pi / 180.0;
+  const Rigid3d adjusted(Eigen::Quaterniond(Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitZ())),
+                         Eigen::Vector3d(11.0, 19.5, 0.1));
+  Matrix6d covariance = Matrix6d::Identity() * 1e-4;
+  covariance.block<2, 2>(3, 3) << 0.64, 0.1, 0.1, 0.09;  // North, east [m^2].
+  const GuidedPrior prior = GuidedPriorFromPoses(telemetry, adjusted, covariance, 0.5);
+  EXPECT_NEAR(prior.shift_en_m.x(), -0.5, 1e-12);
+  EXPECT_NEAR(prior.shift_en_m.y(), 1.0, 1e-12);
+  EXPECT_NEAR(prior.rotation_rad, -turn, 1e-12);
+  // The largest eigenvalue of the horizontal block: (0.73 + sqrt(0.55^2 + 0.2^2)) / 2.
+  EXPECT_NEAR(prior.sigma_m, std::sqrt((0.73 + std::hypot(0.55, 0.2)) / 2.0), 1e-12);
+  // A well-known site gets the floor.
+  covariance.block<2, 2>(3, 3) = Eigen::Matrix2d::Identity() * 0.01;
+  EXPECT_DOUBLE_EQ(GuidedPriorFromPoses(telemetry, adjusted, covariance, 0.5).sigma_m, 0.5);
+  covariance(3, 3) = std::nan("");
+  EXPECT_THROW(GuidedPriorFromPoses(telemetry, adjusted, covariance, 0.5), Error);
 }
 
 TEST(MissionRun, ReportNeedsARunFolder) {

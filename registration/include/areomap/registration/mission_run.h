@@ -9,6 +9,10 @@
 //   legs/leg_NNN_MMM/ one per consecutive pair of sites: rock extraction at both sites, cross-site
 //                     matching with fault detection -> tie_points.json, faults.json
 //   craters/          crater detection on the first orbital image (CSV, JSON, overlay PNG)
+//   guided/pass_P/site_NNN/  guided re-registration of a site that did not register, around
+//                     its pose from the previous adjustment (MissionRunOptions::guided_passes):
+//                     registration.json, correlation_surface.png, control_points.json; the
+//                     adjustment is then repeated with them (summary.json "guided_registration")
 //   adjustment/       network.json (sites, telemetry priors, truth), the bundle adjustment and
 //                     the anchored traverse: sites.csv, legs.csv, traverse.gpkg, traverse_map.png
 //   products/         DTM (traverse_dtm.tif) and orthomosaic (traverse_ortho.tif) of the whole
@@ -40,6 +44,7 @@
 #include "areomap/map/mosaic.h"
 #include "areomap/map/orthophoto.h"
 #include "areomap/map/progress.h"
+#include "areomap/map/rigid3d.h"
 #include "areomap/registration/bundle_adjustment.h"
 #include "areomap/registration/orbital_match.h"
 #include "areomap/registration/orbital_report.h"
@@ -63,6 +68,19 @@ struct MissionRunOptions {
     return o;
   }();
   ControlPointOptions control;
+  // Guided re-registration: after the first adjustment, each site whose orthophoto did not
+  // register (but had enough valid template pixels) is matched again with the search centred on its
+  // adjusted position and heading and a window of match.search_sigmas x its adjusted horizontal 1
+  // sigma (at least guided_sigma_floor_m [m]), with the chance-level test over guided_null_windows
+  // windows (OrbitalMatchOptions::null_windows); its control points join a re-adjustment. Repeated
+  // while new sites register, at most guided_passes times (0 = off). The first guided pass also
+  // re-matches sites whose first match turned the orthophoto by the most the rotation grid
+  // allows (max_rotation_deg: the true turn may lie beyond), a guided match replacing their
+  // control points. Recorded in the guided units themselves, not in the options fingerprint:
+  // changing them keeps the site units.
+  int guided_passes = 3;
+  double guided_sigma_floor_m = 0.5;
+  int guided_null_windows = 48;
   // Orbital prior: 1 sigma of the telemetry position = floor + fraction x distance driven from
   // site 0 (dead reckoning drifts with distance; ~10 % at Silver Lake, ch. 4).
   double prior_sigma_floor_m = 2.0;
@@ -96,6 +114,20 @@ struct MissionRunSummary {
   int legs_computed = 0;
   int legs_reused = 0;
 };
+
+// Guided re-registration of a site after an adjustment (MissionRunOptions::guided_passes): where
+// the adjustment moves the site from its telemetry pose, as an orbital search prior. Site
+// frames are level, x north, y east, z down; the covariance is the adjusted pose's, over
+// (rotation vector [rad], translation [m]) as in BundleResult.
+struct GuidedPrior {
+  Eigen::Vector2d shift_en_m = Eigen::Vector2d::Zero();  // Adjusted - telemetry, east, north [m].
+  double rotation_rad = 0.0;  // The adjusted turn, counter-clockwise on the map [rad].
+  double sigma_m = 0.0;       // Largest horizontal 1 sigma, at least the floor [m].
+};
+// Throws areomap::Error if a pose or the covariance is not finite.
+GuidedPrior GuidedPriorFromPoses(const Rigid3d& telemetry_traverse_from_site,
+                                 const Rigid3d& adjusted_traverse_from_site,
+                                 const Matrix6d& adjusted_covariance, double sigma_floor_m);
 
 // Runs (or resumes) the whole job. `progress` sees one fraction for the whole run.
 MissionRunSummary RunMission(const MissionManifest& mission, const std::filesystem::path& out_dir,

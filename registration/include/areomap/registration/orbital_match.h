@@ -20,6 +20,7 @@
 // georeference puts a ground point on the orbital image to where the image shows it.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,13 @@ namespace areomap {
 struct OrbitalPrior {
   Geographic position;    // Planetocentric latitude, east longitude [rad] of the rover.
   double sigma_m = 10.0;  // Horizontal 1-sigma position uncertainty [m], > 0.
+  // A guided prior (e.g. from a bundle adjustment) expects the telemetry georeference to be off:
+  // the rover lies this far east/north of `position` [m] and the orthophoto is turned by this
+  // much (counter-clockwise on the map [rad]). The search window (search_sigmas x sigma_m) and
+  // the rotation grid (+-max_rotation_deg) are centred on that correction; the reported
+  // correction stays relative to `position` and the orthophoto's own georeference.
+  Eigen::Vector2d expected_shift_en_m = Eigen::Vector2d::Zero();
+  double expected_rotation_rad = 0.0;
 };
 
 struct OrbitalMatchOptions {
@@ -66,6 +74,14 @@ struct OrbitalMatchOptions {
   // Accuracy floor of area correlation between images of different sensors and illumination
   // (shading moves edges; resampling), added in quadrature to the noise-driven sigma [px].
   double subpixel_floor_px = 0.15;  // >= 0.
+  // Chance level of the window (for small, guided windows, where no separated runner-up fits
+  // inside and any texture has some peak): the template at the match's rotation and scale is
+  // also correlated in at least this many windows of the search window's size that tile a ring
+  // around it (every shift farther than exclusion_radius_m from every shift of the window);
+  // the match is confident only if at most max_null_fraction of them reach the peak CC, and
+  // at least half of them lie on the image. 0 = no such test.
+  int null_windows = 0;             // >= 0.
+  double max_null_fraction = 0.05;  // In [0, 1].
 
   // Throws areomap::Error naming the field and the rule it broke.
   void Check() const;
@@ -100,6 +116,12 @@ struct OrbitalMatch {
   int levels = 0;                   // Pyramid halvings used.
   int search_radius_px = 0;         // Full-resolution search radius [px].
   int template_pixels = 0;          // Valid template pixels at full resolution.
+  // The chance-level test (OrbitalMatchOptions::null_windows): windows tested, how many reach
+  // the peak CC, and the highest CC among them (NaN when not run).
+  int null_windows = 0;
+  int null_reaching = 0;
+  double null_highest = std::numeric_limits<double>::quiet_NaN();
+  Eigen::Vector2d expected_shift_px = Eigen::Vector2d::Zero();  // Search centre (guided prior).
 
   // The correlation surface of the whole search window at the coarsest level (CV_32F, NaN where
   // undefined), one pixel per 2^levels orbital pixels; surface_shift0 is the correction
