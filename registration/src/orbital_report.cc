@@ -84,12 +84,6 @@ std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
       cp.id = stem + "-cp" + std::to_string(out.size());
       cp.source = std::filesystem::path(orbital.name()).filename().string() + " ncc";
       cp.position_mbf = MbfOnRadialLine(body, p.geographic.lat, p.geographic.lon, p.geographic.h);
-      Eigen::Matrix3d cov_enu = Eigen::Matrix3d::Zero();
-      cov_enu.topLeftCorner<2, 2>() = match.shift_covariance_en_m2;
-      cov_enu(2, 2) = p.sigma_up_m * p.sigma_up_m;
-      const Eigen::Matrix3d mbf_from_enu =
-          EnuFromMbf(body, p.geographic).RotationMatrix().transpose();
-      cp.covariance_mbf = mbf_from_enu * cov_enu * mbf_from_enu.transpose();
       if (site_from_mbf) {
         cp.site = *ortho.site;
         cp.position_in_site =
@@ -99,6 +93,16 @@ std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
       }
       out.push_back(std::move(p));
     }
+  }
+  // The shift is one error shared by every point (see the header): n times its covariance each.
+  const double shared_by = static_cast<double>(out.size());
+  for (OrbitalControlPoint& p : out) {
+    Eigen::Matrix3d cov_enu = Eigen::Matrix3d::Zero();
+    cov_enu.topLeftCorner<2, 2>() = shared_by * match.shift_covariance_en_m2;
+    cov_enu(2, 2) = p.sigma_up_m * p.sigma_up_m;
+    const Eigen::Matrix3d mbf_from_enu =
+        EnuFromMbf(body, p.geographic).RotationMatrix().transpose();
+    p.point.covariance_mbf = mbf_from_enu * cov_enu * mbf_from_enu.transpose();
   }
   return out;
 }

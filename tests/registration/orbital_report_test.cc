@@ -56,8 +56,10 @@ TEST_F(OrbitalReportTest, ControlPointsLieWhereTheTruthIs) {
     EXPECT_NEAR(e.z(), 0.0, 1e-3);
     EXPECT_TRUE(p.height_from_dtm);
     EXPECT_NEAR(p.sigma_up_m, 1.0, 1e-12);
-    // The covariance in MBF has the ENU variances on its principal axes.
-    const double trace_enu = match_->shift_covariance_en_m2.trace() + 1.0;
+    // The covariance in MBF has the ENU variances on its principal axes; the shared shift's
+    // covariance is spread over the points (n times each).
+    const double n = static_cast<double>(points.size());
+    const double trace_enu = n * match_->shift_covariance_en_m2.trace() + 1.0;
     EXPECT_NEAR(p.point.covariance_mbf.trace(), trace_enu, 1e-9);
     // Site frame (x north, y east, z down) of the telemetry origin: the telemetry position.
     EXPECT_EQ(p.point.site, 3);

@@ -27,8 +27,11 @@ struct ControlPointOptions {
   double dtm_sigma_m = 1.0;  // 1-sigma of heights read from the orbital DTM [m], > 0.
   // Without a DTM the height is the prior's, with this 1-sigma [m] (a 2D control point).
   double no_dtm_sigma_m = 50.0;
-  // 1-sigma of the ortho's own (stereo) position of a point in its site frame [m], > 0.
-  double site_sigma_m = 0.5;
+  // 1-sigma of a control point's position in its site frame [m], > 0: where the ortho cell is
+  // (its grid position is exact; resampling places content within a cell, GSD / sqrt(12) for
+  // the 0.25 m orthophotos of `run`). Independent from point to point. Stereo errors of the
+  // ortho's content are not here: they are part of the match's shift, shared by all points.
+  double site_sigma_m = 0.075;
 
   // Throws areomap::Error naming the field and the rule it broke.
   void Check() const;
@@ -48,8 +51,11 @@ struct OrbitalControlPoint {
 
 // Control points on a grid over the valid template pixels of a confident `match` (an empty
 // list otherwise). Heights come from `dtm` (any Mars raster of heights above the ellipsoid)
-// where given and defined, else from the prior. Horizontal covariance is the match's shift
-// covariance. Throws areomap::Error if the options fail Check() or a CRS is not on Mars.
+// where given and defined, else from the prior. All points share one shift estimate, so their
+// horizontal errors are one error, fully correlated: each point gets n times the match's shift
+// covariance (n points), so that together they carry the shift's information once, not n times
+// (sigma_east_m / sigma_north_m stay the match's own). Throws areomap::Error if the options fail
+// Check() or a CRS is not on Mars.
 std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
                                                    const OrthoImage& ortho,
                                                    const OrbitalImage& orbital,
