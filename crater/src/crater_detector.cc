@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numbers>
 #include <unordered_map>
@@ -110,20 +112,22 @@ std::optional<Arc> FitArc(const RimEdges& edges, std::vector<int> members, doubl
   return arc;
 }
 
-// 8-neighbour adjacency of the edge points in compressed rows: the neighbours of point i are
-// neighbours[offsets[i] .. offsets[i + 1]). Built once, shared by the 12 direction windows.
+// 8-neighbour adjacency of the arc-building edge points (those with a direction window, `windows`
+// non-zero) in compressed rows: the neighbours of point i are neighbours[offsets[i] ..
+// offsets[i + 1]). Built once, shared by the 12 direction windows.
 struct EdgeAdjacency {
   std::vector<int> offsets;
   std::vector<int> neighbours;
 };
 
-EdgeAdjacency BuildAdjacency(const RimEdges& edges) {
+EdgeAdjacency BuildAdjacency(const RimEdges& edges, const std::vector<uint16_t>& windows) {
   const int n = static_cast<int>(edges.points.size());
   EdgeAdjacency adjacency;
   adjacency.offsets.resize(static_cast<size_t>(n) + 1);
   adjacency.neighbours.reserve(static_cast<size_t>(n) * 2);
   for (int i = 0; i < n; ++i) {
     adjacency.offsets[static_cast<size_t>(i)] = static_cast<int>(adjacency.neighbours.size());
+    if (windows[static_cast<size_t>(i)] == 0) continue;
     const int col = static_cast<int>(edges.points[i].x);
     const int row = static_cast<int>(edges.points[i].y);
     for (int dr = -1; dr <= 1; ++dr) {
@@ -133,7 +137,9 @@ EdgeAdjacency BuildAdjacency(const RimEdges& edges) {
       for (int dc = -1; dc <= 1; ++dc) {
         const int c = col + dc;
         if (c < 0 || c >= edges.index.cols || (dr == 0 && dc == 0)) continue;
-        if (index[c] >= 0) adjacency.neighbours.push_back(index[c]);
+        if (index[c] >= 0 && windows[static_cast<size_t>(index[c])] != 0) {
+          adjacency.neighbours.push_back(index[c]);
+        }
       }
     }
   }
@@ -142,26 +148,35 @@ EdgeAdjacency BuildAdjacency(const RimEdges& edges) {
 }
 
 // Arcs from the edges at least `min_strength` strong (weaker edges still count as rim support
-// when hypotheses are fitted, GatherSupport). Sector -1 marks an excluded edge.
+// when hypotheses are fitted, GatherSupport).
 std::vector<Arc> ExtractArcs(const RimEdges& edges, double r_lo, double r_hi,
                              const std::optional<Eigen::Vector2d>& sun, double min_strength) {
   const int n = static_cast<int>(edges.points.size());
-  std::vector<int> sector(static_cast<size_t>(n));
+  // Per edge: a bit for each of the kSectors direction windows holding its normal (none for an
+  // excluded edge), and per window the edges in it in index order (the seed order).
+  std::vector<uint16_t> windows(static_cast<size_t>(n), 0);
+  std::vector<std::vector<int>> members_of(kSectors);
   for (int i = 0; i < n; ++i) {
-    sector[i] = edges.points[i].strength >= min_strength
-                    ? SectorOf(edges.points[i], edges.signed_normals)
-                    : -1;
+    if (edges.points[i].strength < min_strength) continue;
+    const int s = SectorOf(edges.points[i], edges.signed_normals);
+    for (int k = 0; k < kArcWindow; ++k) {
+      const int window = (s - k + kSectors) % kSectors;
+      windows[i] = static_cast<uint16_t>(windows[i] | (1u << window));
+    }
   }
-  const EdgeAdjacency adjacency = BuildAdjacency(edges);
+  for (int i = 0; i < n; ++i) {
+    for (uint16_t bits = windows[i]; bits != 0; bits = static_cast<uint16_t>(bits & (bits - 1))) {
+      members_of[static_cast<size_t>(std::countr_zero(bits))].push_back(i);
+    }
+  }
+  const EdgeAdjacency adjacency = BuildAdjacency(edges, windows);
   std::vector<std::vector<Arc>> per_window(kSectors);
   tbb::parallel_for(0, kSectors, [&](int window) {
-    const auto in_window = [&](int s) {
-      return s >= 0 && (s - window + kSectors) % kSectors < kArcWindow;
-    };
+    const uint16_t bit = static_cast<uint16_t>(1u << window);
     std::vector<char> visited(static_cast<size_t>(n), 0);
     std::vector<int> stack, members;
-    for (int seed = 0; seed < n; ++seed) {
-      if (visited[seed] || !in_window(sector[seed])) continue;
+    for (const int seed : members_of[static_cast<size_t>(window)]) {
+      if (visited[seed]) continue;
       members.clear();
       stack.assign(1, seed);
       visited[seed] = 1;
@@ -174,7 +189,7 @@ std::vector<Arc> ExtractArcs(const RimEdges& edges, double r_lo, double r_hi,
             adjacency.neighbours.data() + adjacency.offsets[static_cast<size_t>(i) + 1];
         for (; it != last; ++it) {
           const int j = *it;
-          if (visited[j] || !in_window(sector[j])) continue;
+          if (visited[j] || !(windows[j] & bit)) continue;
           visited[j] = 1;
           stack.push_back(j);
         }
