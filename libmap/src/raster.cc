@@ -191,15 +191,17 @@ cv::Mat RasterDataset::ReadWindow(int band_index, const PixelWindow& w) const {
 }
 
 cv::Mat RasterDataset::ReadWindowFloat(int band, const PixelWindow& window) const {
-  const cv::Mat stored = ReadWindow(band, window);
-  cv::Mat as_double;
-  stored.convertTo(as_double, CV_64F);
-  cv::Mat out(stored.size(), CV_32F);
+  cv::Mat stored = ReadWindow(band, window);
+  // Converted row by row through one double row (a whole-window double copy costs twice the
+  // window's float size); float pixels are converted in place.
+  cv::Mat out = stored.depth() == CV_32F ? stored : cv::Mat(stored.size(), CV_32F);
+  cv::Mat row(1, stored.cols, CV_64F);
   const auto nodata = info_.nodata;
-  for (int r = 0; r < as_double.rows; ++r) {
-    const double* in = as_double.ptr<double>(r);
+  for (int r = 0; r < stored.rows; ++r) {
+    stored.row(r).convertTo(row, CV_64F);
+    const double* in = row.ptr<double>(0);
     float* dst = out.ptr<float>(r);
-    for (int c = 0; c < as_double.cols; ++c) {
+    for (int c = 0; c < stored.cols; ++c) {
       const bool missing = !std::isfinite(in[c]) || (nodata && in[c] == *nodata);
       dst[c] = missing ? std::numeric_limits<float>::quiet_NaN()
                        : static_cast<float>(info_.scale * in[c] + info_.offset);
