@@ -8,6 +8,7 @@
 #include <limits>
 #include <numbers>
 #include <unordered_map>
+#include <utility>
 
 #include <tbb/parallel_for.h>
 #include <Eigen/Dense>
@@ -125,21 +126,17 @@ EdgeAdjacency BuildAdjacency(const RimEdges& edges, const std::vector<uint16_t>&
   EdgeAdjacency adjacency;
   adjacency.offsets.resize(static_cast<size_t>(n) + 1);
   adjacency.neighbours.reserve(static_cast<size_t>(n) * 2);
+  int row = 0;  // pixel row of point i (points are in raster order)
   for (int i = 0; i < n; ++i) {
     adjacency.offsets[static_cast<size_t>(i)] = static_cast<int>(adjacency.neighbours.size());
     if (windows[static_cast<size_t>(i)] == 0) continue;
-    const int col = static_cast<int>(edges.points[i].x);
-    const int row = static_cast<int>(edges.points[i].y);
-    for (int dr = -1; dr <= 1; ++dr) {
-      const int r = row + dr;
-      if (r < 0 || r >= edges.index.rows) continue;
-      const int* index = edges.index.ptr<int>(r);
-      for (int dc = -1; dc <= 1; ++dc) {
-        const int c = col + dc;
-        if (c < 0 || c >= edges.index.cols || (dr == 0 && dc == 0)) continue;
-        if (index[c] >= 0 && windows[static_cast<size_t>(index[c])] != 0) {
-          adjacency.neighbours.push_back(index[c]);
-        }
+    while (edges.row_start[static_cast<size_t>(row) + 1] <= i) ++row;
+    const int col = edges.column[static_cast<size_t>(i)];
+    for (int r = std::max(0, row - 1); r <= std::min(edges.rows - 1, row + 1); ++r) {
+      const int last = edges.row_start[static_cast<size_t>(r) + 1];
+      for (int j = edges.FirstInRow(r, col - 1);
+           j < last && edges.column[static_cast<size_t>(j)] <= col + 1; ++j) {
+        if (j != i && windows[static_cast<size_t>(j)] != 0) adjacency.neighbours.push_back(j);
       }
     }
   }
@@ -258,16 +255,16 @@ std::vector<Eigen::Vector2d> GatherSupport(const RimEdges& edges, const Ellipse&
   std::vector<Eigen::Vector2d> support;
   const double reach = e.semi_major + tolerance + 1.0;
   const int c0 = std::max(0, static_cast<int>(std::floor(e.center.x() - reach)));
-  const int c1 = std::min(edges.index.cols - 1, static_cast<int>(std::ceil(e.center.x() + reach)));
+  const int c1 = std::min(edges.cols - 1, static_cast<int>(std::ceil(e.center.x() + reach)));
   const int r0 = std::max(0, static_cast<int>(std::floor(e.center.y() - reach)));
-  const int r1 = std::min(edges.index.rows - 1, static_cast<int>(std::ceil(e.center.y() + reach)));
+  const int r1 = std::min(edges.rows - 1, static_cast<int>(std::ceil(e.center.y() + reach)));
   const double cs = std::cos(e.angle), sn = std::sin(e.angle);
   const double a2 = e.semi_major * e.semi_major, b2 = e.semi_minor * e.semi_minor;
   for (int r = r0; r <= r1; ++r) {
-    const int* index = edges.index.ptr<int>(r);
-    for (int c = c0; c <= c1; ++c) {
-      if (index[c] < 0) continue;
-      const RimEdgePoint& p = edges.points[index[c]];
+    const int last = edges.row_start[static_cast<size_t>(r) + 1];
+    for (int i = edges.FirstInRow(r, c0); i < last && edges.column[static_cast<size_t>(i)] <= c1;
+         ++i) {
+      const RimEdgePoint& p = edges.points[static_cast<size_t>(i)];
       const Eigen::Vector2d d = Pos(p) - e.center;
       const double u = cs * d.x() + sn * d.y(), v = -sn * d.x() + cs * d.y();
       const double rho = std::sqrt(u * u / a2 + v * v / b2);
@@ -326,12 +323,38 @@ struct RingStats {
   double Std() const { return n > 1 ? std::sqrt(std::max(0.0, sum2 / n - Mean() * Mean())) : kNaN; }
 };
 
-Eigen::Vector2d RingPoint(const Ellipse& e, double rho, double t) {
-  const Eigen::Vector2d local(rho * e.semi_major * std::cos(t), rho * e.semi_minor * std::sin(t));
-  const double cs = std::cos(e.angle), sn = std::sin(e.angle);
-  return e.center +
-         Eigen::Vector2d(cs * local.x() - sn * local.y(), sn * local.x() + cs * local.y());
-}
+// Points of the ellipse scaled by rho about its centre at kRingSamples evenly spaced eccentric
+// anomalies; the trigonometry is computed once per ellipse (and once for the anomalies).
+constexpr int kRingSamples = 48;
+
+class RingSampler {
+ public:
+  explicit RingSampler(const Ellipse& e) : e_(e), cs_(std::cos(e.angle)), sn_(std::sin(e.angle)) {}
+
+  Eigen::Vector2d Point(double rho, int k) const {
+    const auto& [cos_t, sin_t] = Anomalies()[static_cast<size_t>(k)];
+    const Eigen::Vector2d local(rho * e_.semi_major * cos_t, rho * e_.semi_minor * sin_t);
+    return e_.center +
+           Eigen::Vector2d(cs_ * local.x() - sn_ * local.y(), sn_ * local.x() + cs_ * local.y());
+  }
+
+ private:
+  using Table = std::array<std::pair<double, double>, kRingSamples>;
+  static const Table& Anomalies() {
+    static const Table table = [] {
+      Table t;
+      for (int k = 0; k < kRingSamples; ++k) {
+        const double angle = 2.0 * kPi * k / kRingSamples;
+        t[static_cast<size_t>(k)] = {std::cos(angle), std::sin(angle)};
+      }
+      return t;
+    }();
+    return table;
+  }
+
+  const Ellipse& e_;
+  double cs_, sn_;
+};
 
 // Image with sun: how well the interior's brightness follows a bowl lit from the sun side
 // (far wall bright, near wall dark): Pearson correlation of the samples at elliptical radii
@@ -344,7 +367,8 @@ struct SignatureValues {
 
 SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse& e,
                           const std::optional<Eigen::Vector2d>& sun) {
-  constexpr int kSamples = 48;
+  constexpr int kSamples = kRingSamples;
+  const RingSampler ring(e);
   SignatureValues out;
   if (source == RimSource::kImage) {
     if (!sun) return out;
@@ -353,8 +377,7 @@ SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse
     int n = 0;
     for (double rho : {0.3, 0.45, 0.6, 0.75}) {
       for (int k = 0; k < kSamples; ++k) {
-        const double t = 2.0 * kPi * k / kSamples;
-        const Eigen::Vector2d p = RingPoint(e, rho, t);
+        const Eigen::Vector2d p = ring.Point(rho, k);
         const double w = (p - e.center).normalized().dot(*sun);
         const double v = SampleBilinear(raster, p.x(), p.y());
         if (!std::isfinite(v)) continue;
@@ -370,7 +393,7 @@ SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse
     }
     for (double rho : {1.3, 1.6, 1.9}) {
       for (int k = 0; k < kSamples; ++k) {
-        const Eigen::Vector2d p = RingPoint(e, rho, 2.0 * kPi * k / kSamples);
+        const Eigen::Vector2d p = ring.Point(rho, k);
         outside.Add(SampleBilinear(raster, p.x(), p.y()));
       }
     }
@@ -384,11 +407,10 @@ SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse
   }
   RingStats rim, inner;
   for (int k = 0; k < kSamples; ++k) {
-    const double t = 2.0 * kPi * k / kSamples;
-    const Eigen::Vector2d p = RingPoint(e, 1.0, t);
+    const Eigen::Vector2d p = ring.Point(1.0, k);
     rim.Add(SampleBilinear(raster, p.x(), p.y()));
     for (double rho : {0.0, 0.25, 0.5}) {
-      const Eigen::Vector2d q = RingPoint(e, rho, t);
+      const Eigen::Vector2d q = ring.Point(rho, k);
       inner.Add(SampleBilinear(raster, q.x(), q.y()));
     }
   }
@@ -470,8 +492,10 @@ std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEd
   const double edge_contrast =
       edges.high_threshold > 0.0 ? mean_strength / edges.high_threshold : 0.0;
   if (edge_contrast < o.min_edge_contrast) return std::nullopt;
-  if (!SignaturePasses(Signature(raster, source, e, sun), source, o)) return std::nullopt;
-  if (AngularCoverage(e, support) < o.min_coverage) return std::nullopt;
+  const SignatureValues direct_signature = Signature(raster, source, e, sun);
+  if (!SignaturePasses(direct_signature, source, o)) return std::nullopt;
+  const double direct_coverage = AngularCoverage(e, support);
+  if (direct_coverage < o.min_coverage) return std::nullopt;
   CraterDetection d;
   if (geometric) {
     GeometricFitOptions fit_options;
@@ -508,8 +532,10 @@ std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEd
   if ((fitted.center - start.center).norm() > 0.4 * start.MeanRadius() + 1.0) return std::nullopt;
   d.edge_contrast = edge_contrast;
   d.efs = EllipseFitSimilarity(fitted, support);
-  d.coverage = AngularCoverage(fitted, support);
-  const SignatureValues signature = Signature(raster, source, fitted, sun);
+  // Without the geometric fit the ellipse is the direct fit's: its values are known.
+  d.coverage = geometric ? AngularCoverage(fitted, support) : direct_coverage;
+  const SignatureValues signature =
+      geometric ? Signature(raster, source, fitted, sun) : direct_signature;
   d.signature = signature.value;
   d.shading_correlation = signature.correlation;
   if (d.coverage < o.min_coverage) return std::nullopt;
@@ -672,18 +698,17 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
         indices.insert(indices.end(), arcs[a].points.begin(), arcs[a].points.end());
       std::sort(indices.begin(), indices.end());
       indices.erase(std::unique(indices.begin(), indices.end()), indices.end());
-      std::vector<Eigen::Vector2d> points;
       double strength = 0.0;
-      for (int i : indices) {
-        points.push_back(Pos(level.edges.points[i]));
-        strength += level.edges.points[i].strength;
-      }
+      for (int i : indices) strength += level.edges.points[i].strength;
       // Cheap rejection before any fit: texture edges are weak (the rim's full support is
       // checked again after fitting).
       if (strength / static_cast<double>(indices.size()) <
           0.8 * o.min_edge_contrast * level.edges.high_threshold) {
         return;
       }
+      std::vector<Eigen::Vector2d> points;
+      points.reserve(indices.size());
+      for (int i : indices) points.push_back(Pos(level.edges.points[i]));
       const Ellipse circle{seed.center, seed.radius, seed.radius, 0.0};
       Ellipse start = circle;
       if (points.size() >= 12) {

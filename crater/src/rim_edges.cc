@@ -104,19 +104,24 @@ RimEdges Collect(const cv::Mat& edge_mask, const cv::Mat& usable, const cv::Mat&
   out.signed_normals = signed_normals;
   out.high_threshold = high;
   out.low_threshold = low;
-  out.index = cv::Mat(strength.size(), CV_32S, cv::Scalar(-1));
+  out.rows = strength.rows;
+  out.cols = strength.cols;
+  out.row_start.assign(static_cast<size_t>(strength.rows) + 1, 0);
   for (int r = 1; r + 1 < strength.rows; ++r) {
+    out.row_start[static_cast<size_t>(r)] = static_cast<int>(out.points.size());
     const uchar* e = edge_mask.ptr<uchar>(r);
     const uchar* u = usable.ptr<uchar>(r);
-    int* index = out.index.ptr<int>(r);
     for (int c = 1; c + 1 < strength.cols; ++c) {
       if (!e[c] || !u[c]) continue;
       const float gx = dx.at<float>(r, c), gy = dy.at<float>(r, c);
       const float norm = std::hypot(gx, gy);
       if (!(norm > 0.0f)) continue;
-      index[c] = static_cast<int>(out.points.size());
+      out.column.push_back(c);
       out.points.push_back(SubPixel(strength, r, c, gx / norm, gy / norm));
     }
+  }
+  for (int r = std::max(1, strength.rows - 1); r <= strength.rows; ++r) {
+    out.row_start[static_cast<size_t>(r)] = static_cast<int>(out.points.size());
   }
   return out;
 }
@@ -126,11 +131,19 @@ RimEdges Empty(const cv::Mat& input, bool signed_normals) {
   out.signed_normals = signed_normals;
   out.high_threshold = 0.0;
   out.low_threshold = 0.0;
-  out.index = cv::Mat(input.size(), CV_32S, cv::Scalar(-1));
+  out.rows = input.rows;
+  out.cols = input.cols;
+  out.row_start.assign(static_cast<size_t>(input.rows) + 1, 0);
   return out;
 }
 
 }  // namespace
+
+int RimEdges::FirstInRow(int row, int col) const {
+  const auto begin = column.begin() + row_start[static_cast<size_t>(row)];
+  const auto end = column.begin() + row_start[static_cast<size_t>(row) + 1];
+  return static_cast<int>(std::lower_bound(begin, end, col) - column.begin());
+}
 
 void EdgeOptions::Check() const {
   RequireOption(smoothing_sigma_px > 0.0 && smoothing_sigma_px <= 10.0,
