@@ -126,19 +126,32 @@ EdgeAdjacency BuildAdjacency(const RimEdges& edges, const std::vector<uint16_t>&
   EdgeAdjacency adjacency;
   adjacency.offsets.resize(static_cast<size_t>(n) + 1);
   adjacency.neighbours.reserve(static_cast<size_t>(n) * 2);
-  int row = 0;  // pixel row of point i (points are in raster order)
+  // Points are in raster order: walking them, the candidates in the rows above and below
+  // advance monotonically (one cursor each), the row's own neighbours are i - 1 and i + 1.
+  const std::vector<int>& start = edges.row_start;
+  const std::vector<int>& column = edges.column;
+  const auto add = [&](int j) {
+    if (windows[static_cast<size_t>(j)] != 0) adjacency.neighbours.push_back(j);
+  };
+  int row = 0, above = 0, below = n > 0 ? start[1] : 0;
   for (int i = 0; i < n; ++i) {
     adjacency.offsets[static_cast<size_t>(i)] = static_cast<int>(adjacency.neighbours.size());
-    if (windows[static_cast<size_t>(i)] == 0) continue;
-    while (edges.row_start[static_cast<size_t>(row) + 1] <= i) ++row;
-    const int col = edges.column[static_cast<size_t>(i)];
-    for (int r = std::max(0, row - 1); r <= std::min(edges.rows - 1, row + 1); ++r) {
-      const int last = edges.row_start[static_cast<size_t>(r) + 1];
-      for (int j = edges.FirstInRow(r, col - 1);
-           j < last && edges.column[static_cast<size_t>(j)] <= col + 1; ++j) {
-        if (j != i && windows[static_cast<size_t>(j)] != 0) adjacency.neighbours.push_back(j);
-      }
+    if (start[static_cast<size_t>(row) + 1] <= i) {
+      while (start[static_cast<size_t>(row) + 1] <= i) ++row;
+      above = row > 0 ? start[static_cast<size_t>(row) - 1] : 0;
+      below = start[static_cast<size_t>(row) + 1];
     }
+    if (windows[static_cast<size_t>(i)] == 0) continue;
+    const int col = column[static_cast<size_t>(i)];
+    const int row_begin = start[static_cast<size_t>(row)];
+    const int row_end = start[static_cast<size_t>(row) + 1];
+    const int below_end = row + 1 < edges.rows ? start[static_cast<size_t>(row) + 2] : row_end;
+    while (above < row_begin && column[static_cast<size_t>(above)] < col - 1) ++above;
+    for (int j = above; j < row_begin && column[static_cast<size_t>(j)] <= col + 1; ++j) add(j);
+    if (i > row_begin && column[static_cast<size_t>(i) - 1] == col - 1) add(i - 1);
+    if (i + 1 < row_end && column[static_cast<size_t>(i) + 1] == col + 1) add(i + 1);
+    while (below < below_end && column[static_cast<size_t>(below)] < col - 1) ++below;
+    for (int j = below; j < below_end && column[static_cast<size_t>(j)] <= col + 1; ++j) add(j);
   }
   adjacency.offsets[static_cast<size_t>(n)] = static_cast<int>(adjacency.neighbours.size());
   return adjacency;

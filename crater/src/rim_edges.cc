@@ -10,25 +10,29 @@
 namespace areomap {
 namespace {
 
-// Float copy with nodata filled by the mean of the valid pixels, and the mask of pixels whose
-// 5x5 neighbourhood is all valid (edges there see no filled values through a 3x3 operator on a
-// smoothed image).
+// Pixels whose edges are kept: those whose 5x5 neighbourhood is all valid (edges there see no
+// filled values through a 3x3 operator on a smoothed image). Without nodata (the common case)
+// that is every pixel at least 2 px inside the border, and no mask is stored.
+struct UsableArea {
+  cv::Mat mask;       // CV_8U, non-zero = usable; empty: `interior` is the usable area
+  cv::Rect interior;  // pixels at least 2 px inside the border
+  const uchar* MaskRow(int r) const { return mask.empty() ? nullptr : mask.ptr<uchar>(r); }
+  bool At(int r, int c) const {
+    return mask.empty() ? interior.contains(cv::Point(c, r)) : mask.at<uchar>(r, c) != 0;
+  }
+};
+
+// Float copy with nodata filled by the mean of the valid pixels, and the usable area.
 // `filled` may share the input's pixels (float input without nodata): read it only.
-void PrepareInput(const cv::Mat& input, cv::Mat* filled, cv::Mat* usable) {
+void PrepareInput(const cv::Mat& input, cv::Mat* filled, UsableArea* usable) {
   if (input.channels() != 1) throw Error("crater edges: expected a single-band raster");
   if (input.depth() == CV_32F) {
     *filled = input;
   } else {
     input.convertTo(*filled, CV_32F);
   }
-  if (cv::checkRange(*filled, true)) {
-    // No nodata (the common case): only the 2 px frame is unusable.
-    *usable = cv::Mat::zeros(filled->size(), CV_8U);
-    if (filled->rows > 4 && filled->cols > 4) {
-      (*usable)(cv::Rect(2, 2, filled->cols - 4, filled->rows - 4)).setTo(255);
-    }
-    return;
-  }
+  usable->interior = cv::Rect(2, 2, std::max(0, filled->cols - 4), std::max(0, filled->rows - 4));
+  if (cv::checkRange(*filled, true)) return;                // no nodata
   if (filled->data == input.data) *filled = input.clone();  // the holes are filled below
   cv::Mat valid;
   cv::compare(*filled, *filled, valid, cv::CMP_EQ);  // NaN compares unequal to itself
@@ -36,8 +40,19 @@ void PrepareInput(const cv::Mat& input, cv::Mat* filled, cv::Mat* usable) {
   valid &= finite;
   const double fill = cv::countNonZero(valid) > 0 ? cv::mean(*filled, valid)[0] : 0.0;
   filled->setTo(fill, ~valid);
-  cv::erode(valid, *usable, cv::Mat::ones(5, 5, CV_8U), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT,
-            0);
+  cv::erode(valid, usable->mask, cv::Mat::ones(5, 5, CV_8U), cv::Point(-1, -1), 1,
+            cv::BORDER_CONSTANT, 0);
+}
+
+// Largest value of `m` over the usable area (0 when it is empty).
+double UsableMax(const cv::Mat& m, const UsableArea& usable) {
+  double max_value = 0.0;
+  if (!usable.mask.empty()) {
+    cv::minMaxLoc(m, nullptr, &max_value, nullptr, nullptr, usable.mask);
+  } else if (!usable.interior.empty()) {
+    cv::minMaxLoc(m(usable.interior), nullptr, &max_value);
+  }
+  return max_value;
 }
 
 float Bilinear(const cv::Mat& m, float x, float y) {
@@ -52,15 +67,14 @@ float Bilinear(const cv::Mat& m, float x, float y) {
 }
 
 // Hysteresis thresholds from the strength statistics over usable pixels (every 3rd pixel).
-bool AutomaticThresholds(const cv::Mat& strength, const cv::Mat& usable, const EdgeOptions& o,
+bool AutomaticThresholds(const cv::Mat& strength, const UsableArea& usable, const EdgeOptions& o,
                          double* high, double* low) {
   std::vector<float> values;
   values.reserve(static_cast<size_t>(strength.total() / 9 + 1));
   for (int r = 0; r < strength.rows; r += 3) {
     const float* s = strength.ptr<float>(r);
-    const uchar* u = usable.ptr<uchar>(r);
     for (int c = 0; c < strength.cols; c += 3) {
-      if (u[c]) values.push_back(s[c]);
+      if (usable.At(r, c)) values.push_back(s[c]);
     }
   }
   if (values.size() < 16) return false;
@@ -97,7 +111,7 @@ RimEdgePoint SubPixel(const cv::Mat& strength, int r, int c, float nx, float ny)
 }
 
 // `dx`, `dy`: a direction field (any length, e.g. the gradient), normalised per edge point.
-RimEdges Collect(const cv::Mat& edge_mask, const cv::Mat& usable, const cv::Mat& strength,
+RimEdges Collect(const cv::Mat& edge_mask, const UsableArea& usable, const cv::Mat& strength,
                  const cv::Mat& dx, const cv::Mat& dy, bool signed_normals, double high,
                  double low) {
   RimEdges out;
@@ -107,12 +121,17 @@ RimEdges Collect(const cv::Mat& edge_mask, const cv::Mat& usable, const cv::Mat&
   out.rows = strength.rows;
   out.cols = strength.cols;
   out.row_start.assign(static_cast<size_t>(strength.rows) + 1, 0);
+  // Usable pixels are never on the 1 px frame; without a mask, only the interior's columns.
+  const int c_begin = usable.mask.empty() ? usable.interior.x : 1;
+  const int c_end =
+      usable.mask.empty() ? usable.interior.x + usable.interior.width : strength.cols - 1;
   for (int r = 1; r + 1 < strength.rows; ++r) {
     out.row_start[static_cast<size_t>(r)] = static_cast<int>(out.points.size());
+    if (usable.mask.empty() && (r < usable.interior.y || r >= usable.interior.br().y)) continue;
     const uchar* e = edge_mask.ptr<uchar>(r);
-    const uchar* u = usable.ptr<uchar>(r);
-    for (int c = 1; c + 1 < strength.cols; ++c) {
-      if (!e[c] || !u[c]) continue;
+    const uchar* u = usable.MaskRow(r);
+    for (int c = c_begin; c < c_end; ++c) {
+      if (!e[c] || (u != nullptr && !u[c])) continue;
       const float gx = dx.at<float>(r, c), gy = dy.at<float>(r, c);
       const float norm = std::hypot(gx, gy);
       if (!(norm > 0.0f)) continue;
@@ -157,7 +176,8 @@ void EdgeOptions::Check() const {
 RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& o) {
   o.Check();
   if (image.rows < 8 || image.cols < 8) return Empty(image, true);
-  cv::Mat input, usable, f;
+  cv::Mat input, f;
+  UsableArea usable;
   PrepareInput(image, &input, &usable);
   cv::GaussianBlur(input, f, cv::Size(), o.smoothing_sigma_px);
   cv::Mat gx, gy, mag;
@@ -166,8 +186,7 @@ RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& o) {
   cv::magnitude(gx, gy, mag);
   double high = 0.0, low = 0.0;
   if (!AutomaticThresholds(mag, usable, o, &high, &low)) return Empty(image, true);
-  double max_mag = 0.0;
-  cv::minMaxLoc(mag, nullptr, &max_mag, nullptr, nullptr, usable);
+  const double max_mag = UsableMax(mag, usable);
   if (!(max_mag > high)) return Empty(image, true);
   // Canny takes 16-bit gradients; with L2 magnitudes it squares them in int, so stay below
   // 2^15 / sqrt(2) per component.
@@ -183,7 +202,8 @@ RimEdges DetectDtmCrests(const cv::Mat& dtm, double posting, const EdgeOptions& 
   o.Check();
   RequireOption(std::isfinite(posting) && posting > 0.0, "DetectDtmCrests.posting", "> 0");
   if (dtm.rows < 8 || dtm.cols < 8) return Empty(dtm, false);
-  cv::Mat input, usable, h;
+  cv::Mat input, h;
+  UsableArea usable;
   PrepareInput(dtm, &input, &usable);
   cv::GaussianBlur(input, h, cv::Size(), o.smoothing_sigma_px);
   cv::Mat hxx, hyy, hxy;
