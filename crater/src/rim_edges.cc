@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "edge_scratch.h"
 
 namespace areomap {
 namespace {
@@ -176,13 +177,21 @@ void EdgeOptions::Check() const {
 RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& o) {
   o.Check();
   if (image.rows < 8 || image.cols < 8) return Empty(image, true);
-  cv::Mat input, f;
+  cv::Mat input;
   UsableArea usable;
   PrepareInput(image, &input, &usable);
+  // Full-size temporaries: in the calling task's scratch when there is one (edge_scratch.h),
+  // else allocated here.
+  internal::EdgeScratch* scratch = internal::CurrentEdgeScratch();
+  const auto temporary = [&](int slot, int type) {
+    return scratch != nullptr ? scratch->Get(slot, input.rows, input.cols, type) : cv::Mat();
+  };
+  cv::Mat f = temporary(0, CV_32F);
   cv::GaussianBlur(input, f, cv::Size(), o.smoothing_sigma_px);
-  cv::Mat gx, gy, mag;
+  cv::Mat gx = temporary(1, CV_32F), gy = temporary(2, CV_32F);
   cv::Sobel(f, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
   cv::Sobel(f, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  cv::Mat mag = f;  // the smoothed image is not needed any more: its memory holds the magnitude
   cv::magnitude(gx, gy, mag);
   double high = 0.0, low = 0.0;
   if (!AutomaticThresholds(mag, usable, o, &high, &low)) return Empty(image, true);
@@ -191,7 +200,7 @@ RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& o) {
   // Canny takes 16-bit gradients; with L2 magnitudes it squares them in int, so stay below
   // 2^15 / sqrt(2) per component.
   const double scale = 20000.0 / max_mag;
-  cv::Mat dx16, dy16, edges;
+  cv::Mat dx16 = temporary(3, CV_16S), dy16 = temporary(4, CV_16S), edges = temporary(5, CV_8U);
   gx.convertTo(dx16, CV_16S, scale);
   gy.convertTo(dy16, CV_16S, scale);
   cv::Canny(dx16, dy16, edges, low * scale, high * scale, true);
