@@ -273,6 +273,13 @@ std::vector<Eigen::Vector2d> GatherSupport(const RimEdges& edges, const Ellipse&
   const int r1 = std::min(edges.rows - 1, static_cast<int>(std::ceil(e.center.y() + reach)));
   const double cs = std::cos(e.angle), sn = std::sin(e.angle);
   const double a2 = e.semi_major * e.semi_major, b2 = e.semi_minor * e.semi_minor;
+  // The distance test below is |p - c| |1 - 1/rho| = R |rho - 1| with R, the centre's distance
+  // to the ellipse along the ray, at least the smaller semi-axis: points with rho outside
+  // 1 -/+ tolerance / that axis fail it, and are skipped on rho^2 without square roots (the
+  // axis shrunk by 1e-9 keeps rounding on the safe side).
+  const double band = tolerance / (std::min(e.semi_major, e.semi_minor) * (1.0 - 1e-9));
+  const double rho2_max = (1.0 + band) * (1.0 + band);
+  const double rho2_min = band < 1.0 ? (1.0 - band) * (1.0 - band) : 0.0;
   for (int r = r0; r <= r1; ++r) {
     const int last = edges.row_start[static_cast<size_t>(r) + 1];
     for (int i = edges.FirstInRow(r, c0); i < last && edges.column[static_cast<size_t>(i)] <= c1;
@@ -280,7 +287,9 @@ std::vector<Eigen::Vector2d> GatherSupport(const RimEdges& edges, const Ellipse&
       const RimEdgePoint& p = edges.points[static_cast<size_t>(i)];
       const Eigen::Vector2d d = Pos(p) - e.center;
       const double u = cs * d.x() + sn * d.y(), v = -sn * d.x() + cs * d.y();
-      const double rho = std::sqrt(u * u / a2 + v * v / b2);
+      const double rho2 = u * u / a2 + v * v / b2;
+      if (rho2 > rho2_max || rho2 < rho2_min) continue;
+      const double rho = std::sqrt(rho2);
       const double dist = d.norm();
       if (rho <= 1e-9 || std::abs(dist - dist / rho) > tolerance) continue;
       const Eigen::Vector2d g_local(u / a2, v / b2);

@@ -79,19 +79,27 @@ bool AutomaticThresholds(const cv::Mat& strength, const UsableArea& usable, cons
     }
   }
   if (values.size() < 16) return false;
+  // Quantiles selected in increasing rank, each on the part above the previous one (after
+  // nth_element every later element is at least the selected one).
+  auto above = values.begin();
   const auto quantile = [&](double q) {
     auto it =
         values.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
-    std::nth_element(values.begin(), it, values.end());
+    std::nth_element(it >= above ? above : values.begin(), it, values.end());
+    above = it;
     return static_cast<double>(*it);
   };
-  const double median = quantile(0.5);
-  const double top = quantile(o.high_quantile);
+  const bool median_first = o.high_quantile >= 0.5;
+  const double first = quantile(median_first ? 0.5 : o.high_quantile);
+  const double second = quantile(median_first ? o.high_quantile : 0.5);
+  const double median = median_first ? first : second;
+  const double top = median_first ? second : first;
+  const double max_value = *std::max_element(above, values.end());
   // Rayleigh: median of |gradient| of pure noise = sigma sqrt(2 ln 2).
   const double noise = median / std::sqrt(2.0 * std::log(2.0));
   *high = std::max(top, o.noise_factor * noise);
   *low = o.low_ratio * *high;
-  return *high > 1e-6 * (quantile(1.0) + 1e-30) && *high > 0.0;
+  return *high > 1e-6 * (max_value + 1e-30) && *high > 0.0;
 }
 
 RimEdgePoint SubPixel(const cv::Mat& strength, int r, int c, float nx, float ny) {
