@@ -89,7 +89,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
   if (overview_from_tiles) overview = cv::Mat(height / factor, width / factor, CV_32F);
   if (run_tiles) {
     // Edge detection temporaries, reused by consecutive tiles (edge_scratch.h).
-    internal::EdgeScratchPool scratch_pool;
+    internal::EdgeScratchPool scratch_pool(static_cast<size_t>(padded) * padded);
     tbb::parallel_for(0, tile_count, [&](int t) {
       if (cancelled) return;
       const int tx = t % tiles_x, ty = t / tiles_x;

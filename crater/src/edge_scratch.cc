@@ -1,5 +1,6 @@
 #include "edge_scratch.h"
 
+#include <algorithm>
 #include <utility>
 
 #include "areomap/map/error.h"
@@ -17,8 +18,8 @@ cv::Mat EdgeScratch::Get(int slot, int rows, int cols, int type) {
   auto& memory = memory_[static_cast<size_t>(slot)];
   size_t& capacity = capacity_[static_cast<size_t>(slot)];
   if (bytes > capacity) {
-    memory = std::make_unique_for_overwrite<unsigned char[]>(bytes);
-    capacity = bytes;
+    capacity = std::max(bytes, reserve_pixels_ * CV_ELEM_SIZE(type));
+    memory = std::make_unique_for_overwrite<unsigned char[]>(capacity);
   }
   return cv::Mat(rows, cols, type, memory.get());
 }
@@ -33,7 +34,7 @@ UseEdgeScratch::~UseEdgeScratch() { current_scratch = previous_; }
 
 std::unique_ptr<EdgeScratch> EdgeScratchPool::Acquire() {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (free_.empty()) return std::make_unique<EdgeScratch>();
+  if (free_.empty()) return std::make_unique<EdgeScratch>(reserve_pixels_);
   std::unique_ptr<EdgeScratch> scratch = std::move(free_.back());
   free_.pop_back();
   return scratch;

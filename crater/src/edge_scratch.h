@@ -27,11 +27,15 @@ namespace areomap::internal {
 class EdgeScratch {
  public:
   static constexpr int kSlots = 6;
-  // A continuous rows x cols matrix of `type` over the memory of `slot` (grown when too small);
-  // its contents are undefined. Valid until the next Get of the same slot.
+  // `reserve_pixels`: the largest image expected (a padded tile), so that growing happens once.
+  explicit EdgeScratch(size_t reserve_pixels = 0) : reserve_pixels_(reserve_pixels) {}
+  // A continuous rows x cols matrix of `type` over the memory of `slot` (grown when too small,
+  // to at least reserve_pixels); its contents are undefined. Valid until the next Get of the
+  // same slot.
   cv::Mat Get(int slot, int rows, int cols, int type);
 
  private:
+  size_t reserve_pixels_;
   std::array<std::unique_ptr<unsigned char[]>, kSlots> memory_;
   std::array<size_t, kSlots> capacity_{};
 };
@@ -53,10 +57,12 @@ class UseEdgeScratch {
 // Scratches for the tasks of one call; Acquire reuses a released one or makes a new one.
 class EdgeScratchPool {
  public:
+  explicit EdgeScratchPool(size_t reserve_pixels) : reserve_pixels_(reserve_pixels) {}
   std::unique_ptr<EdgeScratch> Acquire();
   void Release(std::unique_ptr<EdgeScratch> scratch);
 
  private:
+  size_t reserve_pixels_;
   std::mutex mutex_;
   std::vector<std::unique_ptr<EdgeScratch>> free_;
 };

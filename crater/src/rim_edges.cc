@@ -130,6 +130,9 @@ RimEdges Collect(const cv::Mat& edge_mask, const UsableArea& usable, const cv::M
   out.rows = strength.rows;
   out.cols = strength.cols;
   out.row_start.assign(static_cast<size_t>(strength.rows) + 1, 0);
+  const size_t count = static_cast<size_t>(cv::countNonZero(edge_mask));  // an upper bound
+  out.points.reserve(count);
+  out.column.reserve(count);
   // Usable pixels are never on the 1 px frame; without a mask, only the interior's columns.
   const int c_begin = usable.mask.empty() ? usable.interior.x : 1;
   const int c_end =
