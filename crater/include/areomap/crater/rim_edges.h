@@ -7,7 +7,6 @@
 // Nothing here throws for image content; a constant or empty image gives no edges.
 #pragma once
 
-#include <algorithm>
 #include <cstdint>
 #include <vector>
 
