@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numbers>
 #include <unordered_map>
+#include <utility>
 
 #include <tbb/parallel_for.h>
 #include <Eigen/Dense>
@@ -111,58 +114,80 @@ std::optional<Arc> FitArc(const RimEdges& edges, std::vector<int> members, doubl
   return arc;
 }
 
-// 8-neighbour adjacency of the edge points in compressed rows: the neighbours of point i are
-// neighbours[offsets[i] .. offsets[i + 1]). Built once, shared by the 12 direction windows.
+// 8-neighbour adjacency of the arc-building edge points (those with a direction window, `windows`
+// non-zero) in compressed rows: the neighbours of point i are neighbours[offsets[i] ..
+// offsets[i + 1]). Built once, shared by the 12 direction windows.
 struct EdgeAdjacency {
   std::vector<int> offsets;
   std::vector<int> neighbours;
 };
 
-EdgeAdjacency BuildAdjacency(const RimEdges& edges) {
+EdgeAdjacency BuildAdjacency(const RimEdges& edges, const std::vector<uint16_t>& windows) {
   const int n = static_cast<int>(edges.points.size());
   EdgeAdjacency adjacency;
   adjacency.offsets.resize(static_cast<size_t>(n) + 1);
   adjacency.neighbours.reserve(static_cast<size_t>(n) * 2);
+  // Points are in raster order: walking them, the candidates in the rows above and below
+  // advance monotonically (one cursor each), the row's own neighbours are i - 1 and i + 1.
+  const std::vector<int>& start = edges.row_start;
+  const std::vector<int>& column = edges.column;
+  const auto add = [&](int j) {
+    if (windows[static_cast<size_t>(j)] != 0) adjacency.neighbours.push_back(j);
+  };
+  int row = 0, above = 0, below = n > 0 ? start[1] : 0;
   for (int i = 0; i < n; ++i) {
     adjacency.offsets[static_cast<size_t>(i)] = static_cast<int>(adjacency.neighbours.size());
-    const int col = static_cast<int>(edges.points[i].x);
-    const int row = static_cast<int>(edges.points[i].y);
-    for (int dr = -1; dr <= 1; ++dr) {
-      const int r = row + dr;
-      if (r < 0 || r >= edges.index.rows) continue;
-      const int* index = edges.index.ptr<int>(r);
-      for (int dc = -1; dc <= 1; ++dc) {
-        const int c = col + dc;
-        if (c < 0 || c >= edges.index.cols || (dr == 0 && dc == 0)) continue;
-        if (index[c] >= 0) adjacency.neighbours.push_back(index[c]);
-      }
+    if (start[static_cast<size_t>(row) + 1] <= i) {
+      while (start[static_cast<size_t>(row) + 1] <= i) ++row;
+      above = row > 0 ? start[static_cast<size_t>(row) - 1] : 0;
+      below = start[static_cast<size_t>(row) + 1];
     }
+    if (windows[static_cast<size_t>(i)] == 0) continue;
+    const int col = column[static_cast<size_t>(i)];
+    const int row_begin = start[static_cast<size_t>(row)];
+    const int row_end = start[static_cast<size_t>(row) + 1];
+    const int below_end = row + 1 < edges.rows ? start[static_cast<size_t>(row) + 2] : row_end;
+    while (above < row_begin && column[static_cast<size_t>(above)] < col - 1) ++above;
+    for (int j = above; j < row_begin && column[static_cast<size_t>(j)] <= col + 1; ++j) add(j);
+    if (i > row_begin && column[static_cast<size_t>(i) - 1] == col - 1) add(i - 1);
+    if (i + 1 < row_end && column[static_cast<size_t>(i) + 1] == col + 1) add(i + 1);
+    while (below < below_end && column[static_cast<size_t>(below)] < col - 1) ++below;
+    for (int j = below; j < below_end && column[static_cast<size_t>(j)] <= col + 1; ++j) add(j);
   }
   adjacency.offsets[static_cast<size_t>(n)] = static_cast<int>(adjacency.neighbours.size());
   return adjacency;
 }
 
 // Arcs from the edges at least `min_strength` strong (weaker edges still count as rim support
-// when hypotheses are fitted, GatherSupport). Sector -1 marks an excluded edge.
+// when hypotheses are fitted, GatherSupport).
 std::vector<Arc> ExtractArcs(const RimEdges& edges, double r_lo, double r_hi,
                              const std::optional<Eigen::Vector2d>& sun, double min_strength) {
   const int n = static_cast<int>(edges.points.size());
-  std::vector<int> sector(static_cast<size_t>(n));
+  // Per edge: a bit for each of the kSectors direction windows holding its normal (none for an
+  // excluded edge), and per window the edges in it in index order (the seed order).
+  std::vector<uint16_t> windows(static_cast<size_t>(n), 0);
+  std::vector<std::vector<int>> members_of(kSectors);
   for (int i = 0; i < n; ++i) {
-    sector[i] = edges.points[i].strength >= min_strength
-                    ? SectorOf(edges.points[i], edges.signed_normals)
-                    : -1;
+    if (edges.points[i].strength < min_strength) continue;
+    const int s = SectorOf(edges.points[i], edges.signed_normals);
+    for (int k = 0; k < kArcWindow; ++k) {
+      const int window = (s - k + kSectors) % kSectors;
+      windows[i] = static_cast<uint16_t>(windows[i] | (1u << window));
+    }
   }
-  const EdgeAdjacency adjacency = BuildAdjacency(edges);
+  for (int i = 0; i < n; ++i) {
+    for (uint16_t bits = windows[i]; bits != 0; bits = static_cast<uint16_t>(bits & (bits - 1))) {
+      members_of[static_cast<size_t>(std::countr_zero(bits))].push_back(i);
+    }
+  }
+  const EdgeAdjacency adjacency = BuildAdjacency(edges, windows);
   std::vector<std::vector<Arc>> per_window(kSectors);
   tbb::parallel_for(0, kSectors, [&](int window) {
-    const auto in_window = [&](int s) {
-      return s >= 0 && (s - window + kSectors) % kSectors < kArcWindow;
-    };
+    const uint16_t bit = static_cast<uint16_t>(1u << window);
     std::vector<char> visited(static_cast<size_t>(n), 0);
     std::vector<int> stack, members;
-    for (int seed = 0; seed < n; ++seed) {
-      if (visited[seed] || !in_window(sector[seed])) continue;
+    for (const int seed : members_of[static_cast<size_t>(window)]) {
+      if (visited[seed]) continue;
       members.clear();
       stack.assign(1, seed);
       visited[seed] = 1;
@@ -175,7 +200,7 @@ std::vector<Arc> ExtractArcs(const RimEdges& edges, double r_lo, double r_hi,
             adjacency.neighbours.data() + adjacency.offsets[static_cast<size_t>(i) + 1];
         for (; it != last; ++it) {
           const int j = *it;
-          if (visited[j] || !in_window(sector[j])) continue;
+          if (visited[j] || !(windows[j] & bit)) continue;
           visited[j] = 1;
           stack.push_back(j);
         }
@@ -244,19 +269,28 @@ std::vector<Eigen::Vector2d> GatherSupport(const RimEdges& edges, const Ellipse&
   std::vector<Eigen::Vector2d> support;
   const double reach = e.semi_major + tolerance + 1.0;
   const int c0 = std::max(0, static_cast<int>(std::floor(e.center.x() - reach)));
-  const int c1 = std::min(edges.index.cols - 1, static_cast<int>(std::ceil(e.center.x() + reach)));
+  const int c1 = std::min(edges.cols - 1, static_cast<int>(std::ceil(e.center.x() + reach)));
   const int r0 = std::max(0, static_cast<int>(std::floor(e.center.y() - reach)));
-  const int r1 = std::min(edges.index.rows - 1, static_cast<int>(std::ceil(e.center.y() + reach)));
+  const int r1 = std::min(edges.rows - 1, static_cast<int>(std::ceil(e.center.y() + reach)));
   const double cs = std::cos(e.angle), sn = std::sin(e.angle);
   const double a2 = e.semi_major * e.semi_major, b2 = e.semi_minor * e.semi_minor;
+  // The distance test below is |p - c| |1 - 1/rho| = R |rho - 1| with R, the centre's distance
+  // to the ellipse along the ray, at least the smaller semi-axis: points with rho outside
+  // 1 -/+ tolerance / that axis fail it, and are skipped on rho^2 without square roots (the
+  // axis shrunk by 1e-9 keeps rounding on the safe side).
+  const double band = tolerance / (std::min(e.semi_major, e.semi_minor) * (1.0 - 1e-9));
+  const double rho2_max = (1.0 + band) * (1.0 + band);
+  const double rho2_min = band < 1.0 ? (1.0 - band) * (1.0 - band) : 0.0;
   for (int r = r0; r <= r1; ++r) {
-    const int* index = edges.index.ptr<int>(r);
-    for (int c = c0; c <= c1; ++c) {
-      if (index[c] < 0) continue;
-      const RimEdgePoint& p = edges.points[index[c]];
+    const int last = edges.row_start[static_cast<size_t>(r) + 1];
+    for (int i = edges.FirstInRow(r, c0); i < last && edges.column[static_cast<size_t>(i)] <= c1;
+         ++i) {
+      const RimEdgePoint& p = edges.points[static_cast<size_t>(i)];
       const Eigen::Vector2d d = Pos(p) - e.center;
       const double u = cs * d.x() + sn * d.y(), v = -sn * d.x() + cs * d.y();
-      const double rho = std::sqrt(u * u / a2 + v * v / b2);
+      const double rho2 = u * u / a2 + v * v / b2;
+      if (rho2 > rho2_max || rho2 < rho2_min) continue;
+      const double rho = std::sqrt(rho2);
       const double dist = d.norm();
       if (rho <= 1e-9 || std::abs(dist - dist / rho) > tolerance) continue;
       const Eigen::Vector2d g_local(u / a2, v / b2);
@@ -312,12 +346,38 @@ struct RingStats {
   double Std() const { return n > 1 ? std::sqrt(std::max(0.0, sum2 / n - Mean() * Mean())) : kNaN; }
 };
 
-Eigen::Vector2d RingPoint(const Ellipse& e, double rho, double t) {
-  const Eigen::Vector2d local(rho * e.semi_major * std::cos(t), rho * e.semi_minor * std::sin(t));
-  const double cs = std::cos(e.angle), sn = std::sin(e.angle);
-  return e.center +
-         Eigen::Vector2d(cs * local.x() - sn * local.y(), sn * local.x() + cs * local.y());
-}
+// Points of the ellipse scaled by rho about its centre at kRingSamples evenly spaced eccentric
+// anomalies; the trigonometry is computed once per ellipse (and once for the anomalies).
+constexpr int kRingSamples = 48;
+
+class RingSampler {
+ public:
+  explicit RingSampler(const Ellipse& e) : e_(e), cs_(std::cos(e.angle)), sn_(std::sin(e.angle)) {}
+
+  Eigen::Vector2d Point(double rho, int k) const {
+    const auto& [cos_t, sin_t] = Anomalies()[static_cast<size_t>(k)];
+    const Eigen::Vector2d local(rho * e_.semi_major * cos_t, rho * e_.semi_minor * sin_t);
+    return e_.center +
+           Eigen::Vector2d(cs_ * local.x() - sn_ * local.y(), sn_ * local.x() + cs_ * local.y());
+  }
+
+ private:
+  using Table = std::array<std::pair<double, double>, kRingSamples>;
+  static const Table& Anomalies() {
+    static const Table table = [] {
+      Table t;
+      for (int k = 0; k < kRingSamples; ++k) {
+        const double angle = 2.0 * kPi * k / kRingSamples;
+        t[static_cast<size_t>(k)] = {std::cos(angle), std::sin(angle)};
+      }
+      return t;
+    }();
+    return table;
+  }
+
+  const Ellipse& e_;
+  double cs_, sn_;
+};
 
 // Image with sun: how well the interior's brightness follows a bowl lit from the sun side
 // (far wall bright, near wall dark): Pearson correlation of the samples at elliptical radii
@@ -330,7 +390,8 @@ struct SignatureValues {
 
 SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse& e,
                           const std::optional<Eigen::Vector2d>& sun) {
-  constexpr int kSamples = 48;
+  constexpr int kSamples = kRingSamples;
+  const RingSampler ring(e);
   SignatureValues out;
   if (source == RimSource::kImage) {
     if (!sun) return out;
@@ -339,8 +400,7 @@ SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse
     int n = 0;
     for (double rho : {0.3, 0.45, 0.6, 0.75}) {
       for (int k = 0; k < kSamples; ++k) {
-        const double t = 2.0 * kPi * k / kSamples;
-        const Eigen::Vector2d p = RingPoint(e, rho, t);
+        const Eigen::Vector2d p = ring.Point(rho, k);
         const double w = (p - e.center).normalized().dot(*sun);
         const double v = SampleBilinear(raster, p.x(), p.y());
         if (!std::isfinite(v)) continue;
@@ -356,7 +416,7 @@ SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse
     }
     for (double rho : {1.3, 1.6, 1.9}) {
       for (int k = 0; k < kSamples; ++k) {
-        const Eigen::Vector2d p = RingPoint(e, rho, 2.0 * kPi * k / kSamples);
+        const Eigen::Vector2d p = ring.Point(rho, k);
         outside.Add(SampleBilinear(raster, p.x(), p.y()));
       }
     }
@@ -370,11 +430,10 @@ SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse
   }
   RingStats rim, inner;
   for (int k = 0; k < kSamples; ++k) {
-    const double t = 2.0 * kPi * k / kSamples;
-    const Eigen::Vector2d p = RingPoint(e, 1.0, t);
+    const Eigen::Vector2d p = ring.Point(1.0, k);
     rim.Add(SampleBilinear(raster, p.x(), p.y()));
     for (double rho : {0.0, 0.25, 0.5}) {
-      const Eigen::Vector2d q = RingPoint(e, rho, t);
+      const Eigen::Vector2d q = ring.Point(rho, k);
       inner.Add(SampleBilinear(raster, q.x(), q.y()));
     }
   }
@@ -456,17 +515,21 @@ std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEd
   const double edge_contrast =
       edges.high_threshold > 0.0 ? mean_strength / edges.high_threshold : 0.0;
   if (edge_contrast < o.min_edge_contrast) return std::nullopt;
-  if (!SignaturePasses(Signature(raster, source, e, sun), source, o)) return std::nullopt;
-  if (AngularCoverage(e, support) < o.min_coverage) return std::nullopt;
+  const SignatureValues direct_signature = Signature(raster, source, e, sun);
+  if (!SignaturePasses(direct_signature, source, o)) return std::nullopt;
+  const double direct_coverage = AngularCoverage(e, support);
+  if (direct_coverage < o.min_coverage) return std::nullopt;
   CraterDetection d;
   if (geometric) {
     GeometricFitOptions fit_options;
     fit_options.loss = RobustLoss::kHuber;
     fit_options.loss_scale = 0.7;
     fit_options.max_num_iterations = 20;
-    // The direct fit starts close: 1e-10 relative cost change is far below the edges' noise.
-    fit_options.function_tolerance = 1e-10;
-    fit_options.parameter_tolerance = 1e-10;
+    // The direct fit starts close. Stop at a relative cost change or step of 1e-7: a step of
+    // 1e-7 x a tile coordinate (< 3e-4 px) is far below the edges' noise (~0.05 px on the
+    // centre), and the fits end 1-2 iterations sooner than at 1e-10, with the same ellipses.
+    fit_options.function_tolerance = 1e-7;
+    fit_options.parameter_tolerance = 1e-7;
     // The geometric fit costs one distance solve per point and iteration: at most
     // kMaxFitPoints edges, evenly spread along the scan order (the direct fit used them all).
     std::vector<Eigen::Vector2d> fit_points;
@@ -494,8 +557,10 @@ std::optional<CraterDetection> FitAndValidate(const cv::Mat& raster, const RimEd
   if ((fitted.center - start.center).norm() > 0.4 * start.MeanRadius() + 1.0) return std::nullopt;
   d.edge_contrast = edge_contrast;
   d.efs = EllipseFitSimilarity(fitted, support);
-  d.coverage = AngularCoverage(fitted, support);
-  const SignatureValues signature = Signature(raster, source, fitted, sun);
+  // Without the geometric fit the ellipse is the direct fit's: its values are known.
+  d.coverage = geometric ? AngularCoverage(fitted, support) : direct_coverage;
+  const SignatureValues signature =
+      geometric ? Signature(raster, source, fitted, sun) : direct_signature;
   d.signature = signature.value;
   d.shading_correlation = signature.correlation;
   if (d.coverage < o.min_coverage) return std::nullopt;
@@ -666,18 +731,17 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
         indices.insert(indices.end(), arcs[a].points.begin(), arcs[a].points.end());
       std::sort(indices.begin(), indices.end());
       indices.erase(std::unique(indices.begin(), indices.end()), indices.end());
-      std::vector<Eigen::Vector2d> points;
       double strength = 0.0;
-      for (int i : indices) {
-        points.push_back(Pos(level.edges.points[i]));
-        strength += level.edges.points[i].strength;
-      }
+      for (int i : indices) strength += level.edges.points[i].strength;
       // Cheap rejection before any fit: texture edges are weak (the rim's full support is
       // checked again after fitting).
       if (strength / static_cast<double>(indices.size()) <
           0.8 * o.min_edge_contrast * level.edges.high_threshold) {
         return;
       }
+      std::vector<Eigen::Vector2d> points;
+      points.reserve(indices.size());
+      for (int i : indices) points.push_back(Pos(level.edges.points[i]));
       const Ellipse circle{seed.center, seed.radius, seed.radius, 0.0};
       Ellipse start = circle;
       if (points.size() >= 12) {

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <memory>
 #include <mutex>
+#include <utility>
 
 #include <tbb/parallel_for.h>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "edge_scratch.h"
 
 namespace areomap {
 namespace {
@@ -85,6 +88,8 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
   cv::Mat overview;
   if (overview_from_tiles) overview = cv::Mat(height / factor, width / factor, CV_32F);
   if (run_tiles) {
+    // Edge detection temporaries, reused by consecutive tiles (edge_scratch.h).
+    internal::EdgeScratchPool scratch_pool(static_cast<size_t>(padded) * padded);
     tbb::parallel_for(0, tile_count, [&](int t) {
       if (cancelled) return;
       const int tx = t % tiles_x, ty = t / tiles_x;
@@ -113,7 +118,13 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
           small.copyTo(overview(cv::Rect(out_c0, out_r0, out_w, out_h)));  // disjoint per tile
         }
       }
-      std::vector<CraterDetection> found = DetectCraters(tile, source, tile_options);
+      std::unique_ptr<internal::EdgeScratch> scratch = scratch_pool.Acquire();
+      std::vector<CraterDetection> found;
+      {
+        const internal::UseEdgeScratch use(scratch.get());
+        found = DetectCraters(tile, source, tile_options);
+      }
+      scratch_pool.Release(std::move(scratch));
       std::lock_guard<std::mutex> lock(mutex);
       for (const CraterDetection& d : found) {
         CraterDetection g = Shifted(d, c0, r0, 1.0);

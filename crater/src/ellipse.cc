@@ -258,12 +258,21 @@ double Ellipse::ClosestParameter(const Eigen::Vector2d& p) const {
 }
 
 Eigen::Matrix<double, 5, 1> Ellipse::SignedDistanceGradient(const Eigen::Vector2d& p) const {
+  Eigen::Matrix<double, 5, 1> gradient;
+  SignedDistanceWithGradient(p, &gradient);
+  return gradient;
+}
+
+double Ellipse::SignedDistanceWithGradient(const Eigen::Vector2d& p,
+                                           Eigen::Matrix<double, 5, 1>* gradient) const {
   if (!HasPositiveAxes(*this) || !p.allFinite()) {
-    return Eigen::Matrix<double, 5, 1>::Constant(kNaN);
+    gradient->setConstant(kNaN);
+    return kNaN;
   }
   const double a = semi_major;
   const double b = semi_minor;
-  const Eigen::Vector2d x = NearestInCanonicalFrame(a, b, ToCanonical(*this, p)).point;
+  const CanonicalNearest nearest = NearestInCanonicalFrame(a, b, ToCanonical(*this, p));
+  const Eigen::Vector2d& x = nearest.point;
   const double cos_t = x.x() / a;
   const double sin_t = x.y() / b;
   // Outward unit normal, in the ellipse frame and in the point frame.
@@ -272,10 +281,9 @@ Eigen::Matrix<double, 5, 1> Ellipse::SignedDistanceGradient(const Eigen::Vector2
   const double s = std::sin(angle);
   const Eigen::Vector2d n_world(c * n.x() - s * n.y(), s * n.x() + c * n.y());
   // X(t) = center + R(angle) (a cos t, b sin t); d = n^T (p - X) so dd/dq = -n^T dX/dq.
-  Eigen::Matrix<double, 5, 1> gradient;
-  gradient << -n_world.x(), -n_world.y(), -n.x() * cos_t, -n.y() * sin_t,
+  *gradient << -n_world.x(), -n_world.y(), -n.x() * cos_t, -n.y() * sin_t,
       n.x() * b * sin_t - n.y() * a * cos_t;
-  return gradient;
+  return nearest.signed_distance;
 }
 
 }  // namespace areomap

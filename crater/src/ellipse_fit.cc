@@ -80,15 +80,17 @@ class OrthogonalDistanceCost : public ceres::SizedCostFunction<1, 4, 1> {
     e.semi_minor = parameters[0][3];
     e.angle = parameters[1][0];
     if (!HasPositiveAxes(e)) return false;  // Ceres rejects the step
-    residuals[0] = e.SignedDistance(point_);
-    if (!std::isfinite(residuals[0])) return false;
-    if (jacobians != nullptr) {
-      const Eigen::Matrix<double, 5, 1> gradient = e.SignedDistanceGradient(point_);
-      if (jacobians[0] != nullptr) {
-        for (int i = 0; i < 4; ++i) jacobians[0][i] = gradient(i);
-      }
-      if (jacobians[1] != nullptr) jacobians[1][0] = gradient(4);
+    if (jacobians == nullptr) {
+      residuals[0] = e.SignedDistance(point_);
+      return std::isfinite(residuals[0]);
     }
+    Eigen::Matrix<double, 5, 1> gradient;
+    residuals[0] = e.SignedDistanceWithGradient(point_, &gradient);
+    if (!std::isfinite(residuals[0])) return false;
+    if (jacobians[0] != nullptr) {
+      for (int i = 0; i < 4; ++i) jacobians[0][i] = gradient(i);
+    }
+    if (jacobians[1] != nullptr) jacobians[1][0] = gradient(4);
     return true;
   }
 

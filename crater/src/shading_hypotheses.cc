@@ -191,22 +191,22 @@ SunLineRim FindSunLineRim(const RimEdges& edges, const ShadingHypothesis& h,
                           const Eigen::Vector2d& sun) {
   SunLineRim out;
   out.hypothesis_center = h.center;
-  if (edges.index.empty()) return out;
+  if (edges.points.empty() || edges.rows <= 0) return out;
   Eigen::Matrix2d normal_matrix = Eigen::Matrix2d::Zero();
   Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
   int sunward = 0, far = 0;
   const double tolerance = std::max(1.5, 0.15 * h.radius);
   const double reach = h.radius + tolerance + 1.0;
   const int c0 = std::max(0, static_cast<int>(std::floor(h.center.x() - reach)));
-  const int c1 = std::min(edges.index.cols - 1, static_cast<int>(std::ceil(h.center.x() + reach)));
+  const int c1 = std::min(edges.cols - 1, static_cast<int>(std::ceil(h.center.x() + reach)));
   const int r0 = std::max(0, static_cast<int>(std::floor(h.center.y() - reach)));
-  const int r1 = std::min(edges.index.rows - 1, static_cast<int>(std::ceil(h.center.y() + reach)));
+  const int r1 = std::min(edges.rows - 1, static_cast<int>(std::ceil(h.center.y() + reach)));
   std::array<bool, kCoverageBins> hit{};
   for (int r = r0; r <= r1; ++r) {
-    const int* index = edges.index.ptr<int>(r);
-    for (int c = c0; c <= c1; ++c) {
-      if (index[c] < 0) continue;
-      const RimEdgePoint& p = edges.points[static_cast<size_t>(index[c])];
+    const int row_end = edges.row_start[static_cast<size_t>(r) + 1];
+    for (int i = edges.FirstInRow(r, c0); i < row_end && edges.column[static_cast<size_t>(i)] <= c1;
+         ++i) {
+      const RimEdgePoint& p = edges.points[static_cast<size_t>(i)];
       const Eigen::Vector2d d = Eigen::Vector2d(p.x, p.y) - h.center;
       const double dist = d.norm();
       if (dist <= 0.0 || std::abs(dist - h.radius) > tolerance) continue;

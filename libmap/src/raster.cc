@@ -191,15 +191,33 @@ cv::Mat RasterDataset::ReadWindow(int band_index, const PixelWindow& w) const {
 }
 
 cv::Mat RasterDataset::ReadWindowFloat(int band, const PixelWindow& window) const {
-  const cv::Mat stored = ReadWindow(band, window);
-  cv::Mat as_double;
-  stored.convertTo(as_double, CV_64F);
-  cv::Mat out(stored.size(), CV_32F);
+  cv::Mat stored = ReadWindow(band, window);
+  // Converted row by row through one double row (a whole-window double copy costs twice the
+  // window's float size); float pixels are converted in place.
+  cv::Mat out = stored.depth() == CV_32F ? stored : cv::Mat(stored.size(), CV_32F);
   const auto nodata = info_.nodata;
-  for (int r = 0; r < as_double.rows; ++r) {
-    const double* in = as_double.ptr<double>(r);
+  if (stored.depth() == CV_32F && info_.scale == 1.0 && info_.offset == 0.0) {
+    // Float without scaling: the same as below (1 x v + 0 rounds back to v), without the doubles.
+    // A nodata value that is not a float never equals a stored float.
+    const bool nodata_in_range = nodata && std::abs(*nodata) <= std::numeric_limits<float>::max();
+    const float nodata_value = nodata_in_range ? static_cast<float>(*nodata) : 0.0f;
+    const bool nodata_is_float = nodata_in_range && static_cast<double>(nodata_value) == *nodata;
+    for (int r = 0; r < out.rows; ++r) {
+      float* v = out.ptr<float>(r);
+      for (int c = 0; c < out.cols; ++c) {
+        if (!std::isfinite(v[c]) || (nodata_is_float && v[c] == nodata_value)) {
+          v[c] = std::numeric_limits<float>::quiet_NaN();
+        }
+      }
+    }
+    return out;
+  }
+  cv::Mat row(1, stored.cols, CV_64F);
+  for (int r = 0; r < stored.rows; ++r) {
+    stored.row(r).convertTo(row, CV_64F);
+    const double* in = row.ptr<double>(0);
     float* dst = out.ptr<float>(r);
-    for (int c = 0; c < as_double.cols; ++c) {
+    for (int c = 0; c < stored.cols; ++c) {
       const bool missing = !std::isfinite(in[c]) || (nodata && in[c] == *nodata);
       dst[c] = missing ? std::numeric_limits<float>::quiet_NaN()
                        : static_cast<float>(info_.scale * in[c] + info_.offset);

@@ -65,6 +65,10 @@ struct Ellipse {
   // unit normal n (envelope theorem, exact). Undefined where the closest point is not unique
   // (e.g. p at the centre); the value returned there belongs to one of the closest points.
   Eigen::Matrix<double, 5, 1> SignedDistanceGradient(const Eigen::Vector2d& p) const;
+  // SignedDistance(p), and SignedDistanceGradient(p) into *gradient, from one closest-point
+  // solve (half the work of calling both; for least-squares cost functions).
+  double SignedDistanceWithGradient(const Eigen::Vector2d& p,
+                                    Eigen::Matrix<double, 5, 1>* gradient) const;
 };
 
 // Wraps angle [rad] into [0, pi): an axis direction, which has no sign.

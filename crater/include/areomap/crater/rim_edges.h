@@ -23,11 +23,21 @@ struct RimEdgePoint {
 };
 
 struct RimEdges {
+  // In raster order: by pixel row, then pixel column (at most one point per pixel).
   std::vector<RimEdgePoint> points;
-  cv::Mat index;  // CV_32S, raster size: index into `points` of the edge at that pixel, -1
+  // The pixel of each point, as compressed rows: the points of pixel row r are
+  // points[row_start[r] .. row_start[r + 1]), `column` holds their pixel columns (increasing).
+  std::vector<int> row_start;  // rows + 1 entries
+  std::vector<int> column;     // one per point
+  int rows = 0;                // raster size [px]
+  int cols = 0;
   bool signed_normals = true;   // true for image edges (polarity known), false for DTM crests
   double high_threshold = 0.0;  // automatic hysteresis thresholds used [strength unit]
   double low_threshold = 0.0;
+
+  // Index into `points` of the first point in pixel row `row` whose column is >= `col`
+  // (row_start[row + 1] when none); `row` in [0, rows).
+  int FirstInRow(int row, int col) const;
 };
 
 struct EdgeOptions {
