@@ -185,6 +185,7 @@ nlohmann::json MissionRunOptions::ToJson() const {
           {"match_min_correlation", match.min_correlation},
           {"match_max_rotation_deg", match.max_rotation_deg},
           {"control_spacing_m", control.spacing_m},
+          {"control_site_sigma_m", control.site_sigma_m},
           {"prior_sigma_floor_m", prior_sigma_floor_m},
           {"prior_sigma_per_m", prior_sigma_per_m},
           {"rocks_min_height_m", rocks.min_height_m},
