@@ -47,26 +47,31 @@ struct Eligibility {
 
 // Table 4.5's per-rock rules. `own` and `other` are the two camera centres in the rocks' frame.
 Eligibility SelectEligible(const std::vector<ExtractedRock>& rocks, const Eigen::Vector3d& own,
-                           const Eigen::Vector3d& other, const FaultDetectionOptions& fd,
-                           double max_peak_sigma) {
+                           const Eigen::Vector3d& other, const RockMatchingOptions& options) {
   Eligibility e;
   for (size_t i = 0; i < rocks.size(); ++i) {
-    const ExtractedRock& r = rocks[i];
-    if ((r.peak - own).head<2>().norm() > fd.max_peak_range_m) {
-      ++e.beyond_range;
-    } else if (r.height_m < fd.min_peak_to_plane_m) {
-      ++e.too_low;
-    } else if (static_cast<int>(r.surface_indices.size()) < fd.min_surface_points || !r.modeled()) {
-      ++e.few_points;
-    } else if (r.best_model()->parameters.height > fd.max_model_size_m ||
-               r.best_model()->parameters.MeanRadius() > fd.max_model_size_m) {
-      ++e.implausible;
-    } else if (DistanceRatio(r.peak, own, other) < fd.min_rock_distance_ratio) {
-      ++e.low_ratio;
-    } else if (LargestHorizontalSigma(r) > max_peak_sigma) {
-      ++e.imprecise;
-    } else {
-      e.rocks.push_back(static_cast<int>(i));
+    switch (CheckRockRules(rocks[i], own, other, options)) {
+      case RockRule::kEligible:
+        e.rocks.push_back(static_cast<int>(i));
+        break;
+      case RockRule::kBeyondRange:
+        ++e.beyond_range;
+        break;
+      case RockRule::kTooLow:
+        ++e.too_low;
+        break;
+      case RockRule::kFewPoints:
+        ++e.few_points;
+        break;
+      case RockRule::kImplausible:
+        ++e.implausible;
+        break;
+      case RockRule::kLowRatio:
+        ++e.low_ratio;
+        break;
+      case RockRule::kImprecise:
+        ++e.imprecise;
+        break;
     }
   }
   return e;
@@ -129,6 +134,43 @@ double NormalAngleDeg(const Eigen::Vector3d& n1, const Eigen::Vector3d& n2) {
 }
 
 }  // namespace
+
+std::string ToString(RockRule rule) {
+  switch (rule) {
+    case RockRule::kEligible:
+      return "eligible";
+    case RockRule::kBeyondRange:
+      return "beyond range";
+    case RockRule::kTooLow:
+      return "too low";
+    case RockRule::kFewPoints:
+      return "few surface points / no model";
+    case RockRule::kImplausible:
+      return "implausible model";
+    case RockRule::kLowRatio:
+      return "distance ratio";
+    case RockRule::kImprecise:
+      return "peak sigma";
+  }
+  return "?";
+}
+
+RockRule CheckRockRules(const ExtractedRock& r, const Eigen::Vector3d& own,
+                        const Eigen::Vector3d& other, const RockMatchingOptions& options) {
+  const FaultDetectionOptions& fd = options.fault_detection;
+  if ((r.peak - own).head<2>().norm() > fd.max_peak_range_m) return RockRule::kBeyondRange;
+  if (r.height_m < fd.min_peak_to_plane_m) return RockRule::kTooLow;
+  if (static_cast<int>(r.surface_indices.size()) < fd.min_surface_points || !r.modeled()) {
+    return RockRule::kFewPoints;
+  }
+  if (r.best_model()->parameters.height > fd.max_model_size_m ||
+      r.best_model()->parameters.MeanRadius() > fd.max_model_size_m) {
+    return RockRule::kImplausible;
+  }
+  if (DistanceRatio(r.peak, own, other) < fd.min_rock_distance_ratio) return RockRule::kLowRatio;
+  if (LargestHorizontalSigma(r) > options.max_peak_sigma_m) return RockRule::kImprecise;
+  return RockRule::kEligible;
+}
 
 void RockMatchingOptions::Check() const {
   RequireOption(significant_cell_m > 0.0, "RockMatchingOptions.significant_cell_m", "> 0 m");
@@ -222,10 +264,8 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   if (report.outcome == PairOutcome::kExcludedByPreScreening) return result;
 
   // III: per-rock rules.
-  const Eligibility ea =
-      SelectEligible(a.rocks, a.camera_center, camera_b_in_a, fd, options.max_peak_sigma_m);
-  const Eligibility eb =
-      SelectEligible(b.rocks, b.camera_center, camera_a_in_b, fd, options.max_peak_sigma_m);
+  const Eligibility ea = SelectEligible(a.rocks, a.camera_center, camera_b_in_a, options);
+  const Eligibility eb = SelectEligible(b.rocks, b.camera_center, camera_a_in_b, options);
   result.eligible_a = static_cast<int>(ea.rocks.size());
   result.eligible_b = static_cast<int>(eb.rocks.size());
   report.Add(RockCount("III peaks", "rock peak beyond range of its camera",

@@ -124,6 +124,21 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
                             const RockMatchingOptions& options,
                             const std::optional<StereoQuality>& stereo = std::nullopt);
 
+// Table 4.5's per-rock rules, in the order they are applied (a rock is counted under the first
+// rule it fails). `own` and `other` are the two camera centres in the rock's site frame.
+enum class RockRule {
+  kEligible,
+  kBeyondRange,  // Peak farther than max_peak_range_m from its own camera.
+  kTooLow,       // Peak-to-plane distance below min_peak_to_plane_m.
+  kFewPoints,    // Fewer than min_surface_points surface points, or no model.
+  kImplausible,  // Model height or mean radius above max_model_size_m.
+  kLowRatio,     // Distance ratio (Fig. 4.19) below min_rock_distance_ratio.
+  kImprecise,    // Largest horizontal peak sigma above max_peak_sigma_m (not Table 4.5).
+};
+std::string ToString(RockRule rule);
+RockRule CheckRockRules(const ExtractedRock& rock, const Eigen::Vector3d& own,
+                        const Eigen::Vector3d& other, const RockMatchingOptions& options);
+
 // Eq. 3.28 between two fitted models (relative differences against their mean).
 double ModelMatchCost(const RockModelParameters& p, const RockModelParameters& q,
                       const RockMatchingOptions& options);

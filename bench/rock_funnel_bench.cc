@@ -1,0 +1,285 @@
+// Where a generated mission's rocks are lost on the way to tie points: per leg of a finished
+// `areomap run`, the truth rocks at least as high as fault detection's peak-to-plane limit that
+// both sites could give as tie points, stage by stage:
+//   overlap   within max_peak_range_m (horizontal) of both true cameras
+//   ratio     distance ratio (Fig. 4.19) >= the per-rock limit
+//   seen      >= 5 points of each site's cloud within 80 % of the rock's footprint
+//   peaks     an extracted rock's peak on it at both sites (rock_truth.h)
+//   eligible  that rock passes every per-rock rule (CheckRockRules) at both sites; the rocks that
+//             do not are counted under the first rule failing at either site
+//   matched   a rock match of the run (matches.csv, by rock id) joins the two peaks
+//   accepted  ... and fault detection accepted the leg (tie points)
+// Rocks are re-extracted from each site's points.ply with the run's default options (extraction
+// is deterministic, so the ids are the run's). The other site's camera comes from the truth.
+//
+// Run: build/ci/bench/areomap_bench_rock_funnel MISSION_DIR RUN_DIR
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <set>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <nlohmann/json.hpp>
+
+#include "areomap/map/csv.h"
+#include "areomap/map/error.h"
+#include "areomap/map/mission_manifest.h"
+#include "areomap/map/point_cloud_io.h"
+#include "areomap/registration/mission_run.h"
+#include "areomap/registration/rock_matching.h"
+#include "rock_truth.h"
+
+namespace areomap {
+namespace {
+
+namespace fs = std::filesystem;
+using bench::TruthRock;
+
+constexpr int kRules = 7;  // RockRule values.
+
+struct Site {
+  Eigen::Vector3d camera_world = Eigen::Vector3d::Zero();
+  std::vector<ExtractedRock> rocks;
+  std::map<int, int> points_on_rock;         // Truth id -> cloud points within 80 % footprint.
+  std::map<int, std::vector<int>> rocks_on;  // Truth id -> indices of extracted rocks on it.
+  std::map<int, int> id_to_index;            // ExtractedRock::id -> index.
+};
+
+Site LoadSite(const fs::path& run_dir, int site, const Rigid3d& world_from_site,
+              const std::vector<TruthRock>& truth, const MissionRunOptions& options) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "sites/site_%03d", site);
+  const PointCloud cloud = ReadPointCloudPly(run_dir / name / "points.ply");
+  Site s;
+  s.camera_world = world_from_site * cloud.camera_center;
+  s.rocks = ExtractRocks(cloud, options.rocks);
+  // Truth rocks near the site on a 1 m hash grid.
+  const auto key = [](const Eigen::Vector2d& p) {
+    return (static_cast<long long>(std::floor(p.x())) << 32) ^
+           (static_cast<long long>(std::floor(p.y())) & 0xffffffffLL);
+  };
+  std::unordered_map<long long, std::vector<int>> cells;
+  const double min_height = options.matching.fault_detection.min_peak_to_plane_m;
+  for (size_t i = 0; i < truth.size(); ++i) {
+    const TruthRock& r = truth[i];
+    if (r.height < min_height || (r.north_east - s.camera_world.head<2>()).norm() > 35.0) continue;
+    const double reach = 0.8 * r.radius;
+    for (double x = std::floor(r.north_east.x() - reach); x <= r.north_east.x() + reach; x += 1.0) {
+      for (double y = std::floor(r.north_east.y() - reach); y <= r.north_east.y() + reach;
+           y += 1.0) {
+        cells[key(Eigen::Vector2d(x, y))].push_back(static_cast<int>(i));
+      }
+    }
+  }
+  for (const StereoPoint& p : cloud.points) {
+    const Eigen::Vector2d w = (world_from_site * p.position).head<2>();
+    const auto it = cells.find(key(w));
+    if (it == cells.end()) continue;
+    for (int i : it->second) {
+      if ((truth[i].north_east - w).norm() <= 0.8 * truth[i].radius)
+        ++s.points_on_rock[truth[i].id];
+    }
+  }
+  for (size_t k = 0; k < s.rocks.size(); ++k) {
+    const ExtractedRock& r = s.rocks[k];
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(
+        r.peak_covariance.topLeftCorner<2, 2>());
+    const double sigma = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
+    const int id = bench::RockUnder(truth, (world_from_site * r.peak).head<2>(), sigma);
+    if (id >= 0) s.rocks_on[id].push_back(static_cast<int>(k));
+    s.id_to_index[r.id] = static_cast<int>(k);
+  }
+  return s;
+}
+
+// The best rule verdict among the extracted rocks on one truth rock (eligible beats any failure;
+// otherwise the latest rule in the order, i.e. the rock that got furthest).
+RockRule BestRule(const Site& s, int truth_id, const Eigen::Vector3d& own,
+                  const Eigen::Vector3d& other, const RockMatchingOptions& options, int* index) {
+  RockRule best = RockRule::kBeyondRange;
+  *index = -1;
+  for (int k : s.rocks_on.at(truth_id)) {
+    const RockRule rule = CheckRockRules(s.rocks[k], own, other, options);
+    const auto rank = [](RockRule r) {
+      return r == RockRule::kEligible ? 100 : static_cast<int>(r);
+    };
+    if (*index < 0 || rank(rule) > rank(best)) {
+      best = rule;
+      *index = k;
+    }
+  }
+  return best;
+}
+
+struct Funnel {
+  int overlap = 0, ratio = 0, seen = 0, peaks = 0, eligible = 0, matched = 0, accepted = 0;
+  std::array<int, kRules> failed{};
+  int wrong_matches = 0, wrong_accepted = 0, leg_matches = 0;
+};
+
+int Main(const fs::path& mission_dir, const fs::path& run_dir) {
+  const MissionManifest mission = ReadMissionManifest(mission_dir);
+  const std::vector<Rigid3d> world_from_site = bench::TrueWorldFromSites(mission);
+  const std::vector<TruthRock> truth = bench::ReadTruthRocks(*mission.truth_rocks_csv);
+  std::map<int, const TruthRock*> by_id;
+  for (const TruthRock& r : truth) by_id[r.id] = &r;
+  const MissionRunOptions options;
+  const FaultDetectionOptions& fd = options.matching.fault_detection;
+  std::printf("rocks >= %.2f m high, cameras <= %.0f m; rules counted at the first failure\n",
+              fd.min_peak_to_plane_m, fd.max_peak_range_m);
+  std::printf(
+      "leg       dist  overlap ratio seen peaks | low few impl ratio sigma | elig matched "
+      "wrong accepted  outcome\n");
+  Funnel total, short_legs;
+  int legs_accepted = 0, short_count = 0, short_accepted = 0;
+  Site b = LoadSite(run_dir, mission.sites[0].site, world_from_site[0], truth, options);
+  for (size_t k = 0; k + 1 < mission.sites.size(); ++k) {
+    Site a = std::move(b);
+    b = LoadSite(run_dir, mission.sites[k + 1].site, world_from_site[k + 1], truth, options);
+    const Rigid3d site_a_from_world = world_from_site[k].Inverse();
+    const Rigid3d site_b_from_world = world_from_site[k + 1].Inverse();
+    const Eigen::Vector3d cam_a_in_a = site_a_from_world * a.camera_world;
+    const Eigen::Vector3d cam_b_in_a = site_a_from_world * b.camera_world;
+    const Eigen::Vector3d cam_a_in_b = site_b_from_world * a.camera_world;
+    const Eigen::Vector3d cam_b_in_b = site_b_from_world * b.camera_world;
+    char name[64];
+    std::snprintf(name, sizeof(name), "legs/leg_%03d_%03d", mission.sites[k].site,
+                  mission.sites[k + 1].site);
+    const fs::path leg = run_dir / name;
+    std::ifstream unit_file(leg / "unit.json"), matches_file(leg / "matches.csv");
+    if (!unit_file || !matches_file) throw Error(leg.string() + ": no unit.json or matches.csv");
+    const nlohmann::json summary = nlohmann::json::parse(unit_file)["summary"];
+    const std::string outcome = summary.value("outcome", std::string("?"));
+    const bool accepted = outcome == "matched";
+    std::set<std::pair<int, int>> matched_pairs;  // Extracted rock indices (a, b).
+    std::string line;
+    std::getline(matches_file, line);
+    Funnel f;
+    while (std::getline(matches_file, line)) {
+      const std::vector<std::string> fields = SplitCsvLine(line);
+      const int ia = a.id_to_index.at(std::stoi(fields[0]));
+      const int ib = b.id_to_index.at(std::stoi(fields[1]));
+      matched_pairs.insert({ia, ib});
+      ++f.leg_matches;
+    }
+    int correct_matches = 0;
+    const double distance = (b.camera_world - a.camera_world).head<2>().norm();
+    for (const TruthRock& r : truth) {
+      if (r.height < fd.min_peak_to_plane_m) continue;
+      const Eigen::Vector3d top(r.north_east.x(), r.north_east.y(), a.camera_world.z() + 1.0);
+      if ((r.north_east - a.camera_world.head<2>()).norm() > fd.max_peak_range_m ||
+          (r.north_east - b.camera_world.head<2>()).norm() > fd.max_peak_range_m) {
+        continue;
+      }
+      ++f.overlap;
+      if (DistanceRatio(top, a.camera_world, b.camera_world) < fd.min_rock_distance_ratio) continue;
+      ++f.ratio;
+      if (a.points_on_rock[r.id] < 5 || b.points_on_rock[r.id] < 5) continue;
+      ++f.seen;
+      if (!a.rocks_on.count(r.id) || !b.rocks_on.count(r.id)) continue;
+      ++f.peaks;
+      int ka = -1, kb = -1;
+      const RockRule rule_a = BestRule(a, r.id, cam_a_in_a, cam_b_in_a, options.matching, &ka);
+      const RockRule rule_b = BestRule(b, r.id, cam_b_in_b, cam_a_in_b, options.matching, &kb);
+      if (rule_a != RockRule::kEligible || rule_b != RockRule::kEligible) {
+        const int ra = rule_a == RockRule::kEligible ? kRules : static_cast<int>(rule_a);
+        const int rb = rule_b == RockRule::kEligible ? kRules : static_cast<int>(rule_b);
+        ++f.failed[std::min(ra, rb)];
+        continue;
+      }
+      ++f.eligible;
+      bool joined = false;
+      for (int ia : a.rocks_on.at(r.id)) {
+        for (int ib : b.rocks_on.at(r.id)) joined = joined || matched_pairs.count({ia, ib}) > 0;
+      }
+      if (!joined) continue;
+      ++f.matched;
+      f.accepted += accepted ? 1 : 0;
+    }
+    // Wrong matches: the two peaks are not on one truth rock (any height).
+    for (const auto& [ia, ib] : matched_pairs) {
+      const auto on = [&](const Site& s, int index) {
+        for (const auto& [id, list] : s.rocks_on) {
+          if (std::find(list.begin(), list.end(), index) != list.end()) return id;
+        }
+        return -1;
+      };
+      const int ta = on(a, ia), tb = on(b, ib);
+      if (ta >= 0 && ta == tb) {
+        ++correct_matches;
+      } else {
+        ++f.wrong_matches;
+        f.wrong_accepted += accepted ? 1 : 0;
+      }
+    }
+    (void)correct_matches;
+    std::printf(
+        "%2zu -> %2zu %5.1f  %7d %5d %4d %5d | %3d %3d %4d %5d %5d | %4d %7d %5d %8d  %s%s\n", k,
+        k + 1, distance, f.overlap, f.ratio, f.seen, f.peaks,
+        f.failed[static_cast<int>(RockRule::kTooLow)],
+        f.failed[static_cast<int>(RockRule::kFewPoints)],
+        f.failed[static_cast<int>(RockRule::kImplausible)],
+        f.failed[static_cast<int>(RockRule::kLowRatio)],
+        f.failed[static_cast<int>(RockRule::kImprecise)], f.eligible, f.matched, f.wrong_matches,
+        f.accepted, outcome.c_str(), f.leg_matches > 0 && accepted ? "" : "");
+    const auto add = [](Funnel* t, const Funnel& x) {
+      t->overlap += x.overlap;
+      t->ratio += x.ratio;
+      t->seen += x.seen;
+      t->peaks += x.peaks;
+      t->eligible += x.eligible;
+      t->matched += x.matched;
+      t->accepted += x.accepted;
+      t->wrong_matches += x.wrong_matches;
+      t->wrong_accepted += x.wrong_accepted;
+      t->leg_matches += x.leg_matches;
+      for (int i = 0; i < kRules; ++i) t->failed[i] += x.failed[i];
+    };
+    add(&total, f);
+    legs_accepted += accepted ? 1 : 0;
+    if (distance <= 25.0) {
+      add(&short_legs, f);
+      ++short_count;
+      short_accepted += accepted ? 1 : 0;
+    }
+  }
+  const auto print = [](const char* label, const Funnel& f) {
+    std::printf(
+        "%s: overlap %d, ratio %d, seen %d, peaks %d; failing: too low %d, few points %d, "
+        "implausible %d, ratio %d, peak sigma %d; eligible %d, matched %d, accepted %d; "
+        "wrong matches %d (accepted %d) of %d\n",
+        label, f.overlap, f.ratio, f.seen, f.peaks, f.failed[static_cast<int>(RockRule::kTooLow)],
+        f.failed[static_cast<int>(RockRule::kFewPoints)],
+        f.failed[static_cast<int>(RockRule::kImplausible)],
+        f.failed[static_cast<int>(RockRule::kLowRatio)],
+        f.failed[static_cast<int>(RockRule::kImprecise)], f.eligible, f.matched, f.accepted,
+        f.wrong_matches, f.wrong_accepted, f.leg_matches);
+  };
+  print("all legs", total);
+  print("legs <= 25 m", short_legs);
+  std::printf("legs accepted: %d of %zu; legs <= 25 m accepted: %d of %d\n", legs_accepted,
+              mission.sites.size() - 1, short_accepted, short_count);
+  return 0;
+}
+
+}  // namespace
+}  // namespace areomap
+
+int main(int argc, char** argv) {
+  if (argc != 3) {
+    std::fprintf(stderr, "usage: %s MISSION_DIR RUN_DIR\n", argv[0]);
+    return 2;
+  }
+  try {
+    return areomap::Main(argv[1], argv[2]);
+  } catch (const areomap::Error& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+}
