@@ -12,13 +12,21 @@
 // Rocks are re-extracted from each site's points.ply with the run's default options (extraction
 // is deterministic, so the ids are the run's). The other site's camera comes from the truth.
 //
-// Run: build/ci/bench/areomap_bench_rock_funnel MISSION_DIR RUN_DIR
+// When the leg's unit.json records its prior pose (prior.a_from_b_*), the leg is re-matched here
+// with that prior (MatchSitePair), which also tells what became of each eligible rock that was not
+// matched (RockMatchOutcome), and lets `NAME=VALUE` arguments try other matching options.
+//
+// Run: build/ci/bench/areomap_bench_rock_funnel MISSION_DIR RUN_DIR [ROCKS_CSV] [NAME=VALUE...]
+// ROCKS_CSV (optional): one row per truth rock past the ratio stage and site of the leg, with the
+// nearest extracted peak, its height and rule, for a closer look at the losses.
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <numbers>
+#include <optional>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -49,6 +57,7 @@ struct Site {
   std::map<int, int> points_on_rock;         // Truth id -> cloud points within 80 % footprint.
   std::map<int, std::vector<int>> rocks_on;  // Truth id -> indices of extracted rocks on it.
   std::map<int, int> id_to_index;            // ExtractedRock::id -> index.
+  std::vector<Eigen::Vector2d> peaks_world;  // Extracted peaks in site 0's frame.
 };
 
 Site LoadSite(const fs::path& run_dir, int site, const Rigid3d& world_from_site,
@@ -93,6 +102,7 @@ Site LoadSite(const fs::path& run_dir, int site, const Rigid3d& world_from_site,
     const double sigma = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
     const int id = bench::RockUnder(truth, (world_from_site * r.peak).head<2>(), sigma);
     if (id >= 0) s.rocks_on[id].push_back(static_cast<int>(k));
+    s.peaks_world.push_back((world_from_site * r.peak).head<2>());
     s.id_to_index[r.id] = static_cast<int>(k);
   }
   return s;
@@ -121,15 +131,69 @@ struct Funnel {
   int overlap = 0, ratio = 0, seen = 0, peaks = 0, eligible = 0, matched = 0, accepted = 0;
   std::array<int, kRules> failed{};
   int wrong_matches = 0, wrong_accepted = 0, leg_matches = 0;
+  std::map<std::string, int> lost_in_matching;  // Eligible at both, not matched: why.
 };
 
-int Main(const fs::path& mission_dir, const fs::path& run_dir) {
+// The prior the run's leg unit used (unit.json "prior"), when it recorded the pose.
+std::optional<RockMatchingPrior> RecordedPrior(const nlohmann::json& prior) {
+  if (!prior.contains("a_from_b_translation_m")) return std::nullopt;
+  RockMatchingPrior out;
+  const std::vector<double> t = prior["a_from_b_translation_m"].get<std::vector<double>>();
+  const double turn = prior.value("a_from_b_turn_deg", 0.0) * std::numbers::pi / 180.0;
+  out.a_from_b = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitZ())),
+                         Eigen::Vector3d(t.at(0), t.at(1), t.at(2)));
+  out.position_sigma_m = prior.value("position_sigma_m", 0.0);
+  out.heading_sigma_deg = prior.value("heading_sigma_deg", 0.0);
+  out.source = prior.value("source", std::string("telemetry"));
+  return out;
+}
+
+// NAME=VALUE overrides of the run's default options (what-if experiments).
+void ApplyOverride(const std::string& text, MissionRunOptions* options) {
+  const size_t eq = text.find('=');
+  if (eq == std::string::npos) throw Error("'" + text + "': expected NAME=VALUE");
+  const std::string name = text.substr(0, eq);
+  const double value = std::stod(text.substr(eq + 1));
+  RockMatchingOptions& m = options->matching;
+  FaultDetectionOptions& fd = m.fault_detection;
+  const std::map<std::string, double*> doubles = {
+      {"max_peak_sigma_m", &m.max_peak_sigma_m},
+      {"pattern_tolerance_m", &m.pattern_tolerance_m},
+      {"max_model_cost", &m.max_model_cost},
+      {"significant_cell_m", &m.significant_cell_m},
+      {"ambiguity_sigmas", &m.ambiguity_sigmas},
+      {"peak_definition_sigma_m", &m.peak_definition_sigma_m},
+      {"max_vector_deviation_m", &m.max_vector_deviation_m},
+      {"max_vector_chi2", &m.max_vector_chi2},
+      {"min_peak_to_plane_m", &fd.min_peak_to_plane_m},
+      {"max_relative_error_percent", &fd.max_relative_error_percent},
+      {"max_normal_angle_deg", &fd.max_normal_angle_deg},
+      {"model_min_height_m", &options->rocks.model_min_height_m}};
+  if (name == "significant_per_cell") {
+    m.significant_per_cell = static_cast<int>(value);
+  } else if (name == "min_surface_points") {
+    fd.min_surface_points = static_cast<int>(value);
+  } else if (doubles.count(name)) {
+    *doubles.at(name) = value;
+  } else {
+    throw Error("'" + name + "': not an option this bench can change");
+  }
+}
+
+int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& rocks_csv,
+         const MissionRunOptions& options) {
+  std::ofstream rows;
+  if (!rocks_csv.empty()) {
+    rows.open(rocks_csv);
+    if (!rows) throw Error(rocks_csv.string() + ": cannot write");
+    rows << "leg,site,truth_id,truth_height_m,truth_radius_m,range_m,other_range_m,points,"
+            "nearest_peak_m,nearest_height_m,nearest_on_rock,nearest_rule,stage\n";
+  }
   const MissionManifest mission = ReadMissionManifest(mission_dir);
   const std::vector<Rigid3d> world_from_site = bench::TrueWorldFromSites(mission);
   const std::vector<TruthRock> truth = bench::ReadTruthRocks(*mission.truth_rocks_csv);
   std::map<int, const TruthRock*> by_id;
   for (const TruthRock& r : truth) by_id[r.id] = &r;
-  const MissionRunOptions options;
   const FaultDetectionOptions& fd = options.matching.fault_detection;
   std::printf("rocks >= %.2f m high, cameras <= %.0f m; rules counted at the first failure\n",
               fd.min_peak_to_plane_m, fd.max_peak_range_m);
@@ -155,19 +219,37 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
     std::ifstream unit_file(leg / "unit.json"), matches_file(leg / "matches.csv");
     if (!unit_file || !matches_file) throw Error(leg.string() + ": no unit.json or matches.csv");
     const nlohmann::json summary = nlohmann::json::parse(unit_file)["summary"];
-    const std::string outcome = summary.value("outcome", std::string("?"));
-    const bool accepted = outcome == "matched";
+    std::string outcome = summary.value("outcome", std::string("?"));
     std::set<std::pair<int, int>> matched_pairs;  // Extracted rock indices (a, b).
-    std::string line;
-    std::getline(matches_file, line);
+    std::map<int, std::string> fate_of;           // Rock of a -> RockMatchOutcome::fate.
     Funnel f;
-    while (std::getline(matches_file, line)) {
-      const std::vector<std::string> fields = SplitCsvLine(line);
-      const int ia = a.id_to_index.at(std::stoi(fields[0]));
-      const int ib = b.id_to_index.at(std::stoi(fields[1]));
-      matched_pairs.insert({ia, ib});
-      ++f.leg_matches;
+    const std::optional<RockMatchingPrior> prior =
+        RecordedPrior(summary.value("prior", nlohmann::json::object()));
+    if (prior) {
+      SiteRocks rocks_a, rocks_b;
+      rocks_a.site = mission.sites[k].site;
+      rocks_a.camera_center = cam_a_in_a;
+      rocks_a.rocks = a.rocks;
+      rocks_b.site = mission.sites[k + 1].site;
+      rocks_b.camera_center = cam_b_in_b;
+      rocks_b.rocks = b.rocks;
+      const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, *prior, options.matching);
+      outcome = ToString(match.report.outcome);
+      for (const RockMatch& m : match.matches) matched_pairs.insert({m.rock_a, m.rock_b});
+      for (const RockMatchOutcome& o : match.outcomes) fate_of[o.rock_a] = o.fate;
+      f.leg_matches = static_cast<int>(match.matches.size());
+    } else {
+      std::string line;
+      std::getline(matches_file, line);
+      while (std::getline(matches_file, line)) {
+        const std::vector<std::string> fields = SplitCsvLine(line);
+        const int ia = a.id_to_index.at(std::stoi(fields[0]));
+        const int ib = b.id_to_index.at(std::stoi(fields[1]));
+        matched_pairs.insert({ia, ib});
+        ++f.leg_matches;
+      }
     }
+    const bool accepted = outcome == "matched";
     int correct_matches = 0;
     const double distance = (b.camera_world - a.camera_world).head<2>().norm();
     for (const TruthRock& r : truth) {
@@ -182,6 +264,37 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
       ++f.ratio;
       if (a.points_on_rock[r.id] < 5 || b.points_on_rock[r.id] < 5) continue;
       ++f.seen;
+      if (rows.is_open()) {
+        for (int side = 0; side < 2; ++side) {
+          const Site& s = side == 0 ? a : b;
+          const Site& o = side == 0 ? b : a;
+          int nearest = -1;
+          double best = 1e9;
+          for (size_t q = 0; q < s.peaks_world.size(); ++q) {
+            const double d = (s.peaks_world[q] - r.north_east).norm();
+            if (d < best) {
+              best = d;
+              nearest = static_cast<int>(q);
+            }
+          }
+          const bool on =
+              s.rocks_on.count(r.id) &&
+              std::count(s.rocks_on.at(r.id).begin(), s.rocks_on.at(r.id).end(), nearest) > 0;
+          const Eigen::Vector3d own = side == 0 ? cam_a_in_a : cam_b_in_b;
+          const Eigen::Vector3d other = side == 0 ? cam_b_in_a : cam_a_in_b;
+          char row[512];
+          std::snprintf(
+              row, sizeof(row), "%zu,%d,%d,%.3f,%.3f,%.2f,%.2f,%d,%.3f,%.3f,%d,%s,", k, side, r.id,
+              r.height, r.radius, (r.north_east - s.camera_world.head<2>()).norm(),
+              (r.north_east - o.camera_world.head<2>()).norm(), s.points_on_rock.at(r.id), best,
+              nearest >= 0 ? s.rocks[nearest].height_m : 0.0, on ? 1 : 0,
+              nearest >= 0
+                  ? ToString(CheckRockRules(s.rocks[nearest], own, other, options.matching)).c_str()
+                  : "none");
+          rows << row << (a.rocks_on.count(r.id) && b.rocks_on.count(r.id) ? "peaks" : "seen")
+               << "\n";
+        }
+      }
       if (!a.rocks_on.count(r.id) || !b.rocks_on.count(r.id)) continue;
       ++f.peaks;
       int ka = -1, kb = -1;
@@ -198,7 +311,11 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
       for (int ia : a.rocks_on.at(r.id)) {
         for (int ib : b.rocks_on.at(r.id)) joined = joined || matched_pairs.count({ia, ib}) > 0;
       }
-      if (!joined) continue;
+      if (!joined) {
+        const auto it = fate_of.find(ka);
+        ++f.lost_in_matching[it == fate_of.end() ? "outside the prior's overlap" : it->second];
+        continue;
+      }
       ++f.matched;
       f.accepted += accepted ? 1 : 0;
     }
@@ -240,6 +357,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
       t->wrong_accepted += x.wrong_accepted;
       t->leg_matches += x.leg_matches;
       for (int i = 0; i < kRules; ++i) t->failed[i] += x.failed[i];
+      for (const auto& [fate, n] : x.lost_in_matching) t->lost_in_matching[fate] += n;
     };
     add(&total, f);
     legs_accepted += accepted ? 1 : 0;
@@ -260,6 +378,9 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
         f.failed[static_cast<int>(RockRule::kLowRatio)],
         f.failed[static_cast<int>(RockRule::kImprecise)], f.eligible, f.matched, f.accepted,
         f.wrong_matches, f.wrong_accepted, f.leg_matches);
+    std::printf("  eligible at both but not matched:");
+    for (const auto& [fate, n] : f.lost_in_matching) std::printf(" %s %d;", fate.c_str(), n);
+    std::printf("\n");
   };
   print("all legs", total);
   print("legs <= 25 m", short_legs);
@@ -272,12 +393,22 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
 }  // namespace areomap
 
 int main(int argc, char** argv) {
-  if (argc != 3) {
-    std::fprintf(stderr, "usage: %s MISSION_DIR RUN_DIR\n", argv[0]);
+  if (argc < 3) {
+    std::fprintf(stderr, "usage: %s MISSION_DIR RUN_DIR [ROCKS_CSV] [NAME=VALUE...]\n", argv[0]);
     return 2;
   }
   try {
-    return areomap::Main(argv[1], argv[2]);
+    areomap::MissionRunOptions options;
+    std::string rocks_csv;
+    for (int i = 3; i < argc; ++i) {
+      const std::string arg = argv[i];
+      if (arg.find('=') == std::string::npos) {
+        rocks_csv = arg;
+      } else {
+        areomap::ApplyOverride(arg, &options);
+      }
+    }
+    return areomap::Main(argv[1], argv[2], rocks_csv, options);
   } catch (const areomap::Error& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;

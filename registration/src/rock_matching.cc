@@ -332,12 +332,20 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   const AmbiguityTest ambiguous_b(b.rocks, tall_b, options.pattern_tolerance_m,
                                   options.ambiguity_sigmas);
   int ambiguous = 0;
+  std::map<int, size_t> outcome_of;  // Rock of a -> index into result.outcomes.
+  const auto set_fate = [&](int rock_a, int rock_b, const char* fate) {
+    const auto [it, inserted] = outcome_of.try_emplace(rock_a, result.outcomes.size());
+    if (inserted) result.outcomes.push_back({rock_a, -1, ""});
+    result.outcomes[it->second].rock_b = rock_b;
+    result.outcomes[it->second].fate = fate;
+  };
   std::map<std::pair<long, long>, std::vector<int>> cells;
   for (int i : ea.rocks) {
     const ExtractedRock& r = a.rocks[i];
     if ((r.peak - camera_b_in_a).head<2>().norm() > fd.max_peak_range_m) continue;
     if (ambiguous_a.Ambiguous(i)) {
       ++ambiguous;
+      set_fate(i, -1, "ambiguous at a");
       continue;
     }
     const auto key =
@@ -350,8 +358,12 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     std::sort(members.begin(), members.end(),
               [&](int x, int y) { return a.rocks[x].height_m > a.rocks[y].height_m; });
     const int keep = std::min(options.significant_per_cell, static_cast<int>(members.size()));
-    for (int k = 0; k < keep; ++k) {
-      significant.push_back(members[k]);
+    for (int k = 0; k < static_cast<int>(members.size()); ++k) {
+      if (k < keep) {
+        significant.push_back(members[k]);
+      } else {
+        set_fate(members[k], -1, "not highest in cell");
+      }
     }
   }
   result.significant = static_cast<int>(significant.size());
@@ -386,7 +398,10 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
         c.pattern[1] = j;
       }
     });
-    if (c.pattern[0] < 0) continue;  // No candidate near this rock.
+    if (c.pattern[0] < 0) {  // No candidate near this rock.
+      set_fate(i, -1, "no candidate");
+      continue;
+    }
     // Model matching among the two pattern candidates (Fig. 3.3: local pattern matching limits
     // model matching to two candidates).
     double best_cost = std::numeric_limits<double>::infinity();
@@ -442,12 +457,25 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
                                 lever * lever * Eigen::Matrix3d::Identity();
     if (deviation.norm() > options.max_vector_deviation_m ||
         deviation.dot(cov.ldlt().solve(deviation)) > options.max_vector_chi2) {
+      set_fate(c.rock_a, eb.rocks[winner], "inconsistent vector");
       continue;
     }
     ++result.pattern_matches;
-    if (winner != c.model_best || !c.terrain_ok) continue;
+    if (c.model_best < 0) {
+      set_fate(c.rock_a, eb.rocks[winner], "model cost");
+      continue;
+    }
+    if (winner != c.model_best) {
+      set_fate(c.rock_a, eb.rocks[winner], "methods disagree");
+      continue;
+    }
+    if (!c.terrain_ok) {
+      set_fate(c.rock_a, eb.rocks[winner], "terrain mismatch");
+      continue;
+    }
     if (ambiguous_b.Ambiguous(eb.rocks[winner], LargestHorizontalSigma(p))) {
       ++ambiguous;
+      set_fate(c.rock_a, eb.rocks[winner], "ambiguous at b");
       continue;
     }
     RockMatch m;
@@ -469,6 +497,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   for (const RockMatch& m : combined) {
     if (taken[m.rock_b]) {
       ++multiples;
+      set_fate(m.rock_a, m.rock_b, "multiple match");
       continue;
     }
     taken[m.rock_b] = 1;
@@ -514,9 +543,11 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
       }
     }
     if (worst_chi2 <= options.max_residual_chi2) break;
+    set_fate(result.matches[worst].rock_a, result.matches[worst].rock_b, "residual outlier");
     result.matches.erase(result.matches.begin() + static_cast<long>(worst));
     ++outliers;
   }
+  for (const RockMatch& m : result.matches) set_fate(m.rock_a, m.rock_b, "matched");
   report.Add(RockCount("IV adjustment", "tie point residual outlier (conformal fit)", outliers,
                        options.max_residual_chi2, "chi2"));
 

@@ -103,6 +103,16 @@ struct RockMatch {
   double distance_ratio = 0.0;    // Fig. 4.19.
 };
 
+// What became of one eligible rock of site a in the overlap (diagnostics): `fate` is "matched" or
+// the step that dropped it: "ambiguous at a", "not highest in cell", "no candidate",
+// "inconsistent vector", "model cost", "terrain mismatch", "methods disagree",
+// "ambiguous at b", "multiple match", "residual outlier".
+struct RockMatchOutcome {
+  int rock_a = -1;  // Index into SiteRocks::rocks of site a.
+  int rock_b = -1;  // The winning candidate of site b, when the rock got that far; else -1.
+  std::string fate;
+};
+
 struct SitePairMatch {
   std::vector<RockMatch> matches;    // Accepted rock pairs (before the pair-level verdict).
   std::vector<TiePoint> tie_points;  // Only when the pair's outcome is "matched".
@@ -112,6 +122,7 @@ struct SitePairMatch {
   int eligible_a = 0, eligible_b = 0;  // Rocks passing the per-rock rules.
   int significant = 0;
   int model_matches = 0, pattern_matches = 0;
+  std::vector<RockMatchOutcome> outcomes;  // One per eligible rock of a in the overlap.
 };
 
 // With a bare prior pose: the search radius is options.search_radius_m everywhere and the heading
