@@ -162,6 +162,7 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options) {
       {"max_model_cost", &m.max_model_cost},
       {"significant_cell_m", &m.significant_cell_m},
       {"ambiguity_sigmas", &m.ambiguity_sigmas},
+      {"ambiguity_min_height_m", &m.ambiguity_min_height_m},
       {"peak_definition_sigma_m", &m.peak_definition_sigma_m},
       {"max_vector_deviation_m", &m.max_vector_deviation_m},
       {"max_vector_chi2", &m.max_vector_chi2},
@@ -333,6 +334,15 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
       } else {
         ++f.wrong_matches;
         f.wrong_accepted += accepted ? 1 : 0;
+        const ExtractedRock& ra = a.rocks[ia];
+        const ExtractedRock& rb = b.rocks[ib];
+        const double apart = (a.peaks_world[ia] - b.peaks_world[ib]).norm();
+        std::printf(
+            "  wrong match%s: rocks %d / %d on truth %d / %d, peaks %.2f m apart (true "
+            "frames), ranges %.1f / %.1f m, heights %.2f / %.2f m, sigma %.2f / %.2f m\n",
+            accepted ? " (accepted)" : "", ra.id, rb.id, ta, tb, apart, ra.range_m, rb.range_m,
+            ra.height_m, rb.height_m, std::sqrt(ra.peak_covariance.topLeftCorner<2, 2>().trace()),
+            std::sqrt(rb.peak_covariance.topLeftCorner<2, 2>().trace()));
       }
     }
     (void)correct_matches;

@@ -190,6 +190,8 @@ void RockMatchingOptions::Check() const {
                 "RockMatchingOptions.cost_height_weight", "non-negative weights, not all zero");
   RequireOption(max_model_cost > 0.0, "RockMatchingOptions.max_model_cost", "> 0");
   RequireOption(ambiguity_sigmas >= 0.0, "RockMatchingOptions.ambiguity_sigmas", ">= 0");
+  RequireOption(ambiguity_min_height_m >= 0.0, "RockMatchingOptions.ambiguity_min_height_m",
+                ">= 0 m");
   RequireOption(max_peak_sigma_m > 0.0, "RockMatchingOptions.max_peak_sigma_m", "> 0 m");
   fault_detection.Check();
 }
@@ -322,7 +324,9 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   const auto tall = [&](const std::vector<ExtractedRock>& rocks) {
     std::vector<int> indices;
     for (size_t i = 0; i < rocks.size(); ++i) {
-      if (rocks[i].height_m >= fd.min_peak_to_plane_m) indices.push_back(static_cast<int>(i));
+      if (rocks[i].height_m >= options.ambiguity_min_height_m) {
+        indices.push_back(static_cast<int>(i));
+      }
     }
     return indices;
   };
@@ -476,6 +480,13 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     if (ambiguous_b.Ambiguous(eb.rocks[winner], LargestHorizontalSigma(p))) {
       ++ambiguous;
       set_fate(c.rock_a, eb.rocks[winner], "ambiguous at b");
+      continue;
+    }
+    // The same test at a with the partner's sigma: a far (imprecise) peak of b can as well be a
+    // neighbour of p within its uncertainty.
+    if (ambiguous_a.Ambiguous(c.rock_a, LargestHorizontalSigma(b.rocks[eb.rocks[winner]]))) {
+      ++ambiguous;
+      set_fate(c.rock_a, eb.rocks[winner], "ambiguous at a");
       continue;
     }
     RockMatch m;
