@@ -57,7 +57,9 @@ struct Site {
   std::map<int, int> points_on_rock;         // Truth id -> cloud points within 80 % footprint.
   std::map<int, std::vector<int>> rocks_on;  // Truth id -> indices of extracted rocks on it.
   std::map<int, int> id_to_index;            // ExtractedRock::id -> index.
-  std::vector<Eigen::Vector2d> peaks_world;  // Extracted peaks in site 0's frame.
+  std::vector<Eigen::Vector2d> peaks_world;
+  std::vector<double> peak_z_world,
+      foot_z_world;  // Down, in site 0's frame [m].  // Extracted peaks in site 0's frame.
 };
 
 Site LoadSite(const fs::path& run_dir, int site, const Rigid3d& world_from_site,
@@ -103,6 +105,8 @@ Site LoadSite(const fs::path& run_dir, int site, const Rigid3d& world_from_site,
     const int id = bench::RockUnder(truth, (world_from_site * r.peak).head<2>(), sigma);
     if (id >= 0) s.rocks_on[id].push_back(static_cast<int>(k));
     s.peaks_world.push_back((world_from_site * r.peak).head<2>());
+    s.peak_z_world.push_back((world_from_site * r.peak).z());
+    s.foot_z_world.push_back((world_from_site * r.peak_foot).z());
     s.id_to_index[r.id] = static_cast<int>(k);
   }
   return s;
@@ -169,7 +173,8 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options) {
       {"min_peak_to_plane_m", &fd.min_peak_to_plane_m},
       {"max_relative_error_percent", &fd.max_relative_error_percent},
       {"max_normal_angle_deg", &fd.max_normal_angle_deg},
-      {"model_min_height_m", &options->rocks.model_min_height_m}};
+      {"model_min_height_m", &options->rocks.model_min_height_m},
+      {"plane_exclusion_k", &options->rocks.plane_exclusion_k}};
   if (name == "significant_per_cell") {
     m.significant_per_cell = static_cast<int>(value);
   } else if (name == "min_surface_points") {
@@ -188,7 +193,8 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
     rows.open(rocks_csv);
     if (!rows) throw Error(rocks_csv.string() + ": cannot write");
     rows << "leg,site,truth_id,truth_height_m,truth_radius_m,range_m,other_range_m,points,"
-            "nearest_peak_m,nearest_height_m,nearest_on_rock,nearest_rule,stage\n";
+            "nearest_peak_m,nearest_height_m,nearest_on_rock,nearest_rule,stage,peak_dz_m,foot_dz_"
+            "m\n";
   }
   const MissionManifest mission = ReadMissionManifest(mission_dir);
   const std::vector<Rigid3d> world_from_site = bench::TrueWorldFromSites(mission);
@@ -292,8 +298,12 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
               nearest >= 0
                   ? ToString(CheckRockRules(s.rocks[nearest], own, other, options.matching)).c_str()
                   : "none");
+          // Elevation errors of the peak (against the true top) and of its foot on the fitted
+          // plane (against the true ground) [m], up positive.
+          const double h0 = mission.origin.h;
           rows << row << (a.rocks_on.count(r.id) && b.rocks_on.count(r.id) ? "peaks" : "seen")
-               << "\n";
+               << "," << (nearest >= 0 ? h0 - s.peak_z_world[nearest] - r.ground_z - r.height : 0.0)
+               << "," << (nearest >= 0 ? h0 - s.foot_z_world[nearest] - r.ground_z : 0.0) << "\n";
         }
       }
       if (!a.rocks_on.count(r.id) || !b.rocks_on.count(r.id)) continue;

@@ -26,6 +26,7 @@ struct TruthRock {
   Eigen::Vector2d north_east = Eigen::Vector2d::Zero();  // Site 0's frame [m].
   double height = 0.0;                                   // [m]
   double radius = 0.0;                                   // Semi-axis a [m].
+  double ground_z = 0.0;  // Ground elevation under the centre [m above the ellipsoid].
 };
 
 // truth/rocks.csv: id, shape, east_m, north_m, ground_z_m, height_m, a_m, ...
@@ -39,7 +40,7 @@ inline std::vector<TruthRock> ReadTruthRocks(const std::filesystem::path& csv) {
     const std::vector<std::string> f = SplitCsvLine(line);
     if (f.size() < 7) throw Error(csv.string() + ": expected 7+ fields in '" + line + "'");
     rocks.push_back({std::stoi(f[0]), Eigen::Vector2d(std::stod(f[3]), std::stod(f[2])),
-                     std::stod(f[5]), std::stod(f[6])});
+                     std::stod(f[5]), std::stod(f[6]), std::stod(f[4])});
   }
   return rocks;
 }

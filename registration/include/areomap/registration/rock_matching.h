@@ -86,7 +86,9 @@ struct RockMatchingOptions {
   double cost_area_weight = 1.0 / 6.0;
   double max_model_cost = 0.6;    // Model matching accepts costs up to this.
   double ambiguity_sigmas = 1.0;  // Neighbour within epsilon + this many sigmas: ambiguous.
-  // Neighbours that count for the ambiguity test: rocks at least this high at their site [m].
+  // Neighbours that count for the ambiguity test: rocks at least this high at their site [m]
+  // (lower values guard against a neighbour measured just under the 15 cm rule here and over it
+  // at the other site, at a cost in matches: docs/rocks.md).
   double ambiguity_min_height_m = 0.15;
   // Rocks whose peak's largest horizontal sigma exceeds this are not used as tie points (eq. 4.3
   // range error grows as r^2: 0.6 m at ~17 m for the Navcam with sigma_p = 0.5 px; on the demo
