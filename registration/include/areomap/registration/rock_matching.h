@@ -20,12 +20,13 @@
 // vectors wins (global consistency). Beyond the dissertation, a winner whose V lies farther than
 // `max_vector_deviation_m` from the median, or beyond its chi-square bound given the peaks'
 // covariances, is dropped (it contradicts the global pattern), and so is a rock of either site with
-// a neighbour closer than epsilon plus `ambiguity_sigmas` of the peaks' horizontal sigma (no vote
-// can tell them apart); rocks whose peak sigma exceeds `max_peak_sigma_m` are not used. (5) A pair
-// is matched only where both methods agree; when several rocks of a take the same rock of b, only
-// the lowest-cost one is kept. (6) Data snooping in the 2D conformal fit of the matches (eq. 4.4)
-// drops residual outliers while more than min_tie_points remain. Pair-level rules (traverse, peaks,
-// tie-point count, distance ratio, RE) decide the outcome.
+// a neighbour (at least `ambiguity_min_height_m` high) closer than epsilon plus `ambiguity_sigmas`
+// of the two partners' combined horizontal sigma (no vote can tell them apart; tested at both
+// sites once the partner is known); rocks whose peak sigma exceeds `max_peak_sigma_m` are not used.
+// (5) A pair is matched only where both methods agree; when several rocks of a take the same rock
+// of b, only the lowest-cost one is kept. (6) Data snooping in the 2D conformal fit of the matches
+// (eq. 4.4) drops residual outliers while more than min_tie_points remain. Pair-level rules
+// (traverse, peaks, tie-point count, distance ratio, RE) decide the outcome.
 //
 // Failures: invalid options throw areomap::Error; everything about the data (no overlap, no
 // rocks, too few tie points) is a verdict in the report, never an exception.
