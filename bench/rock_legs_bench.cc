@@ -20,61 +20,21 @@
 #include "areomap/map/error.h"
 #include "areomap/map/mission_manifest.h"
 #include "areomap/map/rigid3d.h"
+#include "rock_truth.h"
 
 namespace areomap {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct TruthRock {
-  int id = 0;
-  Eigen::Vector2d north_east = Eigen::Vector2d::Zero();
-  double height = 0.0;
-  double radius = 0.0;
-};
-
-// truth/rocks.csv: id, shape, east_m, north_m, ground_z_m, height_m, a_m, ...
-std::vector<TruthRock> ReadTruthRocks(const fs::path& csv) {
-  std::ifstream in(csv);
-  if (!in) throw Error(csv.string() + ": cannot open the truth rocks");
-  std::string line;
-  std::getline(in, line);
-  std::vector<TruthRock> rocks;
-  while (std::getline(in, line)) {
-    const std::vector<std::string> f = SplitCsvLine(line);
-    if (f.size() < 7) throw Error(csv.string() + ": expected 7+ fields in '" + line + "'");
-    rocks.push_back({std::stoi(f[0]), Eigen::Vector2d(std::stod(f[3]), std::stod(f[2])),
-                     std::stod(f[5]), std::stod(f[6])});
-  }
-  return rocks;
-}
-
-int RockUnder(const std::vector<TruthRock>& truth, const Eigen::Vector2d& north_east,
-              double sigma) {
-  int best = -1;
-  double height = 0.0;
-  for (const TruthRock& r : truth) {
-    if ((r.north_east - north_east).norm() <= r.radius + 0.15 + 0.5 * sigma && r.height > height) {
-      height = r.height;
-      best = r.id;
-    }
-  }
-  return best;
-}
+using bench::ReadTruthRocks;
+using bench::RockUnder;
+using bench::TruthRock;
 
 int Main(const fs::path& mission_dir, const fs::path& run_dir) {
   const MissionManifest mission = ReadMissionManifest(mission_dir);
-  if (mission.truth_sites.size() != mission.sites.size() || !mission.truth_rocks_csv) {
-    throw Error(mission_dir.string() + ": the mission has no truth (truth/sites.csv, rocks.csv)");
-  }
+  const std::vector<Rigid3d> world_from_site = bench::TrueWorldFromSites(mission);
   const std::vector<TruthRock> truth = ReadTruthRocks(*mission.truth_rocks_csv);
-  std::vector<Rigid3d> world_from_site;
-  for (size_t k = 0; k < mission.sites.size(); ++k) {
-    const double turn = mission.truth_sites[k].heading - mission.telemetry[k].heading;
-    world_from_site.emplace_back(
-        Eigen::Quaterniond(Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitZ())),
-        mission.truth_sites[k].position);
-  }
   int all = 0, all_correct = 0;
   std::printf("leg      prior                 matches correct  RE [%%]  outcome\n");
   for (size_t k = 0; k + 1 < mission.sites.size(); ++k) {

@@ -119,6 +119,13 @@ RockMatchingPrior LegPrior(const RunContext& run, size_t index_a, size_t index_b
       (*info)["reason"] = "orbital registration disagrees with telemetry beyond 3 sigma";
     }
   }
+  // The prior pose itself (site b in site a: translation and turn about z, down), so that a run
+  // can be re-matched offline (bench/rock_funnel_bench.cc).
+  const Eigen::Matrix3d r = telemetry.a_from_b.RotationMatrix();
+  (*info)["a_from_b_translation_m"] = {telemetry.a_from_b.translation.x(),
+                                       telemetry.a_from_b.translation.y(),
+                                       telemetry.a_from_b.translation.z()};
+  (*info)["a_from_b_turn_deg"] = std::atan2(r(1, 0), r(0, 0)) * 180.0 / std::numbers::pi;
   (*info)["position_sigma_m"] = telemetry.position_sigma_m;
   (*info)["heading_sigma_deg"] = telemetry.heading_sigma_deg;
   return telemetry;

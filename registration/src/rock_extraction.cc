@@ -174,10 +174,16 @@ class Extractor {
     // The ground must reach beyond the rock: when the fitted height says the rock is wider than
     // the neighbourhood (1.7 H + 0.3 m, the surface search's reach plus a margin), refit once
     // over the wider neighbourhood (at most 4 m: boulders bigger than that are not landmarks).
+    // The rock's own points are left out of its ground (Mars rocks are about half as high as
+    // they are wide, so the footprint reaches about H from the peak): with the range noise of a
+    // far rock (eq. 4.3) the ground's robust threshold is several centimetres and would keep the
+    // rock's lower flanks in the plane, lifting it and shrinking H.
     const auto fit = [&](double radius) {
+      const double inner = std::min(0.5 * radius, options_.plane_exclusion_k * relief);
       std::vector<int> near;
       grid_.ForEachNear(peak.head<2>(), radius, [&](int j) {
-        if ((cloud_.points[j].position - peak).head<2>().norm() <= radius) near.push_back(j);
+        const double d = (cloud_.points[j].position - peak).head<2>().norm();
+        if (d <= radius && d >= inner) near.push_back(j);
       });
       constexpr size_t kMaxPlanePoints = 800;
       const size_t stride = std::max<size_t>(1, near.size() / kMaxPlanePoints);
@@ -331,6 +337,7 @@ void RockExtractionOptions::Check() const {
   RequireOption(min_window_points >= 1, "RockExtractionOptions.min_window_points", ">= 1");
   RequireOption(max_peak_range_m > 0.0, "RockExtractionOptions.max_peak_range_m", "> 0 m");
   RequireOption(plane_radius_m > 0.0, "RockExtractionOptions.plane_radius_m", "> 0 m");
+  RequireOption(plane_exclusion_k >= 0.0, "RockExtractionOptions.plane_exclusion_k", ">= 0");
   RequireOption(min_height_m >= 0.0, "RockExtractionOptions.min_height_m", ">= 0 m");
   RequireOption(surface_k_min > 0.0 && surface_k_max > surface_k_min,
                 "RockExtractionOptions.surface_k_max", "0 < surface_k_min < surface_k_max");

@@ -47,26 +47,31 @@ struct Eligibility {
 
 // Table 4.5's per-rock rules. `own` and `other` are the two camera centres in the rocks' frame.
 Eligibility SelectEligible(const std::vector<ExtractedRock>& rocks, const Eigen::Vector3d& own,
-                           const Eigen::Vector3d& other, const FaultDetectionOptions& fd,
-                           double max_peak_sigma) {
+                           const Eigen::Vector3d& other, const RockMatchingOptions& options) {
   Eligibility e;
   for (size_t i = 0; i < rocks.size(); ++i) {
-    const ExtractedRock& r = rocks[i];
-    if ((r.peak - own).head<2>().norm() > fd.max_peak_range_m) {
-      ++e.beyond_range;
-    } else if (r.height_m < fd.min_peak_to_plane_m) {
-      ++e.too_low;
-    } else if (static_cast<int>(r.surface_indices.size()) < fd.min_surface_points || !r.modeled()) {
-      ++e.few_points;
-    } else if (r.best_model()->parameters.height > fd.max_model_size_m ||
-               r.best_model()->parameters.MeanRadius() > fd.max_model_size_m) {
-      ++e.implausible;
-    } else if (DistanceRatio(r.peak, own, other) < fd.min_rock_distance_ratio) {
-      ++e.low_ratio;
-    } else if (LargestHorizontalSigma(r) > max_peak_sigma) {
-      ++e.imprecise;
-    } else {
-      e.rocks.push_back(static_cast<int>(i));
+    switch (CheckRockRules(rocks[i], own, other, options)) {
+      case RockRule::kEligible:
+        e.rocks.push_back(static_cast<int>(i));
+        break;
+      case RockRule::kBeyondRange:
+        ++e.beyond_range;
+        break;
+      case RockRule::kTooLow:
+        ++e.too_low;
+        break;
+      case RockRule::kFewPoints:
+        ++e.few_points;
+        break;
+      case RockRule::kImplausible:
+        ++e.implausible;
+        break;
+      case RockRule::kLowRatio:
+        ++e.low_ratio;
+        break;
+      case RockRule::kImprecise:
+        ++e.imprecise;
+        break;
     }
   }
   return e;
@@ -130,6 +135,43 @@ double NormalAngleDeg(const Eigen::Vector3d& n1, const Eigen::Vector3d& n2) {
 
 }  // namespace
 
+std::string ToString(RockRule rule) {
+  switch (rule) {
+    case RockRule::kEligible:
+      return "eligible";
+    case RockRule::kBeyondRange:
+      return "beyond range";
+    case RockRule::kTooLow:
+      return "too low";
+    case RockRule::kFewPoints:
+      return "few surface points / no model";
+    case RockRule::kImplausible:
+      return "implausible model";
+    case RockRule::kLowRatio:
+      return "distance ratio";
+    case RockRule::kImprecise:
+      return "peak sigma";
+  }
+  return "?";
+}
+
+RockRule CheckRockRules(const ExtractedRock& r, const Eigen::Vector3d& own,
+                        const Eigen::Vector3d& other, const RockMatchingOptions& options) {
+  const FaultDetectionOptions& fd = options.fault_detection;
+  if ((r.peak - own).head<2>().norm() > fd.max_peak_range_m) return RockRule::kBeyondRange;
+  if (r.height_m < fd.min_peak_to_plane_m) return RockRule::kTooLow;
+  if (static_cast<int>(r.surface_indices.size()) < fd.min_surface_points || !r.modeled()) {
+    return RockRule::kFewPoints;
+  }
+  if (r.best_model()->parameters.height > fd.max_model_size_m ||
+      r.best_model()->parameters.MeanRadius() > fd.max_model_size_m) {
+    return RockRule::kImplausible;
+  }
+  if (DistanceRatio(r.peak, own, other) < fd.min_rock_distance_ratio) return RockRule::kLowRatio;
+  if (LargestHorizontalSigma(r) > options.max_peak_sigma_m) return RockRule::kImprecise;
+  return RockRule::kEligible;
+}
+
 void RockMatchingOptions::Check() const {
   RequireOption(significant_cell_m > 0.0, "RockMatchingOptions.significant_cell_m", "> 0 m");
   RequireOption(significant_per_cell >= 1, "RockMatchingOptions.significant_per_cell", ">= 1");
@@ -148,6 +190,8 @@ void RockMatchingOptions::Check() const {
                 "RockMatchingOptions.cost_height_weight", "non-negative weights, not all zero");
   RequireOption(max_model_cost > 0.0, "RockMatchingOptions.max_model_cost", "> 0");
   RequireOption(ambiguity_sigmas >= 0.0, "RockMatchingOptions.ambiguity_sigmas", ">= 0");
+  RequireOption(ambiguity_min_height_m >= 0.0, "RockMatchingOptions.ambiguity_min_height_m",
+                ">= 0 m");
   RequireOption(max_peak_sigma_m > 0.0, "RockMatchingOptions.max_peak_sigma_m", "> 0 m");
   fault_detection.Check();
 }
@@ -222,10 +266,8 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   if (report.outcome == PairOutcome::kExcludedByPreScreening) return result;
 
   // III: per-rock rules.
-  const Eligibility ea =
-      SelectEligible(a.rocks, a.camera_center, camera_b_in_a, fd, options.max_peak_sigma_m);
-  const Eligibility eb =
-      SelectEligible(b.rocks, b.camera_center, camera_a_in_b, fd, options.max_peak_sigma_m);
+  const Eligibility ea = SelectEligible(a.rocks, a.camera_center, camera_b_in_a, options);
+  const Eligibility eb = SelectEligible(b.rocks, b.camera_center, camera_a_in_b, options);
   result.eligible_a = static_cast<int>(ea.rocks.size());
   result.eligible_b = static_cast<int>(eb.rocks.size());
   report.Add(RockCount("III peaks", "rock peak beyond range of its camera",
@@ -282,7 +324,9 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   const auto tall = [&](const std::vector<ExtractedRock>& rocks) {
     std::vector<int> indices;
     for (size_t i = 0; i < rocks.size(); ++i) {
-      if (rocks[i].height_m >= fd.min_peak_to_plane_m) indices.push_back(static_cast<int>(i));
+      if (rocks[i].height_m >= options.ambiguity_min_height_m) {
+        indices.push_back(static_cast<int>(i));
+      }
     }
     return indices;
   };
@@ -292,12 +336,20 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   const AmbiguityTest ambiguous_b(b.rocks, tall_b, options.pattern_tolerance_m,
                                   options.ambiguity_sigmas);
   int ambiguous = 0;
+  std::map<int, size_t> outcome_of;  // Rock of a -> index into result.outcomes.
+  const auto set_fate = [&](int rock_a, int rock_b, const char* fate) {
+    const auto [it, inserted] = outcome_of.try_emplace(rock_a, result.outcomes.size());
+    if (inserted) result.outcomes.push_back({rock_a, -1, ""});
+    result.outcomes[it->second].rock_b = rock_b;
+    result.outcomes[it->second].fate = fate;
+  };
   std::map<std::pair<long, long>, std::vector<int>> cells;
   for (int i : ea.rocks) {
     const ExtractedRock& r = a.rocks[i];
     if ((r.peak - camera_b_in_a).head<2>().norm() > fd.max_peak_range_m) continue;
     if (ambiguous_a.Ambiguous(i)) {
       ++ambiguous;
+      set_fate(i, -1, "ambiguous at a");
       continue;
     }
     const auto key =
@@ -310,8 +362,12 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     std::sort(members.begin(), members.end(),
               [&](int x, int y) { return a.rocks[x].height_m > a.rocks[y].height_m; });
     const int keep = std::min(options.significant_per_cell, static_cast<int>(members.size()));
-    for (int k = 0; k < keep; ++k) {
-      significant.push_back(members[k]);
+    for (int k = 0; k < static_cast<int>(members.size()); ++k) {
+      if (k < keep) {
+        significant.push_back(members[k]);
+      } else {
+        set_fate(members[k], -1, "not highest in cell");
+      }
     }
   }
   result.significant = static_cast<int>(significant.size());
@@ -346,7 +402,10 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
         c.pattern[1] = j;
       }
     });
-    if (c.pattern[0] < 0) continue;  // No candidate near this rock.
+    if (c.pattern[0] < 0) {  // No candidate near this rock.
+      set_fate(i, -1, "no candidate");
+      continue;
+    }
     // Model matching among the two pattern candidates (Fig. 3.3: local pattern matching limits
     // model matching to two candidates).
     double best_cost = std::numeric_limits<double>::infinity();
@@ -402,12 +461,32 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
                                 lever * lever * Eigen::Matrix3d::Identity();
     if (deviation.norm() > options.max_vector_deviation_m ||
         deviation.dot(cov.ldlt().solve(deviation)) > options.max_vector_chi2) {
+      set_fate(c.rock_a, eb.rocks[winner], "inconsistent vector");
       continue;
     }
     ++result.pattern_matches;
-    if (winner != c.model_best || !c.terrain_ok) continue;
+    if (c.model_best < 0) {
+      set_fate(c.rock_a, eb.rocks[winner], "model cost");
+      continue;
+    }
+    if (winner != c.model_best) {
+      set_fate(c.rock_a, eb.rocks[winner], "methods disagree");
+      continue;
+    }
+    if (!c.terrain_ok) {
+      set_fate(c.rock_a, eb.rocks[winner], "terrain mismatch");
+      continue;
+    }
     if (ambiguous_b.Ambiguous(eb.rocks[winner], LargestHorizontalSigma(p))) {
       ++ambiguous;
+      set_fate(c.rock_a, eb.rocks[winner], "ambiguous at b");
+      continue;
+    }
+    // The same test at a with the partner's sigma: a far (imprecise) peak of b can as well be a
+    // neighbour of p within its uncertainty.
+    if (ambiguous_a.Ambiguous(c.rock_a, LargestHorizontalSigma(b.rocks[eb.rocks[winner]]))) {
+      ++ambiguous;
+      set_fate(c.rock_a, eb.rocks[winner], "ambiguous at a");
       continue;
     }
     RockMatch m;
@@ -429,6 +508,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   for (const RockMatch& m : combined) {
     if (taken[m.rock_b]) {
       ++multiples;
+      set_fate(m.rock_a, m.rock_b, "multiple match");
       continue;
     }
     taken[m.rock_b] = 1;
@@ -474,9 +554,11 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
       }
     }
     if (worst_chi2 <= options.max_residual_chi2) break;
+    set_fate(result.matches[worst].rock_a, result.matches[worst].rock_b, "residual outlier");
     result.matches.erase(result.matches.begin() + static_cast<long>(worst));
     ++outliers;
   }
+  for (const RockMatch& m : result.matches) set_fate(m.rock_a, m.rock_b, "matched");
   report.Add(RockCount("IV adjustment", "tie point residual outlier (conformal fit)", outliers,
                        options.max_residual_chi2, "chi2"));
 

@@ -1,5 +1,6 @@
 #include "areomap/registration/rock_matching.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -213,6 +214,98 @@ TEST(RockMatching, ModelCostIsEq328) {
   bad = RockMatchingOptions{};
   bad.fault_detection.min_tie_points = 1;
   EXPECT_THROW(MatchSitePair({}, {}, Rigid3d(), bad), Error);
+}
+
+// A modeled rock at `peak` (site frame) with an isotropic horizontal peak sigma [m].
+ExtractedRock ModeledRock(int id, const Eigen::Vector3d& peak, double height, double sigma) {
+  ExtractedRock r;
+  r.id = id;
+  r.peak = peak;
+  r.peak_covariance = Eigen::Vector3d(sigma * sigma, sigma * sigma, 0.01 * 0.01).asDiagonal();
+  r.range_m = peak.head<2>().norm();
+  r.height_m = height;
+  r.peak_foot = peak + Eigen::Vector3d(0, 0, height);
+  r.surface_indices = {0, 1, 2, 3, 4, 5};
+  RockModelFit fit;
+  fit.converged = true;
+  fit.parameters.height = height;
+  fit.parameters.a = fit.parameters.b = 0.25;
+  r.models = {fit};
+  return r;
+}
+
+TEST(RockMatching, CheckRockRulesNamesTheFirstFailingRule) {
+  const Eigen::Vector3d own = Eigen::Vector3d::Zero(), other(20.0, 0.0, 0.0);
+  const RockMatchingOptions options;
+  EXPECT_EQ(CheckRockRules(ModeledRock(1, {10, 2, 0}, 0.2, 0.1), own, other, options),
+            RockRule::kEligible);
+  EXPECT_EQ(CheckRockRules(ModeledRock(1, {31, 0, 0}, 0.2, 0.1), own, other, options),
+            RockRule::kBeyondRange);
+  EXPECT_EQ(CheckRockRules(ModeledRock(1, {10, 2, 0}, 0.12, 0.1), own, other, options),
+            RockRule::kTooLow);
+  ExtractedRock unmodeled = ModeledRock(1, {10, 2, 0}, 0.2, 0.1);
+  unmodeled.models.clear();
+  EXPECT_EQ(CheckRockRules(unmodeled, own, other, options), RockRule::kFewPoints);
+  ExtractedRock big = ModeledRock(1, {10, 2, 0}, 0.2, 0.1);
+  big.models.front().parameters.height = 1.5;
+  EXPECT_EQ(CheckRockRules(big, own, other, options), RockRule::kImplausible);
+  // Distance ratio (Fig. 4.19): 2 m from its own camera, 18 m from the other.
+  EXPECT_EQ(CheckRockRules(ModeledRock(1, {2, 0, 0}, 0.2, 0.1), own, other, options),
+            RockRule::kLowRatio);
+  EXPECT_EQ(CheckRockRules(ModeledRock(1, {10, 2, 0}, 0.2, 0.7), own, other, options),
+            RockRule::kImprecise);
+  EXPECT_EQ(ToString(RockRule::kImprecise), "peak sigma");
+}
+
+// Site a sees two rocks 0.9 m apart sharply (5 cm); site b sees only one of them, from far
+// (0.5 m sigma). Its peak could be either rock of a: the match is ambiguous at a and dropped,
+// whatever the pattern says.
+TEST(RockMatching, FarPeakNearTwoRocksOfTheOtherSiteIsAmbiguous) {
+  SiteRocks a, b;
+  a.site = 1;
+  b.site = 2;
+  b.camera_center = a.camera_center = Eigen::Vector3d(0, 0, -1.5);
+  a.rocks = {ModeledRock(1, {6.0, 1.0, 0}, 0.30, 0.05), ModeledRock(2, {6.9, 1.0, 0}, 0.25, 0.05)};
+  b.rocks = {ModeledRock(1, {-6.0, 1.0, 0}, 0.30, 0.5)};
+  // Pre-screening wants 10 peaks per site: fillers beyond the peak range of their camera.
+  for (int k = 0; k < 9; ++k) {
+    a.rocks.push_back(ModeledRock(10 + k, {0.0, -31.0 - k, 0}, 0.2, 0.05));
+    b.rocks.push_back(ModeledRock(10 + k, {0.0, -31.0 - k, 0}, 0.2, 0.05));
+  }
+  const Rigid3d a_from_b(Eigen::Quaterniond::Identity(), Eigen::Vector3d(12.0, 0.0, 0.0));
+  const SitePairMatch match = MatchSitePair(a, b, a_from_b, {});
+  EXPECT_TRUE(match.matches.empty());
+  ASSERT_FALSE(match.outcomes.empty());
+  bool ambiguous = false;
+  for (const RockMatchOutcome& o : match.outcomes) ambiguous |= o.fate == "ambiguous at a";
+  EXPECT_TRUE(ambiguous);
+  // The same far peak next to a single rock of a is matched.
+  a.rocks.erase(a.rocks.begin() + 1);
+  const SitePairMatch single = MatchSitePair(a, b, a_from_b, {});
+  ASSERT_EQ(single.matches.size(), 1u);
+  ASSERT_EQ(single.outcomes.size(), 1u);
+  EXPECT_EQ(single.outcomes.front().fate, "matched");
+  EXPECT_EQ(single.outcomes.front().rock_b, 0);
+}
+
+TEST(RockMatching, OutcomesAccountForEveryMatch) {
+  const SimulatedSite& a = SiteA();
+  const SimulatedSite& b = SiteB();
+  const SitePairMatch match = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), {});
+  int matched = 0;
+  std::vector<int> seen;
+  for (const RockMatchOutcome& o : match.outcomes) {
+    EXPECT_EQ(std::count(seen.begin(), seen.end(), o.rock_a), 0) << "rock " << o.rock_a;
+    seen.push_back(o.rock_a);
+    EXPECT_FALSE(o.fate.empty());
+    if (o.fate != "matched") continue;
+    ++matched;
+    const bool listed = std::any_of(
+        match.matches.begin(), match.matches.end(),
+        [&](const RockMatch& m) { return m.rock_a == o.rock_a && m.rock_b == o.rock_b; });
+    EXPECT_TRUE(listed) << "rock " << o.rock_a;
+  }
+  EXPECT_EQ(matched, static_cast<int>(match.matches.size()));
 }
 
 }  // namespace

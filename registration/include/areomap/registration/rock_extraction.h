@@ -8,8 +8,10 @@
 //     window/5 cells (each cell's highest point is a candidate; the window is the 5 x 5 cells
 //     around it), so it is centred within half a cell (5 cm) of the candidate.
 //  2. Background plane from the points within `plane_radius_m` (0.7 m, widened to 1.7 H + 0.3 m
-//     for large rocks) of the peak, fitted by least squares while iteratively dropping the points
-//     that stand above it (the rock): a robust fit of the ground. H = peak-to-plane distance.
+//     for large rocks) of the peak, except those nearer than `plane_exclusion_k` times the
+//     window's relief (the rock itself; at most half the neighbourhood), fitted by least squares
+//     while iteratively dropping the points that stand above it (the rock): a robust fit of the
+//     ground. H = peak-to-plane distance.
 //  3. Surface points grown from the peak (ch. 2.2.2 steps 2-3): the points above the plane within
 //     0.3 H, then repeatedly those within MaxD_Neighbor (largest nearest-neighbour distance of the
 //     points found so far) of the last points found, until the radius reaches 1.7 H or nothing is
@@ -43,7 +45,11 @@ struct RockExtractionOptions {
   double min_peak_relief_m = 0.10;  // Elevation range within the window [m].
   int min_window_points = 3;        // Points within the window.
   double max_peak_range_m = 30.0;   // Horizontal distance peak - camera (Table 4.5) [m].
-  double plane_radius_m = 0.7;      // Background plane neighbourhood [m].
+  double plane_radius_m = 0.7;      // Background plane neighbourhood [m] ...
+  // ... without the points within k x window relief of the peak (0: all points, the default;
+  // 1 lowers the ground's bias under far rocks but admits more borderline rocks, which costs
+  // tie-point precision on the long preset: docs/rocks.md).
+  double plane_exclusion_k = 0.0;
   double min_height_m = 0.10;       // Rocks lower than this above their plane are dropped [m].
   double surface_k_min = 0.3;       // Surface search starts within k_min H of the peak ...
   double surface_k_max = 1.7;       // ... and stops at k_max H.

@@ -20,12 +20,13 @@
 // vectors wins (global consistency). Beyond the dissertation, a winner whose V lies farther than
 // `max_vector_deviation_m` from the median, or beyond its chi-square bound given the peaks'
 // covariances, is dropped (it contradicts the global pattern), and so is a rock of either site with
-// a neighbour closer than epsilon plus `ambiguity_sigmas` of the peaks' horizontal sigma (no vote
-// can tell them apart); rocks whose peak sigma exceeds `max_peak_sigma_m` are not used. (5) A pair
-// is matched only where both methods agree; when several rocks of a take the same rock of b, only
-// the lowest-cost one is kept. (6) Data snooping in the 2D conformal fit of the matches (eq. 4.4)
-// drops residual outliers while more than min_tie_points remain. Pair-level rules (traverse, peaks,
-// tie-point count, distance ratio, RE) decide the outcome.
+// a neighbour (at least `ambiguity_min_height_m` high) closer than epsilon plus `ambiguity_sigmas`
+// of the two partners' combined horizontal sigma (no vote can tell them apart; tested at both
+// sites once the partner is known); rocks whose peak sigma exceeds `max_peak_sigma_m` are not used.
+// (5) A pair is matched only where both methods agree; when several rocks of a take the same rock
+// of b, only the lowest-cost one is kept. (6) Data snooping in the 2D conformal fit of the matches
+// (eq. 4.4) drops residual outliers while more than min_tie_points remain. Pair-level rules
+// (traverse, peaks, tie-point count, distance ratio, RE) decide the outcome.
 //
 // Failures: invalid options throw areomap::Error; everything about the data (no overlap, no
 // rocks, too few tie points) is a verdict in the report, never an exception.
@@ -86,6 +87,10 @@ struct RockMatchingOptions {
   double cost_area_weight = 1.0 / 6.0;
   double max_model_cost = 0.6;    // Model matching accepts costs up to this.
   double ambiguity_sigmas = 1.0;  // Neighbour within epsilon + this many sigmas: ambiguous.
+  // Neighbours that count for the ambiguity test: rocks at least this high at their site [m]
+  // (lower values guard against a neighbour measured just under the 15 cm rule here and over it
+  // at the other site, at a cost in matches: docs/rocks.md).
+  double ambiguity_min_height_m = 0.15;
   // Rocks whose peak's largest horizontal sigma exceeds this are not used as tie points (eq. 4.3
   // range error grows as r^2: 0.6 m at ~17 m for the Navcam with sigma_p = 0.5 px; on the demo
   // mission's dense stereo the peaks of such rocks lie within 0.3 m of the true rock tops) [m].
@@ -103,6 +108,16 @@ struct RockMatch {
   double distance_ratio = 0.0;    // Fig. 4.19.
 };
 
+// What became of one eligible rock of site a in the overlap (diagnostics): `fate` is "matched" or
+// the step that dropped it: "ambiguous at a", "not highest in cell", "no candidate",
+// "inconsistent vector", "model cost", "terrain mismatch", "methods disagree",
+// "ambiguous at b", "multiple match", "residual outlier".
+struct RockMatchOutcome {
+  int rock_a = -1;  // Index into SiteRocks::rocks of site a.
+  int rock_b = -1;  // The winning candidate of site b, when the rock got that far; else -1.
+  std::string fate;
+};
+
 struct SitePairMatch {
   std::vector<RockMatch> matches;    // Accepted rock pairs (before the pair-level verdict).
   std::vector<TiePoint> tie_points;  // Only when the pair's outcome is "matched".
@@ -112,6 +127,7 @@ struct SitePairMatch {
   int eligible_a = 0, eligible_b = 0;  // Rocks passing the per-rock rules.
   int significant = 0;
   int model_matches = 0, pattern_matches = 0;
+  std::vector<RockMatchOutcome> outcomes;  // One per eligible rock of a in the overlap.
 };
 
 // With a bare prior pose: the search radius is options.search_radius_m everywhere and the heading
@@ -123,6 +139,21 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const Rigid3
 SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMatchingPrior& prior,
                             const RockMatchingOptions& options,
                             const std::optional<StereoQuality>& stereo = std::nullopt);
+
+// Table 4.5's per-rock rules, in the order they are applied (a rock is counted under the first
+// rule it fails). `own` and `other` are the two camera centres in the rock's site frame.
+enum class RockRule {
+  kEligible,
+  kBeyondRange,  // Peak farther than max_peak_range_m from its own camera.
+  kTooLow,       // Peak-to-plane distance below min_peak_to_plane_m.
+  kFewPoints,    // Fewer than min_surface_points surface points, or no model.
+  kImplausible,  // Model height or mean radius above max_model_size_m.
+  kLowRatio,     // Distance ratio (Fig. 4.19) below min_rock_distance_ratio.
+  kImprecise,    // Largest horizontal peak sigma above max_peak_sigma_m (not Table 4.5).
+};
+std::string ToString(RockRule rule);
+RockRule CheckRockRules(const ExtractedRock& rock, const Eigen::Vector3d& own,
+                        const Eigen::Vector3d& other, const RockMatchingOptions& options);
 
 // Eq. 3.28 between two fitted models (relative differences against their mean).
 double ModelMatchCost(const RockModelParameters& p, const RockModelParameters& q,

@@ -1,0 +1,436 @@
+// Where a generated mission's rocks are lost on the way to tie points: per leg of a finished
+// `areomap run`, the truth rocks at least as high as fault detection's peak-to-plane limit that
+// both sites could give as tie points, stage by stage:
+//   overlap   within max_peak_range_m (horizontal) of both true cameras
+//   ratio     distance ratio (Fig. 4.19) >= the per-rock limit
+//   seen      >= 5 points of each site's cloud within 80 % of the rock's footprint
+//   peaks     an extracted rock's peak on it at both sites (rock_truth.h)
+//   eligible  that rock passes every per-rock rule (CheckRockRules) at both sites; the rocks that
+//             do not are counted under the first rule failing at either site
+//   matched   a rock match of the run (matches.csv, by rock id) joins the two peaks
+//   accepted  ... and fault detection accepted the leg (tie points)
+// Rocks are re-extracted from each site's points.ply with the run's default options (extraction
+// is deterministic, so the ids are the run's). The other site's camera comes from the truth.
+//
+// When the leg's unit.json records its prior pose (prior.a_from_b_*), the leg is re-matched here
+// with that prior (MatchSitePair), which also tells what became of each eligible rock that was not
+// matched (RockMatchOutcome), and lets `NAME=VALUE` arguments try other matching options.
+//
+// Run: build/ci/bench/areomap_bench_rock_funnel MISSION_DIR RUN_DIR [ROCKS_CSV] [NAME=VALUE...]
+// ROCKS_CSV (optional): one row per truth rock past the ratio stage and site of the leg, with the
+// nearest extracted peak, its height and rule, for a closer look at the losses.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <optional>
+#include <set>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <nlohmann/json.hpp>
+
+#include "areomap/map/csv.h"
+#include "areomap/map/error.h"
+#include "areomap/map/mission_manifest.h"
+#include "areomap/map/point_cloud_io.h"
+#include "areomap/registration/mission_run.h"
+#include "areomap/registration/rock_matching.h"
+#include "rock_truth.h"
+
+namespace areomap {
+namespace {
+
+namespace fs = std::filesystem;
+using bench::TruthRock;
+
+constexpr int kRules = 7;  // RockRule values.
+
+struct Site {
+  Eigen::Vector3d camera_world = Eigen::Vector3d::Zero();
+  std::vector<ExtractedRock> rocks;
+  std::map<int, int> points_on_rock;         // Truth id -> cloud points within 80 % footprint.
+  std::map<int, std::vector<int>> rocks_on;  // Truth id -> indices of extracted rocks on it.
+  std::map<int, int> id_to_index;            // ExtractedRock::id -> index.
+  std::vector<Eigen::Vector2d> peaks_world;
+  std::vector<double> peak_z_world,
+      foot_z_world;  // Down, in site 0's frame [m].  // Extracted peaks in site 0's frame.
+};
+
+Site LoadSite(const fs::path& run_dir, int site, const Rigid3d& world_from_site,
+              const std::vector<TruthRock>& truth, const MissionRunOptions& options) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "sites/site_%03d", site);
+  const PointCloud cloud = ReadPointCloudPly(run_dir / name / "points.ply");
+  Site s;
+  s.camera_world = world_from_site * cloud.camera_center;
+  s.rocks = ExtractRocks(cloud, options.rocks);
+  // Truth rocks near the site on a 1 m hash grid.
+  const auto key = [](const Eigen::Vector2d& p) {
+    return (static_cast<long long>(std::floor(p.x())) << 32) ^
+           (static_cast<long long>(std::floor(p.y())) & 0xffffffffLL);
+  };
+  std::unordered_map<long long, std::vector<int>> cells;
+  const double min_height = options.matching.fault_detection.min_peak_to_plane_m;
+  for (size_t i = 0; i < truth.size(); ++i) {
+    const TruthRock& r = truth[i];
+    if (r.height < min_height || (r.north_east - s.camera_world.head<2>()).norm() > 35.0) continue;
+    const double reach = 0.8 * r.radius;
+    for (double x = std::floor(r.north_east.x() - reach); x <= r.north_east.x() + reach; x += 1.0) {
+      for (double y = std::floor(r.north_east.y() - reach); y <= r.north_east.y() + reach;
+           y += 1.0) {
+        cells[key(Eigen::Vector2d(x, y))].push_back(static_cast<int>(i));
+      }
+    }
+  }
+  for (const StereoPoint& p : cloud.points) {
+    const Eigen::Vector2d w = (world_from_site * p.position).head<2>();
+    const auto it = cells.find(key(w));
+    if (it == cells.end()) continue;
+    for (int i : it->second) {
+      if ((truth[i].north_east - w).norm() <= 0.8 * truth[i].radius)
+        ++s.points_on_rock[truth[i].id];
+    }
+  }
+  for (size_t k = 0; k < s.rocks.size(); ++k) {
+    const ExtractedRock& r = s.rocks[k];
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(
+        r.peak_covariance.topLeftCorner<2, 2>());
+    const double sigma = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
+    const int id = bench::RockUnder(truth, (world_from_site * r.peak).head<2>(), sigma);
+    if (id >= 0) s.rocks_on[id].push_back(static_cast<int>(k));
+    s.peaks_world.push_back((world_from_site * r.peak).head<2>());
+    s.peak_z_world.push_back((world_from_site * r.peak).z());
+    s.foot_z_world.push_back((world_from_site * r.peak_foot).z());
+    s.id_to_index[r.id] = static_cast<int>(k);
+  }
+  return s;
+}
+
+// The best rule verdict among the extracted rocks on one truth rock (eligible beats any failure;
+// otherwise the latest rule in the order, i.e. the rock that got furthest).
+RockRule BestRule(const Site& s, int truth_id, const Eigen::Vector3d& own,
+                  const Eigen::Vector3d& other, const RockMatchingOptions& options, int* index) {
+  RockRule best = RockRule::kBeyondRange;
+  *index = -1;
+  for (int k : s.rocks_on.at(truth_id)) {
+    const RockRule rule = CheckRockRules(s.rocks[k], own, other, options);
+    const auto rank = [](RockRule r) {
+      return r == RockRule::kEligible ? 100 : static_cast<int>(r);
+    };
+    if (*index < 0 || rank(rule) > rank(best)) {
+      best = rule;
+      *index = k;
+    }
+  }
+  return best;
+}
+
+struct Funnel {
+  int overlap = 0, ratio = 0, seen = 0, peaks = 0, eligible = 0, matched = 0, accepted = 0;
+  std::array<int, kRules> failed{};
+  int wrong_matches = 0, wrong_accepted = 0, leg_matches = 0;
+  std::map<std::string, int> lost_in_matching;  // Eligible at both, not matched: why.
+};
+
+// The prior the run's leg unit used (unit.json "prior"), when it recorded the pose.
+std::optional<RockMatchingPrior> RecordedPrior(const nlohmann::json& prior) {
+  if (!prior.contains("a_from_b_translation_m")) return std::nullopt;
+  RockMatchingPrior out;
+  const std::vector<double> t = prior["a_from_b_translation_m"].get<std::vector<double>>();
+  const double turn = prior.value("a_from_b_turn_deg", 0.0) * std::numbers::pi / 180.0;
+  out.a_from_b = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitZ())),
+                         Eigen::Vector3d(t.at(0), t.at(1), t.at(2)));
+  out.position_sigma_m = prior.value("position_sigma_m", 0.0);
+  out.heading_sigma_deg = prior.value("heading_sigma_deg", 0.0);
+  out.source = prior.value("source", std::string("telemetry"));
+  return out;
+}
+
+// NAME=VALUE overrides of the run's default options (what-if experiments).
+void ApplyOverride(const std::string& text, MissionRunOptions* options) {
+  const size_t eq = text.find('=');
+  if (eq == std::string::npos) throw Error("'" + text + "': expected NAME=VALUE");
+  const std::string name = text.substr(0, eq);
+  const double value = std::stod(text.substr(eq + 1));
+  RockMatchingOptions& m = options->matching;
+  FaultDetectionOptions& fd = m.fault_detection;
+  const std::map<std::string, double*> doubles = {
+      {"max_peak_sigma_m", &m.max_peak_sigma_m},
+      {"pattern_tolerance_m", &m.pattern_tolerance_m},
+      {"max_model_cost", &m.max_model_cost},
+      {"significant_cell_m", &m.significant_cell_m},
+      {"ambiguity_sigmas", &m.ambiguity_sigmas},
+      {"ambiguity_min_height_m", &m.ambiguity_min_height_m},
+      {"peak_definition_sigma_m", &m.peak_definition_sigma_m},
+      {"max_vector_deviation_m", &m.max_vector_deviation_m},
+      {"max_vector_chi2", &m.max_vector_chi2},
+      {"min_peak_to_plane_m", &fd.min_peak_to_plane_m},
+      {"max_relative_error_percent", &fd.max_relative_error_percent},
+      {"max_normal_angle_deg", &fd.max_normal_angle_deg},
+      {"model_min_height_m", &options->rocks.model_min_height_m},
+      {"plane_exclusion_k", &options->rocks.plane_exclusion_k}};
+  if (name == "significant_per_cell") {
+    m.significant_per_cell = static_cast<int>(value);
+  } else if (name == "min_surface_points") {
+    fd.min_surface_points = static_cast<int>(value);
+  } else if (doubles.count(name)) {
+    *doubles.at(name) = value;
+  } else {
+    throw Error("'" + name + "': not an option this bench can change");
+  }
+}
+
+int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& rocks_csv,
+         const MissionRunOptions& options) {
+  std::ofstream rows;
+  if (!rocks_csv.empty()) {
+    rows.open(rocks_csv);
+    if (!rows) throw Error(rocks_csv.string() + ": cannot write");
+    rows << "leg,site,truth_id,truth_height_m,truth_radius_m,range_m,other_range_m,points,"
+            "nearest_peak_m,nearest_height_m,nearest_on_rock,nearest_rule,stage,peak_dz_m,foot_dz_"
+            "m\n";
+  }
+  const MissionManifest mission = ReadMissionManifest(mission_dir);
+  const std::vector<Rigid3d> world_from_site = bench::TrueWorldFromSites(mission);
+  const std::vector<TruthRock> truth = bench::ReadTruthRocks(*mission.truth_rocks_csv);
+  std::map<int, const TruthRock*> by_id;
+  for (const TruthRock& r : truth) by_id[r.id] = &r;
+  const FaultDetectionOptions& fd = options.matching.fault_detection;
+  std::printf("rocks >= %.2f m high, cameras <= %.0f m; rules counted at the first failure\n",
+              fd.min_peak_to_plane_m, fd.max_peak_range_m);
+  std::printf(
+      "leg       dist  overlap ratio seen peaks | low few impl ratio sigma | elig matched "
+      "wrong accepted  outcome\n");
+  Funnel total, short_legs;
+  int legs_accepted = 0, short_count = 0, short_accepted = 0;
+  Site b = LoadSite(run_dir, mission.sites[0].site, world_from_site[0], truth, options);
+  for (size_t k = 0; k + 1 < mission.sites.size(); ++k) {
+    Site a = std::move(b);
+    b = LoadSite(run_dir, mission.sites[k + 1].site, world_from_site[k + 1], truth, options);
+    const Rigid3d site_a_from_world = world_from_site[k].Inverse();
+    const Rigid3d site_b_from_world = world_from_site[k + 1].Inverse();
+    const Eigen::Vector3d cam_a_in_a = site_a_from_world * a.camera_world;
+    const Eigen::Vector3d cam_b_in_a = site_a_from_world * b.camera_world;
+    const Eigen::Vector3d cam_a_in_b = site_b_from_world * a.camera_world;
+    const Eigen::Vector3d cam_b_in_b = site_b_from_world * b.camera_world;
+    char name[64];
+    std::snprintf(name, sizeof(name), "legs/leg_%03d_%03d", mission.sites[k].site,
+                  mission.sites[k + 1].site);
+    const fs::path leg = run_dir / name;
+    std::ifstream unit_file(leg / "unit.json"), matches_file(leg / "matches.csv");
+    if (!unit_file || !matches_file) throw Error(leg.string() + ": no unit.json or matches.csv");
+    const nlohmann::json summary = nlohmann::json::parse(unit_file)["summary"];
+    std::string outcome = summary.value("outcome", std::string("?"));
+    std::set<std::pair<int, int>> matched_pairs;  // Extracted rock indices (a, b).
+    std::map<int, std::string> fate_of;           // Rock of a -> RockMatchOutcome::fate.
+    Funnel f;
+    const std::optional<RockMatchingPrior> prior =
+        RecordedPrior(summary.value("prior", nlohmann::json::object()));
+    if (prior) {
+      SiteRocks rocks_a, rocks_b;
+      rocks_a.site = mission.sites[k].site;
+      rocks_a.camera_center = cam_a_in_a;
+      rocks_a.rocks = a.rocks;
+      rocks_b.site = mission.sites[k + 1].site;
+      rocks_b.camera_center = cam_b_in_b;
+      rocks_b.rocks = b.rocks;
+      const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, *prior, options.matching);
+      outcome = ToString(match.report.outcome);
+      for (const RockMatch& m : match.matches) matched_pairs.insert({m.rock_a, m.rock_b});
+      for (const RockMatchOutcome& o : match.outcomes) fate_of[o.rock_a] = o.fate;
+      f.leg_matches = static_cast<int>(match.matches.size());
+    } else {
+      std::string line;
+      std::getline(matches_file, line);
+      while (std::getline(matches_file, line)) {
+        const std::vector<std::string> fields = SplitCsvLine(line);
+        const int ia = a.id_to_index.at(std::stoi(fields[0]));
+        const int ib = b.id_to_index.at(std::stoi(fields[1]));
+        matched_pairs.insert({ia, ib});
+        ++f.leg_matches;
+      }
+    }
+    const bool accepted = outcome == "matched";
+    int correct_matches = 0;
+    const double distance = (b.camera_world - a.camera_world).head<2>().norm();
+    for (const TruthRock& r : truth) {
+      if (r.height < fd.min_peak_to_plane_m) continue;
+      const Eigen::Vector3d top(r.north_east.x(), r.north_east.y(), a.camera_world.z() + 1.0);
+      if ((r.north_east - a.camera_world.head<2>()).norm() > fd.max_peak_range_m ||
+          (r.north_east - b.camera_world.head<2>()).norm() > fd.max_peak_range_m) {
+        continue;
+      }
+      ++f.overlap;
+      if (DistanceRatio(top, a.camera_world, b.camera_world) < fd.min_rock_distance_ratio) continue;
+      ++f.ratio;
+      if (a.points_on_rock[r.id] < 5 || b.points_on_rock[r.id] < 5) continue;
+      ++f.seen;
+      if (rows.is_open()) {
+        for (int side = 0; side < 2; ++side) {
+          const Site& s = side == 0 ? a : b;
+          const Site& o = side == 0 ? b : a;
+          int nearest = -1;
+          double best = 1e9;
+          for (size_t q = 0; q < s.peaks_world.size(); ++q) {
+            const double d = (s.peaks_world[q] - r.north_east).norm();
+            if (d < best) {
+              best = d;
+              nearest = static_cast<int>(q);
+            }
+          }
+          const bool on =
+              s.rocks_on.count(r.id) &&
+              std::count(s.rocks_on.at(r.id).begin(), s.rocks_on.at(r.id).end(), nearest) > 0;
+          const Eigen::Vector3d own = side == 0 ? cam_a_in_a : cam_b_in_b;
+          const Eigen::Vector3d other = side == 0 ? cam_b_in_a : cam_a_in_b;
+          char row[512];
+          std::snprintf(
+              row, sizeof(row), "%zu,%d,%d,%.3f,%.3f,%.2f,%.2f,%d,%.3f,%.3f,%d,%s,", k, side, r.id,
+              r.height, r.radius, (r.north_east - s.camera_world.head<2>()).norm(),
+              (r.north_east - o.camera_world.head<2>()).norm(), s.points_on_rock.at(r.id), best,
+              nearest >= 0 ? s.rocks[nearest].height_m : 0.0, on ? 1 : 0,
+              nearest >= 0
+                  ? ToString(CheckRockRules(s.rocks[nearest], own, other, options.matching)).c_str()
+                  : "none");
+          // Elevation errors of the peak (against the true top) and of its foot on the fitted
+          // plane (against the true ground) [m], up positive.
+          const double h0 = mission.origin.h;
+          rows << row << (a.rocks_on.count(r.id) && b.rocks_on.count(r.id) ? "peaks" : "seen")
+               << "," << (nearest >= 0 ? h0 - s.peak_z_world[nearest] - r.ground_z - r.height : 0.0)
+               << "," << (nearest >= 0 ? h0 - s.foot_z_world[nearest] - r.ground_z : 0.0) << "\n";
+        }
+      }
+      if (!a.rocks_on.count(r.id) || !b.rocks_on.count(r.id)) continue;
+      ++f.peaks;
+      int ka = -1, kb = -1;
+      const RockRule rule_a = BestRule(a, r.id, cam_a_in_a, cam_b_in_a, options.matching, &ka);
+      const RockRule rule_b = BestRule(b, r.id, cam_b_in_b, cam_a_in_b, options.matching, &kb);
+      if (rule_a != RockRule::kEligible || rule_b != RockRule::kEligible) {
+        const int ra = rule_a == RockRule::kEligible ? kRules : static_cast<int>(rule_a);
+        const int rb = rule_b == RockRule::kEligible ? kRules : static_cast<int>(rule_b);
+        ++f.failed[std::min(ra, rb)];
+        continue;
+      }
+      ++f.eligible;
+      bool joined = false;
+      for (int ia : a.rocks_on.at(r.id)) {
+        for (int ib : b.rocks_on.at(r.id)) joined = joined || matched_pairs.count({ia, ib}) > 0;
+      }
+      if (!joined) {
+        const auto it = fate_of.find(ka);
+        ++f.lost_in_matching[it == fate_of.end() ? "outside the prior's overlap" : it->second];
+        continue;
+      }
+      ++f.matched;
+      f.accepted += accepted ? 1 : 0;
+    }
+    // Wrong matches: the two peaks are not on one truth rock (any height).
+    for (const auto& [ia, ib] : matched_pairs) {
+      const auto on = [&](const Site& s, int index) {
+        for (const auto& [id, list] : s.rocks_on) {
+          if (std::find(list.begin(), list.end(), index) != list.end()) return id;
+        }
+        return -1;
+      };
+      const int ta = on(a, ia), tb = on(b, ib);
+      if (ta >= 0 && ta == tb) {
+        ++correct_matches;
+      } else {
+        ++f.wrong_matches;
+        f.wrong_accepted += accepted ? 1 : 0;
+        const ExtractedRock& ra = a.rocks[ia];
+        const ExtractedRock& rb = b.rocks[ib];
+        const double apart = (a.peaks_world[ia] - b.peaks_world[ib]).norm();
+        std::printf(
+            "  wrong match%s: rocks %d / %d on truth %d / %d, peaks %.2f m apart (true "
+            "frames), ranges %.1f / %.1f m, heights %.2f / %.2f m, sigma %.2f / %.2f m\n",
+            accepted ? " (accepted)" : "", ra.id, rb.id, ta, tb, apart, ra.range_m, rb.range_m,
+            ra.height_m, rb.height_m, std::sqrt(ra.peak_covariance.topLeftCorner<2, 2>().trace()),
+            std::sqrt(rb.peak_covariance.topLeftCorner<2, 2>().trace()));
+      }
+    }
+    (void)correct_matches;
+    std::printf(
+        "%2zu -> %2zu %5.1f  %7d %5d %4d %5d | %3d %3d %4d %5d %5d | %4d %7d %5d %8d  %s%s\n", k,
+        k + 1, distance, f.overlap, f.ratio, f.seen, f.peaks,
+        f.failed[static_cast<int>(RockRule::kTooLow)],
+        f.failed[static_cast<int>(RockRule::kFewPoints)],
+        f.failed[static_cast<int>(RockRule::kImplausible)],
+        f.failed[static_cast<int>(RockRule::kLowRatio)],
+        f.failed[static_cast<int>(RockRule::kImprecise)], f.eligible, f.matched, f.wrong_matches,
+        f.accepted, outcome.c_str(), f.leg_matches > 0 && accepted ? "" : "");
+    const auto add = [](Funnel* t, const Funnel& x) {
+      t->overlap += x.overlap;
+      t->ratio += x.ratio;
+      t->seen += x.seen;
+      t->peaks += x.peaks;
+      t->eligible += x.eligible;
+      t->matched += x.matched;
+      t->accepted += x.accepted;
+      t->wrong_matches += x.wrong_matches;
+      t->wrong_accepted += x.wrong_accepted;
+      t->leg_matches += x.leg_matches;
+      for (int i = 0; i < kRules; ++i) t->failed[i] += x.failed[i];
+      for (const auto& [fate, n] : x.lost_in_matching) t->lost_in_matching[fate] += n;
+    };
+    add(&total, f);
+    legs_accepted += accepted ? 1 : 0;
+    if (distance <= 25.0) {
+      add(&short_legs, f);
+      ++short_count;
+      short_accepted += accepted ? 1 : 0;
+    }
+  }
+  const auto print = [](const char* label, const Funnel& f) {
+    std::printf(
+        "%s: overlap %d, ratio %d, seen %d, peaks %d; failing: too low %d, few points %d, "
+        "implausible %d, ratio %d, peak sigma %d; eligible %d, matched %d, accepted %d; "
+        "wrong matches %d (accepted %d) of %d\n",
+        label, f.overlap, f.ratio, f.seen, f.peaks, f.failed[static_cast<int>(RockRule::kTooLow)],
+        f.failed[static_cast<int>(RockRule::kFewPoints)],
+        f.failed[static_cast<int>(RockRule::kImplausible)],
+        f.failed[static_cast<int>(RockRule::kLowRatio)],
+        f.failed[static_cast<int>(RockRule::kImprecise)], f.eligible, f.matched, f.accepted,
+        f.wrong_matches, f.wrong_accepted, f.leg_matches);
+    std::printf("  eligible at both but not matched:");
+    for (const auto& [fate, n] : f.lost_in_matching) std::printf(" %s %d;", fate.c_str(), n);
+    std::printf("\n");
+  };
+  print("all legs", total);
+  print("legs <= 25 m", short_legs);
+  std::printf("legs accepted: %d of %zu; legs <= 25 m accepted: %d of %d\n", legs_accepted,
+              mission.sites.size() - 1, short_accepted, short_count);
+  return 0;
+}
+
+}  // namespace
+}  // namespace areomap
+
+int main(int argc, char** argv) {
+  if (argc < 3) {
+    std::fprintf(stderr, "usage: %s MISSION_DIR RUN_DIR [ROCKS_CSV] [NAME=VALUE...]\n", argv[0]);
+    return 2;
+  }
+  try {
+    areomap::MissionRunOptions options;
+    std::string rocks_csv;
+    for (int i = 3; i < argc; ++i) {
+      const std::string arg = argv[i];
+      if (arg.find('=') == std::string::npos) {
+        rocks_csv = arg;
+      } else {
+        areomap::ApplyOverride(arg, &options);
+      }
+    }
+    return areomap::Main(argv[1], argv[2], rocks_csv, options);
+  } catch (const areomap::Error& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+}
