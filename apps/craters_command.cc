@@ -194,6 +194,10 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
     if (!cmd->get_subcommands().empty()) return;  // `craters score` ran
     if (args->input.empty()) throw Error("craters: missing INPUT raster (or use 'craters score')");
     if (args->out_dir.empty()) throw Error("craters: --out DIR is required");
+    if (args->detector.shading_template.enabled && (!args->sun_azimuth_deg || args->dtm))
+      throw Error(
+          "craters: --shading-templates needs an image and --sun-azimuth (the bowl's "
+          "shading depends on where the sun is)");
     RunDetect(*args, global);
   });
 }
