@@ -184,6 +184,7 @@ nlohmann::json MissionRunOptions::ToJson() const {
           {"ortho_max_range_m", ortho.max_range_m},
           {"match_min_correlation", match.min_correlation},
           {"match_max_rotation_deg", match.max_rotation_deg},
+          {"match_subpixel_floor_px", match.subpixel_floor_px},
           {"control_spacing_m", control.spacing_m},
           {"control_site_sigma_m", control.site_sigma_m},
           {"prior_sigma_floor_m", prior_sigma_floor_m},

@@ -27,9 +27,9 @@ TEST(OrbitalMatchStatistics, RecoversGeneratedSitesAndRejectsDecoys) {
     o.decoy = false;
     trials.push_back(MakeTrial(o));
   }
-  int within_half_px = 0, matched = 0, within_3_sigma = 0;
+  int within_half_px = 0, matched = 0, within_3_sigma = 0, within_1_sigma_per_axis = 0;
   int decoy_trials = 0, decoys_accepted = 0;
-  double sum_sq_error_px = 0.0;
+  double sum_sq_error_px = 0.0, sum_sq_normalized = 0.0;
   for (int k = 0; k < kTrials; ++k) {
     const Trial& t = trials[k];
     const OrbitalMatch m = MatchOrthoToOrbital(t.ortho, *t.orbital, t.prior);
@@ -41,6 +41,11 @@ TEST(OrbitalMatchStatistics, RecoversGeneratedSitesAndRejectsDecoys) {
       sum_sq_error_px += error_px * error_px;
       const double sigma_m = std::sqrt(m.shift_covariance_en_m2.trace());
       within_3_sigma += error_m.norm() <= 3.0 * sigma_m;
+      for (int axis = 0; axis < 2; ++axis) {
+        const double z = error_m(axis) / std::sqrt(m.shift_covariance_en_m2(axis, axis));
+        within_1_sigma_per_axis += std::abs(z) <= 1.0;
+        sum_sq_normalized += z * z;
+      }
       // A confident match must not be wrong: > 2 px off would be a false positive.
       EXPECT_LE(error_px, 2.0) << "trial " << k << ": " << m.BriefReport();
     }
@@ -62,13 +67,23 @@ TEST(OrbitalMatchStatistics, RecoversGeneratedSitesAndRejectsDecoys) {
   }
   std::printf(
       "within 0.5 px: %d / %d; confident: %d; RMS error of confident %.3f px; "
-      "within 3 sigma: %d; decoys accepted: %d / %d\n",
+      "within 3 sigma: %d; per axis within 1 sigma: %d / %d, mean squared error / sigma^2 %.2f; "
+      "decoys accepted: %d / %d\n",
       within_half_px, kTrials, matched, std::sqrt(sum_sq_error_px / std::max(matched, 1)),
-      within_3_sigma, decoys_accepted, decoy_trials);
+      within_3_sigma, within_1_sigma_per_axis, 2 * matched,
+      sum_sq_normalized / std::max(2 * matched, 1), decoys_accepted, decoy_trials);
   EXPECT_GE(within_half_px, static_cast<int>(std::ceil(0.95 * kTrials)));
   EXPECT_LE(decoys_accepted, static_cast<int>(std::floor(0.01 * decoy_trials)));
   // The reported sigma is honest: ~99% of 2D errors lie within 3 sigma (trace-based radius).
   EXPECT_GE(within_3_sigma, static_cast<int>(std::floor(0.9 * matched)));
+  // ... and not inflated: per axis, (error / sigma)^2 averages 1 (its spread over 40 axes is
+  // 0.22; the former 0.15 px floor gave 0.40) and about 68 % of the errors lie within 1 sigma
+  // (more where the errors have heavier tails than a Gaussian; 0.15 px gave 88 %).
+  const double mean_sq_normalized = sum_sq_normalized / std::max(2 * matched, 1);
+  EXPECT_GE(mean_sq_normalized, 0.6);
+  EXPECT_LE(mean_sq_normalized, 1.6);
+  EXPECT_GE(within_1_sigma_per_axis, static_cast<int>(std::floor(0.50 * 2 * matched)));
+  EXPECT_LE(within_1_sigma_per_axis, static_cast<int>(std::ceil(0.85 * 2 * matched)));
 }
 
 }  // namespace

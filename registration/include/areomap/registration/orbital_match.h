@@ -73,7 +73,10 @@ struct OrbitalMatchOptions {
   int min_template_pixels = 400;    // Fewer valid template pixels at full resolution: no match.
   // Accuracy floor of area correlation between images of different sensors and illumination
   // (shading moves edges; resampling), added in quadrature to the noise-driven sigma [px].
-  double subpixel_floor_px = 0.15;  // >= 0.
+  // Measured on 20 generated sites (OrbitalMatchStatistics, seeds 1000-1019): the shift's error
+  // is 0.097 px RMS per axis and the noise-driven part ~0.035 px, so the floor is 0.09 px; the
+  // former 0.15 px left 88 % of the per-axis errors inside 1 sigma (68 % when honest).
+  double subpixel_floor_px = 0.09;  // >= 0.
   // Chance level of the window (for small, guided windows, where no separated runner-up fits
   // inside and any texture has some peak): the template at the match's rotation and scale is
   // also correlated in at least this many windows of the search window's size that tile a ring
