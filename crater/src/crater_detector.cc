@@ -75,8 +75,8 @@ int SectorOf(const RimEdgePoint& p, bool signed_normals) {
   return std::clamp(s, 0, kSectors - 1);
 }
 
-std::optional<Arc> FitArc(const RimEdges& edges, std::vector<int> members, double r_lo, double r_hi,
-                          const std::optional<Eigen::Vector2d>& sun) {
+std::optional<Arc> FitArc(const RimEdges& edges, const std::vector<int>& members, double r_lo,
+                          double r_hi, const std::optional<Eigen::Vector2d>& sun) {
   Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
   Eigen::Vector2d b = Eigen::Vector2d::Zero();
   for (int i : members) {
@@ -111,7 +111,7 @@ std::optional<Arc> FitArc(const RimEdges& edges, std::vector<int> members, doubl
     // A bowl's rim is brighter on the sunward side of the edge everywhere.
     if (arc.polarity * direction.dot(*sun) < -0.25) return std::nullopt;
   }
-  arc.points = std::move(members);
+  arc.points = members;
   return arc;
 }
 
