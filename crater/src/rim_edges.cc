@@ -9,6 +9,7 @@
 #include <limits>
 #include <vector>
 
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
@@ -168,20 +169,36 @@ inline RimEdgePoint SubPixel(const cv::Mat& strength, int r, int c, float nx, fl
   return p;
 }
 
+// cv::Canny's input: `g` x `scale` rounded to 16 bits exactly as cv::Mat::convertTo(CV_16S,
+// scale) does (the float product rounded to the nearest integer, saturated; OpenCV's own
+// vector operations where it uses them, saturate_cast for the rest).
+void ToInt16(const float* g, float scale, int n, short* out) {
+  int i = 0;
+#if CV_SIMD128
+  const cv::v_float32x4 factor = cv::v_setall_f32(scale);
+  for (; i + 8 <= n; i += 8) {
+    const cv::v_int32x4 lo = cv::v_round(cv::v_load(g + i) * factor);
+    const cv::v_int32x4 hi = cv::v_round(cv::v_load(g + i + 4) * factor);
+    cv::v_store(out + i, cv::v_pack(lo, hi));
+  }
+#endif
+  for (; i < n; ++i) out[i] = cv::saturate_cast<short>(g[i] * scale);
+}
+
 // Canny's non-maximum suppression and hysteresis, as cv::Canny computes them from 16-bit
-// gradients with the L2 norm (OpenCV 4.x canny.cpp; the same edges): a pixel is a candidate
-// when its squared magnitude dx^2 + dy^2 exceeds `low` and is a maximum across its gradient
-// direction, quantised to 0, 45, 90 or 135 degrees at the tan(22.5 degree) boundaries in
-// OpenCV's fixed point (along the axes: above the neighbour behind, at least the one ahead;
-// along a diagonal: above both), with magnitude 0 outside the raster; candidates 8-connected
-// through candidates to one above `high` are edges. Written here so that the suppression runs
-// branch-free (vectorised) and the edges are counted and scanned without another pass; cv::Canny
-// spends most of its time in data-dependent branches. `map`: (rows + 2) x (cols + 2) CV_8U,
-// pixel (r, c) at (r + 1, c + 1) inside a frame of zeros; on return kEdge marks the edges.
-// Returns the number of edges.
-size_t NonMaximumHysteresis(const cv::Mat& dx16, const cv::Mat& dy16, int low, int high,
+// gradients (`gx`, `gy` x `scale`, rounded as ToInt16) with the L2 norm (OpenCV 4.x canny.cpp;
+// the same edges): a pixel is a candidate when its squared magnitude dx^2 + dy^2 exceeds `low`
+// and is a maximum across its gradient direction, quantised to 0, 45, 90 or 135 degrees at the
+// tan(22.5 degree) boundaries in OpenCV's fixed point (along the axes: above the neighbour
+// behind, at least the one ahead; along a diagonal: above both), with magnitude 0 outside the
+// raster; candidates 8-connected through candidates to one above `high` are edges. Written here
+// so that the 16-bit gradients are made row by row (no full-size copies) and the suppression
+// runs branch-free (vectorised); cv::Canny spends most of its time in data-dependent branches.
+// `map`: (rows + 2) x (cols + 2) CV_8U, pixel (r, c) at (r + 1, c + 1) inside a frame of zeros;
+// on return kEdge marks the edges. Returns the number of edges.
+size_t NonMaximumHysteresis(const cv::Mat& gx, const cv::Mat& gy, float scale, int low, int high,
                             cv::Mat* map) {
-  const int rows = dx16.rows, cols = dx16.cols;
+  const int rows = gx.rows, cols = gx.cols;
   const size_t step = map->step1();
   // The frame stays zero; every other pixel is written below.
   map->row(0).setTo(0);
@@ -194,33 +211,47 @@ size_t NonMaximumHysteresis(const cv::Mat& dx16, const cv::Mat& dy16, int low, i
   constexpr uint32_t kShift = 15;
   constexpr uint32_t kTg22 = 13573;
   constexpr uint32_t kTg67 = kTg22 + (1u << (kShift + 1));
-  // Squared magnitudes of the rows above, at and below, with one column of zeros on each side.
-  std::vector<int> padded_above(static_cast<size_t>(cols) + 2, 0),
-      padded_row(static_cast<size_t>(cols) + 2, 0), padded_below(static_cast<size_t>(cols) + 2, 0);
-  const auto load = [&](int r, std::vector<int>* row) {
+  // The 16-bit gradients and squared magnitudes of the rows above, at and below; magnitudes
+  // with one column of zeros on each side.
+  struct Row {
+    std::vector<short> dx, dy;
+    std::vector<int> magnitude;
+  };
+  std::array<Row, 3> buffers;
+  for (Row& row : buffers) {
+    row.dx.resize(static_cast<size_t>(cols));
+    row.dy.resize(static_cast<size_t>(cols));
+    row.magnitude.assign(static_cast<size_t>(cols) + 2, 0);
+  }
+  Row* padded_above = &buffers[0];
+  Row* padded_row = &buffers[1];
+  Row* padded_below = &buffers[2];
+  const auto load = [&](int r, Row* row) {
+    int* out = row->magnitude.data() + 1;
     if (r < 0 || r >= rows) {
-      std::fill(row->begin(), row->end(), 0);
+      std::fill_n(out, cols, 0);
       return;
     }
-    const short* x = dx16.ptr<short>(r);
-    const short* y = dy16.ptr<short>(r);
-    int* out = row->data() + 1;
-    for (int c = 0; c < cols; ++c) out[c] = int{x[c]} * x[c] + int{y[c]} * y[c];
+    short* qx = row->dx.data();
+    short* qy = row->dy.data();
+    ToInt16(gx.ptr<float>(r), scale, cols, qx);
+    ToInt16(gy.ptr<float>(r), scale, cols, qy);
+    for (int c = 0; c < cols; ++c) out[c] = int{qx[c]} * qx[c] + int{qy[c]} * qy[c];
   };
-  load(-1, &padded_above);
-  load(0, &padded_row);
-  load(1, &padded_below);
+  load(-1, padded_above);
+  load(0, padded_row);
+  load(1, padded_below);
   for (int r = 0; r < rows; ++r) {
     if (r > 0) {
       std::swap(padded_above, padded_row);
       std::swap(padded_row, padded_below);
-      load(r + 1, &padded_below);
+      load(r + 1, padded_below);
     }
-    const int* up = padded_above.data() + 1;
-    const int* m = padded_row.data() + 1;
-    const int* down = padded_below.data() + 1;
-    const short* dx = dx16.ptr<short>(r);
-    const short* dy = dy16.ptr<short>(r);
+    const int* up = padded_above->magnitude.data() + 1;
+    const int* m = padded_row->magnitude.data() + 1;
+    const int* down = padded_below->magnitude.data() + 1;
+    const short* dx = padded_row->dx.data();
+    const short* dy = padded_row->dy.data();
     uchar* out = map->ptr<uchar>(r + 1) + 1;
     // Branch-free (the compiler vectorises it): the neighbour behind (strict) and ahead along
     // the quantised gradient direction.
@@ -365,18 +396,15 @@ RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& o) {
   // cv::Canny's input: 16-bit gradients. Squared in int, they must stay below 2^15 / sqrt(2)
   // per component.
   const double scale = 20000.0 / max_mag;
-  cv::Mat dx16 = temporary(3, CV_16S), dy16 = temporary(4, CV_16S);
-  gx.convertTo(dx16, CV_16S, scale);
-  gy.convertTo(dy16, CV_16S, scale);
   // cv::Canny's integer thresholds on the squared magnitude.
   const auto squared_threshold = [&](double t) {
     t = std::min(32767.0, t * scale);
     return static_cast<int>(std::floor(t > 0.0 ? t * t : t));
   };
-  cv::Mat map = scratch != nullptr ? scratch->Get(5, input.rows + 2, input.cols + 2, CV_8U)
+  cv::Mat map = scratch != nullptr ? scratch->Get(3, input.rows + 2, input.cols + 2, CV_8U)
                                    : cv::Mat(input.rows + 2, input.cols + 2, CV_8U);
-  const size_t count =
-      NonMaximumHysteresis(dx16, dy16, squared_threshold(low), squared_threshold(high), &map);
+  const size_t count = NonMaximumHysteresis(gx, gy, static_cast<float>(scale),
+                                            squared_threshold(low), squared_threshold(high), &map);
   if (count == 0) return Empty(image, true);
   return Collect(map(cv::Rect(1, 1, input.cols, input.rows)), count, usable, mag, gx, gy, true,
                  high, low);
