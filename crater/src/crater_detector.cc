@@ -17,6 +17,7 @@
 #include "areomap/crater/ellipse_fit.h"
 #include "areomap/crater/shading_hypotheses.h"
 #include "areomap/map/error.h"
+#include "detect_in_core.h"
 
 namespace areomap {
 namespace {
@@ -74,8 +75,8 @@ int SectorOf(const RimEdgePoint& p, bool signed_normals) {
   return std::clamp(s, 0, kSectors - 1);
 }
 
-std::optional<Arc> FitArc(const RimEdges& edges, std::vector<int> members, double r_lo, double r_hi,
-                          const std::optional<Eigen::Vector2d>& sun) {
+std::optional<Arc> FitArc(const RimEdges& edges, const std::vector<int>& members, double r_lo,
+                          double r_hi, const std::optional<Eigen::Vector2d>& sun) {
   Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
   Eigen::Vector2d b = Eigen::Vector2d::Zero();
   for (int i : members) {
@@ -110,7 +111,7 @@ std::optional<Arc> FitArc(const RimEdges& edges, std::vector<int> members, doubl
     // A bowl's rim is brighter on the sunward side of the edge everywhere.
     if (arc.polarity * direction.dot(*sun) < -0.25) return std::nullopt;
   }
-  arc.points = std::move(members);
+  arc.points = members;
   return arc;
 }
 
@@ -600,6 +601,19 @@ void Report(const ProgressCallback& progress, double fraction, std::string_view 
   if (progress && !progress(fraction, stage)) throw Error("crater detection cancelled");
 }
 
+// Distance [px] from `p` to the rectangle `core` (0 inside); 0 without a core.
+double DistanceOutside(const cv::Rect2d* core, const Eigen::Vector2d& p) {
+  if (core == nullptr) return 0.0;
+  const double dx = std::max({core->x - p.x(), 0.0, p.x() - (core->x + core->width)});
+  const double dy = std::max({core->y - p.y(), 0.0, p.y() - (core->y + core->height)});
+  return std::hypot(dx, dy);
+}
+
+// DetectCraters; with `core`, only craters centred in it (detect_in_core.h).
+std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
+                                    const CraterDetectorOptions& o,
+                                    const ProgressCallback& progress, const cv::Rect2d* core);
+
 }  // namespace
 
 void CraterDetectorOptions::Check() const {
@@ -656,8 +670,34 @@ std::optional<CraterDetection> RefineCrater(const cv::Mat& raster, RimSource sou
 }
 
 std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource source,
-                                           const CraterDetectorOptions& o,
+                                           const CraterDetectorOptions& options,
                                            const ProgressCallback& progress) {
+  return Detect(raster, source, options, progress, nullptr);
+}
+
+namespace internal {
+
+std::vector<CraterDetection> DetectCratersInCore(const cv::Mat& raster, RimSource source,
+                                                 const CraterDetectorOptions& options,
+                                                 const cv::Rect2d& core) {
+  std::vector<CraterDetection> kept;
+  for (CraterDetection& d : Detect(raster, source, options, nullptr, &core)) {
+    const Eigen::Vector2d& c = d.ellipse.center;
+    if (c.x() >= core.x && c.x() < core.x + core.width && c.y() >= core.y &&
+        c.y() < core.y + core.height) {
+      kept.push_back(std::move(d));
+    }
+  }
+  return kept;
+}
+
+}  // namespace internal
+
+namespace {
+
+std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
+                                    const CraterDetectorOptions& o,
+                                    const ProgressCallback& progress, const cv::Rect2d* core) {
   o.Check();
   if (raster.channels() != 1) throw Error("crater detection: expected a single-band raster");
   if (raster.empty()) return {};
@@ -726,6 +766,10 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
     std::vector<std::optional<CraterDetection>> found(groups.size());
     tbb::parallel_for(size_t{0}, groups.size(), [&](size_t g) {
       const Arc& seed = arcs[groups[g][0]];
+      if (DistanceOutside(core, seed.center * level.scale) >
+          internal::CoreMargin(seed.radius * level.scale, level.scale)) {
+        return;  // cannot end in the core
+      }
       std::vector<int> indices;
       for (int a : groups[g])
         indices.insert(indices.end(), arcs[a].points.begin(), arcs[a].points.end());
@@ -772,6 +816,10 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
       const double r = shading[h].radius / level.scale;
       if (shading_tried[h] || r < r_lo || r > r_hi) return;
       shading_tried[h] = 1;
+      if (DistanceOutside(core, shading[h].center) >
+          internal::CoreMargin(shading[h].radius, level.scale)) {
+        return;
+      }
       const Ellipse start =
           Scaled({shading[h].center, shading[h].radius, shading[h].radius, 0.0}, 1.0 / level.scale);
       from_shading[h] = FitAndValidate(level.image, level.edges, source, start, o, false);
@@ -803,6 +851,11 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
   std::vector<std::optional<CraterDetection>> final_fits(candidates.size());
   tbb::parallel_for(size_t{0}, candidates.size(), [&](size_t i) {
     const CraterDetection& c = candidates[i];
+    if (DistanceOutside(core, c.ellipse.center) >
+        internal::CoreMargin(c.ellipse.MeanRadius(),
+                             levels[static_cast<size_t>(c.pyramid_level)].scale)) {
+      return;
+    }
     int k = c.pyramid_level;
     Ellipse e = Scaled(c.ellipse, 1.0 / levels[static_cast<size_t>(k)].scale);
     const int finest = o.refine_to_full_resolution ? static_cast<int>(base) : k;
@@ -853,5 +906,7 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
   }
   return SuppressDuplicateCraters(std::move(all));
 }
+
+}  // namespace
 
 }  // namespace areomap

@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "detect_in_core.h"
 #include "edge_scratch.h"
 
 namespace areomap {
@@ -122,7 +123,9 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
       std::vector<CraterDetection> found;
       {
         const internal::UseEdgeScratch use(scratch.get());
-        found = DetectCraters(tile, source, tile_options);
+        // Only craters centred in the core are kept below: the tile skips fitting the others.
+        const cv::Rect2d core(core_c0 - c0, core_r0 - r0, core_c1 - core_c0, core_r1 - core_r0);
+        found = internal::DetectCratersInCore(tile, source, tile_options, core);
       }
       scratch_pool.Release(std::move(scratch));
       std::lock_guard<std::mutex> lock(mutex);

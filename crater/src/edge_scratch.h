@@ -1,12 +1,12 @@
 // Reusable memory for the full-size temporaries of rim edge detection (rim_edges.h): the
-// smoothed image and gradient magnitude, the gradients and their 16-bit copies, the Canny map.
+// smoothed image and gradient magnitude, the gradients, the edge map.
 // Internal to the crater module.
 //
 // A tiled detection (DetectCratersInRaster) hands each tile task one EdgeScratch from an
 // EdgeScratchPool for the duration of the call: consecutive tiles and pyramid levels reuse the
-// memory instead of allocating it afresh (for a 2304 px tile about 110 MB a time, each page
-// faulted in again). Memory stays bounded by the tile size times the tiles in flight, as without
-// it; the pool frees everything when it is destroyed.
+// memory instead of allocating it afresh (13 bytes per pixel: for a 2304 px tile about 70 MB a
+// time, each page faulted in again). Memory stays bounded by the tile size times the tiles in
+// flight, as without it; the pool frees everything when it is destroyed.
 //
 // Thread safety: an EdgeScratch is used by one task at a time. UseEdgeScratch makes it the
 // calling thread's current scratch until it goes out of scope, restoring the previous one: a
@@ -26,7 +26,7 @@ namespace areomap::internal {
 
 class EdgeScratch {
  public:
-  static constexpr int kSlots = 6;
+  static constexpr int kSlots = 4;
   // `reserve_pixels`: the largest image expected (a padded tile), so that growing happens once.
   explicit EdgeScratch(size_t reserve_pixels = 0) : reserve_pixels_(reserve_pixels) {}
   // A continuous rows x cols matrix of `type` over the memory of `slot` (grown when too small,

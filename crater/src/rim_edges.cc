@@ -1,8 +1,15 @@
 #include "areomap/crater/rim_edges.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <vector>
 
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
@@ -18,10 +25,19 @@ struct UsableArea {
   cv::Mat mask;       // CV_8U, non-zero = usable; empty: `interior` is the usable area
   cv::Rect interior;  // pixels at least 2 px inside the border
   const uchar* MaskRow(int r) const { return mask.empty() ? nullptr : mask.ptr<uchar>(r); }
-  bool At(int r, int c) const {
-    return mask.empty() ? interior.contains(cv::Point(c, r)) : mask.at<uchar>(r, c) != 0;
-  }
 };
+
+// Whether every pixel of a CV_32F matrix is finite (cv::checkRange's answer, in one vectorised
+// pass).
+bool AllFinite(const cv::Mat& m) {
+  for (int r = 0; r < m.rows; ++r) {
+    const float* v = m.ptr<float>(r);
+    int bad = 0;
+    for (int c = 0; c < m.cols; ++c) bad |= !(std::abs(v[c]) <= std::numeric_limits<float>::max());
+    if (bad != 0) return false;
+  }
+  return true;
+}
 
 // Float copy with nodata filled by the mean of the valid pixels, and the usable area.
 // `filled` may share the input's pixels (float input without nodata): read it only.
@@ -33,7 +49,7 @@ void PrepareInput(const cv::Mat& input, cv::Mat* filled, UsableArea* usable) {
     input.convertTo(*filled, CV_32F);
   }
   usable->interior = cv::Rect(2, 2, std::max(0, filled->cols - 4), std::max(0, filled->rows - 4));
-  if (cv::checkRange(*filled, true)) return;                // no nodata
+  if (AllFinite(*filled)) return;                           // no nodata
   if (filled->data == input.data) *filled = input.clone();  // the holes are filled below
   cv::Mat valid;
   cv::compare(*filled, *filled, valid, cv::CMP_EQ);  // NaN compares unequal to itself
@@ -56,7 +72,33 @@ double UsableMax(const cv::Mat& m, const UsableArea& usable) {
   return max_value;
 }
 
-float Bilinear(const cv::Mat& m, float x, float y) {
+// Edge maps: kEdge marks an edge; Canny's maps also hold kCandidate (below) and 0.
+constexpr uchar kCandidate = 1;
+constexpr uchar kEdge = 2;
+
+// Calls f(c) for each c in [begin, end) with row[c] == kEdge, in increasing order; row values
+// are 0, kCandidate or kEdge. Edges are sparse: words of 8 pixels without one are skipped.
+template <class F>
+void ForEachEdge(const uchar* row, int begin, int end, F&& f) {
+  constexpr uint64_t kEdgeBits = 0x0202020202020202ull;  // kEdge's bit in each byte
+  int c = begin;
+  while (c < end) {
+    if (c + 8 <= end) {
+      uint64_t word;
+      std::memcpy(&word, row + c, sizeof(word));
+      if ((word & kEdgeBits) == 0) {
+        c += 8;
+        continue;
+      }
+    }
+    const int stop = std::min(end, c + 8);
+    for (; c < stop; ++c) {
+      if (row[c] == kEdge) f(c);
+    }
+  }
+}
+
+inline float Bilinear(const cv::Mat& m, float x, float y) {
   // (x, y) in OpenCV's index convention (pixel centre at integers), clamped inside.
   x = std::clamp(x, 0.0f, static_cast<float>(m.cols - 1) - 1e-3f);
   y = std::clamp(y, 0.0f, static_cast<float>(m.rows - 1) - 1e-3f);
@@ -74,8 +116,16 @@ bool AutomaticThresholds(const cv::Mat& strength, const UsableArea& usable, cons
   values.reserve(static_cast<size_t>(strength.total() / 9 + 1));
   for (int r = 0; r < strength.rows; r += 3) {
     const float* s = strength.ptr<float>(r);
-    for (int c = 0; c < strength.cols; c += 3) {
-      if (usable.At(r, c)) values.push_back(s[c]);
+    const uchar* u = usable.MaskRow(r);
+    if (u != nullptr) {
+      for (int c = 0; c < strength.cols; c += 3) {
+        if (u[c]) values.push_back(s[c]);
+      }
+    } else if (r >= usable.interior.y && r < usable.interior.br().y) {
+      // The sampled columns inside the interior: multiples of 3 in [x, br.x).
+      for (int c = (usable.interior.x + 2) / 3 * 3; c < usable.interior.br().x; c += 3) {
+        values.push_back(s[c]);
+      }
     }
   }
   if (values.size() < 16) return false;
@@ -102,7 +152,7 @@ bool AutomaticThresholds(const cv::Mat& strength, const UsableArea& usable, cons
   return *high > 1e-6 * (max_value + 1e-30) && *high > 0.0;
 }
 
-RimEdgePoint SubPixel(const cv::Mat& strength, int r, int c, float nx, float ny) {
+inline RimEdgePoint SubPixel(const cv::Mat& strength, int r, int c, float nx, float ny) {
   const float m0 = strength.at<float>(r, c);
   const float fc = static_cast<float>(c), fr = static_cast<float>(r);
   const float mm = Bilinear(strength, fc - nx, fr - ny);
@@ -119,10 +169,143 @@ RimEdgePoint SubPixel(const cv::Mat& strength, int r, int c, float nx, float ny)
   return p;
 }
 
-// `dx`, `dy`: a direction field (any length, e.g. the gradient), normalised per edge point.
-RimEdges Collect(const cv::Mat& edge_mask, const UsableArea& usable, const cv::Mat& strength,
-                 const cv::Mat& dx, const cv::Mat& dy, bool signed_normals, double high,
-                 double low) {
+// cv::Canny's input: `g` x `scale` rounded to 16 bits exactly as cv::Mat::convertTo(CV_16S,
+// scale) does (the float product rounded to the nearest integer, saturated; OpenCV's own
+// vector operations where it uses them, saturate_cast for the rest).
+void ToInt16(const float* g, float scale, int n, short* out) {
+  int i = 0;
+#if CV_SIMD128
+  const cv::v_float32x4 factor = cv::v_setall_f32(scale);
+  for (; i + 8 <= n; i += 8) {
+    const cv::v_int32x4 lo = cv::v_round(cv::v_load(g + i) * factor);
+    const cv::v_int32x4 hi = cv::v_round(cv::v_load(g + i + 4) * factor);
+    cv::v_store(out + i, cv::v_pack(lo, hi));
+  }
+#endif
+  for (; i < n; ++i) out[i] = cv::saturate_cast<short>(g[i] * scale);
+}
+
+// Canny's non-maximum suppression and hysteresis, as cv::Canny computes them from 16-bit
+// gradients (`gx`, `gy` x `scale`, rounded as ToInt16) with the L2 norm (OpenCV 4.x canny.cpp;
+// the same edges): a pixel is a candidate when its squared magnitude dx^2 + dy^2 exceeds `low`
+// and is a maximum across its gradient direction, quantised to 0, 45, 90 or 135 degrees at the
+// tan(22.5 degree) boundaries in OpenCV's fixed point (along the axes: above the neighbour
+// behind, at least the one ahead; along a diagonal: above both), with magnitude 0 outside the
+// raster; candidates 8-connected through candidates to one above `high` are edges. Written here
+// so that the 16-bit gradients are made row by row (no full-size copies) and the suppression
+// runs branch-free (vectorised); cv::Canny spends most of its time in data-dependent branches.
+// `map`: (rows + 2) x (cols + 2) CV_8U, pixel (r, c) at (r + 1, c + 1) inside a frame of zeros;
+// on return kEdge marks the edges. Returns the number of edges.
+size_t NonMaximumHysteresis(const cv::Mat& gx, const cv::Mat& gy, float scale, int low, int high,
+                            cv::Mat* map) {
+  const int rows = gx.rows, cols = gx.cols;
+  const size_t step = map->step1();
+  // The frame stays zero; every other pixel is written below.
+  map->row(0).setTo(0);
+  map->row(rows + 1).setTo(0);
+  map->col(0).setTo(0);
+  map->col(cols + 1).setTo(0);
+  std::vector<uchar*> stack;
+  // OpenCV's CANNY_SHIFT and TG22 = round(tan(22.5 degrees) 2^15); tan(67.5 degrees) 2^15 =
+  // TG22 + 2^16. Unsigned: |dy| 2^15 and |dx| (TG22 + 2^16) fit in 32 bits.
+  constexpr uint32_t kShift = 15;
+  constexpr uint32_t kTg22 = 13573;
+  constexpr uint32_t kTg67 = kTg22 + (1u << (kShift + 1));
+  // The 16-bit gradients and squared magnitudes of the rows above, at and below; magnitudes
+  // with one column of zeros on each side.
+  struct Row {
+    std::vector<short> dx, dy;
+    std::vector<int> magnitude;
+  };
+  std::array<Row, 3> buffers;
+  for (Row& row : buffers) {
+    row.dx.resize(static_cast<size_t>(cols));
+    row.dy.resize(static_cast<size_t>(cols));
+    row.magnitude.assign(static_cast<size_t>(cols) + 2, 0);
+  }
+  Row* padded_above = &buffers[0];
+  Row* padded_row = &buffers[1];
+  Row* padded_below = &buffers[2];
+  const auto load = [&](int r, Row* row) {
+    int* out = row->magnitude.data() + 1;
+    if (r < 0 || r >= rows) {
+      std::fill_n(out, cols, 0);
+      return;
+    }
+    short* qx = row->dx.data();
+    short* qy = row->dy.data();
+    ToInt16(gx.ptr<float>(r), scale, cols, qx);
+    ToInt16(gy.ptr<float>(r), scale, cols, qy);
+    for (int c = 0; c < cols; ++c) out[c] = int{qx[c]} * qx[c] + int{qy[c]} * qy[c];
+  };
+  load(-1, padded_above);
+  load(0, padded_row);
+  load(1, padded_below);
+  for (int r = 0; r < rows; ++r) {
+    if (r > 0) {
+      std::swap(padded_above, padded_row);
+      std::swap(padded_row, padded_below);
+      load(r + 1, padded_below);
+    }
+    const int* up = padded_above->magnitude.data() + 1;
+    const int* m = padded_row->magnitude.data() + 1;
+    const int* down = padded_below->magnitude.data() + 1;
+    const short* dx = padded_row->dx.data();
+    const short* dy = padded_row->dy.data();
+    uchar* out = map->ptr<uchar>(r + 1) + 1;
+    // Branch-free (the compiler vectorises it): the neighbour behind (strict) and ahead along
+    // the quantised gradient direction.
+    for (int c = 0; c < cols; ++c) {
+      const int v = m[c], left = m[c - 1], right = m[c + 1];
+      const int up_left = up[c - 1], up_mid = up[c], up_right = up[c + 1];
+      const int down_left = down[c - 1], down_mid = down[c], down_right = down[c + 1];
+      const uint32_t ax = static_cast<uint32_t>(std::abs(int{dx[c]}));
+      const uint32_t ay = static_cast<uint32_t>(std::abs(int{dy[c]})) << kShift;
+      const bool horizontal = ay < ax * kTg22;
+      const bool vertical = ay > ax * kTg67;
+      const bool rising = (dx[c] ^ dy[c]) < 0;  // signs differ: gradient up-right or down-left
+      const int diagonal_behind = rising ? down_left : up_left;
+      const int diagonal_ahead = rising ? up_right : down_right;
+      const int axis_behind = horizontal ? left : up_mid;
+      const int axis_ahead = horizontal ? right : down_mid;
+      const bool axis = horizontal | vertical;
+      const int behind = axis ? axis_behind : diagonal_behind;
+      const int ahead = axis ? axis_ahead : diagonal_ahead;
+      const bool maximum = (v > low) & (v > behind) & ((v > ahead) | (axis & (v == ahead)));
+      const int value = maximum ? (v > high ? kEdge : kCandidate) : 0;
+      out[c] = static_cast<uchar>(value);
+    }
+    ForEachEdge(out, 0, cols, [&](int c) { stack.push_back(out + c); });
+  }
+  // Hysteresis: a depth-first walk from the seeds; each pixel is pushed once (marked first).
+  const std::ptrdiff_t s = static_cast<std::ptrdiff_t>(step);
+  const std::array<std::ptrdiff_t, 8> neighbours = {-s - 1, -s, -s + 1, -1, 1, s - 1, s, s + 1};
+  size_t edges = stack.size();
+  size_t top = stack.size();
+  stack.resize(std::max<size_t>(2 * top, 1024));
+  while (top > 0) {
+    uchar* p = stack[--top];
+    if (top + neighbours.size() > stack.size()) stack.resize(2 * stack.size());
+    uchar** next = stack.data() + top;
+    for (const std::ptrdiff_t o : neighbours) {
+      uchar* q = p + o;
+      if (*q == kCandidate) {
+        *q = kEdge;
+        *next++ = q;
+      }
+    }
+    const size_t pushed = static_cast<size_t>(next - (stack.data() + top));
+    top += pushed;
+    edges += pushed;
+  }
+  return edges;
+}
+
+// `edge_map`: kEdge marks edges. `dx`, `dy`: a direction field (any length, e.g. the gradient),
+// normalised per edge point. `count`: the number of edges, or an upper bound (reserved).
+RimEdges Collect(const cv::Mat& edge_map, size_t count, const UsableArea& usable,
+                 const cv::Mat& strength, const cv::Mat& dx, const cv::Mat& dy, bool signed_normals,
+                 double high, double low) {
   RimEdges out;
   out.signed_normals = signed_normals;
   out.high_threshold = high;
@@ -130,7 +313,6 @@ RimEdges Collect(const cv::Mat& edge_mask, const UsableArea& usable, const cv::M
   out.rows = strength.rows;
   out.cols = strength.cols;
   out.row_start.assign(static_cast<size_t>(strength.rows) + 1, 0);
-  const size_t count = static_cast<size_t>(cv::countNonZero(edge_mask));  // an upper bound
   out.points.reserve(count);
   out.column.reserve(count);
   // Usable pixels are never on the 1 px frame; without a mask, only the interior's columns.
@@ -140,16 +322,19 @@ RimEdges Collect(const cv::Mat& edge_mask, const UsableArea& usable, const cv::M
   for (int r = 1; r + 1 < strength.rows; ++r) {
     out.row_start[static_cast<size_t>(r)] = static_cast<int>(out.points.size());
     if (usable.mask.empty() && (r < usable.interior.y || r >= usable.interior.br().y)) continue;
-    const uchar* e = edge_mask.ptr<uchar>(r);
+    const uchar* e = edge_map.ptr<uchar>(r);
     const uchar* u = usable.MaskRow(r);
-    for (int c = c_begin; c < c_end; ++c) {
-      if (!e[c] || (u != nullptr && !u[c])) continue;
-      const float gx = dx.at<float>(r, c), gy = dy.at<float>(r, c);
-      const float norm = std::hypot(gx, gy);
-      if (!(norm > 0.0f)) continue;
+    const float* gx = dx.ptr<float>(r);
+    const float* gy = dy.ptr<float>(r);
+    ForEachEdge(e, c_begin, c_end, [&](int c) {
+      if (u != nullptr && !u[c]) return;
+      // hypotf's value (glibc computes it in double and rounds), without its special cases.
+      const float norm = static_cast<float>(
+          std::sqrt(static_cast<double>(gx[c]) * gx[c] + static_cast<double>(gy[c]) * gy[c]));
+      if (!(norm > 0.0f)) return;
       out.column.push_back(c);
-      out.points.push_back(SubPixel(strength, r, c, gx / norm, gy / norm));
-    }
+      out.points.push_back(SubPixel(strength, r, c, gx[c] / norm, gy[c] / norm));
+    });
   }
   for (int r = std::max(1, strength.rows - 1); r <= strength.rows; ++r) {
     out.row_start[static_cast<size_t>(r)] = static_cast<int>(out.points.size());
@@ -208,14 +393,21 @@ RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& o) {
   if (!AutomaticThresholds(mag, usable, o, &high, &low)) return Empty(image, true);
   const double max_mag = UsableMax(mag, usable);
   if (!(max_mag > high)) return Empty(image, true);
-  // Canny takes 16-bit gradients; with L2 magnitudes it squares them in int, so stay below
-  // 2^15 / sqrt(2) per component.
+  // cv::Canny's input: 16-bit gradients. Squared in int, they must stay below 2^15 / sqrt(2)
+  // per component.
   const double scale = 20000.0 / max_mag;
-  cv::Mat dx16 = temporary(3, CV_16S), dy16 = temporary(4, CV_16S), edges = temporary(5, CV_8U);
-  gx.convertTo(dx16, CV_16S, scale);
-  gy.convertTo(dy16, CV_16S, scale);
-  cv::Canny(dx16, dy16, edges, low * scale, high * scale, true);
-  return Collect(edges, usable, mag, gx, gy, true, high, low);
+  // cv::Canny's integer thresholds on the squared magnitude.
+  const auto squared_threshold = [&](double t) {
+    t = std::min(32767.0, t * scale);
+    return static_cast<int>(std::floor(t > 0.0 ? t * t : t));
+  };
+  cv::Mat map = scratch != nullptr ? scratch->Get(3, input.rows + 2, input.cols + 2, CV_8U)
+                                   : cv::Mat(input.rows + 2, input.cols + 2, CV_8U);
+  const size_t count = NonMaximumHysteresis(gx, gy, static_cast<float>(scale),
+                                            squared_threshold(low), squared_threshold(high), &map);
+  if (count == 0) return Empty(image, true);
+  return Collect(map(cv::Rect(1, 1, input.cols, input.rows)), count, usable, mag, gx, gy, true,
+                 high, low);
 }
 
 RimEdges DetectDtmCrests(const cv::Mat& dtm, double posting, const EdgeOptions& o) {
@@ -284,10 +476,11 @@ RimEdges DetectDtmCrests(const cv::Mat& dtm, double posting, const EdgeOptions& 
   for (int r = 0; r < h.rows; ++r) {
     for (int c = 0; c < h.cols; ++c) {
       const int label = labels.at<int>(r, c);
-      if (label > 0 && keep[static_cast<size_t>(label)]) edges.at<uchar>(r, c) = 255;
+      if (label > 0 && keep[static_cast<size_t>(label)]) edges.at<uchar>(r, c) = kEdge;
     }
   }
-  return Collect(edges, usable, strength, nx, ny, false, high, low);
+  return Collect(edges, static_cast<size_t>(cv::countNonZero(edges)), usable, strength, nx, ny,
+                 false, high, low);
 }
 
 }  // namespace areomap

@@ -202,12 +202,17 @@ cv::Mat RasterDataset::ReadWindowFloat(int band, const PixelWindow& window) cons
     const bool nodata_in_range = nodata && std::abs(*nodata) <= std::numeric_limits<float>::max();
     const float nodata_value = nodata_in_range ? static_cast<float>(*nodata) : 0.0f;
     const bool nodata_is_float = nodata_in_range && static_cast<double>(nodata_value) == *nodata;
+    // Branch-free, so that the compiler vectorises it; without a float nodata value the
+    // comparison is with a NaN, never true.
+    const float nodata_match =
+        nodata_is_float ? nodata_value : std::numeric_limits<float>::quiet_NaN();
+    const float nan = std::numeric_limits<float>::quiet_NaN();
     for (int r = 0; r < out.rows; ++r) {
       float* v = out.ptr<float>(r);
       for (int c = 0; c < out.cols; ++c) {
-        if (!std::isfinite(v[c]) || (nodata_is_float && v[c] == nodata_value)) {
-          v[c] = std::numeric_limits<float>::quiet_NaN();
-        }
+        const float x = v[c];
+        const bool finite = std::abs(x) <= std::numeric_limits<float>::max();
+        v[c] = finite && x != nodata_match ? x : nan;
       }
     }
     return out;

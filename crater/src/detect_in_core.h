@@ -1,0 +1,35 @@
+// Crater detection on one tile of a larger raster, keeping only the craters whose centre lies in
+// the tile's core (the rest of the tile is overlap that a neighbouring tile keeps). Internal to
+// the crater module (DetectCratersInRaster).
+//
+// Hypotheses and geometric fits whose centre lies further out of the core than CoreMargin are
+// not run. The screening fits move a hypothesis' centre by at most 0.89 r + 2 pixels of its
+// pyramid level (SaneFit: 0.35 r + 1 from the arcs' circle of radius r, FitAndValidate: 0.4 x
+// the start's radius, at most 1.35 r, + 1), inside the margin's r + 2 level pixels; the
+// refinement down the pyramid moves a validated crater by a small fraction of a pixel to a few
+// pixels, inside its extra 4 px. Craters that the whole-tile DetectCraters keeps in the core
+// are therefore kept (checked on the generated bench tiles: the same detections); duplicates
+// across tiles are suppressed by the caller as before.
+//
+// Frame: pixel coordinates of `raster` (GDAL convention); `core` is [x, x + width) x [y, y +
+// height) in those pixels.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "areomap/crater/crater_detector.h"
+
+namespace areomap::internal {
+
+// Largest distance [px] outside the core at which a hypothesis or candidate of radius `radius`
+// [px] found on a pyramid level of `scale` full-resolution px per level px is still fitted.
+inline double CoreMargin(double radius, double scale) { return radius + 2.0 * scale + 4.0; }
+
+// DetectCraters restricted to craters centred in `core`; sorted by decreasing confidence.
+std::vector<CraterDetection> DetectCratersInCore(const cv::Mat& raster, RimSource source,
+                                                 const CraterDetectorOptions& options,
+                                                 const cv::Rect2d& core);
+
+}  // namespace areomap::internal
