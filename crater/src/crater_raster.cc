@@ -123,18 +123,13 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
       std::vector<CraterDetection> found;
       {
         const internal::UseEdgeScratch use(scratch.get());
-        // Only craters centred in the core are kept below: the tile skips fitting the others.
+        // Only craters centred in the core come back: the tile skips fitting the others.
         const cv::Rect2d core(core_c0 - c0, core_r0 - r0, core_c1 - core_c0, core_r1 - core_r0);
         found = internal::DetectCratersInCore(tile, source, tile_options, core);
       }
       scratch_pool.Release(std::move(scratch));
       std::lock_guard<std::mutex> lock(mutex);
-      for (const CraterDetection& d : found) {
-        CraterDetection g = Shifted(d, c0, r0, 1.0);
-        const Eigen::Vector2d& c = g.ellipse.center;
-        if (c.x() < core_c0 || c.x() >= core_c1 || c.y() < core_r0 || c.y() >= core_r1) continue;
-        all.push_back(g);
-      }
+      for (const CraterDetection& d : found) all.push_back(Shifted(d, c0, r0, 1.0));
       const double fraction = (1.0 - overview_share) * (++done) / static_cast<double>(tile_count);
       if (progress && !progress(fraction, "craters: tiles")) cancelled = true;
     });

@@ -46,6 +46,27 @@ cv::Mat DrawBowls(int size, const std::vector<CraterCircle>& craters) {
   return image + noise;
 }
 
+// `image` written as a plain (not georeferenced) GeoTIFF at `path`, opened for windowed reads.
+RasterDataset WritePlainGeoTiff(const std::filesystem::path& path, const cv::Mat& image) {
+  std::filesystem::create_directories(path.parent_path());
+  GeoRaster raster;
+  raster.bands = {image};
+  WriteGeoTiff(path, raster);
+  return RasterDataset::Open(path);
+}
+
+// Tiles of 400 px with 96 px overlap, so that a 1000 px raster has seams; every crater of these
+// tests is >= 18 px across, so no upsampled level.
+CraterDetectorOptions SmallTileOptions() {
+  CraterDetectorOptions options;
+  options.sun_azimuth_deg = 90.0;
+  options.tile_size = 400;
+  options.tile_overlap = 96;
+  options.min_diameter_px = 12.0;
+  options.upsample_small_craters = false;
+  return options;
+}
+
 TEST(DetectCratersInRaster, TilesAndOverviewFindSmallAndLargeCraters) {
   const int size = 1100;
   std::vector<CraterCircle> truth;
@@ -61,19 +82,9 @@ TEST(DetectCratersInRaster, TilesAndOverviewFindSmallAndLargeCraters) {
   std::erase_if(truth, [](const CraterCircle& c) {
     return c.diameter < 100 && (c.center - Eigen::Vector2d(550, 550)).norm() < 150;
   });
-  const cv::Mat image = DrawBowls(size, truth);
   const auto dir = std::filesystem::temp_directory_path() / "areomap_crater_raster_test";
-  std::filesystem::create_directories(dir);
-  GeoRaster raster;
-  raster.bands = {image};
-  WriteGeoTiff(dir / "bowls.tif", raster);
-  const RasterDataset dataset = RasterDataset::Open(dir / "bowls.tif");
-  CraterDetectorOptions options;
-  options.sun_azimuth_deg = 90.0;
-  options.tile_size = 400;
-  options.tile_overlap = 96;
-  options.min_diameter_px = 12.0;
-  options.upsample_small_craters = false;  // every crater here is >= 18 px across
+  const RasterDataset dataset = WritePlainGeoTiff(dir / "bowls.tif", DrawBowls(size, truth));
+  const CraterDetectorOptions options = SmallTileOptions();
   int progress_calls = 0;
   const std::vector<CraterDetection> found =
       DetectCratersInRaster(dataset, RimSource::kImage, options, [&](double, std::string_view) {
@@ -129,18 +140,9 @@ TEST(DetectCratersInRaster, CratersOnTileSeamsAreFoundOnceAsOnTheWholeRaster) {
   truth.push_back({{399.0, 801.0}, 20.0});
   const cv::Mat image = DrawBowls(size, truth);
   const auto dir = std::filesystem::temp_directory_path() / "areomap_crater_seam_test";
-  std::filesystem::create_directories(dir);
-  GeoRaster raster;
-  raster.bands = {image};
-  WriteGeoTiff(dir / "seams.tif", raster);
-  const RasterDataset dataset = RasterDataset::Open(dir / "seams.tif");
-  CraterDetectorOptions options;
-  options.sun_azimuth_deg = 90.0;
-  options.tile_size = 400;
-  options.tile_overlap = 96;
-  options.min_diameter_px = 12.0;
+  const RasterDataset dataset = WritePlainGeoTiff(dir / "seams.tif", image);
+  CraterDetectorOptions options = SmallTileOptions();
   options.max_diameter_px = 60.0;  // tiles only, no overview
-  options.upsample_small_craters = false;
   const std::vector<CraterDetection> tiled =
       DetectCratersInRaster(dataset, RimSource::kImage, options);
   const std::vector<CraterDetection> whole = DetectCraters(image, RimSource::kImage, options);
