@@ -9,6 +9,7 @@
 
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
+#include "areomap/map/image_io.h"
 #include "areomap/map/point_cloud_io.h"
 #include "areomap/registration/bundle_io.h"
 #include "areomap/registration/rock_output.h"
@@ -22,6 +23,8 @@ struct RocksArgs {
   std::string cloud_b;
   std::string out_dir;
   std::string prior;  // "north,east,down,heading_deg": site b in site a.
+  std::string image;  // extract: the cloud's left image, for rocks_image.png (optional).
+  int image_pair = 0;
   double prior_sigma_m = 1.0;
   double prior_heading_sigma_deg = 2.0;
   RockExtractionOptions extraction;
@@ -75,6 +78,7 @@ SiteRocks ExtractFrom(const std::string& path, const RocksArgs& a, int fallback_
 
 void RunExtract(const RocksArgs& a, const GlobalOptions& global) {
   a.extraction.Check();
+  const cv::Mat image = a.image.empty() ? cv::Mat() : ReadImage(a.image);  // Fails before work.
   RockExtractionSummary summary;
   PointCloud cloud;
   const SiteRocks rocks = ExtractFrom(a.cloud, a, 0, &summary, global, &cloud);
@@ -83,11 +87,16 @@ void RunExtract(const RocksArgs& a, const GlobalOptions& global) {
   WriteRocksCsv(out / "rocks.csv", rocks.rocks);
   WriteRocksJson(out / "rocks.json", rocks.rocks);
   WriteRocksPlotPng(out / "rocks.png", cloud, rocks.rocks, a.extraction.max_peak_range_m);
+  nlohmann::json files = {"rocks.csv", "rocks.json", "rocks.png"};
+  if (!image.empty()) {
+    WriteRocksImagePng(out / "rocks_image.png", image, cloud, rocks.rocks, a.image_pair);
+    files.push_back("rocks_image.png");
+  }
   WriteSummary(out, {{"command", "rocks extract"},
                      {"input", a.cloud},
                      {"site", rocks.site},
                      {"extraction", RockExtractionSummaryToJson(summary)},
-                     {"files", {"rocks.csv", "rocks.json", "rocks.png"}}});
+                     {"files", files}});
   if (!global.quiet) {
     std::cout << summary.rocks << " rocks (" << summary.modeled << " modeled) from "
               << summary.points << " points; wrote " << a.out_dir << "\n";
@@ -170,6 +179,15 @@ void AddRocksCommand(CLI::App& app, const GlobalOptions& global) {
       "extract", "Rock peaks, heights, surface points and models of one site's cloud");
   extract->add_option("cloud", extract_args->cloud, "Point cloud (areomap PLY)")->required();
   extract->add_option("--out", extract_args->out_dir, "Output folder")->required();
+  extract
+      ->add_option("--image", extract_args->image,
+                   "The cloud's left image: also write rocks_image.png (rocks over it)")
+      ->check(CLI::ExistingFile);
+  extract
+      ->add_option("--pair", extract_args->image_pair,
+                   "Which stereo pair of the site --image is (the cloud's image_id)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   AddExtractionOptions(extract, extract_args->extraction);
   extract->callback([extract_args, &global] { RunExtract(*extract_args, global); });
 

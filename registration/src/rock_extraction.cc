@@ -12,12 +12,14 @@
 
 #include "areomap/map/error.h"
 #include "rock_point_grid.h"
+#include "rock_voxel_index.h"
 
 namespace areomap {
 
 namespace {
 
 using rock_internal::PointGrid;
+using rock_internal::VoxelIndex;
 
 struct Plane {
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
@@ -273,43 +275,36 @@ class Extractor {
     const double max_radius = options_.surface_k_max * h;
     const double cap = grid_.cell();  // Nearest-neighbour distances are searched up to one cell.
     const Eigen::Vector2d peak_xy = rock->peak.head<2>();
+    // The points above the plane that a surface point or its nearest neighbour can be, in voxels
+    // of an eighth of the largest query radius (steps and neighbour distances are <= cap).
+    std::vector<int> above;
+    grid_.ForEachNear(peak_xy, max_radius + cap, [&](int j) {
+      if ((cloud_.points[j].position.head<2>() - peak_xy).norm() <= max_radius + cap &&
+          AbovePlane(plane, j)) {
+        above.push_back(j);
+      }
+    });
+    const VoxelIndex voxels(cloud_.points, above, cap / 8.0);
     std::unordered_set<int> found;
     std::vector<int> frontier;
     double max_neighbour = 0.0;
-    const auto nearest_distance = [&](int j) {
-      double best = cap;
-      const Eigen::Vector3d& p = cloud_.points[j].position;
-      grid_.ForEachNear(p.head<2>(), cap, [&](int k) {
-        if (k == j) return;
-        const double d = (cloud_.points[k].position - p).norm();
-        if (d < best && AbovePlane(plane, k)) best = d;
-      });
-      return best;
-    };
     const auto add = [&](int j) {
       if (!found.insert(j).second) return;
       frontier.push_back(j);
-      max_neighbour = std::max(max_neighbour, nearest_distance(j));
+      max_neighbour =
+          std::max(max_neighbour, voxels.NearestDistance(cloud_.points[j].position, j, cap));
     };
     add(rock->peak_index);
-    grid_.ForEachNear(peak_xy, start_radius, [&](int j) {
-      if ((cloud_.points[j].position.head<2>() - peak_xy).norm() <= start_radius &&
-          AbovePlane(plane, j)) {
-        add(j);
-      }
-    });
+    for (int j : above) {
+      if ((cloud_.points[j].position.head<2>() - peak_xy).norm() <= start_radius) add(j);
+    }
     while (!frontier.empty()) {
       const std::vector<int> last = std::move(frontier);
       frontier.clear();
       const double step = std::max(max_neighbour, 1e-3);
       for (int f : last) {
-        const Eigen::Vector3d& pf = cloud_.points[f].position;
-        grid_.ForEachNear(pf.head<2>(), step, [&](int j) {
-          if (found.count(j)) return;
-          const Eigen::Vector3d& pj = cloud_.points[j].position;
-          if ((pj - pf).norm() > step) return;
-          if ((pj.head<2>() - peak_xy).norm() > max_radius || !AbovePlane(plane, j)) return;
-          add(j);
+        voxels.ForEachWithin(cloud_.points[f].position, step, [&](int j) {
+          if ((cloud_.points[j].position.head<2>() - peak_xy).norm() <= max_radius) add(j);
         });
       }
     }

@@ -201,4 +201,55 @@ void WriteRocksPlotPng(const std::filesystem::path& path, const PointCloud& clou
   WriteImage(path, image);
 }
 
+void WriteRocksImagePng(const std::filesystem::path& path, const cv::Mat& image,
+                        const PointCloud& cloud, const std::vector<ExtractedRock>& rocks,
+                        int image_id) {
+  if (image.empty() || (image.channels() != 1 && image.channels() != 3)) {
+    throw Error(path.string() + ": the background image must have 1 or 3 channels");
+  }
+  cv::Mat rgb;
+  if (image.depth() == CV_8U) {
+    rgb = image;
+  } else {
+    cv::normalize(image, rgb, 0, 255, cv::NORM_MINMAX, CV_8U);
+  }
+  if (rgb.channels() == 1) cv::cvtColor(rgb, rgb, cv::COLOR_GRAY2RGB);
+  rgb = rgb.clone();
+  const cv::Rect inside(0, 0, rgb.cols, rgb.rows);
+  const auto pixel_of = [&](int index) {
+    const StereoPoint& p = cloud.points[static_cast<size_t>(index)];
+    return cv::Point(static_cast<int>(std::lround(p.left_x)),
+                     static_cast<int>(std::lround(p.left_y)));
+  };
+  const auto from_pair = [&](int index) {
+    return index >= 0 && static_cast<size_t>(index) < cloud.points.size() &&
+           cloud.points[static_cast<size_t>(index)].image_id == image_id;
+  };
+  int painted = 0;
+  for (const ExtractedRock& r : rocks) {
+    const cv::Vec3b colour = r.modeled() ? cv::Vec3b(255, 0, 0) : cv::Vec3b(255, 165, 0);
+    for (int index : r.surface_indices) {
+      if (!from_pair(index) || !inside.contains(pixel_of(index))) continue;
+      rgb.at<cv::Vec3b>(pixel_of(index)) = colour;
+      ++painted;
+    }
+  }
+  for (const ExtractedRock& r : rocks) {
+    if (!from_pair(r.peak_index) || !inside.contains(pixel_of(r.peak_index))) continue;
+    ++painted;
+    const cv::Scalar colour = r.modeled() ? cv::Scalar(255, 0, 0) : cv::Scalar(255, 165, 0);
+    const cv::Point peak = pixel_of(r.peak_index);
+    cv::drawMarker(rgb, peak, cv::Scalar(255, 255, 0), cv::MARKER_CROSS, 14, 2);
+    char label[48];
+    std::snprintf(label, sizeof(label), "%d: %.2f m", r.id, r.height_m);
+    cv::putText(rgb, label, peak + cv::Point(9, -6), cv::FONT_HERSHEY_SIMPLEX, 0.5, colour, 1);
+  }
+  if (painted == 0 && !rocks.empty()) {
+    throw Error(path.string() + ": no rock point of pair " + std::to_string(image_id) +
+                " falls inside the " + std::to_string(rgb.cols) + " x " + std::to_string(rgb.rows) +
+                " image (is it the cloud's left image?)");
+  }
+  WriteImage(path, rgb);
+}
+
 }  // namespace areomap

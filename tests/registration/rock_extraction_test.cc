@@ -13,6 +13,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "areomap/map/error.h"
+#include "areomap/map/image_io.h"
 #include "areomap/registration/rock_output.h"
 #include "areomap/samples/simulated_points.h"
 #include "test_support.h"
@@ -163,6 +164,29 @@ TEST(RockExtraction, CatalogueFilesHoldEveryRock) {
   EXPECT_EQ(json["rocks"][0]["models"].size(), rocks[0].models.size());
   EXPECT_NEAR(json["rocks"][0]["height_m"].get<double>(), rocks[0].height_m, 1e-12);
   EXPECT_GT(std::filesystem::file_size(dir.path() / "rocks.png"), 1000u);
+  // The overlay: each rock's surface points painted at their left-image pixels.
+  cv::Mat left(600, 800, CV_8UC1, cv::Scalar(90));
+  WriteRocksImagePng(dir.path() / "rocks_image.png", left, cloud, rocks);
+  const cv::Mat overlay = ReadImage(dir.path() / "rocks_image.png");
+  ASSERT_EQ(overlay.type(), CV_8UC3);
+  int painted = 0, inside = 0;
+  for (const ExtractedRock& r : rocks) {
+    for (int index : r.surface_indices) {
+      const StereoPoint& p = cloud.points[static_cast<size_t>(index)];
+      const cv::Point q(static_cast<int>(std::lround(p.left_x)),
+                        static_cast<int>(std::lround(p.left_y)));
+      if (!cv::Rect(0, 0, overlay.cols, overlay.rows).contains(q)) continue;
+      ++inside;
+      const cv::Vec3b v = overlay.at<cv::Vec3b>(q);
+      painted += v[0] == 255 && v[2] == 0 ? 1 : 0;  // Red or orange (RGB), not the grey.
+    }
+  }
+  ASSERT_GT(inside, 20);
+  EXPECT_GT(painted, inside * 9 / 10);  // Peak crosses and labels cover a few.
+  // An image the cloud's pixels miss is the wrong image: an error naming the file.
+  EXPECT_THROW(WriteRocksImagePng(dir.path() / "tiny.png", cv::Mat(2, 2, CV_8UC1), cloud, rocks),
+               Error);
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "tiny.png"));
   PointCloud far = cloud;
   far.camera_center = Eigen::Vector3d(1000.0, 0.0, 0.0);
   EXPECT_THROW(WriteRocksPlotPng(dir.path() / "far.png", far, rocks, 30.0), Error);

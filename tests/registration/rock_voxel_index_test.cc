@@ -1,0 +1,56 @@
+// The rock extraction's voxel index (registration/src/rock_voxel_index.h) against brute force:
+// nearest distances (capped) and radius queries, on a dense patch and on sparse points.
+#include "rock_voxel_index.h"
+
+#include <algorithm>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace areomap {
+namespace {
+
+std::vector<StereoPoint> RandomPoints(int n, double extent, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-extent, extent);
+  std::vector<StereoPoint> points(static_cast<size_t>(n));
+  for (StereoPoint& p : points) p.position = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
+  return points;
+}
+
+TEST(RockVoxelIndex, NearestAndRadiusQueriesMatchBruteForce) {
+  constexpr double kCap = 0.1;
+  // Dense (~mm spacing, as a metre from the camera) and sparse (~5 cm, as 20 m away).
+  for (const auto& [count, extent] : {std::pair{4000, 0.05}, std::pair{300, 0.4}}) {
+    SCOPED_TRACE(::testing::Message() << count << " points in +-" << extent << " m");
+    const std::vector<StereoPoint> points = RandomPoints(count, extent, 7);
+    std::vector<int> indexed;  // Every other point, as the points above a rock's plane.
+    for (int i = 0; i < count; i += 2) indexed.push_back(i);
+    const rock_internal::VoxelIndex index(points, indexed, kCap / 8.0);
+    for (int q = 0; q < count; q += 7) {
+      const Eigen::Vector3d& p = points[static_cast<size_t>(q)].position;
+      double nearest = kCap;
+      std::vector<int> within;
+      const double radius = 0.3 * kCap;
+      for (int j : indexed) {
+        const double d = (points[static_cast<size_t>(j)].position - p).norm();
+        if (j != q) nearest = std::min(nearest, d);
+        if (d <= radius) within.push_back(j);
+      }
+      EXPECT_EQ(index.NearestDistance(p, q, kCap), nearest) << q;
+      std::vector<int> got;
+      index.ForEachWithin(p, radius, [&](int j) { got.push_back(j); });
+      std::sort(got.begin(), got.end());
+      EXPECT_EQ(got, within) << q;
+    }
+  }
+  // Nothing within the cap: the cap.
+  std::vector<StereoPoint> apart(2);
+  apart[1].position = Eigen::Vector3d(1.0, 0.0, 0.0);
+  const rock_internal::VoxelIndex lonely(apart, {0, 1}, kCap / 8.0);
+  EXPECT_EQ(lonely.NearestDistance(apart[0].position, 0, kCap), kCap);
+}
+
+}  // namespace
+}  // namespace areomap
