@@ -204,8 +204,8 @@ void WriteRocksPlotPng(const std::filesystem::path& path, const PointCloud& clou
 void WriteRocksImagePng(const std::filesystem::path& path, const cv::Mat& image,
                         const PointCloud& cloud, const std::vector<ExtractedRock>& rocks,
                         int image_id) {
-  if (image.empty() || (image.channels() != 1 && image.channels() != 3)) {
-    throw Error(path.string() + ": the background image must have 1 or 3 channels");
+  if (image.empty() || image.channels() == 2 || image.channels() > 4) {
+    throw Error(path.string() + ": the background image must have 1, 3 or 4 channels");
   }
   cv::Mat rgb;
   if (image.depth() == CV_8U) {
@@ -214,6 +214,7 @@ void WriteRocksImagePng(const std::filesystem::path& path, const cv::Mat& image,
     cv::normalize(image, rgb, 0, 255, cv::NORM_MINMAX, CV_8U);
   }
   if (rgb.channels() == 1) cv::cvtColor(rgb, rgb, cv::COLOR_GRAY2RGB);
+  if (rgb.channels() == 4) cv::cvtColor(rgb, rgb, cv::COLOR_RGBA2RGB);  // Alpha dropped.
   rgb = rgb.clone();
   const cv::Rect inside(0, 0, rgb.cols, rgb.rows);
   const auto pixel_of = [&](int index) {

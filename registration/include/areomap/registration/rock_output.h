@@ -42,8 +42,8 @@ void WriteRocksPlotPng(const std::filesystem::path& path, const PointCloud& clou
 // rocks_image.png: the rocks over the left image the cloud came from (pair `image_id` of the
 // site): each rock's surface points painted at their left-image pixels (StereoPoint::left_x/y;
 // red: modeled, orange: not), its peak marked with a cross and its id and height written beside
-// it. `image` is 8- or 16-bit, 1 or 3 channels (16-bit is stretched to 8 bits). Throws
-// areomap::Error naming `path` when no rock point falls inside the image (the wrong image or
+// it. `image` is 8- or 16-bit grey, RGB or RGBA (16-bit is stretched to 8 bits, alpha dropped).
+// Throws areomap::Error naming `path` when no rock point falls inside the image (the wrong image or
 // pair) or the file cannot be written.
 void WriteRocksImagePng(const std::filesystem::path& path, const cv::Mat& image,
                         const PointCloud& cloud, const std::vector<ExtractedRock>& rocks,
