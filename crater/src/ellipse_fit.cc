@@ -43,14 +43,20 @@ std::vector<Eigen::Vector2d> FinitePoints(const std::vector<Eigen::Vector2d>& po
   return finite;
 }
 
-double RmsDistance(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
-  if (points.empty()) return kNaN;
+// Sum of squares in point order, then the root of the mean.
+double RootMeanSquare(const Eigen::VectorXd& distances) {
+  if (distances.size() == 0) return kNaN;
   double sum = 0.0;
-  for (const Eigen::Vector2d& p : points) {
-    const double d = e.SignedDistance(p);
-    sum += d * d;
+  for (const double d : distances) sum += d * d;
+  return std::sqrt(sum / static_cast<double>(distances.size()));
+}
+
+double RmsDistance(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
+  Eigen::VectorXd distances(static_cast<Eigen::Index>(points.size()));
+  for (size_t i = 0; i < points.size(); ++i) {
+    distances(static_cast<Eigen::Index>(i)) = e.SignedDistance(points[i]);
   }
-  return std::sqrt(sum / static_cast<double>(points.size()));
+  return RootMeanSquare(distances);
 }
 
 // RMS Sampson distance |f| / |grad f| of the points to the ellipse's conic f: the orthogonal
@@ -111,9 +117,9 @@ ceres::LossFunction* MakeLoss(const GeometricFitOptions& options) {
   return nullptr;
 }
 
-// Rows of the distance Jacobian in (cx, cy, a, b, angle) at `e` (un-normalized, as the
-// parameter blocks hold it) and the distances; false where one is not finite (Ceres' covariance
-// fails on such a residual block).
+// Rows of the distance Jacobian in (cx, cy, a, b, angle) at `e` and the distances (the same
+// values as Ellipse::SignedDistance); false where one is not finite (Ceres' covariance fails on
+// such a residual block).
 bool DistanceJacobian(const Ellipse& e, const std::vector<Eigen::Vector2d>& points,
                       Eigen::Matrix<double, Eigen::Dynamic, 5>* jacobian,
                       Eigen::VectorXd* residuals) {
@@ -181,17 +187,15 @@ bool InverseNormalMatrix(const Eigen::Matrix<double, Eigen::Dynamic, Cols>& jaco
   return true;
 }
 
-// Fills *covariance (unscaled: (J^T J)^-1 of the loss-weighted distances at `at_solution`, the
-// un-normalized parameters) as ceres::Covariance (DENSE_SVD) on the fit's problem would, at a
-// fraction of its cost (one closest-point solve per point instead of two, no sparse set-up):
-// false when even the 4-parameter covariance is singular. When the angle is not observable it
-// is held and its variance is +inf.
-bool ComputeCovariance(const Ellipse& at_solution, const std::vector<Eigen::Vector2d>& points,
-                       const ceres::LossFunction* loss, Eigen::Matrix<double, 5, 5>* covariance) {
+// Fills *covariance (unscaled: (J^T J)^-1 of the loss-weighted distances, `jacobian` and
+// `residuals` from DistanceJacobian at the solution) as ceres::Covariance (DENSE_SVD) on the
+// fit's problem would, at a fraction of its cost (no second closest-point solve per point, no
+// sparse set-up): false when even the 4-parameter covariance is singular. When the angle is not
+// observable it is held and its variance is +inf.
+bool ComputeCovariance(Eigen::Matrix<double, Eigen::Dynamic, 5> jacobian,
+                       const Eigen::VectorXd& residuals, const ceres::LossFunction* loss,
+                       Eigen::Matrix<double, 5, 5>* covariance) {
   covariance->setConstant(kNaN);
-  Eigen::Matrix<double, Eigen::Dynamic, 5> jacobian;
-  Eigen::VectorXd residuals;
-  if (!DistanceJacobian(at_solution, points, &jacobian, &residuals)) return false;
   const bool angle_observable = AngleObservable(jacobian);
   ApplyLoss(loss, residuals, &jacobian);
   if (angle_observable) {
@@ -400,7 +404,6 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
   fitted.semi_major = shape[2];
   fitted.semi_minor = shape[3];
   fitted.angle = angle[0];
-  const bool swapped = fitted.semi_minor > fitted.semi_major;
   fitted = fitted.Normalized();
   summary.num_iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;
   summary.message = ceres_summary.message;
@@ -410,24 +413,19 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
   }
   summary.ellipse = fitted;
   summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
-  summary.rms_residual = RmsDistance(fitted, finite);
-
   const double dof = static_cast<double>(finite.size()) - 5.0;
   if (dof > 0.0) summary.sigma0 = std::sqrt(2.0 * ceres_summary.final_cost / dof);
-  if (!options.compute_covariance || !(dof > 0.0)) return summary;
 
+  // The covariance's Jacobian, at the normalized ellipse (the same curve as the parameter
+  // blocks'), also gives the final distances.
+  Eigen::Matrix<double, Eigen::Dynamic, 5> jacobian;
+  Eigen::VectorXd residuals;
+  const bool with_jacobian = options.compute_covariance && dof > 0.0 &&
+                             DistanceJacobian(fitted, finite, &jacobian, &residuals);
+  summary.rms_residual = with_jacobian ? RootMeanSquare(residuals) : RmsDistance(fitted, finite);
   Eigen::Matrix<double, 5, 5> covariance;
-  Ellipse at_solution;  // un-normalized, as the parameter blocks hold it
-  at_solution.center = Eigen::Vector2d(shape[0], shape[1]);
-  at_solution.semi_major = shape[2];
-  at_solution.semi_minor = shape[3];
-  at_solution.angle = angle[0];
-  if (!ComputeCovariance(at_solution, finite, loss.get(), &covariance)) {
+  if (!with_jacobian || !ComputeCovariance(jacobian, residuals, loss.get(), &covariance)) {
     return summary;
-  }
-  if (swapped) {  // Normalized() exchanged the axes
-    covariance.row(2).swap(covariance.row(3));
-    covariance.col(2).swap(covariance.col(3));
   }
   summary.covariance = covariance * (summary.sigma0 * summary.sigma0);
   if (std::isinf(covariance(4, 4))) summary.covariance(4, 4) = kInf;  // even when sigma0 = 0
