@@ -380,12 +380,18 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
   double shape[4] = {initial.center.x(), initial.center.y(), initial.semi_major,
                      initial.semi_minor};
   double angle[1] = {initial.angle};
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
+  // The cost functions in one array and the loss outlive the problem (no allocation per point,
+  // no ownership bookkeeping); the residual blocks are built here with fixed, distinct blocks,
+  // so Ceres' per-block safety checks are skipped.
+  std::vector<OrthogonalDistanceCost> costs(finite.begin(), finite.end());
   const std::unique_ptr<ceres::LossFunction> loss(MakeLoss(options));
-  for (const Eigen::Vector2d& p : finite) {
-    problem.AddResidualBlock(new OrthogonalDistanceCost(p), loss.get(), shape, angle);
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.disable_all_safety_checks = true;
+  ceres::Problem problem(problem_options);
+  for (OrthogonalDistanceCost& cost : costs) {
+    problem.AddResidualBlock(&cost, loss.get(), shape, angle);
   }
 
   ceres::Solver::Options solver_options;
