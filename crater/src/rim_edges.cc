@@ -178,7 +178,8 @@ class SubPixelRow {
         ints_(4 * size_),
         floats_(kFloatArrays * size_) {}
 
-  // Queues the edge at column `c` with direction (dx, dy) (any length).
+  // Queues the edge at column `c` with direction (dx, dy) (any length); each column at most
+  // once per row.
   void Add(int c, float dx, float dy) {
     column_[n_] = c;
     Float(kDx)[n_] = dx;
