@@ -14,6 +14,7 @@
 
 #include <ceres/ceres.h>
 #include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
@@ -42,14 +43,20 @@ std::vector<Eigen::Vector2d> FinitePoints(const std::vector<Eigen::Vector2d>& po
   return finite;
 }
 
-double RmsDistance(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
-  if (points.empty()) return kNaN;
+// Sum of squares in point order, then the root of the mean.
+double RootMeanSquare(const Eigen::VectorXd& distances) {
+  if (distances.size() == 0) return kNaN;
   double sum = 0.0;
-  for (const Eigen::Vector2d& p : points) {
-    const double d = e.SignedDistance(p);
-    sum += d * d;
+  for (const double d : distances) sum += d * d;
+  return std::sqrt(sum / static_cast<double>(distances.size()));
+}
+
+double RmsDistance(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
+  Eigen::VectorXd distances(static_cast<Eigen::Index>(points.size()));
+  for (size_t i = 0; i < points.size(); ++i) {
+    distances(static_cast<Eigen::Index>(i)) = e.SignedDistance(points[i]);
   }
-  return std::sqrt(sum / static_cast<double>(points.size()));
+  return RootMeanSquare(distances);
 }
 
 // RMS Sampson distance |f| / |grad f| of the points to the ellipse's conic f: the orthogonal
@@ -110,14 +117,35 @@ ceres::LossFunction* MakeLoss(const GeometricFitOptions& options) {
   return nullptr;
 }
 
-// Whether J^T J of the distances in (center, a, b, angle) is safely regular. Ceres'
-// DENSE_SVD covariance fails below a reciprocal condition number of 1e-14 and logs an error
-// through glog; a circle's angle is the usual culprit. This test keeps a margin of 100.
-bool AngleObservable(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
+// Rows of the distance Jacobian in (cx, cy, a, b, angle) at `e` and the distances (the same
+// values as Ellipse::SignedDistance); false where one is not finite (Ceres' covariance fails on
+// such a residual block).
+bool DistanceJacobian(const Ellipse& e, const std::vector<Eigen::Vector2d>& points,
+                      Eigen::Matrix<double, Eigen::Dynamic, 5>* jacobian,
+                      Eigen::VectorXd* residuals) {
+  if (!HasPositiveAxes(e)) return false;
+  jacobian->resize(static_cast<Eigen::Index>(points.size()), 5);
+  residuals->resize(static_cast<Eigen::Index>(points.size()));
+  for (size_t i = 0; i < points.size(); ++i) {
+    Eigen::Matrix<double, 5, 1> gradient;
+    const double r = e.SignedDistanceWithGradient(points[i], &gradient);
+    if (!std::isfinite(r) || !gradient.allFinite()) return false;
+    const Eigen::Index row = static_cast<Eigen::Index>(i);
+    (*residuals)(row) = r;
+    jacobian->row(row) = gradient.transpose();
+  }
+  return true;
+}
+
+// Whether J^T J of the distances in (center, a, b, angle) is safely regular. Ceres' DENSE_SVD
+// covariance fails below a reciprocal condition number of 1e-14 (and logged an error through
+// glog when it was used here); a circle's angle is the usual culprit. This test keeps a margin
+// of 100.
+bool AngleObservable(const Eigen::Matrix<double, Eigen::Dynamic, 5>& jacobian) {
   Eigen::Matrix<double, 5, 5> jtj = Eigen::Matrix<double, 5, 5>::Zero();
-  for (const Eigen::Vector2d& p : points) {
-    const Eigen::Matrix<double, 5, 1> g = e.SignedDistanceGradient(p);
-    if (g.allFinite()) jtj.noalias() += g * g.transpose();
+  for (Eigen::Index i = 0; i < jacobian.rows(); ++i) {
+    const Eigen::Matrix<double, 5, 1> g = jacobian.row(i).transpose();
+    jtj.noalias() += g * g.transpose();
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 5, 5>> solver(jtj);
   if (solver.info() != Eigen::Success) return false;
@@ -125,38 +153,62 @@ bool AngleObservable(const Ellipse& e, const std::vector<Eigen::Vector2d>& point
   return values(4) > 0.0 && values(0) > 1e-12 * values(4);
 }
 
-// Fills *covariance (unscaled) from Ceres; false when even the 4-parameter covariance is
-// singular. When the angle is not observable it is held and its variance is +inf.
-bool ComputeCovariance(ceres::Problem* problem, double* shape, double* angle, int num_threads,
-                       bool angle_observable, Eigen::Matrix<double, 5, 5>* covariance) {
-  ceres::Covariance::Options cov_options;
-  cov_options.algorithm_type = ceres::DENSE_SVD;
-  cov_options.num_threads = num_threads;
+// Weights each row of `jacobian` as Ceres' Problem::Evaluate does with the robust loss (its
+// Corrector, for a 1-D residual r: sqrt(rho') (1 - alpha) with alpha = 1 - sqrt(1 + 2 r^2 rho''
+// / rho') where rho'' > 0 and r != 0, else sqrt(rho')).
+void ApplyLoss(const ceres::LossFunction* loss, const Eigen::VectorXd& residuals,
+               Eigen::Matrix<double, Eigen::Dynamic, 5>* jacobian) {
+  if (loss == nullptr) return;
+  for (Eigen::Index i = 0; i < residuals.size(); ++i) {
+    const double sq_norm = residuals(i) * residuals(i);
+    double rho[3];
+    loss->Evaluate(sq_norm, rho);
+    double scale = std::sqrt(rho[1]);
+    if (sq_norm != 0.0 && rho[2] > 0.0) scale *= std::sqrt(1.0 + 2.0 * sq_norm * rho[2] / rho[1]);
+    jacobian->row(i) *= scale;
+  }
+}
+
+// (J^T J)^-1 from the SVD of J, as ceres::Covariance's DENSE_SVD algorithm computes it, with
+// its failure rule: false where a singular value is below sqrt(1e-14) times the largest.
+template <int Cols>
+bool InverseNormalMatrix(const Eigen::Matrix<double, Eigen::Dynamic, Cols>& jacobian,
+                         Eigen::Matrix<double, Cols, Cols>* inverse) {
+  const Eigen::JacobiSVD<Eigen::Matrix<double, Eigen::Dynamic, Cols>> svd(jacobian,
+                                                                          Eigen::ComputeFullV);
+  const Eigen::Matrix<double, Cols, 1>& singular = svd.singularValues();  // descending
+  const double min_ratio = std::sqrt(1e-14);  // ceres::Covariance::Options default
+  Eigen::Matrix<double, Cols, 1> inverse_squared;
+  for (int i = 0; i < Cols; ++i) {
+    if (singular(i) / singular(0) < min_ratio) return false;
+    inverse_squared(i) = 1.0 / (singular(i) * singular(i));
+  }
+  *inverse = svd.matrixV() * inverse_squared.asDiagonal() * svd.matrixV().transpose();
+  return true;
+}
+
+// Fills *covariance (unscaled: (J^T J)^-1 of the loss-weighted distances, `jacobian` and
+// `residuals` from DistanceJacobian at the solution) as ceres::Covariance (DENSE_SVD) on the
+// fit's problem would, at a fraction of its cost (no second closest-point solve per point, no
+// sparse set-up): false when even the 4-parameter covariance is singular. When the angle is not
+// observable it is held and its variance is +inf.
+bool ComputeCovariance(Eigen::Matrix<double, Eigen::Dynamic, 5> jacobian,
+                       const Eigen::VectorXd& residuals, const ceres::LossFunction* loss,
+                       Eigen::Matrix<double, 5, 5>* covariance) {
   covariance->setConstant(kNaN);
-  Eigen::Matrix<double, 4, 4, Eigen::RowMajor> shape_shape;
+  const bool angle_observable = AngleObservable(jacobian);
+  ApplyLoss(loss, residuals, &jacobian);
   if (angle_observable) {
-    ceres::Covariance full(cov_options);
-    const std::vector<std::pair<const double*, const double*>> blocks = {
-        {shape, shape}, {shape, angle}, {angle, angle}};
-    if (full.Compute(blocks, problem)) {
-      Eigen::Matrix<double, 4, 1> shape_angle;
-      double angle_angle = kNaN;
-      full.GetCovarianceBlock(shape, shape, shape_shape.data());
-      full.GetCovarianceBlock(shape, angle, shape_angle.data());
-      full.GetCovarianceBlock(angle, angle, &angle_angle);
-      covariance->topLeftCorner<4, 4>() = shape_shape;
-      covariance->block<4, 1>(0, 4) = shape_angle;
-      covariance->block<1, 4>(4, 0) = shape_angle.transpose();
-      (*covariance)(4, 4) = angle_angle;
+    Eigen::Matrix<double, 5, 5> full;
+    if (InverseNormalMatrix<5>(jacobian, &full)) {
+      *covariance = full;
       return true;
     }
   }
   // The angle of a circle is unobservable: hold it and report the rest.
-  problem->SetParameterBlockConstant(angle);
-  ceres::Covariance reduced(cov_options);
-  const std::vector<std::pair<const double*, const double*>> blocks = {{shape, shape}};
-  if (!reduced.Compute(blocks, problem)) return false;
-  reduced.GetCovarianceBlock(shape, shape, shape_shape.data());
+  Eigen::Matrix<double, 4, 4> shape_shape;
+  const Eigen::Matrix<double, Eigen::Dynamic, 4> shape_jacobian = jacobian.leftCols<4>();
+  if (!InverseNormalMatrix<4>(shape_jacobian, &shape_shape)) return false;
   covariance->topLeftCorner<4, 4>() = shape_shape;
   (*covariance)(4, 4) = kInf;
   return true;
@@ -328,12 +380,18 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
   double shape[4] = {initial.center.x(), initial.center.y(), initial.semi_major,
                      initial.semi_minor};
   double angle[1] = {initial.angle};
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
+  // The cost functions in one array and the loss outlive the problem (no allocation per point,
+  // no ownership bookkeeping); the residual blocks are built here with fixed, distinct blocks,
+  // so Ceres' per-block safety checks are skipped.
+  std::vector<OrthogonalDistanceCost> costs(finite.begin(), finite.end());
   const std::unique_ptr<ceres::LossFunction> loss(MakeLoss(options));
-  for (const Eigen::Vector2d& p : finite) {
-    problem.AddResidualBlock(new OrthogonalDistanceCost(p), loss.get(), shape, angle);
+  ceres::Problem::Options problem_options;
+  problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.disable_all_safety_checks = true;
+  ceres::Problem problem(problem_options);
+  for (OrthogonalDistanceCost& cost : costs) {
+    problem.AddResidualBlock(&cost, loss.get(), shape, angle);
   }
 
   ceres::Solver::Options solver_options;
@@ -352,7 +410,6 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
   fitted.semi_major = shape[2];
   fitted.semi_minor = shape[3];
   fitted.angle = angle[0];
-  const bool swapped = fitted.semi_minor > fitted.semi_major;
   fitted = fitted.Normalized();
   summary.num_iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;
   summary.message = ceres_summary.message;
@@ -362,25 +419,19 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
   }
   summary.ellipse = fitted;
   summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
-  summary.rms_residual = RmsDistance(fitted, finite);
-
   const double dof = static_cast<double>(finite.size()) - 5.0;
   if (dof > 0.0) summary.sigma0 = std::sqrt(2.0 * ceres_summary.final_cost / dof);
-  if (!options.compute_covariance || !(dof > 0.0)) return summary;
 
+  // The covariance's Jacobian, at the normalized ellipse (the same curve as the parameter
+  // blocks'), also gives the final distances.
+  Eigen::Matrix<double, Eigen::Dynamic, 5> jacobian;
+  Eigen::VectorXd residuals;
+  const bool with_jacobian = options.compute_covariance && dof > 0.0 &&
+                             DistanceJacobian(fitted, finite, &jacobian, &residuals);
+  summary.rms_residual = with_jacobian ? RootMeanSquare(residuals) : RmsDistance(fitted, finite);
   Eigen::Matrix<double, 5, 5> covariance;
-  Ellipse at_solution;  // un-normalized, as the parameter blocks hold it
-  at_solution.center = Eigen::Vector2d(shape[0], shape[1]);
-  at_solution.semi_major = shape[2];
-  at_solution.semi_minor = shape[3];
-  at_solution.angle = angle[0];
-  if (!ComputeCovariance(&problem, shape, angle, options.num_threads,
-                         AngleObservable(at_solution, finite), &covariance)) {
+  if (!with_jacobian || !ComputeCovariance(jacobian, residuals, loss.get(), &covariance)) {
     return summary;
-  }
-  if (swapped) {  // Normalized() exchanged the axes
-    covariance.row(2).swap(covariance.row(3));
-    covariance.col(2).swap(covariance.col(3));
   }
   summary.covariance = covariance * (summary.sigma0 * summary.sigma0);
   if (std::isinf(covariance(4, 4))) summary.covariance(4, 4) = kInf;  // even when sigma0 = 0

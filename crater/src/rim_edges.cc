@@ -152,22 +152,164 @@ bool AutomaticThresholds(const cv::Mat& strength, const UsableArea& usable, cons
   return *high > 1e-6 * (max_value + 1e-30) && *high > 0.0;
 }
 
-inline RimEdgePoint SubPixel(const cv::Mat& strength, int r, int c, float nx, float ny) {
-  const float m0 = strength.at<float>(r, c);
-  const float fc = static_cast<float>(c), fr = static_cast<float>(r);
-  const float mm = Bilinear(strength, fc - nx, fr - ny);
-  const float mp = Bilinear(strength, fc + nx, fr + ny);
-  const float denom = mm - 2.0f * m0 + mp;
-  float delta = denom < 0.0f ? 0.5f * (mm - mp) / denom : 0.0f;
-  delta = std::clamp(delta, -0.5f, 0.5f);
-  RimEdgePoint p;
-  p.x = static_cast<float>(c) + 0.5f + delta * nx;
-  p.y = static_cast<float>(r) + 0.5f + delta * ny;
-  p.nx = nx;
-  p.ny = ny;
-  p.strength = m0;
-  return p;
-}
+// The loops over a row's separate arrays below have no dependence between iterations; GCC
+// cannot prove the arrays distinct and would not vectorise them. (rim_edges.cc is compiled
+// without errno from sqrt and without FP-trap semantics, crater/CMakeLists.txt: the loops'
+// selects and square roots vectorise then; no value changes.)
+#if defined(__GNUC__) && !defined(__clang__)
+#define AREOMAP_INDEPENDENT_ITERATIONS _Pragma("GCC ivdep")
+#else
+#define AREOMAP_INDEPENDENT_ITERATIONS
+#endif
+
+// std::clamp's value, on values (a select the compiler vectorises).
+inline float Clamp(float v, float lo, float hi) { return v < lo ? lo : (hi < v ? hi : v); }
+
+// Sub-pixel edge points of one pixel row, in batches the compiler vectorises: the edges'
+// columns and direction fields are gathered first, then their normals and the two sample
+// positions along them, then the samples (scalar loads), then the parabola vertex. The float
+// operations are those of one edge at a time (the normal as hypotf's value, the samples as
+// Bilinear, clamped inside the matrix): the same points, bit for bit.
+class SubPixelRow {
+ public:
+  explicit SubPixelRow(int cols)
+      : size_(static_cast<size_t>(std::max(cols, 0))),
+        column_(size_),
+        ints_(4 * size_),
+        floats_(kFloatArrays * size_) {}
+
+  // Queues the edge at column `c` with direction (dx, dy) (any length); each column at most
+  // once per row.
+  void Add(int c, float dx, float dy) {
+    column_[n_] = c;
+    Float(kDx)[n_] = dx;
+    Float(kDy)[n_] = dy;
+    ++n_;
+  }
+
+  // Appends the queued edges of row `r` with a non-zero direction to `out`; empties the queue.
+  void Flush(const cv::Mat& strength, int r, RimEdges* out) {
+    const size_t n = n_;
+    n_ = 0;
+    if (n == 0) return;
+    const float* dx = Float(kDx);
+    const float* dy = Float(kDy);
+    float* nx = Float(kNx);
+    float* ny = Float(kNy);
+    float* norm = Float(kNorm);
+    int* c_minus = Int(0);
+    int* r_minus = Int(1);
+    int* c_plus = Int(2);
+    int* r_plus = Int(3);
+    float* fx_minus = Float(kFxMinus);
+    float* fy_minus = Float(kFyMinus);
+    float* fx_plus = Float(kFxPlus);
+    float* fy_plus = Float(kFyPlus);
+    const int* column = column_.data();
+    const float x_max = static_cast<float>(strength.cols - 1) - 1e-3f;
+    const float y_max = static_cast<float>(strength.rows - 1) - 1e-3f;
+    const float fr = static_cast<float>(r);
+    AREOMAP_INDEPENDENT_ITERATIONS
+    for (size_t k = 0; k < n; ++k) {
+      // hypotf's value (glibc computes it in double and rounds), without its special cases.
+      const float length = static_cast<float>(
+          std::sqrt(static_cast<double>(dx[k]) * dx[k] + static_cast<double>(dy[k]) * dy[k]));
+      const bool valid = length > 0.0f;
+      norm[k] = length;
+      // A zero direction (dropped below) samples the pixel itself, inside the matrix. (The
+      // divisions are unconditional and selected after, so that the loop vectorises.)
+      const float qx = dx[k] / length, qy = dy[k] / length;
+      const float ux = valid ? qx : 0.0f;
+      const float uy = valid ? qy : 0.0f;
+      nx[k] = ux;
+      ny[k] = uy;
+      const float fc = static_cast<float>(column[k]);
+      const float xm = Clamp(fc - ux, 0.0f, x_max), ym = Clamp(fr - uy, 0.0f, y_max);
+      const float xp = Clamp(fc + ux, 0.0f, x_max), yp = Clamp(fr + uy, 0.0f, y_max);
+      c_minus[k] = static_cast<int>(xm);
+      r_minus[k] = static_cast<int>(ym);
+      c_plus[k] = static_cast<int>(xp);
+      r_plus[k] = static_cast<int>(yp);
+      fx_minus[k] = xm - static_cast<float>(c_minus[k]);
+      fy_minus[k] = ym - static_cast<float>(r_minus[k]);
+      fx_plus[k] = xp - static_cast<float>(c_plus[k]);
+      fy_plus[k] = yp - static_cast<float>(r_plus[k]);
+    }
+    // The samples' 2 x 2 neighbourhoods and the centre values.
+    const float* base = strength.ptr<float>(0);
+    const size_t stride = strength.step1();
+    const float* centre_row = strength.ptr<float>(r);
+    float* m0 = Float(kM0);
+    float* s00m = Float(kCorner0);  // sample -: (col, row), (col + 1, row), next row
+    float* s01m = Float(kCorner0 + 1);
+    float* s10m = Float(kCorner0 + 2);
+    float* s11m = Float(kCorner0 + 3);
+    float* s00p = Float(kCorner0 + 4);  // sample +
+    float* s01p = Float(kCorner0 + 5);
+    float* s10p = Float(kCorner0 + 6);
+    float* s11p = Float(kCorner0 + 7);
+    for (size_t k = 0; k < n; ++k) {
+      m0[k] = centre_row[column[k]];
+      const float* pm = base + static_cast<size_t>(r_minus[k]) * stride + c_minus[k];
+      const float* pp = base + static_cast<size_t>(r_plus[k]) * stride + c_plus[k];
+      s00m[k] = pm[0];
+      s01m[k] = pm[1];
+      s10m[k] = pm[stride];
+      s11m[k] = pm[stride + 1];
+      s00p[k] = pp[0];
+      s01p[k] = pp[1];
+      s10p[k] = pp[stride];
+      s11p[k] = pp[stride + 1];
+    }
+    float* delta = Float(kDelta);
+    AREOMAP_INDEPENDENT_ITERATIONS
+    for (size_t k = 0; k < n; ++k) {
+      const float mm = (1 - fy_minus[k]) * ((1 - fx_minus[k]) * s00m[k] + fx_minus[k] * s01m[k]) +
+                       fy_minus[k] * ((1 - fx_minus[k]) * s10m[k] + fx_minus[k] * s11m[k]);
+      const float mp = (1 - fy_plus[k]) * ((1 - fx_plus[k]) * s00p[k] + fx_plus[k] * s01p[k]) +
+                       fy_plus[k] * ((1 - fx_plus[k]) * s10p[k] + fx_plus[k] * s11p[k]);
+      const float denom = mm - 2.0f * m0[k] + mp;
+      const float vertex = 0.5f * (mm - mp) / denom;
+      delta[k] = Clamp(denom < 0.0f ? vertex : 0.0f, -0.5f, 0.5f);
+    }
+    for (size_t k = 0; k < n; ++k) {
+      if (!(norm[k] > 0.0f)) continue;
+      RimEdgePoint p;
+      p.x = static_cast<float>(column[k]) + 0.5f + delta[k] * nx[k];
+      p.y = fr + 0.5f + delta[k] * ny[k];
+      p.nx = nx[k];
+      p.ny = ny[k];
+      p.strength = m0[k];
+      out->column.push_back(column[k]);
+      out->points.push_back(p);
+    }
+  }
+
+ private:
+  enum FloatArray {
+    kDx,
+    kDy,
+    kNx,
+    kNy,
+    kNorm,
+    kFxMinus,
+    kFyMinus,
+    kFxPlus,
+    kFyPlus,
+    kM0,
+    kDelta,
+    kCorner0,
+    kFloatArrays = kCorner0 + 8
+  };
+  float* Float(int array) { return floats_.data() + static_cast<size_t>(array) * size_; }
+  int* Int(int array) { return ints_.data() + static_cast<size_t>(array) * size_; }
+
+  size_t size_;
+  size_t n_ = 0;
+  std::vector<int> column_;
+  std::vector<int> ints_;
+  std::vector<float> floats_;
+};
 
 // cv::Canny's input: `g` x `scale` rounded to 16 bits exactly as cv::Mat::convertTo(CV_16S,
 // scale) does (the float product rounded to the nearest integer, saturated; OpenCV's own
@@ -319,6 +461,7 @@ RimEdges Collect(const cv::Mat& edge_map, size_t count, const UsableArea& usable
   const int c_begin = usable.mask.empty() ? usable.interior.x : 1;
   const int c_end =
       usable.mask.empty() ? usable.interior.x + usable.interior.width : strength.cols - 1;
+  SubPixelRow row(strength.cols);
   for (int r = 1; r + 1 < strength.rows; ++r) {
     out.row_start[static_cast<size_t>(r)] = static_cast<int>(out.points.size());
     if (usable.mask.empty() && (r < usable.interior.y || r >= usable.interior.br().y)) continue;
@@ -327,14 +470,9 @@ RimEdges Collect(const cv::Mat& edge_map, size_t count, const UsableArea& usable
     const float* gx = dx.ptr<float>(r);
     const float* gy = dy.ptr<float>(r);
     ForEachEdge(e, c_begin, c_end, [&](int c) {
-      if (u != nullptr && !u[c]) return;
-      // hypotf's value (glibc computes it in double and rounds), without its special cases.
-      const float norm = static_cast<float>(
-          std::sqrt(static_cast<double>(gx[c]) * gx[c] + static_cast<double>(gy[c]) * gy[c]));
-      if (!(norm > 0.0f)) return;
-      out.column.push_back(c);
-      out.points.push_back(SubPixel(strength, r, c, gx[c] / norm, gy[c] / norm));
+      if (u == nullptr || u[c]) row.Add(c, gx[c], gy[c]);
     });
+    row.Flush(strength, r, &out);
   }
   for (int r = std::max(1, strength.rows - 1); r <= strength.rows; ++r) {
     out.row_start[static_cast<size_t>(r)] = static_cast<int>(out.points.size());

@@ -81,8 +81,9 @@ struct EllipseFitSummary {
   // the RMS orthogonal residual (with N - 5 degrees of freedom) when no point is down-weighted.
   double sigma0 = 0.0;
 
-  // Covariance of (center.x, center.y, semi_major, semi_minor, angle): Ceres' (J^T J)^-1 at
-  // the solution times sigma0^2. NaN where not computed. When the angle is unobservable (a
+  // Covariance of (center.x, center.y, semi_major, semi_minor, angle): (J^T J)^-1 of the
+  // loss-weighted distances at the solution times sigma0^2, as ceres::Covariance (DENSE_SVD)
+  // computes it on the fit's problem (equal to rounding, tests/crater). NaN where not computed. When the angle is unobservable (a
   // circle within numerical precision) the other four come from a fit with the angle held,
   // and the angle's variance is +inf (its covariances with the others NaN).
   Eigen::Matrix<double, 5, 5> covariance;
