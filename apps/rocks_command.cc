@@ -82,14 +82,18 @@ void RunExtract(const RocksArgs& a, const GlobalOptions& global) {
   RockExtractionSummary summary;
   PointCloud cloud;
   const SiteRocks rocks = ExtractFrom(a.cloud, a, 0, &summary, global, &cloud);
+  // Drawn before anything is written: a wrong image or pair leaves no partial output.
+  const cv::Mat overlay = image.empty()
+                              ? cv::Mat()
+                              : RenderRocksImage(image, cloud, rocks.rocks, a.image_pair, a.image);
   PrepareOutputFolder(a.out_dir);
   const std::filesystem::path out(a.out_dir);
   WriteRocksCsv(out / "rocks.csv", rocks.rocks);
   WriteRocksJson(out / "rocks.json", rocks.rocks);
   WriteRocksPlotPng(out / "rocks.png", cloud, rocks.rocks, a.extraction.max_peak_range_m);
   nlohmann::json files = {"rocks.csv", "rocks.json", "rocks.png"};
-  if (!image.empty()) {
-    WriteRocksImagePng(out / "rocks_image.png", image, cloud, rocks.rocks, a.image_pair);
+  if (!overlay.empty()) {
+    WriteImage(out / "rocks_image.png", overlay);
     files.push_back("rocks_image.png");
   }
   WriteSummary(out, {{"command", "rocks extract"},

@@ -180,7 +180,7 @@ bool InverseNormalMatrix(const Eigen::Matrix<double, Eigen::Dynamic, Cols>& jaco
   const double min_ratio = std::sqrt(1e-14);  // ceres::Covariance::Options default
   Eigen::Matrix<double, Cols, 1> inverse_squared;
   for (int i = 0; i < Cols; ++i) {
-    if (singular(i) / singular(0) < min_ratio) return false;
+    if (!(singular(i) / singular(0) >= min_ratio)) return false;  // also NaN (J all zero)
     inverse_squared(i) = 1.0 / (singular(i) * singular(i));
   }
   *inverse = svd.matrixV() * inverse_squared.asDiagonal() * svd.matrixV().transpose();
@@ -380,7 +380,7 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
   double shape[4] = {initial.center.x(), initial.center.y(), initial.semi_major,
                      initial.semi_minor};
   double angle[1] = {initial.angle};
-  // The cost functions in one array and the loss outlive the problem (no allocation per point,
+  // The cost functions in one array and the loss outlive the problem (no separate `new` per cost,
   // no ownership bookkeeping); the residual blocks are built here with fixed, distinct blocks,
   // so Ceres' per-block safety checks are skipped.
   std::vector<OrthogonalDistanceCost> costs(finite.begin(), finite.end());

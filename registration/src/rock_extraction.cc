@@ -275,16 +275,17 @@ class Extractor {
     const double max_radius = options_.surface_k_max * h;
     const double cap = grid_.cell();  // Nearest-neighbour distances are searched up to one cell.
     const Eigen::Vector2d peak_xy = rock->peak.head<2>();
-    // The points above the plane that a surface point or its nearest neighbour can be, in voxels
-    // of an eighth of the largest query radius (steps and neighbour distances are <= cap).
+    // The points above the plane that a surface point or its nearest neighbour can be (within
+    // max_radius + cap horizontally; 2 cap keeps a margin for rounding), in voxels of an eighth of
+    // the largest query radius (steps and neighbour distances are <= cap) laid from the peak.
     std::vector<int> above;
-    grid_.ForEachNear(peak_xy, max_radius + cap, [&](int j) {
-      if ((cloud_.points[j].position.head<2>() - peak_xy).norm() <= max_radius + cap &&
+    grid_.ForEachNear(peak_xy, max_radius + 2.0 * cap, [&](int j) {
+      if ((cloud_.points[j].position.head<2>() - peak_xy).norm() <= max_radius + 2.0 * cap &&
           AbovePlane(plane, j)) {
         above.push_back(j);
       }
     });
-    const VoxelIndex voxels(cloud_.points, above, cap / 8.0);
+    const VoxelIndex voxels(cloud_.points, above, rock->peak, cap / 8.0);
     std::unordered_set<int> found;
     std::vector<int> frontier;
     double max_neighbour = 0.0;

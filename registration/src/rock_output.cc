@@ -201,20 +201,16 @@ void WriteRocksPlotPng(const std::filesystem::path& path, const PointCloud& clou
   WriteImage(path, image);
 }
 
-void WriteRocksImagePng(const std::filesystem::path& path, const cv::Mat& image,
-                        const PointCloud& cloud, const std::vector<ExtractedRock>& rocks,
-                        int image_id) {
+cv::Mat RenderRocksImage(const cv::Mat& image, const PointCloud& cloud,
+                         const std::vector<ExtractedRock>& rocks, int image_id,
+                         const std::string& image_name) {
   if (image.empty() || image.channels() == 2 || image.channels() > 4) {
-    throw Error(path.string() + ": the background image must have 1, 3 or 4 channels");
+    throw Error(image_name + ": expected a grey, RGB or RGBA image to draw the rocks on");
   }
-  cv::Mat rgb;
-  if (image.depth() == CV_8U) {
-    rgb = image;
-  } else {
-    cv::normalize(image, rgb, 0, 255, cv::NORM_MINMAX, CV_8U);
-  }
+  cv::Mat rgb = image;
+  if (rgb.channels() == 4) cv::cvtColor(rgb, rgb, cv::COLOR_RGBA2RGB);  // Alpha dropped first.
+  if (rgb.depth() != CV_8U) cv::normalize(rgb, rgb, 0, 255, cv::NORM_MINMAX, CV_8U);
   if (rgb.channels() == 1) cv::cvtColor(rgb, rgb, cv::COLOR_GRAY2RGB);
-  if (rgb.channels() == 4) cv::cvtColor(rgb, rgb, cv::COLOR_RGBA2RGB);  // Alpha dropped.
   rgb = rgb.clone();
   const cv::Rect inside(0, 0, rgb.cols, rgb.rows);
   const auto pixel_of = [&](int index) {
@@ -246,11 +242,11 @@ void WriteRocksImagePng(const std::filesystem::path& path, const cv::Mat& image,
     cv::putText(rgb, label, peak + cv::Point(9, -6), cv::FONT_HERSHEY_SIMPLEX, 0.5, colour, 1);
   }
   if (painted == 0 && !rocks.empty()) {
-    throw Error(path.string() + ": no rock point of pair " + std::to_string(image_id) +
+    throw Error(image_name + ": no rock point of pair " + std::to_string(image_id) +
                 " falls inside the " + std::to_string(rgb.cols) + " x " + std::to_string(rgb.rows) +
                 " image (is it the cloud's left image?)");
   }
-  WriteImage(path, rgb);
+  return rgb;
 }
 
 }  // namespace areomap

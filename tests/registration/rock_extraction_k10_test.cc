@@ -1,6 +1,7 @@
 // Rock extraction on the real K10 pair (../shared/data/k10: three landscaping rocks in a row on
 // pavement, 1-5 m ahead of the rover, buildings and cars beyond). Full-size dense stereo, then
 // ExtractRocks within 8 m. The rocks' image regions were read off left4.png (docs/rocks.md).
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -45,7 +46,8 @@ TEST(RockExtractionK10, FindsAndModelsTheThreeRocks) {
     int peaks_in_box = 0;
     for (const ExtractedRock& r : rocks) {
       const StereoPoint& peak = cloud.points[static_cast<size_t>(r.peak_index)];
-      if (box.contains(cv::Point(static_cast<int>(peak.left_x), static_cast<int>(peak.left_y)))) {
+      if (box.contains(cv::Point(static_cast<int>(std::lround(peak.left_x)),
+                                 static_cast<int>(std::lround(peak.left_y))))) {
         found = &r;
         ++peaks_in_box;
       }

@@ -83,9 +83,10 @@ struct EllipseFitSummary {
 
   // Covariance of (center.x, center.y, semi_major, semi_minor, angle): (J^T J)^-1 of the
   // loss-weighted distances at the solution times sigma0^2, as ceres::Covariance (DENSE_SVD)
-  // computes it on the fit's problem (equal to rounding, tests/crater). NaN where not computed. When the angle is unobservable (a
-  // circle within numerical precision) the other four come from a fit with the angle held,
-  // and the angle's variance is +inf (its covariances with the others NaN).
+  // computes it on the fit's problem (equal to rounding, tests/crater). NaN where not computed.
+  // When the angle is unobservable (a circle within numerical precision) the other four come
+  // from the Jacobian of the centre and axes alone at the same solution (the angle held), and
+  // the angle's variance is +inf (its covariances with the others NaN).
   Eigen::Matrix<double, 5, 5> covariance;
   bool covariance_valid = false;
   double center_x_sigma = 0.0;    // 1-sigma [point unit]

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -39,14 +40,15 @@ void WriteRocksPlotPng(const std::filesystem::path& path, const PointCloud& clou
                        const std::vector<ExtractedRock>& rocks, double max_range_m,
                        int pixels = 1000);
 
-// rocks_image.png: the rocks over the left image the cloud came from (pair `image_id` of the
-// site): each rock's surface points painted at their left-image pixels (StereoPoint::left_x/y;
-// red: modeled, orange: not), its peak marked with a cross and its id and height written beside
-// it. `image` is 8- or 16-bit grey, RGB or RGBA (16-bit is stretched to 8 bits, alpha dropped).
-// Throws areomap::Error naming `path` when no rock point falls inside the image (the wrong image or
-// pair) or the file cannot be written.
-void WriteRocksImagePng(const std::filesystem::path& path, const cv::Mat& image,
-                        const PointCloud& cloud, const std::vector<ExtractedRock>& rocks,
-                        int image_id = 0);
+// The rocks over the left image the cloud came from (pair `image_id` of the site), for
+// rocks_image.png: each rock's surface points painted at their left-image pixels
+// (StereoPoint::left_x/y, rounded; red: modeled, orange: not), its peak marked with a yellow cross
+// and its id and height written beside it. `image` is 8- or 16-bit grey, RGB or RGBA (16-bit is
+// stretched to 8 bits, alpha dropped); returns 8-bit RGB. Throws areomap::Error naming
+// `image_name` for another pixel layout or when no rock point falls inside the image (the wrong
+// image or pair). Rendering before writing lets a caller fail before it writes anything.
+cv::Mat RenderRocksImage(const cv::Mat& image, const PointCloud& cloud,
+                         const std::vector<ExtractedRock>& rocks, int image_id,
+                         const std::string& image_name);
 
 }  // namespace areomap
