@@ -155,6 +155,24 @@ TEST(DetectCraters, NodataHolesHideOnlyTheCratersUnderThem) {
   }
 }
 
+// An undeclared nodata value such as -FLT_MAX (HiRISE DTMs fill with -3.4028227e38) is finite,
+// but its gradients overflow to infinity: those pixels give no edges, and no crash (ASan).
+TEST(DetectCraters, UndeclaredExtremeFillValuesGiveNoEdgesAndNoCrash) {
+  const CraterScene& scene = FieldScene();
+  cv::Mat image;
+  scene.products.image.bands[0].convertTo(image, CV_32F);
+  image(cv::Rect(image.cols / 3, image.rows / 3, image.cols / 3, image.rows / 3))
+      .setTo(-std::numeric_limits<float>::max());
+  CraterDetectorOptions options;
+  options.sun_azimuth_deg = 120.0;
+  for (const RimSource source : {RimSource::kImage, RimSource::kDtm}) {
+    const std::vector<CraterDetection> found = DetectCraters(image, source, options);
+    for (const CraterDetection& d : found) {
+      EXPECT_TRUE(std::isfinite(d.ellipse.center.x()) && std::isfinite(d.ellipse.semi_major));
+    }
+  }
+}
+
 TEST(DetectCraters, OptionsNameTheBadField) {
   CraterDetectorOptions o;
   o.min_diameter_px = 2.0;
