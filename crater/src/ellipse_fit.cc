@@ -142,11 +142,7 @@ bool DistanceJacobian(const Ellipse& e, const std::vector<Eigen::Vector2d>& poin
 // glog when it was used here); a circle's angle is the usual culprit. This test keeps a margin
 // of 100.
 bool AngleObservable(const Eigen::Matrix<double, Eigen::Dynamic, 5>& jacobian) {
-  Eigen::Matrix<double, 5, 5> jtj = Eigen::Matrix<double, 5, 5>::Zero();
-  for (Eigen::Index i = 0; i < jacobian.rows(); ++i) {
-    const Eigen::Matrix<double, 5, 1> g = jacobian.row(i).transpose();
-    jtj.noalias() += g * g.transpose();
-  }
+  const Eigen::Matrix<double, 5, 5> jtj = jacobian.transpose() * jacobian;
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 5, 5>> solver(jtj);
   if (solver.info() != Eigen::Success) return false;
   const Eigen::Matrix<double, 5, 1>& values = solver.eigenvalues();  // ascending

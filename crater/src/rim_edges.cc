@@ -214,9 +214,9 @@ class SubPixelRow {
       // hypotf's value (glibc computes it in double and rounds), without its special cases.
       const float length = static_cast<float>(
           std::sqrt(static_cast<double>(dx[k]) * dx[k] + static_cast<double>(dy[k]) * dy[k]));
-      // Zero, infinite (an overflowing gradient) or NaN lengths give no direction.
+      // Zero, infinite (an overflowing gradient) or NaN lengths give no direction (norm 0).
       const bool valid = length > 0.0f && length < std::numeric_limits<float>::infinity();
-      norm[k] = length;
+      norm[k] = valid ? length : 0.0f;
       // A zero direction (dropped below) samples the pixel itself, inside the matrix. (The
       // divisions are unconditional and selected after, so that the loop vectorises.)
       const float qx = dx[k] / length, qy = dy[k] / length;
@@ -274,7 +274,7 @@ class SubPixelRow {
       delta[k] = Clamp(denom < 0.0f ? vertex : 0.0f, -0.5f, 0.5f);
     }
     for (size_t k = 0; k < n; ++k) {
-      if (!(norm[k] > 0.0f && norm[k] < std::numeric_limits<float>::infinity())) continue;
+      if (norm[k] == 0.0f) continue;
       RimEdgePoint p;
       p.x = static_cast<float>(column[k]) + 0.5f + delta[k] * nx[k];
       p.y = fr + 0.5f + delta[k] * ny[k];

@@ -51,6 +51,11 @@ nlohmann::json ModelJson(const RockModelFit& fit) {
           {"message", fit.message}};
 }
 
+// A rock's colour in the plots (RGB): red when modeled, orange when not.
+cv::Scalar RockColour(const ExtractedRock& rock) {
+  return rock.modeled() ? cv::Scalar(255, 0, 0) : cv::Scalar(255, 165, 0);
+}
+
 }  // namespace
 
 nlohmann::json RockToJson(const ExtractedRock& rock) {
@@ -186,7 +191,7 @@ void WriteRocksPlotPng(const std::filesystem::path& path, const PointCloud& clou
   cv::circle(image, to_pixel(cloud.camera_center), 6, cv::Scalar(255, 255, 255), cv::FILLED);
   for (const ExtractedRock& r : rocks) {
     if (r.range_m > max_range_m) continue;
-    const cv::Scalar colour = r.modeled() ? cv::Scalar(255, 0, 0) : cv::Scalar(255, 165, 0);
+    const cv::Scalar colour = RockColour(r);
     const int radius = std::max(4, static_cast<int>(std::max(r.surface_radius_m, 0.05) * scale));
     cv::circle(image, to_pixel(r.peak), radius, colour, 2);
     cv::putText(image, std::to_string(r.id), to_pixel(r.peak) + cv::Point(radius + 2, 0),
@@ -224,18 +229,23 @@ cv::Mat RenderRocksImage(const cv::Mat& image, const PointCloud& cloud,
   };
   int painted = 0;
   for (const ExtractedRock& r : rocks) {
-    const cv::Vec3b colour = r.modeled() ? cv::Vec3b(255, 0, 0) : cv::Vec3b(255, 165, 0);
+    const cv::Scalar colour = RockColour(r);
+    const cv::Vec3b paint(static_cast<uint8_t>(colour[0]), static_cast<uint8_t>(colour[1]),
+                          static_cast<uint8_t>(colour[2]));
     for (int index : r.surface_indices) {
-      if (!from_pair(index) || !inside.contains(pixel_of(index))) continue;
-      rgb.at<cv::Vec3b>(pixel_of(index)) = colour;
+      if (!from_pair(index)) continue;
+      const cv::Point q = pixel_of(index);
+      if (!inside.contains(q)) continue;
+      rgb.at<cv::Vec3b>(q) = paint;
       ++painted;
     }
   }
   for (const ExtractedRock& r : rocks) {
-    if (!from_pair(r.peak_index) || !inside.contains(pixel_of(r.peak_index))) continue;
-    ++painted;
-    const cv::Scalar colour = r.modeled() ? cv::Scalar(255, 0, 0) : cv::Scalar(255, 165, 0);
+    if (!from_pair(r.peak_index)) continue;
     const cv::Point peak = pixel_of(r.peak_index);
+    if (!inside.contains(peak)) continue;
+    ++painted;
+    const cv::Scalar colour = RockColour(r);
     cv::drawMarker(rgb, peak, cv::Scalar(255, 255, 0), cv::MARKER_CROSS, 14, 2);
     char label[48];
     std::snprintf(label, sizeof(label), "%d: %.2f m", r.id, r.height_m);
