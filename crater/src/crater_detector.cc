@@ -17,6 +17,7 @@
 #include "areomap/crater/ellipse_fit.h"
 #include "areomap/crater/shading_hypotheses.h"
 #include "areomap/map/error.h"
+#include "bilinear_sample.h"
 #include "detect_in_core.h"
 
 namespace areomap {
@@ -322,17 +323,6 @@ std::optional<Ellipse> SaneFit(const std::vector<Eigen::Vector2d>& points, const
   return fit;
 }
 
-double SampleBilinear(const cv::Mat& m, double x, double y) {
-  // GDAL pixel coordinates -> OpenCV indices.
-  const double fx = x - 0.5, fy = y - 0.5;
-  const int c = static_cast<int>(std::floor(fx)), r = static_cast<int>(std::floor(fy));
-  if (c < 0 || r < 0 || c + 1 >= m.cols || r + 1 >= m.rows) return kNaN;
-  const double tx = fx - c, ty = fy - r;
-  const float* p0 = m.ptr<float>(r);
-  const float* p1 = m.ptr<float>(r + 1);
-  return (1 - ty) * ((1 - tx) * p0[c] + tx * p0[c + 1]) + ty * ((1 - tx) * p1[c] + tx * p1[c + 1]);
-}
-
 // Mean and std of `m` along ellipse rings at the given elliptical radii, split by weight sign.
 struct RingStats {
   double sum = 0.0, sum2 = 0.0;
@@ -403,7 +393,7 @@ SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse
       for (int k = 0; k < kSamples; ++k) {
         const Eigen::Vector2d p = ring.Point(rho, k);
         const double w = (p - e.center).normalized().dot(*sun);
-        const double v = SampleBilinear(raster, p.x(), p.y());
+        const double v = internal::SampleBilinear(raster, p.x(), p.y());
         if (!std::isfinite(v)) continue;
         if (w > 0.3) toward.Add(v);
         if (w < -0.3) away.Add(v);
@@ -418,7 +408,7 @@ SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse
     for (double rho : {1.3, 1.6, 1.9}) {
       for (int k = 0; k < kSamples; ++k) {
         const Eigen::Vector2d p = ring.Point(rho, k);
-        outside.Add(SampleBilinear(raster, p.x(), p.y()));
+        outside.Add(internal::SampleBilinear(raster, p.x(), p.y()));
       }
     }
     const double scale = outside.n > 4 ? outside.Std() : kNaN;
@@ -432,10 +422,10 @@ SignatureValues Signature(const cv::Mat& raster, RimSource source, const Ellipse
   RingStats rim, inner;
   for (int k = 0; k < kSamples; ++k) {
     const Eigen::Vector2d p = ring.Point(1.0, k);
-    rim.Add(SampleBilinear(raster, p.x(), p.y()));
+    rim.Add(internal::SampleBilinear(raster, p.x(), p.y()));
     for (double rho : {0.0, 0.25, 0.5}) {
       const Eigen::Vector2d q = ring.Point(rho, k);
-      inner.Add(SampleBilinear(raster, q.x(), q.y()));
+      inner.Add(internal::SampleBilinear(raster, q.x(), q.y()));
     }
   }
   if (rim.n == 0 || inner.n == 0) return out;

@@ -13,6 +13,7 @@
 
 #include "areomap/crater/crater_detector.h"
 #include "areomap/map/error.h"
+#include "bilinear_sample.h"
 
 namespace areomap {
 namespace {
@@ -46,19 +47,12 @@ struct Scale {
   double amplitude_spread = 0.0;
 };
 
-double Lerp(double a, double b, double t) { return a + (b - a) * t; }
-
 // Correlation of `scale` at full-resolution point p (bilinear), NaN outside the map.
 double CorrelationAt(const Scale& scale, const Eigen::Vector2d& p) {
   const double f = std::ldexp(1.0, scale.copy);
   // GDAL coordinate in the copy -> index of the map (template centre pixel centres at +0.5).
-  const double x = p.x() / f - 0.5 - scale.half, y = p.y() / f - 0.5 - scale.half;
-  const int c = static_cast<int>(std::floor(x)), r = static_cast<int>(std::floor(y));
-  const cv::Mat& m = scale.correlation;
-  if (c < 0 || r < 0 || c + 1 >= m.cols || r + 1 >= m.rows) return kNaN;
-  const double tx = x - c, ty = y - r;
-  return Lerp(Lerp(m.at<float>(r, c), m.at<float>(r, c + 1), tx),
-              Lerp(m.at<float>(r + 1, c), m.at<float>(r + 1, c + 1), tx), ty);
+  return internal::SampleBilinearIndex(scale.correlation, p.x() / f - 0.5 - scale.half,
+                                       p.y() / f - 0.5 - scale.half);
 }
 
 // Vertex offset of the parabola through (-1, a), (0, b), (1, c), within [-0.5, 0.5].
@@ -102,15 +96,6 @@ std::vector<ShadingHypothesis> LocalMaxima(const Scale& scale, double threshold,
   return out;
 }
 
-double SampleBilinear(const cv::Mat& m, double x, double y) {
-  const double fx = x - 0.5, fy = y - 0.5;  // GDAL coordinates -> OpenCV indices
-  const int c = static_cast<int>(std::floor(fx)), r = static_cast<int>(std::floor(fy));
-  if (c < 0 || r < 0 || c + 1 >= m.cols || r + 1 >= m.rows) return kNaN;
-  const double tx = fx - c, ty = fy - r;
-  return Lerp(Lerp(m.at<float>(r, c), m.at<float>(r, c + 1), tx),
-              Lerp(m.at<float>(r + 1, c), m.at<float>(r + 1, c + 1), tx), ty);
-}
-
 // Dipole contrast of a hypothesis: least-squares fit of brightness = a + b w over the interior
 // (rho <= 0.9, w = -(d . s) / R), 2 b (far rim minus sunward rim) over the standard deviation of
 // the annulus 1.25-1.75 R. NaN where nodata or no texture leaves it undefined.
@@ -124,7 +109,7 @@ double DipoleContrast(const cv::Mat& image, const ShadingHypothesis& h,
     for (double dx = -reach; dx <= reach; dx += step) {
       const double rho = std::hypot(dx, dy) / h.radius;
       if (rho > 0.9 && (rho < 1.25 || rho > 1.75)) continue;
-      const double v = SampleBilinear(image, h.center.x() + dx, h.center.y() + dy);
+      const double v = internal::SampleBilinear(image, h.center.x() + dx, h.center.y() + dy);
       if (!std::isfinite(v)) return kNaN;
       if (rho <= 0.9) {
         const double w = -(dx * sun.x() + dy * sun.y()) / h.radius;
