@@ -170,6 +170,7 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options) {
       {"peak_definition_sigma_m", &m.peak_definition_sigma_m},
       {"max_vector_deviation_m", &m.max_vector_deviation_m},
       {"max_vector_chi2", &m.max_vector_chi2},
+      {"tie_variance_factor", &m.tie_variance_factor},
       {"min_peak_to_plane_m", &fd.min_peak_to_plane_m},
       {"max_relative_error_percent", &fd.max_relative_error_percent},
       {"max_normal_angle_deg", &fd.max_normal_angle_deg},
@@ -209,6 +210,8 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
       "wrong accepted  outcome\n");
   Funnel total, short_legs;
   int legs_accepted = 0, short_count = 0, short_accepted = 0;
+  double pooled_chi2 = 0.0;  // Of the legs' conformal fits, at tie_variance_factor 1.
+  int pooled_redundancy = 0, pooled_legs = 0;
   Site b = LoadSite(run_dir, mission.sites[0].site, world_from_site[0], truth, options);
   for (size_t k = 0; k + 1 < mission.sites.size(); ++k) {
     Site a = std::move(b);
@@ -245,6 +248,11 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
       for (const RockMatch& m : match.matches) matched_pairs.insert({m.rock_a, m.rock_b});
       for (const RockMatchOutcome& o : match.outcomes) fate_of[o.rock_a] = o.fate;
       f.leg_matches = static_cast<int>(match.matches.size());
+      if (match.error && match.error->redundancy > 0) {
+        pooled_chi2 += match.error->chi2 * options.matching.tie_variance_factor;
+        pooled_redundancy += match.error->redundancy;
+        ++pooled_legs;
+      }
     } else {
       std::string line;
       std::getline(matches_file, line);
@@ -406,6 +414,11 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
   print("legs <= 25 m", short_legs);
   std::printf("legs accepted: %d of %zu; legs <= 25 m accepted: %d of %d\n", legs_accepted,
               mission.sites.size() - 1, short_accepted, short_count);
+  std::printf(
+      "conformal fits of %d legs: chi2 %.1f at tie_variance_factor 1, redundancy %d, pooled "
+      "sigma0^2 %.3f\n",
+      pooled_legs, pooled_chi2, pooled_redundancy,
+      pooled_redundancy > 0 ? pooled_chi2 / pooled_redundancy : std::nan(""));
   return 0;
 }
 

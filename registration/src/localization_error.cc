@@ -8,6 +8,7 @@
 #include <numbers>
 
 #include <Eigen/Dense>
+#include <boost/math/distributions/chi_squared.hpp>
 
 #include "areomap/map/error.h"
 
@@ -153,12 +154,32 @@ double DistanceRatio(const Eigen::Vector3d& point, const Eigen::Vector3d& site_a
   return far > 0.0 ? std::min(d1, d2) / far : 0.0;
 }
 
+PooledVarianceFactor PoolVarianceFactor(const std::vector<SitePairError>& fits) {
+  PooledVarianceFactor pooled;
+  for (const SitePairError& f : fits) {
+    if (f.redundancy <= 0) continue;
+    ++pooled.fits;
+    pooled.chi2 += f.chi2;
+    pooled.redundancy += f.redundancy;
+  }
+  if (pooled.redundancy == 0) {
+    pooled.estimate = pooled.upper_95 = std::nan("");
+    return pooled;
+  }
+  const double r = static_cast<double>(pooled.redundancy);
+  pooled.estimate = pooled.chi2 / r;
+  pooled.upper_95 = pooled.chi2 / boost::math::quantile(boost::math::chi_squared(r), 0.05);
+  return pooled;
+}
+
 std::optional<SitePairError> EvaluateSitePair(const std::vector<PlanarTiePoint>& ties,
                                               const Eigen::Vector2d& adjacent_in_current) {
   const std::optional<ConformalTransform2d> transform = FitConformalTransform(ties);
   if (!transform) return std::nullopt;
   SitePairError e;
   e.traverse_length_m = adjacent_in_current.norm();
+  e.chi2 = transform->chi2;
+  e.redundancy = transform->redundancy;
   e.position_sigma_m = std::sqrt(transform->PointCovariance(Eigen::Vector2d::Zero()).trace());
   e.relative_error_percent =
       e.traverse_length_m > 0.0 ? 100.0 * e.position_sigma_m / e.traverse_length_m : 0.0;

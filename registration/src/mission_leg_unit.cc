@@ -171,7 +171,14 @@ json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
                   {"rocks_a", RockExtractionSummaryToJson(summary_a)},
                   {"rocks_b", RockExtractionSummaryToJson(summary_b)},
                   {"faults", match.report.ToJson()}};
-  if (match.error) summary["relative_error_percent"] = match.error->relative_error_percent;
+  if (match.error) {
+    summary["relative_error_percent"] = match.error->relative_error_percent;
+    // The conformal fit's residuals, pooled over the legs into the run's a-posteriori variance
+    // factor of the rock tie points (RockTieVarianceFactor).
+    summary["conformal_chi2"] = match.error->chi2;
+    summary["conformal_redundancy"] = match.error->redundancy;
+  }
+  summary["tie_variance_factor"] = run.options->matching.tie_variance_factor;
   return summary;
 }
 

@@ -13,6 +13,7 @@
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 #include "areomap/registration/bundle_io.h"
+#include "areomap/registration/localization_error.h"
 #include "areomap/registration/traverse_adjustment.h"
 #include "mission_units.h"
 
@@ -133,6 +134,27 @@ std::vector<Rigid3d> AdjustedPoses(const fs::path& adjustment_json, size_t site_
     }
   }
   return poses;
+}
+
+// The rock tie points' a-posteriori variance factor over the run's legs: their conformal fits'
+// chi2 (recorded at the run's tie_variance_factor, scaled back to the a-priori covariances) and
+// redundancy, pooled (PoolVarianceFactor). Null figures when no leg had redundancy.
+json RockTieVariance(const std::vector<json>& legs) {
+  std::vector<SitePairError> fits;
+  for (const json& leg : legs) {
+    if (!leg.contains("conformal_chi2")) continue;
+    SitePairError fit;
+    fit.chi2 = leg["conformal_chi2"].get<double>() * leg.value("tie_variance_factor", 1.0);
+    fit.redundancy = leg.value("conformal_redundancy", 0);
+    fits.push_back(fit);
+  }
+  const PooledVarianceFactor pooled = PoolVarianceFactor(fits);
+  const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(); };
+  return {{"legs", pooled.fits},
+          {"chi2", pooled.chi2},
+          {"redundancy", pooled.redundancy},
+          {"sigma0_squared", number(pooled.estimate)},
+          {"sigma0_squared_upper_95", number(pooled.upper_95)}};
 }
 
 double SecondsSince(std::chrono::steady_clock::time_point start) {
@@ -444,6 +466,7 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
                   {"name", mission.name},
                   {"sites", site_summaries},
                   {"legs", leg_summaries},
+                  {"rock_tie_variance", RockTieVariance(leg_summaries)},
                   {"craters", craters},
                   {"adjustment", adjusted},
                   {"guided_registration", guided},

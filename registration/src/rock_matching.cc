@@ -183,6 +183,8 @@ void RockMatchingOptions::Check() const {
                 ">= 0 degrees");
   RequireOption(max_vector_chi2 > 0.0, "RockMatchingOptions.max_vector_chi2", "> 0");
   RequireOption(max_residual_chi2 > 0.0, "RockMatchingOptions.max_residual_chi2", "> 0");
+  RequireOption(std::isfinite(tie_variance_factor) && tie_variance_factor > 0.0,
+                "RockMatchingOptions.tie_variance_factor", "finite and > 0");
   RequireOption(peak_definition_sigma_m >= 0.0, "RockMatchingOptions.peak_definition_sigma_m",
                 ">= 0 m");
   RequireOption(cost_height_weight >= 0.0 && cost_radius_weight >= 0.0 && cost_area_weight >= 0.0 &&
@@ -522,12 +524,15 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
 
   const Eigen::Matrix2d definition = options.peak_definition_sigma_m *
                                      options.peak_definition_sigma_m * Eigen::Matrix2d::Identity();
+  const double factor = options.tie_variance_factor;
   const auto planar_tie = [&](const RockMatch& m) {
     PlanarTiePoint t;
     t.in_current = a.rocks[m.rock_a].peak.head<2>();
-    t.covariance_current = a.rocks[m.rock_a].peak_covariance.topLeftCorner<2, 2>() + definition;
+    t.covariance_current =
+        factor * (a.rocks[m.rock_a].peak_covariance.topLeftCorner<2, 2>() + definition);
     t.in_adjacent = b.rocks[m.rock_b].peak.head<2>();
-    t.covariance_adjacent = b.rocks[m.rock_b].peak_covariance.topLeftCorner<2, 2>() + definition;
+    t.covariance_adjacent =
+        factor * (b.rocks[m.rock_b].peak_covariance.topLeftCorner<2, 2>() + definition);
     return t;
   };
   // Outlier test in the site-to-site adjustment (data snooping): with redundancy left, the tie
@@ -598,9 +603,11 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     t.position_in_a = p.peak;
     t.covariance_in_a = p.peak_covariance;
     t.covariance_in_a.topLeftCorner<2, 2>() += definition;
+    t.covariance_in_a *= factor;
     t.position_in_b = q.peak;
     t.covariance_in_b = q.peak_covariance;
     t.covariance_in_b.topLeftCorner<2, 2>() += definition;
+    t.covariance_in_b *= factor;
     t.source = "rock";
     result.tie_points.push_back(t);
   }

@@ -100,6 +100,12 @@ std::string KeyFigures(const json& summary) {
           Number(adjustment.value("control_points", json()), "%.0f"));
   row("observations rejected", Number(adjustment.value("rejected", json()), "%.0f"));
   row("sigma0", Number(adjustment.value("sigma0", json()), "%.3f"));
+  const json& ties = summary.value("rock_tie_variance", json::object());
+  row("rock tie fits: pooled sigma0&sup2; (95 % upper bound; legs, redundancy)",
+      Number(ties.value("sigma0_squared", json()), "%.3f") + " (" +
+          Number(ties.value("sigma0_squared_upper_95", json()), "%.3f") + "; " +
+          Number(ties.value("legs", json()), "%.0f") + ", " +
+          Number(ties.value("redundancy", json()), "%.0f") + ")");
   row("end-point error, telemetry (truth)",
       Number(adjustment.value("initial_end_error_m", json()), "%.3f m"));
   row("end-point error, adjusted (truth)",

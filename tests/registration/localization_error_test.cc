@@ -28,45 +28,81 @@ TEST(LocalizationError, PolarCovarianceIsEq42) {
   EXPECT_TRUE(rotated.isApprox(r * north * r.transpose(), 1e-12));
 }
 
-TEST(LocalizationError, GaussHelmertRecoversTheTransformAndItsCovariance) {
-  // Adjacent frame rotated by 3 degrees, scaled by 1.01 and shifted; noise from eq. 4.2.
-  const double angle = 3.0 * kDeg, scale = 1.01;
-  const Eigen::Vector4d truth(scale * std::cos(angle), scale * std::sin(angle), 12.0, -1.5);
+// Adjacent frame rotated by 3 degrees, scaled by 1.01 and shifted (the true transform), its
+// origin in the current frame, and five landmarks seen from both sites.
+const double kAngle = 3.0 * kDeg, kScale = 1.01;
+const Eigen::Vector4d kTruth(kScale* std::cos(kAngle), kScale* std::sin(kAngle), 12.0, -1.5);
+const Eigen::Vector2d kAdjacent(12.0, -1.5);
+
+// Tie points with the eq. 4.2 covariances and noise drawn at `noise_scale` x those sigmas.
+std::vector<PlanarTiePoint> NoisyTies(std::mt19937* rng, double noise_scale) {
   const LocalizationCamera camera;
-  const Eigen::Vector2d adjacent(12.0, -1.5);
   const std::vector<Eigen::Vector2d> landmarks = {{5, 4}, {6, -5}, {8, 1}, {3, -1}, {7, 6}};
+  std::normal_distribution<double> gauss(0.0, noise_scale);
+  Eigen::Matrix2d sr;
+  sr << kTruth(0), -kTruth(1), kTruth(1), kTruth(0);
+  std::vector<PlanarTiePoint> ties;
+  for (const Eigen::Vector2d& p : landmarks) {
+    PlanarTiePoint t;
+    t.covariance_current = camera.Covariance(p, Eigen::Vector2d::Zero());
+    // Exact adjacent-frame coordinates: invert current = s R adjacent + (c, d).
+    const Eigen::Vector2d exact_adjacent = sr.inverse() * (p - kTruth.tail<2>());
+    // Noise drawn in the current frame; the adjacent frame's covariance is rotated in.
+    const Eigen::Vector2d n1(gauss(*rng), gauss(*rng)), n2(gauss(*rng), gauss(*rng));
+    t.in_current = p + t.covariance_current.llt().matrixL() * n1;
+    t.covariance_adjacent =
+        sr.inverse() * camera.Covariance(p, kAdjacent) * sr.inverse().transpose();
+    t.in_adjacent = exact_adjacent + t.covariance_adjacent.llt().matrixL() * n2;
+    ties.push_back(t);
+  }
+  return ties;
+}
+
+TEST(LocalizationError, GaussHelmertRecoversTheTransformAndItsCovariance) {
   Eigen::Matrix2d sample_cov = Eigen::Matrix2d::Zero();
   Eigen::Matrix2d predicted = Eigen::Matrix2d::Zero();
   constexpr int kRuns = 400;
   std::mt19937 rng(3);
-  std::normal_distribution<double> gauss(0.0, 1.0);
   for (int run = 0; run < kRuns; ++run) {
-    std::vector<PlanarTiePoint> ties;
-    for (const Eigen::Vector2d& p : landmarks) {
-      PlanarTiePoint t;
-      t.covariance_current = camera.Covariance(p, Eigen::Vector2d::Zero());
-      t.covariance_adjacent = camera.Covariance(p, adjacent);
-      // Exact adjacent-frame coordinates: invert current = s R adjacent + (c, d).
-      Eigen::Matrix2d sr;
-      sr << truth(0), -truth(1), truth(1), truth(0);
-      const Eigen::Vector2d exact_adjacent = sr.inverse() * (p - truth.tail<2>());
-      // Noise drawn in the current frame; the adjacent frame's covariance is rotated in.
-      const Eigen::Vector2d n1(gauss(rng), gauss(rng)), n2(gauss(rng), gauss(rng));
-      t.in_current = p + t.covariance_current.llt().matrixL() * n1;
-      t.covariance_adjacent = sr.inverse() * t.covariance_adjacent * sr.inverse().transpose();
-      t.in_adjacent = exact_adjacent + t.covariance_adjacent.llt().matrixL() * n2;
-      ties.push_back(t);
-    }
-    const std::optional<ConformalTransform2d> fit = FitConformalTransform(ties);
+    const std::optional<ConformalTransform2d> fit = FitConformalTransform(NoisyTies(&rng, 1.0));
     ASSERT_TRUE(fit.has_value());
     EXPECT_EQ(fit->redundancy, 6);
-    const Eigen::Vector2d error = fit->Apply(Eigen::Vector2d::Zero()) - truth.tail<2>();
+    const Eigen::Vector2d error = fit->Apply(Eigen::Vector2d::Zero()) - kTruth.tail<2>();
     sample_cov += error * error.transpose() / kRuns;
     predicted += fit->PointCovariance(Eigen::Vector2d::Zero()) / kRuns;
   }
   // The scatter of the adjusted adjacent-site position matches eq. 4.8 (400 runs: the trace's
   // standard error is ~7 %).
   EXPECT_NEAR(sample_cov.trace() / predicted.trace(), 1.0, 0.2);
+}
+
+TEST(LocalizationError, PooledVarianceFactorMeasuresHowPessimisticTheCovariancesAre) {
+  // Errors drawn at the stated sigmas give sigma_0^2 ~ 1; at half of them ~ 0.25. 400 fits of
+  // redundancy 6: the pooled estimate's relative standard error is sqrt(2 / 2400) ~ 3 %.
+  for (const double noise_scale : {1.0, 0.5}) {
+    std::mt19937 rng(11);
+    std::vector<SitePairError> fits;
+    for (int run = 0; run < 400; ++run) {
+      const std::optional<SitePairError> e =
+          EvaluateSitePair(NoisyTies(&rng, noise_scale), kAdjacent);
+      ASSERT_TRUE(e.has_value());
+      EXPECT_EQ(e->redundancy, 6);
+      fits.push_back(*e);
+    }
+    fits.push_back(SitePairError{});  // Redundancy 0 (two tie points): left out of the pool.
+    const PooledVarianceFactor pooled = PoolVarianceFactor(fits);
+    const double expected = noise_scale * noise_scale;
+    EXPECT_EQ(pooled.fits, 400);
+    EXPECT_EQ(pooled.redundancy, 2400);
+    EXPECT_NEAR(pooled.estimate, expected, 0.12 * expected) << noise_scale;
+    // The one-sided 95 % bound lies ~1.645 standard errors (~5 %) above the estimate.
+    EXPECT_GT(pooled.upper_95, 1.03 * pooled.estimate);
+    EXPECT_LT(pooled.upper_95, 1.08 * pooled.estimate);
+  }
+  const PooledVarianceFactor none = PoolVarianceFactor({SitePairError{}});
+  EXPECT_EQ(none.fits, 0);
+  EXPECT_TRUE(std::isnan(none.estimate));
+  EXPECT_TRUE(std::isnan(none.upper_95));
 }
 
 TEST(LocalizationError, FitNeedsTwoDistinctPoints) {

@@ -74,6 +74,18 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   EXPECT_TRUE(source == "telemetry" || source == "orbital registration") << leg.dump();
   EXPECT_GT(leg.value("position_sigma_m", 0.0), 0.0) << leg.dump();
   EXPECT_GT(leg.value("heading_sigma_deg", 0.0), 0.0) << leg.dump();
+  // The legs' conformal-fit residuals pooled into the run's a-posteriori variance factor: with
+  // redundancy, sum chi2 / sum redundancy; else null.
+  const nlohmann::json& ties = first.json["rock_tie_variance"];
+  EXPECT_EQ(first.json["legs"][0].value("tie_variance_factor", 0.0), 1.0);
+  if (ties.value("redundancy", -1) > 0) {
+    EXPECT_NEAR(ties["sigma0_squared"].get<double>(),
+                ties["chi2"].get<double>() / ties["redundancy"].get<double>(), 1e-12);
+    EXPECT_GT(ties["sigma0_squared_upper_95"].get<double>(), ties["sigma0_squared"].get<double>());
+  } else {
+    EXPECT_EQ(ties.value("redundancy", -1), 0) << ties.dump();
+    EXPECT_TRUE(ties["sigma0_squared"].is_null()) << ties.dump();
+  }
 
   // Whole-traverse products: GeoTIFFs on the mission map at the traverse posting, covering at
   // least what each site's own DTM covers.
@@ -110,6 +122,7 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   EXPECT_NE(html.find("Traverse DTM and orthomosaic"), std::string::npos);
   EXPECT_NE(html.find("Craters on the orbital image"), std::string::npos);
   EXPECT_NE(html.find("Run time per stage"), std::string::npos);
+  EXPECT_NE(html.find("rock tie fits: pooled sigma0"), std::string::npos);
 
   // A second run reuses everything; removing one site's marker recomputes that site alone.
   const MissionRunSummary second = RunMission(mission, out, options);

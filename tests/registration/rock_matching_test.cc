@@ -124,6 +124,35 @@ TEST(RockMatching, TwoSitesTwelveMetresApartGiveCorrectTiePoints) {
   EXPECT_EQ(count->verdict, FaultVerdict::kPass);
 }
 
+TEST(RockMatching, TieVarianceFactorScalesTheTieCovariancesAndRe) {
+  const SimulatedSite& a = SiteA();
+  const SimulatedSite& b = SiteB();
+  const SitePairMatch base = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), {});
+  ASSERT_TRUE(base.error.has_value());
+  // The outlier test runs only while more than 3 ties remain: at 3 the factor keeps the ties.
+  ASSERT_EQ(base.tie_points.size(), 3u);
+  RockMatchingOptions options;
+  options.tie_variance_factor = 0.5;
+  const SitePairMatch scaled = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), options);
+  ASSERT_TRUE(scaled.error.has_value());
+  ASSERT_EQ(scaled.tie_points.size(), base.tie_points.size());
+  for (size_t k = 0; k < base.tie_points.size(); ++k) {
+    EXPECT_EQ(scaled.tie_points[k].id, base.tie_points[k].id);
+    EXPECT_TRUE(scaled.tie_points[k].covariance_in_a.isApprox(
+        0.5 * base.tie_points[k].covariance_in_a, 1e-12));
+    EXPECT_TRUE(scaled.tie_points[k].covariance_in_b.isApprox(
+        0.5 * base.tie_points[k].covariance_in_b, 1e-12));
+  }
+  // The fit is the same; its covariance halves (RE / sqrt 2) and its chi-square doubles.
+  EXPECT_NEAR(scaled.error->relative_error_percent,
+              std::sqrt(0.5) * base.error->relative_error_percent,
+              1e-6 * base.error->relative_error_percent);
+  EXPECT_NEAR(scaled.error->chi2, 2.0 * base.error->chi2, 1e-6 * base.error->chi2 + 1e-12);
+  EXPECT_EQ(scaled.error->redundancy, base.error->redundancy);
+  options.tie_variance_factor = 0.0;
+  EXPECT_THROW(MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), options), Error);
+}
+
 TEST(RockMatching, PairsWithoutOverlapOrRocksAreExcludedWithAReport) {
   const SimulatedSite& a = SiteA();
   // Site b looks away from a: no common rocks, so fault detection excludes the pair.

@@ -71,7 +71,23 @@ struct SitePairError {
   double convergence_current_rad = 0.0;
   double convergence_adjacent_rad = 0.0;
   double mean_distance_ratio = 0.0;  // Fig. 4.19, averaged over the tie points.
+  double chi2 = 0.0;                 // v^T Sigma^-1 v of the conformal fit (its residuals).
+  int redundancy = 0;                // 2 n - 4.
 };
+
+// The a-posteriori variance factor sigma_0^2 pooled over several conformal fits (e.g. a run's
+// legs): sum chi2 / sum redundancy, and its one-sided 95 % upper bound sum chi2 / chi2_0.05(r)
+// (chi-square quantile of the pooled redundancy r). A factor well below 1 says the tie points'
+// a-priori covariances are pessimistic by about 1 / sqrt(factor) in sigma. Fits with redundancy
+// 0 are skipped; with none left, estimate and upper bound are NaN.
+struct PooledVarianceFactor {
+  int fits = 0;        // Fits with redundancy > 0.
+  double chi2 = 0.0;   // Their summed chi2.
+  int redundancy = 0;  // Their summed redundancy.
+  double estimate = 0.0;
+  double upper_95 = 0.0;
+};
+PooledVarianceFactor PoolVarianceFactor(const std::vector<SitePairError>& fits);
 
 // RE of the adjacent site (at the origin of its own frame), given where it lies in the current
 // frame (`adjacent_in_current`, for the traverse length and the geometry figures).

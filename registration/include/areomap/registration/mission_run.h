@@ -18,8 +18,10 @@
 //   products/         DTM (traverse_dtm.tif) and orthomosaic (traverse_ortho.tif) of the whole
 //                     traverse with the adjusted poses, PNG thumbnails, and their differences
 //                     from the orbital DTM and image with adjusted and with telemetry poses
-//   summary.json      key figures, wall time per stage ("stage_seconds"); report.html is
-//                     written from the folder by WriteRunReport.
+//   summary.json      key figures, wall time per stage ("stage_seconds"), the rock tie
+//                     points' a-posteriori variance factor pooled over the legs' conformal fits
+//                     ("rock_tie_variance", PoolVarianceFactor); report.html is written from the
+//                     folder by WriteRunReport.
 // A unit is finished when its `unit.json` exists (written last, atomically) and records the
 // same options fingerprint as this run (products/: and the same adjusted poses); finished units
 // are skipped, so an interrupted run resumes where it stopped. Site units run in parallel (TBB).

@@ -82,6 +82,11 @@ struct RockMatchingOptions {
   // Tie points whose residual in the site-to-site conformal fit exceeds this chi-square (2 dof,
   // 99.9 %: 13.8) are dropped one by one while more than min_tie_points remain.
   double max_residual_chi2 = 13.8;
+  // Variance factor (a-posteriori sigma_0^2) applied to the tie points' covariances (the peaks'
+  // eq. 4.3 covariance plus the peak definition) in the conformal fit, its outlier test, RE and
+  // the output tie points. 1 keeps the a-priori covariances; a run estimates it from its legs'
+  // conformal-fit residuals (PooledTieVarianceFactor).
+  double tie_variance_factor = 1.0;
   double cost_height_weight = 0.5;  // c1 of eq. 3.28.
   double cost_radius_weight = 1.0 / 3.0;
   double cost_area_weight = 1.0 / 6.0;
