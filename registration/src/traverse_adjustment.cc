@@ -22,6 +22,8 @@ std::string Format(const char* format, auto... values) {
 void TraverseAdjustmentOptions::Check() const {
   bundle.Check();
   map.Check();
+  RequireOption(std::isfinite(rock_tie_variance_factor) && rock_tie_variance_factor > 0.0,
+                "TraverseAdjustmentOptions.rock_tie_variance_factor", "finite and > 0");
 }
 
 std::string ReadableReport(const BundleResult& result, const AnchoredTraverse& traverse) {
@@ -80,7 +82,12 @@ nlohmann::json AdjustTraverse(const std::vector<std::filesystem::path>& inputs,
                               const TraverseAdjustmentOptions& options,
                               const ProgressCallback& progress) {
   options.Check();
-  const BundleInputFile file = ReadBundleInput(inputs);
+  BundleInputFile file = ReadBundleInput(inputs);
+  for (TiePoint& t : file.input.tie_points) {
+    if (t.source != "rock") continue;
+    t.covariance_in_a *= options.rock_tie_variance_factor;
+    t.covariance_in_b *= options.rock_tie_variance_factor;
+  }
   if (!options.orbital_image.empty() && !std::filesystem::exists(options.orbital_image)) {
     throw Error(options.orbital_image.string() + ": no such file");
   }
@@ -105,6 +112,7 @@ nlohmann::json AdjustTraverse(const std::vector<std::filesystem::path>& inputs,
   }
   nlohmann::json summary = {{"sites", file.input.site_count},
                             {"tie_points", file.input.tie_points.size()},
+                            {"rock_tie_variance_factor", options.rock_tie_variance_factor},
                             {"control_points", file.input.control_points.size()},
                             {"priors", file.input.priors.size()},
                             {"heights", file.input.heights.size()},

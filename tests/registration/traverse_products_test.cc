@@ -9,6 +9,7 @@
 #include <ogrsf_frmts.h>
 
 #include "areomap/map/atomic_file.h"
+#include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "areomap/map/projection.h"
 #include "areomap/map/raster.h"
@@ -173,6 +174,34 @@ TEST(TraverseAdjustment, WritesEveryProductForATraverseWithControl) {
   EXPECT_GT(red, 100);
   EXPECT_GT(green, 100);
   EXPECT_GT(blue, 0);  // Mostly under the adjusted track: with control they agree to 0.5 m.
+  if (std::getenv("AREOMAP_KEEP_TEST_OUTPUT") == nullptr) std::filesystem::remove_all(dir);
+}
+
+TEST(TraverseAdjustment, RockTieVarianceFactorScalesTheRockTies) {
+  SimulatedNetworkOptions options;
+  options.traverse.site_count = 8;
+  options.control_points_per_site = 1;
+  const SimulatedNetwork net = SimulateNetwork(options);
+  ASSERT_FALSE(net.input.tie_points.empty());
+  const std::filesystem::path dir = TempDir("tie_factor");
+  WriteFileAtomically(dir / "network.json",
+                      BundleInputToJson(net.input, TruePositions(net)).dump());
+  const auto adjust = [&](double factor) {
+    TraverseAdjustmentOptions run;
+    run.rock_tie_variance_factor = factor;
+    const std::filesystem::path out = dir / ("f" + std::to_string(factor));
+    std::filesystem::create_directories(out);
+    return AdjustTraverse({dir / "network.json"}, out, run);
+  };
+  const nlohmann::json as_written = adjust(1.0);
+  const nlohmann::json inflated = adjust(4.0);
+  EXPECT_EQ(inflated["rock_tie_variance_factor"].get<double>(), 4.0);
+  // The ties' share of the chi-square drops by 4, so sigma0 drops (the priors' and control
+  // points' share is unchanged), and the sites' sigmas grow.
+  EXPECT_LT(inflated["sigma0"].get<double>(), as_written["sigma0"].get<double>());
+  EXPECT_GT(inflated["largest_horizontal_sigma_m"].get<double>(),
+            as_written["largest_horizontal_sigma_m"].get<double>());
+  EXPECT_THROW(adjust(0.0), Error);
   if (std::getenv("AREOMAP_KEEP_TEST_OUTPUT") == nullptr) std::filesystem::remove_all(dir);
 }
 

@@ -23,6 +23,10 @@ namespace areomap {
 
 struct TraverseAdjustmentOptions {
   BundleOptions bundle;
+  // Multiplies the covariances of the rock tie points (source "rock") read from the inputs: the
+  // observation group's a-posteriori variance factor (a run: its legs' pooled sigma_0^2,
+  // mission_run.h). 1 keeps them as written.
+  double rock_tie_variance_factor = 1.0;
   std::filesystem::path orbital_image;  // Empty: no traverse map.
   TraverseMapOptions map;
   void Check() const;
