@@ -39,8 +39,7 @@ void AddAdjustCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--rock-tie-variance-factor", o->adjustment.rock_tie_variance_factor,
                   "Multiplies the rock tie points' covariances (a run applies its legs' pooled "
                   "sigma0^2, summary.json rock_tie_variance)")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->capture_default_str();
   cmd->add_option("--ellipse-scale", o->adjustment.map.ellipse_scale,
                   "Exaggeration of the 1-sigma ellipses on the traverse map")
       ->capture_default_str();

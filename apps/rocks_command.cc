@@ -221,8 +221,7 @@ void AddRocksCommand(CLI::App& app, const GlobalOptions& global) {
       ->add_option("--tie-variance-factor", match_args->matching.tie_variance_factor,
                    "Variance factor of the tie points' eq. 4.3 covariances (a run's pooled "
                    "sigma0^2, summary.json rock_tie_variance) for the fit, RE and the output")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->capture_default_str();
   match->add_option("--out", match_args->out_dir, "Output folder")->required();
   AddExtractionOptions(match, match_args->extraction);
   match->callback([match_args, &global] { RunMatch(*match_args, global); });

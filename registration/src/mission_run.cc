@@ -142,9 +142,10 @@ std::vector<Rigid3d> AdjustedPoses(const fs::path& adjustment_json, size_t site_
 json RockTieVariance(const std::vector<json>& legs) {
   std::vector<SitePairError> fits;
   for (const json& leg : legs) {
-    if (!leg.contains("conformal_chi2")) continue;
+    const json chi2 = leg.value("conformal_chi2", json());
+    if (!chi2.is_number() || !std::isfinite(chi2.get<double>())) continue;  // null when resumed
     SitePairError fit;
-    fit.chi2 = leg["conformal_chi2"].get<double>() * leg.value("tie_variance_factor", 1.0);
+    fit.chi2 = chi2.get<double>() * leg.value("tie_variance_factor", 1.0);
     fit.redundancy = leg.value("conformal_redundancy", 0);
     fits.push_back(fit);
   }
