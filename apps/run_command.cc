@@ -38,6 +38,13 @@ void PrintRunSummary(const nlohmann::json& s) {
     }
     std::printf("\n");
   }
+  const nlohmann::json& ties = s.value("rock_tie_variance", nlohmann::json::object());
+  if (ties.value("sigma0_squared", nlohmann::json()).is_number()) {
+    std::printf(
+        "rock tie fits of %d legs: pooled sigma0^2 %.3f (95 %% upper bound %.3f, redundancy %d)\n",
+        ties.value("legs", 0), ties["sigma0_squared"].get<double>(),
+        ties.value("sigma0_squared_upper_95", 0.0), ties.value("redundancy", 0));
+  }
   const nlohmann::json& guided = s.value("guided_registration", nlohmann::json::object());
   for (const nlohmann::json& pass : guided.value("passes", nlohmann::json::array())) {
     std::printf(
