@@ -37,8 +37,8 @@ void AddAdjustCommand(CLI::App& app, const GlobalOptions& global) {
                   "Most re-solves after rejecting observations")
       ->capture_default_str();
   cmd->add_option("--rock-tie-variance-factor", o->adjustment.rock_tie_variance_factor,
-                  "Multiplies the rock tie points' covariances (a run applies its legs' pooled "
-                  "sigma0^2, summary.json rock_tie_variance)")
+                  "Multiplies the rock tie points' covariances (e.g. by a run's pooled sigma0^2, "
+                  "summary.json rock_tie_variance, which the run itself reports only)")
       ->capture_default_str();
   cmd->add_option("--ellipse-scale", o->adjustment.map.ellipse_scale,
                   "Exaggeration of the 1-sigma ellipses on the traverse map")

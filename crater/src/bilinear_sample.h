@@ -14,10 +14,11 @@
 namespace areomap::internal {
 
 inline double SampleBilinearIndex(const cv::Mat& m, double x, double y) {
-  const int c = static_cast<int>(std::floor(x)), r = static_cast<int>(std::floor(y));
-  if (c < 0 || r < 0 || c + 1 >= m.cols || r + 1 >= m.rows) {
+  // Checked before the casts (a NaN or huge coordinate must not reach them).
+  if (!(x >= 0.0 && y >= 0.0 && x < m.cols - 1 && y < m.rows - 1)) {
     return std::numeric_limits<double>::quiet_NaN();
   }
+  const int c = static_cast<int>(std::floor(x)), r = static_cast<int>(std::floor(y));
   const double tx = x - c, ty = y - r;
   const float* p0 = m.ptr<float>(r);
   const float* p1 = m.ptr<float>(r + 1);

@@ -174,7 +174,7 @@ json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
   if (match.error) {
     summary["relative_error_percent"] = match.error->relative_error_percent;
     // The conformal fit's residuals, pooled over the legs into the run's a-posteriori variance
-    // factor of the rock tie points (RockTieVarianceFactor).
+    // factor of the rock tie points (mission_run.cc, RockTieVariance).
     summary["conformal_chi2"] = match.error->chi2;
     summary["conformal_redundancy"] = match.error->redundancy;
   }

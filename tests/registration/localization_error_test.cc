@@ -31,7 +31,8 @@ TEST(LocalizationError, PolarCovarianceIsEq42) {
 // Adjacent frame rotated by 3 degrees, scaled by 1.01 and shifted (the true transform), its
 // origin in the current frame, and five landmarks seen from both sites.
 const double kAngle = 3.0 * kDeg, kScale = 1.01;
-const Eigen::Vector4d kTruth(kScale* std::cos(kAngle), kScale* std::sin(kAngle), 12.0, -1.5);
+const Eigen::Vector4d kTruth =
+    Eigen::Vector4d(kScale * std::cos(kAngle), kScale* std::sin(kAngle), 12.0, -1.5);
 const Eigen::Vector2d kAdjacent(12.0, -1.5);
 
 // Tie points with the eq. 4.2 covariances and noise drawn at `noise_scale` x those sigmas.

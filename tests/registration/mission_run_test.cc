@@ -130,6 +130,7 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   EXPECT_EQ(second.legs_reused, 1);
   EXPECT_EQ(second.json["units"]["products"], "reused");
   EXPECT_EQ(second.json["units"]["craters"], "reused");
+  EXPECT_EQ(second.json["rock_tie_variance"], first.json["rock_tie_variance"]);
   // A resumed run still reports what its reused units cost when they were computed.
   EXPECT_DOUBLE_EQ(second.json["computed_seconds"]["stereo"].get<double>(),
                    first.json["computed_seconds"]["stereo"].get<double>());

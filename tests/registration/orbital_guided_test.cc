@@ -67,7 +67,8 @@ TEST(GuidedOrbitalMatch, RegistersWhereTheTelemetryWindowFailsAndBeatsChance) {
   const OrbitalMatch telemetry =
       MatchOrthoToOrbital(trial.ortho, *trial.orbital, wide.prior, RunOptions());
   // Around telemetry the turned orthophoto gives no confident match, or a wrong one.
-  EXPECT_TRUE(!telemetry.matched || RoverErrorPx(telemetry, trial) > 2.0) << telemetry.BriefReport();
+  EXPECT_TRUE(!telemetry.matched || RoverErrorPx(telemetry, trial) > 2.0)
+      << telemetry.BriefReport();
 
   OrbitalMatchOptions options = RunOptions();
   options.null_windows = 48;

@@ -79,13 +79,15 @@ struct SitePairError {
 // legs): sum chi2 / sum redundancy, and its one-sided 95 % upper bound sum chi2 / chi2_0.05(r)
 // (chi-square quantile of the pooled redundancy r). A factor well below 1 says the tie points'
 // a-priori covariances are pessimistic by about 1 / sqrt(factor) in sigma. Fits with redundancy
-// 0 are skipped; with none left, estimate and upper bound are NaN.
+// 0 are skipped; with none left, estimate and upper bound are NaN. Fits whose worst residuals
+// were dropped first (MatchSitePair's outlier test) give a chi2 truncated low: the estimate and
+// bound then lean optimistic.
 struct PooledVarianceFactor {
-  int fits = 0;        // Fits with redundancy > 0.
-  double chi2 = 0.0;   // Their summed chi2.
-  int redundancy = 0;  // Their summed redundancy.
-  double estimate = 0.0;
-  double upper_95 = 0.0;
+  int fits = 0;           // Fits with redundancy > 0.
+  double chi2 = 0.0;      // Their summed chi2.
+  int redundancy = 0;     // Their summed redundancy.
+  double estimate = 0.0;  // sigma_0^2 (dimensionless); NaN when nothing was pooled.
+  double upper_95 = 0.0;  // Its one-sided 95 % upper bound; NaN when nothing was pooled.
 };
 PooledVarianceFactor PoolVarianceFactor(const std::vector<SitePairError>& fits);
 

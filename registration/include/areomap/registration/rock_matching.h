@@ -84,8 +84,9 @@ struct RockMatchingOptions {
   double max_residual_chi2 = 13.8;
   // Variance factor (a-posteriori sigma_0^2) applied to the tie points' covariances (the peaks'
   // eq. 4.3 covariance plus the peak definition) in the conformal fit, its outlier test, RE and
-  // the output tie points. 1 keeps the a-priori covariances; a run estimates it from its legs'
-  // conformal-fit residuals (PooledTieVarianceFactor).
+  // the output tie points. 1 keeps the a-priori covariances; a run reports the factor its legs'
+  // conformal fits imply (PoolVarianceFactor, summary.json rock_tie_variance) without applying
+  // it. Check() throws unless finite and > 0.
   double tie_variance_factor = 1.0;
   double cost_height_weight = 0.5;  // c1 of eq. 3.28.
   double cost_radius_weight = 1.0 / 3.0;

@@ -25,7 +25,8 @@ struct TraverseAdjustmentOptions {
   BundleOptions bundle;
   // Multiplies the covariances of the rock tie points (source "rock") read from the inputs: the
   // observation group's a-posteriori variance factor (a run: its legs' pooled sigma_0^2,
-  // mission_run.h). 1 keeps them as written.
+  // mission_run.h, which reports it). 1 keeps them as written; Check() throws unless finite and
+  // > 0.
   double rock_tie_variance_factor = 1.0;
   std::filesystem::path orbital_image;  // Empty: no traverse map.
   TraverseMapOptions map;
