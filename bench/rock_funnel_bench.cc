@@ -39,6 +39,7 @@
 #include "areomap/map/error.h"
 #include "areomap/map/mission_manifest.h"
 #include "areomap/map/point_cloud_io.h"
+#include "areomap/registration/localization_error.h"
 #include "areomap/registration/mission_run.h"
 #include "areomap/registration/rock_matching.h"
 #include "rock_truth.h"
@@ -210,8 +211,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
       "wrong accepted  outcome\n");
   Funnel total, short_legs;
   int legs_accepted = 0, short_count = 0, short_accepted = 0;
-  double pooled_chi2 = 0.0;  // Of the legs' conformal fits, at tie_variance_factor 1.
-  int pooled_redundancy = 0, pooled_legs = 0;
+  std::vector<SitePairError> fits;  // The legs' conformal fits, chi2 at tie_variance_factor 1.
   Site b = LoadSite(run_dir, mission.sites[0].site, world_from_site[0], truth, options);
   for (size_t k = 0; k + 1 < mission.sites.size(); ++k) {
     Site a = std::move(b);
@@ -248,10 +248,9 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
       for (const RockMatch& m : match.matches) matched_pairs.insert({m.rock_a, m.rock_b});
       for (const RockMatchOutcome& o : match.outcomes) fate_of[o.rock_a] = o.fate;
       f.leg_matches = static_cast<int>(match.matches.size());
-      if (match.error && match.error->redundancy > 0) {
-        pooled_chi2 += match.error->chi2 * options.matching.tie_variance_factor;
-        pooled_redundancy += match.error->redundancy;
-        ++pooled_legs;
+      if (match.error) {
+        fits.push_back(*match.error);
+        fits.back().chi2 *= options.matching.tie_variance_factor;
       }
     } else {
       std::string line;
@@ -414,11 +413,11 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
   print("legs <= 25 m", short_legs);
   std::printf("legs accepted: %d of %zu; legs <= 25 m accepted: %d of %d\n", legs_accepted,
               mission.sites.size() - 1, short_accepted, short_count);
+  const PooledVarianceFactor pooled = PoolVarianceFactor(fits);
   std::printf(
       "conformal fits of %d legs: chi2 %.1f at tie_variance_factor 1, redundancy %d, pooled "
-      "sigma0^2 %.3f\n",
-      pooled_legs, pooled_chi2, pooled_redundancy,
-      pooled_redundancy > 0 ? pooled_chi2 / pooled_redundancy : std::nan(""));
+      "sigma0^2 %.3f (95 %% upper bound %.3f)\n",
+      pooled.fits, pooled.chi2, pooled.redundancy, pooled.estimate, pooled.upper_95);
   return 0;
 }
 

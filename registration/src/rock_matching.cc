@@ -522,17 +522,20 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   report.Add(RockCount("III matching", "ambiguous rock (neighbour within tolerance + k sigma)",
                        ambiguous, options.pattern_tolerance_m, "m"));
 
-  const Eigen::Matrix2d definition = options.peak_definition_sigma_m *
-                                     options.peak_definition_sigma_m * Eigen::Matrix2d::Identity();
-  const double factor = options.tie_variance_factor;
+  // A tie point's covariance at either site: the peak's stereo covariance plus the horizontal
+  // peak definition, times the variance factor (the fit, its outlier test, RE and the output).
+  const auto tie_covariance = [&](const ExtractedRock& rock) {
+    Eigen::Matrix3d c = rock.peak_covariance;
+    c.topLeftCorner<2, 2>() += options.peak_definition_sigma_m * options.peak_definition_sigma_m *
+                               Eigen::Matrix2d::Identity();
+    return Eigen::Matrix3d(options.tie_variance_factor * c);
+  };
   const auto planar_tie = [&](const RockMatch& m) {
     PlanarTiePoint t;
     t.in_current = a.rocks[m.rock_a].peak.head<2>();
-    t.covariance_current =
-        factor * (a.rocks[m.rock_a].peak_covariance.topLeftCorner<2, 2>() + definition);
+    t.covariance_current = tie_covariance(a.rocks[m.rock_a]).topLeftCorner<2, 2>();
     t.in_adjacent = b.rocks[m.rock_b].peak.head<2>();
-    t.covariance_adjacent =
-        factor * (b.rocks[m.rock_b].peak_covariance.topLeftCorner<2, 2>() + definition);
+    t.covariance_adjacent = tie_covariance(b.rocks[m.rock_b]).topLeftCorner<2, 2>();
     return t;
   };
   // Outlier test in the site-to-site adjustment (data snooping): with redundancy left, the tie
@@ -601,13 +604,9 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     t.site_a = a.site;
     t.site_b = b.site;
     t.position_in_a = p.peak;
-    t.covariance_in_a = p.peak_covariance;
-    t.covariance_in_a.topLeftCorner<2, 2>() += definition;
-    t.covariance_in_a *= factor;
+    t.covariance_in_a = tie_covariance(p);
     t.position_in_b = q.peak;
-    t.covariance_in_b = q.peak_covariance;
-    t.covariance_in_b.topLeftCorner<2, 2>() += definition;
-    t.covariance_in_b *= factor;
+    t.covariance_in_b = tie_covariance(q);
     t.source = "rock";
     result.tie_points.push_back(t);
   }
