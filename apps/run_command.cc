@@ -107,6 +107,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     MissionRunOptions run;
     bool no_craters = false;
     bool no_products = false;
+    bool keep_coarse_points = false;
   };
   auto o = std::make_shared<Options>();
   auto* run = app.add_subcommand(
@@ -117,6 +118,9 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
   run->add_option("MISSION", o->mission, "Mission folder (or its mission.json)")->required();
   run->add_option("--out", o->out, "Output folder (created if needed)")->required();
   run->add_option("--max-range", o->run.stereo.max_range_m, "Stereo points beyond are dropped [m]")
+      ->capture_default_str();
+  run->add_option("--point-spacing", o->run.point_spacing_m,
+                  "Stereo points kept about this far apart on the ground, per pair [m]")
       ->capture_default_str();
   run->add_option("--posting", o->run.dtm.posting_m, "Site DTM and orthophoto posting [m]")
       ->capture_default_str();
@@ -129,12 +133,16 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
   run->add_option("--crater-min-diameter", o->run.crater_min_diameter_m,
                   "Smallest crater rim diameter on the orbital image [m]")
       ->capture_default_str();
+  run->add_flag("--keep-coarse-points", o->keep_coarse_points,
+                "Keep every pair's points where a more precise pair (Pancam over Navcam) sees the "
+                "same ground");
   run->add_flag("--no-craters", o->no_craters, "Skip crater detection on the orbital image");
   run->add_flag("--no-products", o->no_products,
                 "Skip the whole-traverse DTM and orthomosaic (products/)");
   run->callback([o, &global] {
     if (o->no_craters) o->run.detect_craters = false;
     if (o->no_products) o->run.traverse_products = false;
+    if (o->keep_coarse_points) o->run.prefer_precise_pairs = false;
     // Every file the manifest names is checked before any work starts.
     const MissionManifest mission = ReadMissionManifest(o->mission);
     PrepareOutputFolder(o->out);

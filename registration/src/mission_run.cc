@@ -176,6 +176,7 @@ void MissionRunOptions::Check() const {
   bundle.Check();
   RequireOption(point_spacing_m > 0.0, "MissionRunOptions.point_spacing_m",
                 "a positive ground spacing in metres");
+  precise_pairs.Check();
   RequireOption(prior_sigma_floor_m > 0.0, "MissionRunOptions.prior_sigma_floor_m",
                 "a positive sigma in metres");
   RequireOption(prior_sigma_per_m >= 0.0, "MissionRunOptions.prior_sigma_per_m",
@@ -199,29 +200,32 @@ void MissionRunOptions::Check() const {
 
 nlohmann::json MissionRunOptions::ToJson() const {
   // The figures a user changes from the CLI; the fingerprint only needs to change with them.
-  nlohmann::json figures = {{"stereo_max_range_m", stereo.max_range_m},
-                            {"point_spacing_m", point_spacing_m},
-                            {"stereo_block_size", stereo.block_size},
-                            {"dtm_posting_m", dtm.posting_m},
-                            {"dtm_method", ToString(dtm.gridding.method)},
-                            {"ortho_max_range_m", ortho.max_range_m},
-                            {"match_min_correlation", match.min_correlation},
-                            {"match_max_rotation_deg", match.max_rotation_deg},
-                            {"match_subpixel_floor_px", match.subpixel_floor_px},
-                            {"control_spacing_m", control.spacing_m},
-                            {"control_site_sigma_m", control.site_sigma_m},
-                            {"prior_sigma_floor_m", prior_sigma_floor_m},
-                            {"prior_sigma_per_m", prior_sigma_per_m},
-                            {"rocks_min_height_m", rocks.min_height_m},
-                            {"leg_scale_sigma", leg_scale_sigma},
-                            {"leg_heading_sigma_deg", leg_heading_sigma_deg},
-                            {"bundle_huber_scale", bundle.huber_scale},
-                            {"bundle_rejection_alpha", bundle.rejection_alpha},
-                            {"detect_craters", detect_craters},
-                            {"crater_min_diameter_m", crater_min_diameter_m},
-                            {"traverse_products", traverse_products},
-                            {"traverse_posting_m", traverse_posting_m},
-                            {"mosaic_feather_m", mosaic.feather_m}};
+  nlohmann::json figures = {
+      {"stereo_max_range_m", stereo.max_range_m},
+      {"point_spacing_m", point_spacing_m},
+      {"precise_pair_ratio", prefer_precise_pairs ? precise_pairs.sigma_ratio : 0.0},
+      {"precise_pair_cell_m", precise_pairs.cell_m},
+      {"stereo_block_size", stereo.block_size},
+      {"dtm_posting_m", dtm.posting_m},
+      {"dtm_method", ToString(dtm.gridding.method)},
+      {"ortho_max_range_m", ortho.max_range_m},
+      {"match_min_correlation", match.min_correlation},
+      {"match_max_rotation_deg", match.max_rotation_deg},
+      {"match_subpixel_floor_px", match.subpixel_floor_px},
+      {"control_spacing_m", control.spacing_m},
+      {"control_site_sigma_m", control.site_sigma_m},
+      {"prior_sigma_floor_m", prior_sigma_floor_m},
+      {"prior_sigma_per_m", prior_sigma_per_m},
+      {"rocks_min_height_m", rocks.min_height_m},
+      {"leg_scale_sigma", leg_scale_sigma},
+      {"leg_heading_sigma_deg", leg_heading_sigma_deg},
+      {"bundle_huber_scale", bundle.huber_scale},
+      {"bundle_rejection_alpha", bundle.rejection_alpha},
+      {"detect_craters", detect_craters},
+      {"crater_min_diameter_m", crater_min_diameter_m},
+      {"traverse_products", traverse_products},
+      {"traverse_posting_m", traverse_posting_m},
+      {"mosaic_feather_m", mosaic.feather_m}};
   // Library callers may change the rock ties' variance factor: legs made with another are not
   // reused. Left out at its default, so that earlier runs keep their fingerprint.
   if (matching.tie_variance_factor != 1.0) {

@@ -29,6 +29,7 @@ struct SiteStereo {
   PointCloud cloud;
   std::vector<OrthoSourceImage> images;  // Left images with their cameras in the site frame.
   json pairs = json::array();
+  size_t coarse_points_dropped = 0;  // Where a more precise pair saw the same ground.
 };
 
 std::string SiteName(int site) { return "site " + std::to_string(site); }
@@ -81,6 +82,11 @@ SiteStereo RunSiteStereo(const RunContext& run, const MissionSite& site,
   }
   if (!site.pairs.empty()) centre_sum /= static_cast<double>(site.pairs.size());
   result.cloud.camera_center = centre_sum;
+  if (run.options->prefer_precise_pairs) {
+    const size_t before = result.cloud.points.size();
+    result.cloud = KeepMostPreciseSource(result.cloud, run.options->precise_pairs);
+    result.coarse_points_dropped = before - result.cloud.points.size();
+  }
   return result;
 }
 
@@ -182,6 +188,7 @@ json RunSiteUnit(const RunContext& run, size_t site_index, const ProgressCallbac
   return {{"site", site.site},
           {"pairs", stereo.pairs},
           {"points", stereo.cloud.points.size()},
+          {"coarse_points_dropped", stereo.coarse_points_dropped},
           {"dtm_known_area_m2", dtm.layers.known_cells * cell_area},
           {"ortho_valid_area_m2", ortho.valid_cells * cell_area},
           {"registration", registration},

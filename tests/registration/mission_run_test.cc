@@ -3,10 +3,13 @@
 // removed unit recomputed alone).
 #include "areomap/registration/mission_run.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <numbers>
 #include <sstream>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -14,6 +17,7 @@
 #include "areomap/map/error.h"
 #include "areomap/map/mission_manifest.h"
 #include "areomap/map/orthophoto.h"
+#include "areomap/map/point_cloud_io.h"
 #include "areomap/registration/run_report.h"
 #include "areomap/samples/mission.h"
 #include "test_support.h"
@@ -157,6 +161,69 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   EXPECT_TRUE(guided["registered_first_pass"].empty()) << guided.dump();
   EXPECT_TRUE(guided["passes"].empty()) << guided.dump();
   EXPECT_TRUE(guided.contains("first_adjustment"));
+}
+
+TEST(MissionRun, PancamPointsReplaceNavcamPointsWhereBothSeeTheGround) {
+  // One Navcam and one Pancam pair looking the same way: at the same range a Pancam point is
+  // ~4x more precise (Table 1.1: 0.28 against 0.76 mrad/px, 30 against 20 cm baseline; here
+  // both 256 px wide with Table 1.1's fields of view), so where both see the ground only the
+  // Pancam points stay.
+  MissionOptions mission_options = TinyMission();
+  mission_options.traverse.site_count = 1;
+  mission_options.navcam.field_of_view_deg = 45.0;
+  mission_options.pancam_pairs = 1;
+  mission_options.pancam.width = 256;
+  mission_options.pancam.height = 256;
+  mission_options.pancam.field_of_view_deg = 16.8;
+  mission_options.pancam_elevation_deg = -20.0;  // Ground 3-7 m away, inside the tiny mesh.
+  testing::TempDir dir;
+  GenerateMission(mission_options, dir.path() / "mission");
+  const MissionManifest mission = ReadMissionManifest(dir.path() / "mission");
+  MissionRunOptions options;
+  options.stereo.min_range_m = 2.0;
+  options.detect_craters = false;
+  options.traverse_products = false;
+
+  options.point_spacing_m = 0.005;  // Dense enough that most 25 cm cells hold 5 Pancam points.
+
+  // Runs the site; its Navcam points, and how many of them lie within 10 cm (horizontally) of a
+  // Pancam point, i.e. on ground the Pancam pair saw.
+  struct SiteCount {
+    nlohmann::json site;
+    int navcam = 0, pancam = 0, navcam_on_pancam_ground = 0;
+  };
+  const auto run_site = [&](const fs::path& out) {
+    SiteCount result;
+    result.site = RunMission(mission, out, options).json["sites"][0];
+    std::map<int, std::string> instrument;  // image_id -> instrument.
+    for (const auto& pair : result.site["pairs"]) instrument[pair["image_id"]] = pair["instrument"];
+    std::vector<Eigen::Vector2d> navcam, pancam;
+    for (const StereoPoint& p : ReadPointCloudPly(out / "sites" / "site_000" / "points.ply").points)
+      (instrument.at(p.image_id) == "PANCAM" ? pancam : navcam).push_back(p.position.head<2>());
+    result.navcam = static_cast<int>(navcam.size());
+    result.pancam = static_cast<int>(pancam.size());
+    for (const Eigen::Vector2d& n : navcam) {
+      result.navcam_on_pancam_ground +=
+          std::any_of(pancam.begin(), pancam.end(),
+                      [&](const Eigen::Vector2d& p) { return (p - n).norm() < 0.1; });
+    }
+    return result;
+  };
+  options.prefer_precise_pairs = false;
+  const SiteCount all = run_site(dir.path() / "all");
+  options.prefer_precise_pairs = true;
+  const SiteCount kept = run_site(dir.path() / "kept");
+
+  EXPECT_EQ(all.site["coarse_points_dropped"], 0) << all.site.dump();
+  ASSERT_GT(all.pancam, 1000);
+  ASSERT_GT(all.navcam_on_pancam_ground, 1000);
+  EXPECT_EQ(kept.pancam, all.pancam);  // The precise pair loses nothing.
+  EXPECT_EQ(kept.site["coarse_points_dropped"].get<int>(), all.navcam - kept.navcam);
+  // On the ground both saw, at most the edges of Pancam's footprint keep Navcam points ...
+  EXPECT_LT(kept.navcam_on_pancam_ground, all.navcam_on_pancam_ground / 5);
+  // ... elsewhere Navcam keeps its points, but for those in cells Pancam covered in part.
+  EXPECT_GT(kept.navcam - kept.navcam_on_pancam_ground,
+            0.95 * (all.navcam - all.navcam_on_pancam_ground));
 }
 
 TEST(MissionRun, GuidedPriorFollowsTheAdjustedPose) {

@@ -44,4 +44,22 @@ void CheckPointCloud(const PointCloud& cloud, const std::string& source, bool al
 PointCloud ThinToGroundSpacing(const PointCloud& cloud, double spacing_m, double focal_px,
                                int max_step = 8);
 
+// Where stereo pairs of different precision see the same ground (a Pancam panorama over a Navcam
+// one: at 20 m a Navcam point is ~4x less precise), keeps only the precise pairs' points there,
+// so that rock peaks and planes are not taken from the noisier pair's points. The ground is cut
+// into square cells of `cell_m` (x, y of the cloud's frame); in each cell, the points of each
+// pair (`image_id`) that has at least `min_points` there are a source with the median of
+// sqrt(trace covariance) as its sigma; a source whose sigma exceeds `sigma_ratio` x the cell's
+// smallest is dropped from the cell (the smallest counts only among sources of at least
+// `min_points` points; a sparser source sets no bar but is dropped like any other above it).
+// A cell seen by one pair, or by pairs of like precision, keeps all. Order is preserved. Throws
+// areomap::Error on a non-positive cell, a ratio below 1 or min_points < 1.
+struct PreciseSourceOptions {
+  double cell_m = 0.25;
+  double sigma_ratio = 2.0;
+  int min_points = 5;
+  void Check() const;  // Throws areomap::Error naming the field.
+};
+PointCloud KeepMostPreciseSource(const PointCloud& cloud, const PreciseSourceOptions& options);
+
 }  // namespace areomap

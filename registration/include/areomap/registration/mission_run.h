@@ -60,6 +60,10 @@ struct MissionRunOptions {
   // Stereo points kept about this far apart on the ground (ThinToGroundSpacing): near the mast a
   // Navcam pixel covers ~2 mm, far finer than DTM postings or rock modeling need [m].
   double point_spacing_m = 0.02;
+  // Where a site's pairs see the same ground with unlike precision (Pancam over Navcam), only
+  // the precise pairs' points are kept there (KeepMostPreciseSource); false keeps every point.
+  bool prefer_precise_pairs = true;
+  PreciseSourceOptions precise_pairs;
   DtmOptions dtm;  // 0.1 m posting.
   OrthoOptions ortho;
   // Heading drift turns a site's orthophoto on the map (a few degrees after a few legs), so the
