@@ -143,6 +143,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     if (o->no_craters) o->run.detect_craters = false;
     if (o->no_products) o->run.traverse_products = false;
     if (o->keep_coarse_points) o->run.prefer_precise_pairs = false;
+    o->run.Check();  // Bad options fail before the mission is read.
     // Every file the manifest names is checked before any work starts.
     const MissionManifest mission = ReadMissionManifest(o->mission);
     PrepareOutputFolder(o->out);
