@@ -12,6 +12,23 @@
 #include "areomap/map/error.h"
 
 namespace areomap {
+namespace {
+
+// The cloud's frame, site and camera with the points for which keep(index, point) holds, in
+// order (without copying the others first).
+template <typename Keep>
+PointCloud PointsWhere(const PointCloud& cloud, Keep keep) {
+  PointCloud kept;
+  kept.frame = cloud.frame;
+  kept.site = cloud.site;
+  kept.camera_center = cloud.camera_center;
+  for (size_t i = 0; i < cloud.points.size(); ++i) {
+    if (keep(i, cloud.points[i])) kept.points.push_back(cloud.points[i]);
+  }
+  return kept;
+}
+
+}  // namespace
 
 void CheckPointCloud(const PointCloud& cloud, const std::string& source, bool allow_empty) {
   if (cloud.points.empty() && !allow_empty) {
@@ -31,16 +48,13 @@ PointCloud ThinToGroundSpacing(const PointCloud& cloud, double spacing_m, double
   RequireOption(spacing_m > 0.0, "ThinToGroundSpacing.spacing_m", "a positive spacing in metres");
   RequireOption(focal_px > 0.0, "ThinToGroundSpacing.focal_px", "a positive focal length [px]");
   RequireOption(max_step >= 1, "ThinToGroundSpacing.max_step", "at least 1");
-  PointCloud thinned = cloud;
-  thinned.points.clear();
-  for (const StereoPoint& p : cloud.points) {
+  return PointsWhere(cloud, [&](size_t, const StereoPoint& p) {
     const double range = (p.position - cloud.camera_center).norm();
     const int step = std::clamp(
         static_cast<int>(std::lround(spacing_m * focal_px / std::max(range, 1e-3))), 1, max_step);
     const long col = std::lround(p.left_x), row = std::lround(p.left_y);
-    if (col % step == 0 && row % step == 0) thinned.points.push_back(p);
-  }
-  return thinned;
+    return col % step == 0 && row % step == 0;
+  });
 }
 
 void PreciseSourceOptions::Check() const {
@@ -63,8 +77,8 @@ PointCloud KeepMostPreciseSource(const PointCloud& cloud, const PreciseSourceOpt
   }
   std::vector<size_t> order(n);
   std::iota(order.begin(), order.end(), size_t{0});
-  std::stable_sort(order.begin(), order.end(),
-                   [&](size_t a, size_t b) { return keys[a] < keys[b]; });
+  // Grouped by cell, then pair; order within a group does not matter.
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return keys[a] < keys[b]; });
 
   // Sources in key order: [begin, end) of `order` and their median sigma.
   struct Source {
@@ -106,12 +120,7 @@ PointCloud KeepMostPreciseSource(const PointCloud& cloud, const PreciseSourceOpt
     first = last;
   }
 
-  PointCloud kept = cloud;
-  kept.points.clear();
-  for (size_t i = 0; i < n; ++i) {
-    if (keep[i]) kept.points.push_back(cloud.points[i]);
-  }
-  return kept;
+  return PointsWhere(cloud, [&](size_t i, const StereoPoint&) { return keep[i] != 0; });
 }
 
 }  // namespace areomap
