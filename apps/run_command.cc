@@ -122,6 +122,12 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
   run->add_option("--point-spacing", o->run.point_spacing_m,
                   "Stereo points kept about this far apart on the ground, per pair [m]")
       ->capture_default_str();
+  run->add_option("--fine-point-spacing", o->run.fine_pair_point_spacing_m,
+                  "The same for pairs with pixels finer than --fine-pair-ifov (Pancam) [m]")
+      ->capture_default_str();
+  run->add_option("--fine-pair-ifov", o->run.fine_pair_max_ifov_mrad,
+                  "Angular resolution below which a pair is fine [mrad/px]; 0: none")
+      ->capture_default_str();
   run->add_option("--posting", o->run.dtm.posting_m, "Site DTM and orthophoto posting [m]")
       ->capture_default_str();
   run->add_option("--prior-sigma-per-m", o->run.prior_sigma_per_m,

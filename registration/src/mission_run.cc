@@ -176,6 +176,10 @@ void MissionRunOptions::Check() const {
   bundle.Check();
   RequireOption(point_spacing_m > 0.0, "MissionRunOptions.point_spacing_m",
                 "a positive ground spacing in metres");
+  RequireOption(fine_pair_point_spacing_m > 0.0, "MissionRunOptions.fine_pair_point_spacing_m",
+                "a positive ground spacing in metres");
+  RequireOption(fine_pair_max_ifov_mrad >= 0.0, "MissionRunOptions.fine_pair_max_ifov_mrad",
+                "a non-negative angular resolution in mrad per pixel (0: no pair is fine)");
   precise_pairs.Check();
   RequireOption(prior_sigma_floor_m > 0.0, "MissionRunOptions.prior_sigma_floor_m",
                 "a positive sigma in metres");
@@ -203,6 +207,8 @@ nlohmann::json MissionRunOptions::ToJson() const {
   nlohmann::json figures = {
       {"stereo_max_range_m", stereo.max_range_m},
       {"point_spacing_m", point_spacing_m},
+      {"fine_pair_point_spacing_m", fine_pair_point_spacing_m},
+      {"fine_pair_max_ifov_mrad", fine_pair_max_ifov_mrad},
       {"precise_pair_ratio", prefer_precise_pairs ? precise_pairs.sigma_ratio : 0.0},
       {"precise_pair_cell_m", precise_pairs.cell_m},
       {"stereo_block_size", stereo.block_size},

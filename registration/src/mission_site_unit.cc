@@ -67,8 +67,8 @@ SiteStereo RunSiteStereo(const RunContext& run, const MissionSite& site,
     DenseStereoOptions stereo = run.options->stereo;
     stereo.image_id = static_cast<uint16_t>(i);
     const DenseStereoResult dense = RunDenseStereo(left_image, right_image, left, right, stereo);
-    const PointCloud thinned =
-        ThinToGroundSpacing(dense.cloud, run.options->point_spacing_m, dense.summary.focal_px);
+    const double spacing_m = run.options->PointSpacingFor(dense.summary.focal_px);
+    const PointCloud thinned = ThinToGroundSpacing(dense.cloud, spacing_m, dense.summary.focal_px);
     result.cloud.points.insert(result.cloud.points.end(), thinned.points.begin(),
                                thinned.points.end());
     centre_sum += dense.cloud.camera_center;
@@ -78,6 +78,7 @@ SiteStereo RunSiteStereo(const RunContext& run, const MissionSite& site,
                             {"image_id", i},
                             {"points", dense.summary.points},
                             {"points_kept", thinned.points.size()},
+                            {"point_spacing_m", spacing_m},
                             {"valid_fraction", dense.summary.valid_fraction}});
   }
   if (!site.pairs.empty()) centre_sum /= static_cast<double>(site.pairs.size());

@@ -184,7 +184,11 @@ TEST(MissionRun, PancamPointsReplaceNavcamPointsWhereBothSeeTheGround) {
   options.detect_craters = false;
   options.traverse_products = false;
 
-  options.point_spacing_m = 0.005;  // Dense enough that most 25 cm cells hold 5 Pancam points.
+  // Dense enough that most 25 cm cells hold 5 Pancam points. The tiny Pancam's pixels are
+  // 1.15 mrad (Navcam's 3.07), so a 2 mrad bound makes it the fine pair.
+  options.point_spacing_m = 0.006;
+  options.fine_pair_point_spacing_m = 0.005;
+  options.fine_pair_max_ifov_mrad = 2.0;
 
   // Runs the site; its Navcam points, and how many of them lie within 10 cm (horizontally) of a
   // Pancam point, i.e. on ground the Pancam pair saw.
@@ -215,6 +219,11 @@ TEST(MissionRun, PancamPointsReplaceNavcamPointsWhereBothSeeTheGround) {
   const SiteCount kept = run_site(dir.path() / "kept");
 
   EXPECT_EQ(all.site["coarse_points_dropped"], 0) << all.site.dump();
+  for (const auto& pair : all.site["pairs"]) {
+    EXPECT_DOUBLE_EQ(pair["point_spacing_m"].get<double>(),
+                     pair["instrument"] == "PANCAM" ? 0.005 : 0.006)
+        << pair.dump();
+  }
   ASSERT_GT(all.pancam, 1000);
   ASSERT_GT(all.navcam_on_pancam_ground, 1000);
   EXPECT_EQ(kept.pancam, all.pancam);  // The precise pair loses nothing.
@@ -224,6 +233,21 @@ TEST(MissionRun, PancamPointsReplaceNavcamPointsWhereBothSeeTheGround) {
   // ... elsewhere Navcam keeps its points, but for those in cells Pancam covered in part.
   EXPECT_GT(kept.navcam - kept.navcam_on_pancam_ground,
             0.95 * (all.navcam - all.navcam_on_pancam_ground));
+}
+
+TEST(MissionRunOptions, FinePairsKeepTheirPointsCloser) {
+  MissionRunOptions options;
+  const double navcam_focal_px = 1.0 / 0.76e-3, pancam_focal_px = 1.0 / 0.28e-3;  // Table 1.1.
+  EXPECT_EQ(options.PointSpacingFor(navcam_focal_px), options.point_spacing_m);
+  EXPECT_EQ(options.PointSpacingFor(1.0 / 2.1e-3), options.point_spacing_m);  // Hazcam.
+  EXPECT_EQ(options.PointSpacingFor(pancam_focal_px), options.fine_pair_point_spacing_m);
+  EXPECT_LT(options.fine_pair_point_spacing_m, options.point_spacing_m);
+  options.fine_pair_max_ifov_mrad = 0.0;  // No pair is fine.
+  EXPECT_EQ(options.PointSpacingFor(pancam_focal_px), options.point_spacing_m);
+  options.fine_pair_point_spacing_m = 0.0;
+  const std::string message = testing::ErrorMessageOf([&] { options.Check(); });
+  EXPECT_NE(message.find("MissionRunOptions.fine_pair_point_spacing_m"), std::string::npos)
+      << message;
 }
 
 TEST(MissionRun, GuidedPriorFollowsTheAdjustedPose) {

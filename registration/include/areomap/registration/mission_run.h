@@ -60,6 +60,17 @@ struct MissionRunOptions {
   // Stereo points kept about this far apart on the ground (ThinToGroundSpacing): near the mast a
   // Navcam pixel covers ~2 mm, far finer than DTM postings or rock modeling need [m].
   double point_spacing_m = 0.02;
+  // Pairs whose pixels are finer than fine_pair_max_ifov_mrad (Pancam: 0.28 mrad/px; Navcam
+  // 0.76, Hazcam 2.1) keep their points fine_pair_point_spacing_m apart instead: on 20-25 m legs
+  // 1 cm Pancam points accept 12 of 12 legs against 8 at 2 cm, while 1 cm Navcam points make
+  // noise peaks that end as wrong tie points (docs/rocks.md) [m, mrad/px].
+  double fine_pair_point_spacing_m = 0.01;
+  double fine_pair_max_ifov_mrad = 0.5;
+  // The spacing for a pair whose rectified focal length is `focal_px`.
+  double PointSpacingFor(double focal_px) const {
+    return 1000.0 / focal_px < fine_pair_max_ifov_mrad ? fine_pair_point_spacing_m
+                                                       : point_spacing_m;
+  }
   // Where a site's pairs see the same ground with unlike precision (Pancam over Navcam), only
   // the precise pairs' points are kept there (KeepMostPreciseSource); false keeps every point.
   bool prefer_precise_pairs = true;
