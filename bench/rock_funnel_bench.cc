@@ -18,7 +18,8 @@
 //
 // Run: build/ci/bench/areomap_bench_rock_funnel MISSION_DIR RUN_DIR [ROCKS_CSV] [NAME=VALUE...]
 // ROCKS_CSV (optional): one row per truth rock past the ratio stage and site of the leg, with the
-// nearest extracted peak, its height and rule, for a closer look at the losses.
+// nearest extracted peak, its height and rule, its elevation error and its horizontal offset from
+// the rock's centre along and across the line of sight, for a closer look at the losses.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -196,7 +197,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
     if (!rows) throw Error(rocks_csv.string() + ": cannot write");
     rows << "leg,site,truth_id,truth_height_m,truth_radius_m,range_m,other_range_m,points,"
             "nearest_peak_m,nearest_height_m,nearest_on_rock,nearest_rule,stage,peak_dz_m,foot_dz_"
-            "m\n";
+            "m,peak_along_m,peak_across_m\n";
   }
   const MissionManifest mission = ReadMissionManifest(mission_dir);
   const std::vector<Rigid3d> world_from_site = bench::TrueWorldFromSites(mission);
@@ -310,7 +311,15 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
           const double h0 = mission.origin.h;
           rows << row << (a.rocks_on.count(r.id) && b.rocks_on.count(r.id) ? "peaks" : "seen")
                << "," << (nearest >= 0 ? h0 - s.peak_z_world[nearest] - r.ground_z - r.height : 0.0)
-               << "," << (nearest >= 0 ? h0 - s.foot_z_world[nearest] - r.ground_z : 0.0) << "\n";
+               << "," << (nearest >= 0 ? h0 - s.foot_z_world[nearest] - r.ground_z : 0.0);
+          // Horizontal offset of the peak from the truth rock's centre along the line of sight
+          // (away from the camera positive) and across it [m].
+          const Eigen::Vector2d sight = (r.north_east - s.camera_world.head<2>()).normalized();
+          const Eigen::Vector2d offset =
+              nearest >= 0 ? Eigen::Vector2d(s.peaks_world[nearest] - r.north_east)
+                           : Eigen::Vector2d::Zero();
+          rows << "," << offset.dot(sight) << ","
+               << offset.dot(Eigen::Vector2d(-sight.y(), sight.x())) << "\n";
         }
       }
       if (!a.rocks_on.count(r.id) || !b.rocks_on.count(r.id)) continue;
