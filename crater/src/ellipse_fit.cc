@@ -309,8 +309,22 @@ std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& poin
 }
 
 std::optional<Ellipse> FitEllipseFast(const std::vector<Eigen::Vector2d>& points) {
-  if (std::optional<Ellipse> ams = FitEllipseOpenCv(points, 1, 1)) return ams;
-  return FitEllipseOpenCv(points, 0, 2);
+  // OpenCV 4.6's fitEllipseAMS tests its matrix against an absolute determinant threshold in
+  // coordinates it scales by ~1/n: from ~160 points on (fewer on short arcs) it silently
+  // returns the unconstrained cv::fitEllipse, which solves an n x 5 SVD (~7x AMS's cost, and
+  // not constrained to an ellipse). AMS therefore sees at most kFastFitMaxPoints of the finite
+  // points, evenly spread along their order.
+  const std::vector<Eigen::Vector2d> finite = FinitePoints(points);
+  const std::vector<Eigen::Vector2d>* used = &finite;
+  std::vector<Eigen::Vector2d> spread;
+  if (finite.size() > kFastFitMaxPoints) {
+    const size_t stride = (finite.size() + kFastFitMaxPoints - 1) / kFastFitMaxPoints;
+    spread.reserve(finite.size() / stride + 1);
+    for (size_t i = 0; i < finite.size(); i += stride) spread.push_back(finite[i]);
+    used = &spread;
+  }
+  if (std::optional<Ellipse> ams = FitEllipseOpenCv(*used, 1, 1)) return ams;
+  return FitEllipseOpenCv(finite, 0, 2);
 }
 
 void GeometricFitOptions::Check() const {

@@ -280,25 +280,30 @@ TEST(FitEllipseDirect, RecoversRotatedEllipseFromNoisyHalfArc) {
 }
 
 TEST(FitEllipseFast, RecoversFullRimToAThousandthAndNoisyHalfArcLikeTheDirectFit) {
-  // Noise-free full rims: the header promises ~1e-3 of the size (one float AMS fit).
+  // Noise-free full rims: the header promises ~1e-3 of the size (one float AMS fit), with all
+  // points and with more than kFastFitMaxPoints (AMS then sees an even subset).
   std::mt19937 rng(1);
-  for (const Ellipse& truth : TestEllipses()) {
-    const std::vector<Eigen::Vector2d> points = SampleArc(truth, 0.0, 2.0 * kPi, 100, 0.0, &rng);
-    const std::optional<Ellipse> fit = FitEllipseFast(points);
-    ASSERT_TRUE(fit.has_value());
-    const double tolerance = 1e-3 * truth.semi_major;
-    EXPECT_LT((fit->center - truth.center).norm(), tolerance);
-    EXPECT_NEAR(fit->semi_major, truth.semi_major, tolerance);
-    EXPECT_NEAR(fit->semi_minor, truth.semi_minor, tolerance);
+  for (const int count : {100, 1000}) {
+    for (const Ellipse& truth : TestEllipses()) {
+      const std::vector<Eigen::Vector2d> points =
+          SampleArc(truth, 0.0, 2.0 * kPi, count, 0.0, &rng);
+      const std::optional<Ellipse> fit = FitEllipseFast(points);
+      ASSERT_TRUE(fit.has_value());
+      const double tolerance = 1e-3 * truth.semi_major;
+      EXPECT_LT((fit->center - truth.center).norm(), tolerance) << count << " points";
+      EXPECT_NEAR(fit->semi_major, truth.semi_major, tolerance) << count << " points";
+      EXPECT_NEAR(fit->semi_minor, truth.semi_minor, tolerance) << count << " points";
+    }
   }
-  // A noisy half arc (as the direct-fit test: 0.3 px noise, 3-sigma centre bound 0.5 px).
+  // A noisy half arc of 400 points (0.3 px noise). AMS sees every 4th: 100 points, whose
+  // 3-sigma centre bound is 1.0 px (the direct-fit test's 0.5 px for 400 points, x sqrt(4)).
   const Ellipse truth{{312.4, -87.6}, 60.0, 40.0, 2.2};
   for (unsigned seed = 1; seed <= 10; ++seed) {
     std::mt19937 noise(seed);
     const std::vector<Eigen::Vector2d> points = SampleArc(truth, 0.3, 0.3 + kPi, 400, 0.3, &noise);
     const std::optional<Ellipse> fit = FitEllipseFast(points);
     ASSERT_TRUE(fit.has_value());
-    EXPECT_LT((fit->center - truth.center).norm(), 0.5) << "seed " << seed;
+    EXPECT_LT((fit->center - truth.center).norm(), 1.0) << "seed " << seed;
     EXPECT_NEAR(fit->semi_major / truth.semi_major, 1.0, 0.02) << "seed " << seed;
     EXPECT_NEAR(fit->semi_minor / truth.semi_minor, 1.0, 0.02) << "seed " << seed;
   }

@@ -43,8 +43,12 @@ std::optional<Ellipse> FitEllipseDirect(const std::vector<Eigen::Vector2d>& poin
 
 // One algebraic fit (cv::fitEllipseAMS) instead of FitEllipseDirect's comparison of three:
 // about 3x cheaper, accurate to ~1e-3 of the size on near-exact points, for screening
-// hypotheses whose final fit is geometric. Falls back to FitEllipseDirect when AMS gives no
-// proper ellipse. Same frame, scaling, determinism and failure rules as FitEllipseDirect.
+// hypotheses whose final fit is geometric. AMS sees at most kFastFitMaxPoints of the finite
+// points, evenly spread along their order (beyond ~160 OpenCV 4.6 silently swaps AMS for its
+// unconstrained fit at ~7x the cost). Falls back to FitEllipseDirect on all points when AMS
+// gives no proper ellipse. Same frame, scaling, determinism and failure rules as
+// FitEllipseDirect.
+constexpr size_t kFastFitMaxPoints = 128;
 std::optional<Ellipse> FitEllipseFast(const std::vector<Eigen::Vector2d>& points);
 
 enum class RobustLoss {
