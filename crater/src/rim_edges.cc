@@ -67,7 +67,20 @@ double UsableMax(const cv::Mat& m, const UsableArea& usable) {
   if (!usable.mask.empty()) {
     cv::minMaxLoc(m, nullptr, &max_value, nullptr, nullptr, usable.mask);
   } else if (!usable.interior.empty()) {
-    cv::minMaxLoc(m(usable.interior), nullptr, &max_value);
+    // cv::minMaxLoc's value without its location bookkeeping, in OpenCV's vector registers.
+    const cv::Mat interior = m(usable.interior);
+    const float lowest = -std::numeric_limits<float>::infinity();
+    cv::v_float32 lanes = cv::vx_setall_f32(lowest);
+    float tail = lowest;
+    for (int r = 0; r < interior.rows; ++r) {
+      const float* v = interior.ptr<float>(r);
+      int c = 0;
+      for (; c + cv::v_float32::nlanes <= interior.cols; c += cv::v_float32::nlanes) {
+        lanes = cv::v_max(lanes, cv::vx_load(v + c));
+      }
+      for (; c < interior.cols; ++c) tail = std::max(tail, v[c]);
+    }
+    max_value = std::max(cv::v_reduce_max(lanes), tail);
   }
   return max_value;
 }
