@@ -5,12 +5,15 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <random>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "areomap/crater/crater_model.h"
 #include "areomap/crater/crater_score.h"
 #include "areomap/crater/ellipse_fit.h"
+#include "areomap/crater/rim_edges.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "crater_scene.h"
@@ -56,6 +59,44 @@ const CraterScene& FieldScene() {
     return MakeCraterScene(s, o, 1.0);
   }();
   return scene;
+}
+
+TEST(DetectImageEdges, HysteresisThresholdsAreTheStrengthQuantilesExactly) {
+  // The header's rule, recomputed here with std::nth_element on the same samples (every 3rd
+  // pixel of every 3rd row, at least 2 px inside the border) of the same smoothed gradient
+  // magnitude. A flat half makes a third of the samples exactly zero.
+  std::mt19937 rng(11);
+  std::normal_distribution<float> noise(0.0f, 5.0f);
+  cv::Mat image(203, 301, CV_32F);
+  for (int r = 0; r < image.rows; ++r) {
+    for (int c = 0; c < image.cols; ++c) {
+      image.at<float>(r, c) = c < 150 ? 100.0f : 100.0f + noise(rng) + 0.3f * static_cast<float>(r);
+    }
+  }
+  const EdgeOptions options;
+  const RimEdges edges = DetectImageEdges(image, options);
+  cv::Mat smooth, gx, gy, magnitude;
+  cv::GaussianBlur(image, smooth, cv::Size(), options.smoothing_sigma_px);
+  cv::Sobel(smooth, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(smooth, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  cv::magnitude(gx, gy, magnitude);
+  std::vector<float> samples;
+  for (int r = 3; r < image.rows - 2; r += 3) {
+    for (int c = 3; c < image.cols - 2; c += 3) samples.push_back(magnitude.at<float>(r, c));
+  }
+  const auto quantile = [&](double q) {
+    std::vector<float> v = samples;
+    const auto it = v.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(v.size() - 1));
+    std::nth_element(v.begin(), it, v.end());
+    return static_cast<double>(*it);
+  };
+  ASSERT_GT(std::count(samples.begin(), samples.end(), 0.0f), 0);
+  const double high =
+      std::max(quantile(options.high_quantile),
+               options.noise_factor * quantile(0.5) / std::sqrt(2.0 * std::log(2.0)));
+  EXPECT_EQ(edges.high_threshold, high);
+  EXPECT_EQ(edges.low_threshold, options.low_ratio * high);
+  EXPECT_FALSE(edges.points.empty());
 }
 
 TEST(DetectCraters, FindsGeneratedCratersWithSubPixelAccuracy) {
