@@ -453,35 +453,43 @@ TEST(RefineEllipseGeometric, CircleHasUnobservableAngle) {
   EXPECT_TRUE(std::isfinite(s.center_x_sigma));
 }
 
+// One point's orthogonal distance as its own Ceres residual block (the robust loss, if any, on
+// the block): the textbook formulation the fit's single block must agree with.
+class Distance : public ceres::SizedCostFunction<1, 4, 1> {
+ public:
+  explicit Distance(const Eigen::Vector2d& p) : p_(p) {}
+  bool Evaluate(double const* const* x, double* residual, double** jacobians) const override {
+    const Ellipse at{{x[0][0], x[0][1]}, x[0][2], x[0][3], x[1][0]};
+    if (!(at.semi_major > 0.0 && at.semi_minor > 0.0)) return false;
+    Eigen::Matrix<double, 5, 1> g;
+    residual[0] = at.SignedDistanceWithGradient(p_, &g);
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      for (int i = 0; i < 4; ++i) jacobians[0][i] = g(i);
+    }
+    if (jacobians != nullptr && jacobians[1] != nullptr) jacobians[1][0] = g(4);
+    return std::isfinite(residual[0]);
+  }
+
+ private:
+  Eigen::Vector2d p_;
+};
+
+ceres::LossFunction* NewLoss(const GeometricFitOptions& options) {
+  if (options.loss == RobustLoss::kHuber) return new ceres::HuberLoss(options.loss_scale);
+  if (options.loss == RobustLoss::kCauchy) return new ceres::CauchyLoss(options.loss_scale);
+  return nullptr;
+}
+
 // Ceres' own covariance of the fit at `e` (DENSE_SVD, the fit's robust loss), scaled by sigma0^2
 // as RefineEllipseGeometric scales its own: the reference the summary's covariance must match.
 // With `hold_angle` the angle block is held constant (angle row and column NaN).
 std::optional<Eigen::Matrix<double, 5, 5>> CeresCovariance(
     const Ellipse& e, const std::vector<Eigen::Vector2d>& points,
     const GeometricFitOptions& options, double sigma0, bool hold_angle) {
-  class Distance : public ceres::SizedCostFunction<1, 4, 1> {
-   public:
-    explicit Distance(const Eigen::Vector2d& p) : p_(p) {}
-    bool Evaluate(double const* const* x, double* residual, double** jacobians) const override {
-      const Ellipse at{{x[0][0], x[0][1]}, x[0][2], x[0][3], x[1][0]};
-      Eigen::Matrix<double, 5, 1> g;
-      residual[0] = at.SignedDistanceWithGradient(p_, &g);
-      if (jacobians != nullptr && jacobians[0] != nullptr) {
-        for (int i = 0; i < 4; ++i) jacobians[0][i] = g(i);
-      }
-      if (jacobians != nullptr && jacobians[1] != nullptr) jacobians[1][0] = g(4);
-      return std::isfinite(residual[0]);
-    }
-
-   private:
-    Eigen::Vector2d p_;
-  };
   double shape[4] = {e.center.x(), e.center.y(), e.semi_major, e.semi_minor};
   double angle[1] = {e.angle};
   ceres::Problem problem;
-  ceres::LossFunction* loss = nullptr;  // owned by the problem
-  if (options.loss == RobustLoss::kHuber) loss = new ceres::HuberLoss(options.loss_scale);
-  if (options.loss == RobustLoss::kCauchy) loss = new ceres::CauchyLoss(options.loss_scale);
+  ceres::LossFunction* loss = NewLoss(options);  // owned by the problem
   for (const Eigen::Vector2d& p : points) {
     problem.AddResidualBlock(new Distance(p), loss, shape, angle);
   }
@@ -570,6 +578,55 @@ TEST(RefineEllipseGeometric, CovarianceEqualsCeresDenseSvdCovariance) {
     SCOPED_TRACE("circle: angle held, its variance +inf");
     ExpectCovarianceEqualsCeres({{10.0, 20.0}, 15.0, 15.0, 0.0}, 0.0, 2.0 * kPi, 0.0, 0,
                                 RobustLoss::kHuber, 0.7, {{11.0, 19.0}, 16.0, 14.5, 0.4}, &rng);
+  }
+}
+
+TEST(RefineEllipseGeometric, SameMinimumAsTheLossOnPerPointCeresBlocks) {
+  // The fit puts all points in one residual block with the loss applied inside; Ceres with the
+  // loss on one block per point minimises the same cost, so both must end at the same ellipse
+  // (to the tolerance both are stopped at) and the same cost, with and without clutter beyond
+  // the loss' scale.
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> clutter(-0.5, 0.5);
+  const Ellipse truth{{40.0, -25.0}, 24.0, 16.0, 0.7};
+  for (const RobustLoss loss : {RobustLoss::kNone, RobustLoss::kHuber, RobustLoss::kCauchy}) {
+    std::vector<Eigen::Vector2d> points = SampleArc(truth, 0.2, 4.8, 120, 0.3, &rng);
+    for (int i = 0; i < 15; ++i) {
+      points.push_back(truth.PointAt(2.5 + 4.0 * clutter(rng)) +
+                       Eigen::Vector2d(5.0 * clutter(rng), 5.0 * clutter(rng)));
+    }
+    GeometricFitOptions options;
+    options.loss = loss;
+    options.loss_scale = 0.7;
+    options.function_tolerance = options.parameter_tolerance = 1e-12;
+    const Ellipse start{{41.0, -24.0}, 22.5, 17.0, 0.6};
+    const EllipseFitSummary fit = RefineEllipseGeometric(start, points, options);
+    ASSERT_TRUE(fit.converged) << fit.BriefReport();
+
+    double shape[4] = {start.center.x(), start.center.y(), start.semi_major, start.semi_minor};
+    double angle[1] = {start.angle};
+    ceres::Problem problem;
+    ceres::LossFunction* reference_loss = NewLoss(options);  // owned by the problem
+    for (const Eigen::Vector2d& p : points) {
+      problem.AddResidualBlock(new Distance(p), reference_loss, shape, angle);
+    }
+    ceres::Solver::Options solver;
+    solver.linear_solver_type = ceres::DENSE_QR;
+    solver.function_tolerance = solver.parameter_tolerance = solver.gradient_tolerance = 1e-14;
+    solver.max_num_iterations = 200;
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, &problem, &summary);
+    ASSERT_EQ(summary.termination_type, ceres::CONVERGENCE) << summary.BriefReport();
+    const Ellipse reference =
+        Ellipse{{shape[0], shape[1]}, shape[2], shape[3], angle[0]}.Normalized();
+    SCOPED_TRACE(static_cast<int>(loss));
+    EXPECT_NEAR(fit.ellipse.center.x(), reference.center.x(), 1e-6);
+    EXPECT_NEAR(fit.ellipse.center.y(), reference.center.y(), 1e-6);
+    EXPECT_NEAR(fit.ellipse.semi_major, reference.semi_major, 1e-6);
+    EXPECT_NEAR(fit.ellipse.semi_minor, reference.semi_minor, 1e-6);
+    EXPECT_NEAR(fit.ellipse.angle, reference.angle, 1e-7);
+    const double dof = static_cast<double>(points.size()) - 5.0;
+    EXPECT_NEAR(fit.sigma0, std::sqrt(2.0 * summary.final_cost / dof), 1e-9);
   }
 }
 

@@ -107,10 +107,12 @@ struct EllipseFitSummary {
 // where d_k is the exact orthogonal distance of point k to the current ellipse
 // (Ellipse::SignedDistance) and rho the chosen robust loss. The Jacobian is analytic
 // (Ellipse::SignedDistanceGradient, exact by the envelope theorem), so each point costs one
-// distance solve per evaluation. Needs >= 5 finite points (non-finite ones are ignored) and an
-// initial ellipse with positive finite axes, e.g. from FitEllipseDirect; otherwise returns
-// converged = false, the initial ellipse and a message. Throws areomap::Error only for invalid
-// options.
+// distance solve per evaluation. All points form one Ceres residual block, the loss applied
+// inside it as residuals sign(d) sqrt(rho(d^2)) (the same cost and gradient as the loss on
+// per-point blocks, at a fraction of Ceres' per-block overhead). Needs >= 5 finite points
+// (non-finite ones are ignored) and an initial ellipse with positive finite axes, e.g. from
+// FitEllipseDirect; otherwise returns converged = false, the initial ellipse and a message. Throws
+// areomap::Error only for invalid options.
 EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
                                          const std::vector<Eigen::Vector2d>& points,
                                          const GeometricFitOptions& options = {});
