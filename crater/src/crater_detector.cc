@@ -76,15 +76,15 @@ int SectorOf(const RimEdgePoint& p, bool signed_normals) {
   return std::clamp(s, 0, kSectors - 1);
 }
 
-std::optional<Arc> FitArc(const RimEdges& edges, const std::vector<int>& members, double r_lo,
-                          double r_hi, const std::optional<Eigen::Vector2d>& sun) {
+std::optional<Arc> FitArc(const std::vector<RimEdgePoint>& points, const std::vector<int>& members,
+                          double r_lo, double r_hi, const std::optional<Eigen::Vector2d>& sun) {
   Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
   Eigen::Vector2d b = Eigen::Vector2d::Zero();
   for (int i : members) {
-    const Eigen::Vector2d n = Normal(edges.points[i]);
+    const Eigen::Vector2d n = Normal(points[i]);
     const Eigen::Matrix2d projector = Eigen::Matrix2d::Identity() - n * n.transpose();
     a += projector;
-    b += projector * Pos(edges.points[i]);
+    b += projector * Pos(points[i]);
   }
   const double count = static_cast<double>(members.size());
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(a);
@@ -94,12 +94,12 @@ std::optional<Arc> FitArc(const RimEdges& edges, const std::vector<int>& members
   double sum = 0.0, sum2 = 0.0, radial = 0.0;
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
   for (int i : members) {
-    const Eigen::Vector2d d = Pos(edges.points[i]) - arc.center;
+    const Eigen::Vector2d d = Pos(points[i]) - arc.center;
     const double r = d.norm();
     sum += r;
     sum2 += r * r;
-    radial += r > 0.0 ? Normal(edges.points[i]).dot(d) / r : 0.0;
-    mean += Pos(edges.points[i]);
+    radial += r > 0.0 ? Normal(points[i]).dot(d) / r : 0.0;
+    mean += Pos(points[i]);
   }
   arc.radius = sum / count;
   const double spread = std::sqrt(std::max(0.0, sum2 / count - arc.radius * arc.radius));
@@ -116,16 +116,44 @@ std::optional<Arc> FitArc(const RimEdges& edges, const std::vector<int>& members
   return arc;
 }
 
-// 8-neighbour adjacency of the arc-building edge points (those with a direction window, `windows`
-// non-zero) in compressed rows: the neighbours of point i are neighbours[offsets[i] ..
-// offsets[i + 1]). Built once, shared by the 12 direction windows.
+// The arc-building edge points (those at least `min_strength` strong), compacted: their points,
+// their indices among all edges, and their pixel rows as compressed rows (`row_start`, one
+// entry per raster row + 1; `column` per point). Compact arrays keep the 12 flood fills below
+// in cache: about half of the edges are weaker and never join an arc.
+struct ArcEdges {
+  std::vector<RimEdgePoint> points;
+  std::vector<int> index;
+  std::vector<int> row_start;
+  std::vector<int> column;
+};
+
+ArcEdges SelectArcEdges(const RimEdges& edges, double min_strength) {
+  ArcEdges out;
+  out.row_start.assign(static_cast<size_t>(edges.rows) + 1, 0);
+  for (int r = 0; r < edges.rows; ++r) {
+    for (int i = edges.row_start[static_cast<size_t>(r)];
+         i < edges.row_start[static_cast<size_t>(r) + 1]; ++i) {
+      if (edges.points[static_cast<size_t>(i)].strength < min_strength) continue;
+      out.points.push_back(edges.points[static_cast<size_t>(i)]);
+      out.index.push_back(i);
+      out.column.push_back(edges.column[static_cast<size_t>(i)]);
+    }
+    out.row_start[static_cast<size_t>(r) + 1] = static_cast<int>(out.points.size());
+  }
+  return out;
+}
+
+// 8-neighbour adjacency of the arc edges in compressed rows: the neighbours of point i are
+// neighbours[offsets[i] .. offsets[i + 1]), in the order above row, left, right, below row.
+// Built once, shared by the 12 direction windows.
 struct EdgeAdjacency {
   std::vector<int> offsets;
   std::vector<int> neighbours;
 };
 
-EdgeAdjacency BuildAdjacency(const RimEdges& edges, const std::vector<uint16_t>& windows) {
+EdgeAdjacency BuildAdjacency(const ArcEdges& edges) {
   const int n = static_cast<int>(edges.points.size());
+  const int rows = static_cast<int>(edges.row_start.size()) - 1;
   EdgeAdjacency adjacency;
   adjacency.offsets.resize(static_cast<size_t>(n) + 1);
   adjacency.neighbours.reserve(static_cast<size_t>(n) * 2);
@@ -133,9 +161,7 @@ EdgeAdjacency BuildAdjacency(const RimEdges& edges, const std::vector<uint16_t>&
   // advance monotonically (one cursor each), the row's own neighbours are i - 1 and i + 1.
   const std::vector<int>& start = edges.row_start;
   const std::vector<int>& column = edges.column;
-  const auto add = [&](int j) {
-    if (windows[static_cast<size_t>(j)] != 0) adjacency.neighbours.push_back(j);
-  };
+  const auto add = [&](int j) { adjacency.neighbours.push_back(j); };
   int row = 0, above = 0, below = n > 0 ? start[1] : 0;
   for (int i = 0; i < n; ++i) {
     adjacency.offsets[static_cast<size_t>(i)] = static_cast<int>(adjacency.neighbours.size());
@@ -144,11 +170,10 @@ EdgeAdjacency BuildAdjacency(const RimEdges& edges, const std::vector<uint16_t>&
       above = row > 0 ? start[static_cast<size_t>(row) - 1] : 0;
       below = start[static_cast<size_t>(row) + 1];
     }
-    if (windows[static_cast<size_t>(i)] == 0) continue;
     const int col = column[static_cast<size_t>(i)];
     const int row_begin = start[static_cast<size_t>(row)];
     const int row_end = start[static_cast<size_t>(row) + 1];
-    const int below_end = row + 1 < edges.rows ? start[static_cast<size_t>(row) + 2] : row_end;
+    const int below_end = row + 1 < rows ? start[static_cast<size_t>(row) + 2] : row_end;
     while (above < row_begin && column[static_cast<size_t>(above)] < col - 1) ++above;
     for (int j = above; j < row_begin && column[static_cast<size_t>(j)] <= col + 1; ++j) add(j);
     if (i > row_begin && column[static_cast<size_t>(i) - 1] == col - 1) add(i - 1);
@@ -162,16 +187,16 @@ EdgeAdjacency BuildAdjacency(const RimEdges& edges, const std::vector<uint16_t>&
 
 // Arcs from the edges at least `min_strength` strong (weaker edges still count as rim support
 // when hypotheses are fitted, GatherSupport).
-std::vector<Arc> ExtractArcs(const RimEdges& edges, double r_lo, double r_hi,
+std::vector<Arc> ExtractArcs(const RimEdges& all_edges, double r_lo, double r_hi,
                              const std::optional<Eigen::Vector2d>& sun, double min_strength) {
+  const ArcEdges edges = SelectArcEdges(all_edges, min_strength);
   const int n = static_cast<int>(edges.points.size());
-  // Per edge: a bit for each of the kSectors direction windows holding its normal (none for an
-  // excluded edge), and per window the edges in it in index order (the seed order).
+  // Per edge: a bit for each of the kSectors direction windows holding its normal, and per
+  // window the edges in it in index order (the seed order).
   std::vector<uint16_t> windows(static_cast<size_t>(n), 0);
   std::vector<std::vector<int>> members_of(kSectors);
   for (int i = 0; i < n; ++i) {
-    if (edges.points[i].strength < min_strength) continue;
-    const int s = SectorOf(edges.points[i], edges.signed_normals);
+    const int s = SectorOf(edges.points[i], all_edges.signed_normals);
     for (int k = 0; k < kArcWindow; ++k) {
       const int window = (s - k + kSectors) % kSectors;
       windows[i] = static_cast<uint16_t>(windows[i] | (1u << window));
@@ -182,7 +207,7 @@ std::vector<Arc> ExtractArcs(const RimEdges& edges, double r_lo, double r_hi,
       members_of[static_cast<size_t>(std::countr_zero(bits))].push_back(i);
     }
   }
-  const EdgeAdjacency adjacency = BuildAdjacency(edges, windows);
+  const EdgeAdjacency adjacency = BuildAdjacency(edges);
   std::vector<std::vector<Arc>> per_window(kSectors);
   tbb::parallel_for(0, kSectors, [&](int window) {
     const uint16_t bit = static_cast<uint16_t>(1u << window);
@@ -208,7 +233,8 @@ std::vector<Arc> ExtractArcs(const RimEdges& edges, double r_lo, double r_hi,
         }
       }
       if (static_cast<int>(members.size()) < kMinArcPoints) continue;
-      if (auto arc = FitArc(edges, members, r_lo, r_hi, sun)) {
+      if (auto arc = FitArc(edges.points, members, r_lo, r_hi, sun)) {
+        for (int& i : arc->points) i = edges.index[static_cast<size_t>(i)];  // all_edges' indices
         per_window[window].push_back(std::move(*arc));
       }
     }
