@@ -124,6 +124,27 @@ TEST(DetectCratersInRaster, TilesAndOverviewFindSmallAndLargeCraters) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(DetectCratersInRaster, CancellingStopsWithAnErrorAtAnyTile) {
+  // 3 x 3 tiles and an overview: cancelled at the first tile, and at the last one, when every
+  // tile has been read and the overview's detection may already be running beside the tiles.
+  const auto dir = std::filesystem::temp_directory_path() / "areomap_crater_cancel_test";
+  const RasterDataset dataset =
+      WritePlainGeoTiff(dir / "bowls.tif", DrawBowls(1100, {{{550.0, 550.0}, 240.0}}));
+  const CraterDetectorOptions options = SmallTileOptions();
+  for (const int stop_at : {1, 9}) {
+    int calls = 0;
+    try {
+      DetectCratersInRaster(dataset, RimSource::kImage, options,
+                            [&](double, std::string_view) { return ++calls < stop_at; });
+      ADD_FAILURE() << "not cancelled at progress call " << stop_at;
+    } catch (const Error& error) {
+      EXPECT_NE(std::string(error.what()).find("cancelled"), std::string::npos) << error.what();
+    }
+    EXPECT_GE(calls, stop_at);
+  }
+  std::filesystem::remove_all(dir);
+}
+
 TEST(DetectCratersInRaster, CratersOnTileSeamsAreFoundOnceAsOnTheWholeRaster) {
   // Tile cores of 400 px: seams at 400 and 800. Craters centred a few pixels either side of a
   // seam are kept by exactly one tile (each tile fits only what may end in its core); their
