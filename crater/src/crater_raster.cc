@@ -8,7 +8,6 @@
 #include <utility>
 
 #include <tbb/parallel_for.h>
-#include <tbb/task_group.h>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
@@ -89,30 +88,10 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
   const bool overview_from_tiles = need_overview && run_tiles && o.tile_size % factor == 0;
   cv::Mat overview;
   if (overview_from_tiles) overview = cv::Mat(height / factor, width / factor, CV_32F);
-  CraterDetectorOptions overview_options = o;
-  overview_options.min_diameter_px = std::max(4.0, 0.9 * tile_max_diameter / factor);
-  overview_options.max_diameter_px = o.max_diameter_px == 0.0 ? 0.0 : o.max_diameter_px / factor;
-  if (overview_options.max_diameter_px != 0.0 &&
-      overview_options.max_diameter_px < overview_options.min_diameter_px) {
-    overview_options.max_diameter_px = overview_options.min_diameter_px;
-  }
-  // Each overview crater is re-fitted below at the finest resolution that fits a tile.
-  overview_options.refine_to_full_resolution = false;
-  std::vector<CraterDetection> big;
-  // The overview is complete once every tile has been read, while the last tiles are still
-  // being searched: its detection then runs beside them instead of after them (the same
-  // result; a core left idle at the end otherwise). It uses no tile's edge scratch: TBB may
-  // run it on a thread that is waiting inside a tile.
-  tbb::task_group overview_task;
-  std::atomic<int> tiles_unread{tile_count};
-  const auto detect_overview = [&] {
-    const internal::UseEdgeScratch no_scratch(nullptr);
-    big = DetectCraters(overview, source, overview_options);
-  };
   if (run_tiles) {
     // Edge detection temporaries, reused by consecutive tiles (edge_scratch.h).
     internal::EdgeScratchPool scratch_pool(static_cast<size_t>(padded) * padded);
-    const auto detect_tile = [&](int t) {
+    tbb::parallel_for(0, tile_count, [&](int t) {
       if (cancelled) return;
       const int tx = t % tiles_x, ty = t / tiles_x;
       const int core_c0 = tx * o.tile_size, core_r0 = ty * o.tile_size;
@@ -139,7 +118,6 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
           cv::resize(core, small, cv::Size(out_w, out_h), 0, 0, cv::INTER_AREA);
           small.copyTo(overview(cv::Rect(out_c0, out_r0, out_w, out_h)));  // disjoint per tile
         }
-        if (--tiles_unread == 0) overview_task.run(detect_overview);
       }
       std::unique_ptr<internal::EdgeScratch> scratch = scratch_pool.Acquire();
       std::vector<CraterDetection> found;
@@ -154,25 +132,21 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
       for (const CraterDetection& d : found) all.push_back(Shifted(d, c0, r0, 1.0));
       const double fraction = (1.0 - overview_share) * (++done) / static_cast<double>(tile_count);
       if (progress && !progress(fraction, "craters: tiles")) cancelled = true;
-    };
-    try {
-      tbb::parallel_for(0, tile_count, detect_tile);
-    } catch (...) {
-      // The tiles' error is the one reported; the overview task is only waited for.
-      try {
-        overview_task.wait();
-      } catch (...) {
-      }
-      throw;
-    }
-    overview_task.wait();
+    });
     if (cancelled) throw Error("crater detection cancelled");
   }
   if (need_overview) {
-    if (!overview_from_tiles) {
-      overview = ReadDecimated(dataset, dataset.FullWindow(), factor);
-      detect_overview();
+    if (!overview_from_tiles) overview = ReadDecimated(dataset, dataset.FullWindow(), factor);
+    CraterDetectorOptions overview_options = o;
+    overview_options.min_diameter_px = std::max(4.0, 0.9 * tile_max_diameter / factor);
+    overview_options.max_diameter_px = o.max_diameter_px == 0.0 ? 0.0 : o.max_diameter_px / factor;
+    if (overview_options.max_diameter_px != 0.0 &&
+        overview_options.max_diameter_px < overview_options.min_diameter_px) {
+      overview_options.max_diameter_px = overview_options.min_diameter_px;
     }
+    // Each overview crater is re-fitted below at the finest resolution that fits a tile.
+    overview_options.refine_to_full_resolution = false;
+    const std::vector<CraterDetection> big = DetectCraters(overview, source, overview_options);
     for (const CraterDetection& coarse : big) {
       CraterDetection d = Shifted(coarse, 0.0, 0.0, factor);
       // Re-fit on a window around the rim at the finest resolution that fits a padded tile.

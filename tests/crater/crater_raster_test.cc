@@ -126,7 +126,7 @@ TEST(DetectCratersInRaster, TilesAndOverviewFindSmallAndLargeCraters) {
 
 TEST(DetectCratersInRaster, CancellingStopsWithAnErrorAtAnyTile) {
   // 3 x 3 tiles and an overview: cancelled at the first tile, and at the last one, when every
-  // tile has been read and the overview's detection may already be running beside the tiles.
+  // tile has been searched and the overview has not.
   const auto dir = std::filesystem::temp_directory_path() / "areomap_crater_cancel_test";
   const RasterDataset dataset =
       WritePlainGeoTiff(dir / "bowls.tif", DrawBowls(1100, {{{550.0, 550.0}, 240.0}}));
