@@ -3,6 +3,12 @@
 // (default 4000 1 1; UPSAMPLE 0 skips the 2x upsampled level for craters under 16 px, SHADING 0
 // the bowl-shading template hypotheses).
 //
+// For profiling the detection alone (callgrind, perf, alternated runs of two builds on the same
+// file):
+//   areomap_bench_crater write SIZE_PX PATH   the tile as a GeoTIFF at PATH, truth at PATH.csv
+//   areomap_bench_crater detect PATH [RUNS]   DetectCratersInRaster on PATH (upsampled level and
+//                                             templates off), scored against PATH.csv if present
+//
 // The tile holds bowls lit from the east (bright western wall, dark eastern wall, sharp rim,
 // 12-120 px across, log-uniform) on a textured plain with noise; truth is exact. areomap runs end
 // to end from a GeoTIFF on disk (tiled windowed reads, TBB over tiles); HoughCircles gets the
@@ -12,6 +18,7 @@
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
+#include <fstream>
 #include <random>
 #include <string>
 
@@ -71,7 +78,72 @@ double CpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC;
 
 }  // namespace
 
+// The bench's detector options; `upsample` and `shading` as the command line says.
+areomap::CraterDetectorOptions BenchOptions(bool upsample, bool shading) {
+  areomap::CraterDetectorOptions options;
+  options.sun_azimuth_deg = 90.0;
+  options.min_diameter_px = 10.0;
+  options.upsample_small_craters = upsample;
+  options.shading_template.enabled = shading;
+  return options;
+}
+
+const std::vector<double> kBins = {12.0, 24.0, 48.0, 1e9};
+
+int WriteTile(int size, const std::filesystem::path& path) {
+  std::vector<CraterCircle> truth;
+  areomap::GeoRaster raster;
+  raster.bands = {DrawScene(size, &truth)};
+  areomap::WriteGeoTiff(path, raster);
+  std::ofstream csv(path.string() + ".csv");
+  csv.precision(17);
+  csv << "x_px,y_px,diameter_px\n";
+  for (const CraterCircle& c : truth) {
+    csv << c.center.x() << ',' << c.center.y() << ',' << c.diameter << '\n';
+  }
+  std::printf("wrote %s (%d x %d px, %zu craters) and %s.csv\n", path.c_str(), size, size,
+              truth.size(), path.c_str());
+  return csv ? 0 : 1;
+}
+
+int DetectOnly(const std::filesystem::path& path, int runs) {
+  const std::filesystem::path truth_path = path.string() + ".csv";
+  const bool scored = std::filesystem::exists(truth_path);
+  const std::vector<CraterCircle> truth =
+      scored ? areomap::ReadCraterCsv(truth_path) : std::vector<CraterCircle>{};
+  for (int run = 0; run < runs; ++run) {
+    const double cpu_start = CpuSeconds();
+    const auto start = std::chrono::steady_clock::now();
+    const areomap::RasterDataset dataset = areomap::RasterDataset::Open(path);
+    const auto found = areomap::DetectCratersInRaster(dataset, areomap::RimSource::kImage,
+                                                      BenchOptions(false, false));
+    const double wall = Seconds(start), cpu = CpuSeconds() - cpu_start;
+    const double megapixels =
+        static_cast<double>(dataset.info().width) * dataset.info().height / 1e6;
+    std::printf("detect %s: wall %.3f s, cpu %.3f s, %.2f MP/s, %zu craters", path.c_str(), wall,
+                cpu, megapixels / wall, found.size());
+    if (scored) {
+      std::vector<CraterCircle> ours;
+      for (const auto& d : found) ours.push_back({d.ellipse.center, d.Diameter()});
+      const auto score = areomap::ScoreCraters(truth, ours, kBins);
+      std::printf(", P %.4f R %.4f F1 %.4f", score.all.precision, score.all.recall, score.all.f1);
+    }
+    std::printf("\n");
+  }
+  return 0;
+}
+
 int main(int argc, char** argv) {
+  const std::string mode = argc > 1 ? argv[1] : "";
+  try {
+    if (mode == "write" && argc == 4) return WriteTile(std::stoi(argv[2]), argv[3]);
+    if (mode == "detect" && (argc == 3 || argc == 4)) {
+      return DetectOnly(argv[2], argc == 4 ? std::stoi(argv[3]) : 1);
+    }
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "areomap_bench_crater %s: %s\n", mode.c_str(), error.what());
+    return 1;
+  }
   const int size = argc > 1 ? std::stoi(argv[1]) : 4000;
   std::vector<CraterCircle> truth;
   const cv::Mat image = DrawScene(size, &truth);
@@ -80,22 +152,18 @@ int main(int argc, char** argv) {
   raster.bands = {image};
   areomap::WriteGeoTiff(path, raster);
   const double megapixels = static_cast<double>(size) * size / 1e6;
-  const std::vector<double> bins = {12.0, 24.0, 48.0, 1e9};
 
   double cpu_start = CpuSeconds();
   auto start = std::chrono::steady_clock::now();
   const areomap::RasterDataset dataset = areomap::RasterDataset::Open(path);
-  areomap::CraterDetectorOptions options;
-  options.sun_azimuth_deg = 90.0;
-  options.min_diameter_px = 10.0;
-  options.upsample_small_craters = argc > 2 ? std::stoi(argv[2]) != 0 : true;
-  options.shading_template.enabled = argc > 3 && std::stoi(argv[3]) != 0;
+  const areomap::CraterDetectorOptions options =
+      BenchOptions(argc > 2 ? std::stoi(argv[2]) != 0 : true, argc > 3 && std::stoi(argv[3]) != 0);
   const auto found = areomap::DetectCratersInRaster(dataset, areomap::RimSource::kImage, options);
   const double ours_s = Seconds(start);
   const double ours_cpu = CpuSeconds() - cpu_start;
   std::vector<CraterCircle> ours;
   for (const auto& d : found) ours.push_back({d.ellipse.center, d.Diameter()});
-  const auto ours_score = areomap::ScoreCraters(truth, ours, bins);
+  const auto ours_score = areomap::ScoreCraters(truth, ours, kBins);
 
   cv::Mat gray;
   cv::normalize(image, gray, 0, 255, cv::NORM_MINMAX, CV_8U);
@@ -112,7 +180,7 @@ int main(int argc, char** argv) {
     // OpenCV's pixel centres are integers; GDAL's are at +0.5.
     hough.push_back({{c[0] + 0.5, c[1] + 0.5}, 2.0 * c[2]});
   }
-  const auto hough_score = areomap::ScoreCraters(truth, hough, bins);
+  const auto hough_score = areomap::ScoreCraters(truth, hough, kBins);
 
   std::printf("crater bench: %d x %d px (%.1f MP), %zu true craters 12-120 px, %d threads\n", size,
               size, megapixels, truth.size(), tbb::info::default_concurrency());
