@@ -76,8 +76,6 @@ double Seconds(std::chrono::steady_clock::time_point start) {
 // time depends on their load, CPU time much less.
 double CpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
-}  // namespace
-
 // The bench's detector options; `upsample` and `shading` as the command line says.
 areomap::CraterDetectorOptions BenchOptions(bool upsample, bool shading) {
   areomap::CraterDetectorOptions options;
@@ -89,6 +87,14 @@ areomap::CraterDetectorOptions BenchOptions(bool upsample, bool shading) {
 }
 
 const std::vector<double> kBins = {12.0, 24.0, 48.0, 1e9};
+
+// Precision, recall and F1 of `found` against `truth` by the bench's diameter bins.
+areomap::CraterScore ScoreDetections(const std::vector<CraterCircle>& truth,
+                                     const std::vector<areomap::CraterDetection>& found) {
+  std::vector<CraterCircle> circles;
+  for (const auto& d : found) circles.push_back({d.ellipse.center, d.Diameter()});
+  return areomap::ScoreCraters(truth, circles, kBins);
+}
 
 int WriteTile(int size, const std::filesystem::path& path) {
   std::vector<CraterCircle> truth;
@@ -123,15 +129,15 @@ int DetectOnly(const std::filesystem::path& path, int runs) {
     std::printf("detect %s: wall %.3f s, cpu %.3f s, %.2f MP/s, %zu craters", path.c_str(), wall,
                 cpu, megapixels / wall, found.size());
     if (scored) {
-      std::vector<CraterCircle> ours;
-      for (const auto& d : found) ours.push_back({d.ellipse.center, d.Diameter()});
-      const auto score = areomap::ScoreCraters(truth, ours, kBins);
+      const auto score = ScoreDetections(truth, found);
       std::printf(", P %.4f R %.4f F1 %.4f", score.all.precision, score.all.recall, score.all.f1);
     }
     std::printf("\n");
   }
   return 0;
 }
+
+}  // namespace
 
 int main(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "";
@@ -161,9 +167,7 @@ int main(int argc, char** argv) {
   const auto found = areomap::DetectCratersInRaster(dataset, areomap::RimSource::kImage, options);
   const double ours_s = Seconds(start);
   const double ours_cpu = CpuSeconds() - cpu_start;
-  std::vector<CraterCircle> ours;
-  for (const auto& d : found) ours.push_back({d.ellipse.center, d.Diameter()});
-  const auto ours_score = areomap::ScoreCraters(truth, ours, kBins);
+  const auto ours_score = ScoreDetections(truth, found);
 
   cv::Mat gray;
   cv::normalize(image, gray, 0, 255, cv::NORM_MINMAX, CV_8U);
@@ -193,7 +197,7 @@ int main(int argc, char** argv) {
                 megapixels / wall, cpu, megapixels / cpu, score.all.precision, score.all.recall,
                 score.all.f1, count);
   };
-  row("areomap (tiled, disk)", ours_s, ours_cpu, ours_score, ours.size());
+  row("areomap (tiled, disk)", ours_s, ours_cpu, ours_score, found.size());
   row("cv::HoughCircles", hough_s, hough_cpu, hough_score, hough.size());
   std::printf("time ratio areomap / HoughCircles: wall %.2f, cpu %.2f\n", ours_s / hough_s,
               ours_cpu / hough_cpu);

@@ -161,7 +161,6 @@ EdgeAdjacency BuildAdjacency(const ArcEdges& edges) {
   // advance monotonically (one cursor each), the row's own neighbours are i - 1 and i + 1.
   const std::vector<int>& start = edges.row_start;
   const std::vector<int>& column = edges.column;
-  const auto add = [&](int j) { adjacency.neighbours.push_back(j); };
   int row = 0, above = 0, below = n > 0 ? start[1] : 0;
   for (int i = 0; i < n; ++i) {
     adjacency.offsets[static_cast<size_t>(i)] = static_cast<int>(adjacency.neighbours.size());
@@ -175,11 +174,15 @@ EdgeAdjacency BuildAdjacency(const ArcEdges& edges) {
     const int row_end = start[static_cast<size_t>(row) + 1];
     const int below_end = row + 1 < rows ? start[static_cast<size_t>(row) + 2] : row_end;
     while (above < row_begin && column[static_cast<size_t>(above)] < col - 1) ++above;
-    for (int j = above; j < row_begin && column[static_cast<size_t>(j)] <= col + 1; ++j) add(j);
-    if (i > row_begin && column[static_cast<size_t>(i) - 1] == col - 1) add(i - 1);
-    if (i + 1 < row_end && column[static_cast<size_t>(i) + 1] == col + 1) add(i + 1);
+    for (int j = above; j < row_begin && column[static_cast<size_t>(j)] <= col + 1; ++j)
+      adjacency.neighbours.push_back(j);
+    if (i > row_begin && column[static_cast<size_t>(i) - 1] == col - 1)
+      adjacency.neighbours.push_back(i - 1);
+    if (i + 1 < row_end && column[static_cast<size_t>(i) + 1] == col + 1)
+      adjacency.neighbours.push_back(i + 1);
     while (below < below_end && column[static_cast<size_t>(below)] < col - 1) ++below;
-    for (int j = below; j < below_end && column[static_cast<size_t>(j)] <= col + 1; ++j) add(j);
+    for (int j = below; j < below_end && column[static_cast<size_t>(j)] <= col + 1; ++j)
+      adjacency.neighbours.push_back(j);
   }
   adjacency.offsets[static_cast<size_t>(n)] = static_cast<int>(adjacency.neighbours.size());
   return adjacency;

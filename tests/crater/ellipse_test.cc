@@ -474,10 +474,17 @@ class Distance : public ceres::SizedCostFunction<1, 4, 1> {
   Eigen::Vector2d p_;
 };
 
-ceres::LossFunction* NewLoss(const GeometricFitOptions& options) {
-  if (options.loss == RobustLoss::kHuber) return new ceres::HuberLoss(options.loss_scale);
-  if (options.loss == RobustLoss::kCauchy) return new ceres::CauchyLoss(options.loss_scale);
-  return nullptr;
+// One Distance block per point on (shape, angle), all with the options' loss (owned by
+// `problem`).
+void AddPerPointBlocks(const std::vector<Eigen::Vector2d>& points,
+                       const GeometricFitOptions& options, double* shape, double* angle,
+                       ceres::Problem* problem) {
+  ceres::LossFunction* loss = nullptr;
+  if (options.loss == RobustLoss::kHuber) loss = new ceres::HuberLoss(options.loss_scale);
+  if (options.loss == RobustLoss::kCauchy) loss = new ceres::CauchyLoss(options.loss_scale);
+  for (const Eigen::Vector2d& p : points) {
+    problem->AddResidualBlock(new Distance(p), loss, shape, angle);
+  }
 }
 
 // Ceres' own covariance of the fit at `e` (DENSE_SVD, the fit's robust loss), scaled by sigma0^2
@@ -489,10 +496,7 @@ std::optional<Eigen::Matrix<double, 5, 5>> CeresCovariance(
   double shape[4] = {e.center.x(), e.center.y(), e.semi_major, e.semi_minor};
   double angle[1] = {e.angle};
   ceres::Problem problem;
-  ceres::LossFunction* loss = NewLoss(options);  // owned by the problem
-  for (const Eigen::Vector2d& p : points) {
-    problem.AddResidualBlock(new Distance(p), loss, shape, angle);
-  }
+  AddPerPointBlocks(points, options, shape, angle, &problem);
   if (hold_angle) problem.SetParameterBlockConstant(angle);
   ceres::Covariance::Options cov_options;
   cov_options.algorithm_type = ceres::DENSE_SVD;
@@ -606,10 +610,7 @@ TEST(RefineEllipseGeometric, SameMinimumAsTheLossOnPerPointCeresBlocks) {
     double shape[4] = {start.center.x(), start.center.y(), start.semi_major, start.semi_minor};
     double angle[1] = {start.angle};
     ceres::Problem problem;
-    ceres::LossFunction* reference_loss = NewLoss(options);  // owned by the problem
-    for (const Eigen::Vector2d& p : points) {
-      problem.AddResidualBlock(new Distance(p), reference_loss, shape, angle);
-    }
+    AddPerPointBlocks(points, options, shape, angle, &problem);
     ceres::Solver::Options solver;
     solver.linear_solver_type = ceres::DENSE_QR;
     solver.function_tolerance = solver.parameter_tolerance = solver.gradient_tolerance = 1e-14;
