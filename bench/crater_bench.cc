@@ -1,11 +1,15 @@
 // Crater detection speed and quality on a large generated tile, against OpenCV's HoughCircles on
-// the same image in the same run. Usage: areomap_bench_crater [SIZE_PX [UPSAMPLE [SHADING]]]
-// (default 4000 1 1; UPSAMPLE 0 skips the 2x upsampled level for craters under 16 px, SHADING 0
-// the bowl-shading template hypotheses).
+// the same image in the same run. Usage:
+//   areomap_bench_crater [SIZE_PX [UPSAMPLE [SHADING [SAMPLES]]]]
+// (default 4000 1 1 float32; UPSAMPLE 0 skips the 2x upsampled level for craters under 16 px,
+// SHADING 0 the bowl-shading template hypotheses; SAMPLES float32 or uint16, the GeoTIFF's sample
+// type: Float32 as areomap's own products, deflate with the floating-point predictor; UInt16 as
+// HiRISE or CTX images, deflate with horizontal differencing, the scene rounded to integers).
 //
 // For profiling the detection alone (callgrind, perf, alternated runs of two builds on the same
 // file):
-//   areomap_bench_crater write SIZE_PX PATH   the tile as a GeoTIFF at PATH, truth at PATH.csv
+//   areomap_bench_crater write SIZE_PX PATH [SAMPLES]   the tile as a GeoTIFF at PATH, truth at
+//                                                       PATH.csv
 //   areomap_bench_crater detect PATH [RUNS]   DetectCratersInRaster on PATH (upsampled level and
 //                                             templates off), scored against PATH.csv if present
 //
@@ -20,6 +24,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <stdexcept>
 #include <string>
 
 #include <tbb/info.h>
@@ -96,11 +101,23 @@ areomap::CraterScore ScoreDetections(const std::vector<CraterCircle>& truth,
   return areomap::ScoreCraters(truth, circles, kBins);
 }
 
-int WriteTile(int size, const std::filesystem::path& path) {
-  std::vector<CraterCircle> truth;
+// The GeoTIFF sample type named `samples` ("float32" or "uint16") as a cv::Mat depth.
+int SampleDepth(const std::string& samples) {
+  if (samples == "float32") return CV_32F;
+  if (samples == "uint16") return CV_16U;
+  throw std::invalid_argument("sample type '" + samples + "': expected float32 or uint16");
+}
+
+// Writes `image` as a GeoTIFF of sample depth `depth` (areomap's compression and predictors).
+void WriteScene(const cv::Mat& image, int depth, const std::filesystem::path& path) {
   areomap::GeoRaster raster;
-  raster.bands = {DrawScene(size, &truth)};
+  image.convertTo(raster.bands.emplace_back(), depth);  // rounded and saturated to integers
   areomap::WriteGeoTiff(path, raster);
+}
+
+int WriteTile(int size, const std::filesystem::path& path, int depth) {
+  std::vector<CraterCircle> truth;
+  WriteScene(DrawScene(size, &truth), depth, path);
   std::ofstream csv(path.string() + ".csv");
   csv.precision(17);
   csv << "x_px,y_px,diameter_px\n";
@@ -137,26 +154,14 @@ int DetectOnly(const std::filesystem::path& path, int runs) {
   return 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  const std::string mode = argc > 1 ? argv[1] : "";
-  try {
-    if (mode == "write" && argc == 4) return WriteTile(std::stoi(argv[2]), argv[3]);
-    if (mode == "detect" && (argc == 3 || argc == 4)) {
-      return DetectOnly(argv[2], argc == 4 ? std::stoi(argv[3]) : 1);
-    }
-  } catch (const std::exception& error) {
-    std::fprintf(stderr, "areomap_bench_crater %s: %s\n", mode.c_str(), error.what());
-    return 1;
-  }
+// The default mode: areomap and HoughCircles on one generated tile (usage at the top).
+int CompareWithHough(int argc, char** argv) {
   const int size = argc > 1 ? std::stoi(argv[1]) : 4000;
+  const std::string samples = argc > 4 ? argv[4] : "float32";
   std::vector<CraterCircle> truth;
   const cv::Mat image = DrawScene(size, &truth);
   const auto path = std::filesystem::temp_directory_path() / "areomap_crater_bench.tif";
-  areomap::GeoRaster raster;
-  raster.bands = {image};
-  areomap::WriteGeoTiff(path, raster);
+  WriteScene(image, SampleDepth(samples), path);
   const double megapixels = static_cast<double>(size) * size / 1e6;
 
   double cpu_start = CpuSeconds();
@@ -186,8 +191,10 @@ int main(int argc, char** argv) {
   }
   const auto hough_score = areomap::ScoreCraters(truth, hough, kBins);
 
-  std::printf("crater bench: %d x %d px (%.1f MP), %zu true craters 12-120 px, %d threads\n", size,
-              size, megapixels, truth.size(), tbb::info::default_concurrency());
+  std::printf(
+      "crater bench: %d x %d px (%.1f MP, %s GeoTIFF), %zu true craters 12-120 px, %d "
+      "threads\n",
+      size, size, megapixels, samples.c_str(), truth.size(), tbb::info::default_concurrency());
   const int threads = tbb::info::default_concurrency();
   std::printf("%-22s %8s %8s %8s %11s %9s %7s %7s %7s\n", "method", "wall_s", "MP/s", "cpu_s",
               "MP/cpu_s", "precision", "recall", "F1", "det");
@@ -205,4 +212,22 @@ int main(int argc, char** argv) {
               threads, threads, megapixels / ours_cpu * threads);
   std::filesystem::remove(path);
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::string mode = argc > 1 ? argv[1] : "";
+  try {
+    if (mode == "write" && (argc == 4 || argc == 5)) {
+      return WriteTile(std::stoi(argv[2]), argv[3], SampleDepth(argc == 5 ? argv[4] : "float32"));
+    }
+    if (mode == "detect" && (argc == 3 || argc == 4)) {
+      return DetectOnly(argv[2], argc == 4 ? std::stoi(argv[3]) : 1);
+    }
+    return CompareWithHough(argc, argv);
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "areomap_bench_crater %s: %s\n", mode.c_str(), error.what());
+    return 1;
+  }
 }

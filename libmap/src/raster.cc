@@ -40,6 +40,11 @@ GdalTypeMapping MappingForGdal(GDALDataType type, const std::filesystem::path& p
   }
 }
 
+// Whether every value of the GDAL type is a float exactly (integers of up to 16 bits, Float32).
+bool ValuesExactInFloat(GDALDataType type) {
+  return type == GDT_Byte || type == GDT_UInt16 || type == GDT_Int16 || type == GDT_Float32;
+}
+
 GDALDataType GdalTypeForCvDepth(int depth, const std::filesystem::path& path) {
   switch (depth) {
     case CV_8U:
@@ -164,7 +169,11 @@ RasterDataset RasterDataset::Open(const std::filesystem::path& path) {
   return out;
 }
 
-cv::Mat RasterDataset::ReadWindow(int band_index, const PixelWindow& w) const {
+cv::Mat RasterDataset::ReadWindow(int band, const PixelWindow& window) const {
+  return Read(band, window, false);
+}
+
+cv::Mat RasterDataset::Read(int band_index, const PixelWindow& w, bool float_if_exact) const {
   if (band_index < 1 || band_index > info_.band_count) {
     throw Error(info_.path.string() + ": band " + std::to_string(band_index) +
                 " does not exist: expected 1.." + std::to_string(info_.band_count));
@@ -177,7 +186,10 @@ cv::Mat RasterDataset::ReadWindow(int band_index, const PixelWindow& w) const {
                 std::to_string(info_.width) + "x" + std::to_string(info_.height) + ")");
   }
   GDALRasterBand* band = impl_->dataset->GetRasterBand(band_index);
-  const GdalTypeMapping mapping = MappingForGdal(band->GetRasterDataType(), info_.path);
+  const GDALDataType stored = band->GetRasterDataType();
+  const GdalTypeMapping mapping = float_if_exact && ValuesExactInFloat(stored)
+                                      ? GdalTypeMapping{GDT_Float32, CV_32F}
+                                      : MappingForGdal(stored, info_.path);
   cv::Mat out(w.height, w.width, CV_MAKETYPE(mapping.cv_depth, 1));
   internal::QuietGdalErrors quiet;
   const CPLErr err =
@@ -191,14 +203,17 @@ cv::Mat RasterDataset::ReadWindow(int band_index, const PixelWindow& w) const {
 }
 
 cv::Mat RasterDataset::ReadWindowFloat(int band, const PixelWindow& window) const {
-  cv::Mat stored = ReadWindow(band, window);
+  const auto nodata = info_.nodata;
+  const bool unscaled = info_.scale == 1.0 && info_.offset == 0.0;
+  // Unscaled integers of up to 16 bits come as floats, exactly: so are their comparisons with a
+  // nodata value below (a nodata value that is not such a float matches none of them).
+  cv::Mat stored = Read(band, window, unscaled);
   // Converted row by row through one double row (a whole-window double copy costs twice the
   // window's float size); float pixels are converted in place.
   cv::Mat out = stored.depth() == CV_32F ? stored : cv::Mat(stored.size(), CV_32F);
-  const auto nodata = info_.nodata;
-  if (stored.depth() == CV_32F && info_.scale == 1.0 && info_.offset == 0.0) {
-    // Float without scaling: the same as below (1 x v + 0 rounds back to v), without the doubles.
-    // A nodata value that is not a float never equals a stored float.
+  if (stored.depth() == CV_32F && unscaled) {
+    // Floats without scaling: the same as below (1 x v + 0 rounds back to v), without the
+    // doubles. A nodata value that is not a float never equals one of them.
     const bool nodata_in_range = nodata && std::abs(*nodata) <= std::numeric_limits<float>::max();
     const float nodata_value = nodata_in_range ? static_cast<float>(*nodata) : 0.0f;
     const bool nodata_is_float = nodata_in_range && static_cast<double>(nodata_value) == *nodata;

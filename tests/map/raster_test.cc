@@ -80,6 +80,48 @@ TEST(Raster, WindowedReadMatchesTheFullRead) {
   EXPECT_THROW(dataset.ReadWindow(2, window), Error);
 }
 
+// Integer bands come back as the floats of their values, nodata as NaN, whether GDAL converts
+// them while copying (up to 16 bits) or they go through doubles (32 bits).
+TEST(Raster, IntegerBandsReadAsFloatExactlyWithNodataAsNan) {
+  TempDir dir;
+  struct Case {
+    int depth;
+    double nodata;
+    std::vector<double> values;  // the first equals nodata
+  };
+  const std::vector<Case> cases = {
+      {CV_8U, 255, {255, 0, 1, 254}},
+      {CV_16U, 65535, {65535, 0, 1, 4095, 65534}},
+      {CV_16S, -32768, {-32768, -32767, -1, 0, 32767}},
+      {CV_32S, -2147483647, {-2147483647, 16777217, -16777219, 0, 2147483647}},
+  };
+  for (const Case& c : cases) {
+    cv::Mat band(1, static_cast<int>(c.values.size()), CV_64F);
+    for (size_t i = 0; i < c.values.size(); ++i)
+      band.at<double>(0, static_cast<int>(i)) = c.values[i];
+    GeoRaster raster;
+    band.convertTo(raster.bands.emplace_back(), c.depth);
+    raster.nodata = c.nodata;
+    const auto path = dir.path() / ("band" + std::to_string(c.depth) + ".tif");
+    WriteGeoTiff(path, raster);
+    const cv::Mat read = RasterDataset::Open(path).ReadWindowFloat(1, {0, 0, band.cols, 1});
+    ASSERT_EQ(read.type(), CV_32F);
+    EXPECT_TRUE(std::isnan(read.at<float>(0, 0))) << "depth " << c.depth;
+    for (size_t i = 1; i < c.values.size(); ++i) {
+      EXPECT_EQ(read.at<float>(0, static_cast<int>(i)), static_cast<float>(c.values[i]))
+          << "depth " << c.depth << " value " << c.values[i];
+    }
+  }
+  // A nodata value no stored integer can equal marks nothing.
+  GeoRaster raster;
+  raster.bands = {cv::Mat(1, 3, CV_16U, cv::Scalar(7))};
+  raster.nodata = 7.5;
+  WriteGeoTiff(dir.path() / "half.tif", raster);
+  const cv::Mat read =
+      RasterDataset::Open(dir.path() / "half.tif").ReadWindowFloat(1, {0, 0, 3, 1});
+  EXPECT_EQ(cv::countNonZero(read == 7.0f), 3);
+}
+
 TEST(Raster, BadFilesGiveErrorsThatNameThem) {
   TempDir dir;
   EXPECT_NE(testing::ErrorMessageOf([&] {

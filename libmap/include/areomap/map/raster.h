@@ -78,6 +78,9 @@ class RasterDataset {
  private:
   struct Impl;
   explicit RasterDataset(std::unique_ptr<Impl> impl);
+  // ReadWindow; with `float_if_exact`, a band whose every value is a float exactly (integers of
+  // up to 16 bits) comes back as CV_32F, converted by GDAL while it copies the blocks.
+  cv::Mat Read(int band, const PixelWindow& window, bool float_if_exact) const;
   std::unique_ptr<Impl> impl_;
   RasterInfo info_;
 };
