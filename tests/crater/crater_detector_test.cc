@@ -99,6 +99,39 @@ TEST(DetectImageEdges, HysteresisThresholdsAreTheStrengthQuantilesExactly) {
   EXPECT_FALSE(edges.points.empty());
 }
 
+// rim_edges.h's claim: the edge pixels are cv::Canny's (L2 norm) on the 16-bit gradients the
+// detector derives, at its thresholds. Guards the suppression written out in rim_edges.cc, in
+// whichever build of it runs on this CPU (baseline or AVX2).
+TEST(DetectImageEdges, EdgePixelsAreCvCannysOnTheSameGradients) {
+  cv::Mat image;
+  FieldScene().products.image.bands[0].convertTo(image, CV_32F);
+  const EdgeOptions options;
+  const RimEdges edges = DetectImageEdges(image, options);
+  cv::Mat smooth, gx, gy, magnitude;
+  cv::GaussianBlur(image, smooth, cv::Size(), options.smoothing_sigma_px);
+  cv::Sobel(smooth, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(smooth, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  cv::magnitude(gx, gy, magnitude);
+  const cv::Rect interior(2, 2, image.cols - 4, image.rows - 4);  // the usable pixels
+  double max_magnitude = 0.0;
+  cv::minMaxLoc(magnitude(interior), nullptr, &max_magnitude);
+  const double scale = 20000.0 / max_magnitude;
+  cv::Mat dx, dy, canny;
+  gx.convertTo(dx, CV_16S, static_cast<float>(scale));
+  gy.convertTo(dy, CV_16S, static_cast<float>(scale));
+  cv::Canny(dx, dy, canny, edges.low_threshold * scale, edges.high_threshold * scale, true);
+  cv::Mat ours = cv::Mat::zeros(image.size(), CV_8U);
+  for (int r = 0; r < edges.rows; ++r) {
+    for (int i = edges.row_start[static_cast<size_t>(r)]; i < edges.row_start[r + 1]; ++i) {
+      ours.at<uchar>(r, edges.column[static_cast<size_t>(i)]) = 255;
+    }
+  }
+  ASSERT_GT(cv::countNonZero(ours), 5000);
+  cv::Mat differ;
+  cv::compare(ours(interior), canny(interior), differ, cv::CMP_NE);
+  EXPECT_EQ(cv::countNonZero(differ), 0) << "of " << cv::countNonZero(ours) << " edge pixels";
+}
+
 TEST(DetectCraters, FindsGeneratedCratersWithSubPixelAccuracy) {
   const CraterScene& scene = FieldScene();
   CraterDetectorOptions options;
