@@ -18,7 +18,8 @@ inline double SampleBilinearIndex(const cv::Mat& m, double x, double y) {
   if (!(x >= 0.0 && y >= 0.0 && x < m.cols - 1 && y < m.rows - 1)) {
     return std::numeric_limits<double>::quiet_NaN();
   }
-  const int c = static_cast<int>(std::floor(x)), r = static_cast<int>(std::floor(y));
+  // Truncation is the floor of these non-negative coordinates (without a libm call).
+  const int c = static_cast<int>(x), r = static_cast<int>(y);
   const double tx = x - c, ty = y - r;
   const float* p0 = m.ptr<float>(r);
   const float* p1 = m.ptr<float>(r + 1);

@@ -661,10 +661,10 @@ void CraterDetectorOptions::Check() const {
 }
 
 std::vector<CraterDetection> SuppressDuplicateCraters(std::vector<CraterDetection> detections) {
-  std::sort(detections.begin(), detections.end(),
-            [](const CraterDetection& a, const CraterDetection& b) {
-              return a.confidence > b.confidence;
-            });
+  std::stable_sort(detections.begin(), detections.end(),
+                   [](const CraterDetection& a, const CraterDetection& b) {
+                     return a.confidence > b.confidence;
+                   });
   std::vector<CraterDetection> kept;
   for (const CraterDetection& d : detections) {
     const bool duplicate = std::any_of(kept.begin(), kept.end(), [&](const CraterDetection& k) {

@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <iterator>
 #include <memory>
 #include <mutex>
 #include <utility>
+#include <vector>
 
 #include <tbb/parallel_for.h>
 #include <opencv2/imgproc.hpp>
@@ -74,7 +76,10 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
   CraterDetectorOptions tile_options = o;
   tile_options.max_diameter_px =
       o.max_diameter_px == 0.0 ? tile_max_diameter : std::min(o.max_diameter_px, tile_max_diameter);
-  std::vector<CraterDetection> all;
+  // Each tile's craters in its own slot, joined in tile order below: the result does not depend
+  // on the order in which the tiles finish (SuppressDuplicateCraters keeps the first of equally
+  // confident duplicates).
+  std::vector<std::vector<CraterDetection>> per_tile(static_cast<size_t>(tile_count));
   std::mutex mutex, read_mutex;
   std::atomic<int> done{0};
   std::atomic<bool> cancelled{false};
@@ -120,7 +125,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
         }
       }
       std::unique_ptr<internal::EdgeScratch> scratch = scratch_pool.Acquire();
-      std::vector<CraterDetection> found;
+      std::vector<CraterDetection>& found = per_tile[static_cast<size_t>(t)];
       {
         const internal::UseEdgeScratch use(scratch.get());
         // Only craters centred in the core come back: the tile skips fitting the others.
@@ -128,12 +133,17 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
         found = internal::DetectCratersInCore(tile, source, tile_options, core);
       }
       scratch_pool.Release(std::move(scratch));
+      for (CraterDetection& d : found) d = Shifted(d, c0, r0, 1.0);
       std::lock_guard<std::mutex> lock(mutex);
-      for (const CraterDetection& d : found) all.push_back(Shifted(d, c0, r0, 1.0));
       const double fraction = (1.0 - overview_share) * (++done) / static_cast<double>(tile_count);
       if (progress && !progress(fraction, "craters: tiles")) cancelled = true;
     });
     if (cancelled) throw Error("crater detection cancelled");
+  }
+  std::vector<CraterDetection> all;
+  for (std::vector<CraterDetection>& found : per_tile) {
+    all.insert(all.end(), std::make_move_iterator(found.begin()),
+               std::make_move_iterator(found.end()));
   }
   if (need_overview) {
     if (!overview_from_tiles) overview = ReadDecimated(dataset, dataset.FullWindow(), factor);

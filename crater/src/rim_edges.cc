@@ -18,6 +18,18 @@
 namespace areomap {
 namespace {
 
+// The per-pixel loops marked with this also get an AVX2 build, chosen at load time where the CPU
+// has AVX2 (GCC's target_clones through an ELF ifunc, as glibc picks its string functions).
+// The values are the same at any vector width: integer operations, and float operations that
+// IEEE rounds exactly (+, -, x, /, sqrt; no fused multiply-add, which AVX2 alone does not
+// enable). The wider registers with native blends and absolute values halve the Canny
+// suppression's instructions. Elsewhere the baseline build runs alone.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__ELF__)
+#define AREOMAP_ALSO_FOR_AVX2 __attribute__((target_clones("avx2", "default")))
+#else
+#define AREOMAP_ALSO_FOR_AVX2
+#endif
+
 // Pixels whose edges are kept: those whose 5x5 neighbourhood is all valid (edges there see no
 // filled values through a 3x3 operator on a smoothed image). Without nodata (the common case)
 // that is every pixel at least 2 px inside the border, and no mask is stored.
@@ -29,6 +41,7 @@ struct UsableArea {
 
 // Whether every pixel of a CV_32F matrix is finite (cv::checkRange's answer, in one vectorised
 // pass).
+AREOMAP_ALSO_FOR_AVX2
 bool AllFinite(const cv::Mat& m) {
   for (int r = 0; r < m.rows; ++r) {
     const float* v = m.ptr<float>(r);
@@ -233,7 +246,7 @@ class SubPixelRow {
   }
 
   // Appends the queued edges of row `r` with a non-zero direction to `out`; empties the queue.
-  void Flush(const cv::Mat& strength, int r, RimEdges* out) {
+  AREOMAP_ALSO_FOR_AVX2 void Flush(const cv::Mat& strength, int r, RimEdges* out) {
     const size_t n = n_;
     n_ = 0;
     if (n == 0) return;
@@ -372,17 +385,6 @@ void ToInt16(const float* g, float scale, int n, short* out) {
 #endif
   for (; i < n; ++i) out[i] = cv::saturate_cast<short>(g[i] * scale);
 }
-
-// The integer loops below also get an AVX2 build, chosen at load time where the CPU has AVX2
-// (GCC's target_clones through an ELF ifunc, as glibc picks its string functions): integer
-// operations give the same values at any vector width, and the wider registers with native
-// blends and absolute values halve the suppression's instructions. Elsewhere the baseline build
-// runs alone.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__ELF__)
-#define AREOMAP_ALSO_FOR_AVX2 __attribute__((target_clones("avx2", "default")))
-#else
-#define AREOMAP_ALSO_FOR_AVX2
-#endif
 
 // out[c] = dx[c]^2 + dy[c]^2 for c in [0, n).
 AREOMAP_ALSO_FOR_AVX2

@@ -132,6 +132,39 @@ TEST(DetectImageEdges, EdgePixelsAreCvCannysOnTheSameGradients) {
   EXPECT_EQ(cv::countNonZero(differ), 0) << "of " << cv::countNonZero(ours) << " edge pixels";
 }
 
+TEST(SuppressDuplicateCraters, OfEquallyConfidentDuplicatesKeepsTheFirst) {
+  // 20 craters in a row, then a duplicate of each (0.5 px off), all equally confident, then a
+  // less confident duplicate of each: the first 20 stay, in their order. (Enough of them that
+  // an unstable sort would reorder equal confidences.)
+  const auto detection = [](int crater, double confidence, int tag) {
+    CraterDetection d;
+    d.ellipse = {{50.0 * crater + (tag >= 20 ? 0.5 : 0.0), 50.0}, 10.0, 10.0, 0.0};
+    d.confidence = confidence;
+    d.num_edge_points = tag;
+    return d;
+  };
+  std::vector<CraterDetection> input;
+  std::vector<int> expected;
+  for (int k = 0; k < 20; ++k) {
+    input.push_back(detection(k, 1.0, k));
+    expected.push_back(k);
+  }
+  for (int k = 0; k < 20; ++k) input.push_back(detection(k, 1.0, 20 + k));
+  for (int k = 0; k < 20; ++k) input.push_back(detection(k, 0.9, 40 + k));
+  std::vector<int> kept;
+  for (const CraterDetection& d : SuppressDuplicateCraters(input)) {
+    kept.push_back(d.num_edge_points);
+  }
+  EXPECT_EQ(kept, expected);
+  // The less confident ones first in the input: still dropped.
+  std::rotate(input.begin(), input.begin() + 40, input.end());
+  kept.clear();
+  for (const CraterDetection& d : SuppressDuplicateCraters(input)) {
+    kept.push_back(d.num_edge_points);
+  }
+  EXPECT_EQ(kept, expected);
+}
+
 TEST(DetectCraters, FindsGeneratedCratersWithSubPixelAccuracy) {
   const CraterScene& scene = FieldScene();
   CraterDetectorOptions options;

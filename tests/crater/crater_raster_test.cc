@@ -7,6 +7,7 @@
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
 #include <ogrsf_frmts.h>
+#include <tbb/task_arena.h>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/crater/crater_output.h"
@@ -113,6 +114,20 @@ TEST(DetectCratersInRaster, TilesAndOverviewFindSmallAndLargeCraters) {
     }
   }
   EXPECT_TRUE(big);
+
+  // The same craters in the same order, bit for bit, whatever order the tiles finish in (one
+  // thread takes them one by one).
+  std::vector<CraterDetection> one_thread;
+  tbb::task_arena(1).execute(
+      [&] { one_thread = DetectCratersInRaster(dataset, RimSource::kImage, options); });
+  ASSERT_EQ(one_thread.size(), found.size());
+  for (size_t i = 0; i < found.size(); ++i) {
+    EXPECT_EQ(one_thread[i].ellipse.center, found[i].ellipse.center) << i;
+    EXPECT_EQ(one_thread[i].ellipse.semi_major, found[i].ellipse.semi_major) << i;
+    EXPECT_EQ(one_thread[i].ellipse.semi_minor, found[i].ellipse.semi_minor) << i;
+    EXPECT_EQ(one_thread[i].ellipse.angle, found[i].ellipse.angle) << i;
+    EXPECT_EQ(one_thread[i].confidence, found[i].confidence) << i;
+  }
 
   // Outputs: not georeferenced -> CSV/JSON fine, GeoPackage refused with the reason.
   const CraterCatalog catalog = MakeCraterCatalog(found, dataset.info());

@@ -130,7 +130,8 @@ std::optional<CraterDetection> RefineCrater(const cv::Mat& raster, RimSource sou
 // Suppresses duplicates, keeping the more confident of two detections when their centres are
 // closer than half the smaller mean radius and their diameters agree within 30 %, or when one is
 // concentric (centre distance < 0.3 x the larger radius) with diameters within a factor 1.6 (the
-// floor or shadow edge inside a rim). Sorted by decreasing confidence.
+// floor or shadow edge inside a rim); of equally confident ones, the first in `detections`.
+// Sorted by decreasing confidence, equal confidences in their input order.
 std::vector<CraterDetection> SuppressDuplicateCraters(std::vector<CraterDetection> detections);
 
 }  // namespace areomap
