@@ -227,7 +227,9 @@ int main(int argc, char** argv) {
     }
     return CompareWithHough(argc, argv);
   } catch (const std::exception& error) {
-    std::fprintf(stderr, "areomap_bench_crater %s: %s\n", mode.c_str(), error.what());
+    const bool named = mode == "write" || mode == "detect";
+    std::fprintf(stderr, "areomap_bench_crater%s%s: %s\n", named ? " " : "",
+                 named ? mode.c_str() : "", error.what());
     return 1;
   }
 }
