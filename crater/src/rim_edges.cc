@@ -23,8 +23,10 @@ namespace {
 // The values are the same at any vector width: integer operations, and float operations that
 // IEEE rounds exactly (+, -, x, /, sqrt; no fused multiply-add, which AVX2 alone does not
 // enable). The wider registers with native blends and absolute values halve the Canny
-// suppression's instructions. Elsewhere the baseline build runs alone.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__ELF__)
+// suppression's instructions. Elsewhere, and with AREOMAP_CPU_DISPATCH off in CMake (the asan
+// preset, so that CI tests both builds), the baseline build runs alone.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__ELF__) && \
+    !defined(AREOMAP_NO_CPU_DISPATCH)
 #define AREOMAP_ALSO_FOR_AVX2 __attribute__((target_clones("avx2", "default")))
 #else
 #define AREOMAP_ALSO_FOR_AVX2
