@@ -80,7 +80,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
   // on the order in which the tiles finish (SuppressDuplicateCraters keeps the first of equally
   // confident duplicates).
   std::vector<std::vector<CraterDetection>> per_tile(static_cast<size_t>(tile_count));
-  std::mutex mutex, read_mutex;
+  std::mutex progress_mutex, read_mutex;  // progress: the callback is called by one task at a time
   std::atomic<int> done{0};
   std::atomic<bool> cancelled{false};
   const double overview_share = need_overview ? 0.2 : 0.0;
@@ -134,7 +134,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
       }
       scratch_pool.Release(std::move(scratch));
       for (CraterDetection& d : found) d = Shifted(d, c0, r0, 1.0);
-      std::lock_guard<std::mutex> lock(mutex);
+      std::lock_guard<std::mutex> lock(progress_mutex);
       const double fraction = (1.0 - overview_share) * (++done) / static_cast<double>(tile_count);
       if (progress && !progress(fraction, "craters: tiles")) cancelled = true;
     });

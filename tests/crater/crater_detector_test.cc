@@ -61,6 +61,22 @@ const CraterScene& FieldScene() {
   return scene;
 }
 
+// The smoothed gradient DetectImageEdges works on (rim_edges.h), recomputed here with OpenCV:
+// Gaussian smoothing, Sobel / 8, magnitude.
+struct SmoothedGradient {
+  cv::Mat x, y, magnitude;
+};
+
+SmoothedGradient SmoothedGradientOf(const cv::Mat& image, const EdgeOptions& options) {
+  SmoothedGradient g;
+  cv::Mat smooth;
+  cv::GaussianBlur(image, smooth, cv::Size(), options.smoothing_sigma_px);
+  cv::Sobel(smooth, g.x, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(smooth, g.y, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  cv::magnitude(g.x, g.y, g.magnitude);
+  return g;
+}
+
 TEST(DetectImageEdges, HysteresisThresholdsAreTheStrengthQuantilesExactly) {
   // The header's rule, recomputed here with std::nth_element on the same samples (every 3rd
   // pixel of every 3rd row, at least 2 px inside the border) of the same smoothed gradient
@@ -75,14 +91,10 @@ TEST(DetectImageEdges, HysteresisThresholdsAreTheStrengthQuantilesExactly) {
   }
   const EdgeOptions options;
   const RimEdges edges = DetectImageEdges(image, options);
-  cv::Mat smooth, gx, gy, magnitude;
-  cv::GaussianBlur(image, smooth, cv::Size(), options.smoothing_sigma_px);
-  cv::Sobel(smooth, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
-  cv::Sobel(smooth, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
-  cv::magnitude(gx, gy, magnitude);
+  const SmoothedGradient g = SmoothedGradientOf(image, options);
   std::vector<float> samples;
   for (int r = 3; r < image.rows - 2; r += 3) {
-    for (int c = 3; c < image.cols - 2; c += 3) samples.push_back(magnitude.at<float>(r, c));
+    for (int c = 3; c < image.cols - 2; c += 3) samples.push_back(g.magnitude.at<float>(r, c));
   }
   const auto quantile = [&](double q) {
     std::vector<float> v = samples;
@@ -107,18 +119,14 @@ TEST(DetectImageEdges, EdgePixelsAreCvCannysOnTheSameGradients) {
   FieldScene().products.image.bands[0].convertTo(image, CV_32F);
   const EdgeOptions options;
   const RimEdges edges = DetectImageEdges(image, options);
-  cv::Mat smooth, gx, gy, magnitude;
-  cv::GaussianBlur(image, smooth, cv::Size(), options.smoothing_sigma_px);
-  cv::Sobel(smooth, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
-  cv::Sobel(smooth, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
-  cv::magnitude(gx, gy, magnitude);
+  const SmoothedGradient g = SmoothedGradientOf(image, options);
   const cv::Rect interior(2, 2, image.cols - 4, image.rows - 4);  // the usable pixels
   double max_magnitude = 0.0;
-  cv::minMaxLoc(magnitude(interior), nullptr, &max_magnitude);
+  cv::minMaxLoc(g.magnitude(interior), nullptr, &max_magnitude);
   const double scale = 20000.0 / max_magnitude;
   cv::Mat dx, dy, canny;
-  gx.convertTo(dx, CV_16S, static_cast<float>(scale));
-  gy.convertTo(dy, CV_16S, static_cast<float>(scale));
+  g.x.convertTo(dx, CV_16S, static_cast<float>(scale));
+  g.y.convertTo(dy, CV_16S, static_cast<float>(scale));
   cv::Canny(dx, dy, canny, edges.low_threshold * scale, edges.high_threshold * scale, true);
   cv::Mat ours = cv::Mat::zeros(image.size(), CV_8U);
   for (int r = 0; r < edges.rows; ++r) {
