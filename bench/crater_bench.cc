@@ -10,8 +10,9 @@
 // file):
 //   areomap_bench_crater write SIZE_PX PATH [SAMPLES]   the tile as a GeoTIFF at PATH, truth at
 //                                                       PATH.csv
-//   areomap_bench_crater detect PATH [RUNS]   DetectCratersInRaster on PATH (upsampled level and
-//                                             templates off), scored against PATH.csv if present
+//   areomap_bench_crater detect PATH [RUNS [UPSAMPLE]]   DetectCratersInRaster on PATH (templates
+//                                             off; the upsampled level off unless UPSAMPLE is 1),
+//                                             scored against PATH.csv if present
 //
 // The tile holds bowls lit from the east (bright western wall, dark eastern wall, sharp rim,
 // 12-120 px across, log-uniform) on a textured plain with noise; truth is exact. areomap runs end
@@ -129,7 +130,7 @@ int WriteTile(int size, const std::filesystem::path& path, int depth) {
   return csv ? 0 : 1;
 }
 
-int DetectOnly(const std::filesystem::path& path, int runs) {
+int DetectOnly(const std::filesystem::path& path, int runs, bool upsample) {
   const std::filesystem::path truth_path = path.string() + ".csv";
   const bool scored = std::filesystem::exists(truth_path);
   const std::vector<CraterCircle> truth =
@@ -139,7 +140,7 @@ int DetectOnly(const std::filesystem::path& path, int runs) {
     const auto start = std::chrono::steady_clock::now();
     const areomap::RasterDataset dataset = areomap::RasterDataset::Open(path);
     const auto found = areomap::DetectCratersInRaster(dataset, areomap::RimSource::kImage,
-                                                      BenchOptions(false, false));
+                                                      BenchOptions(upsample, false));
     const double wall = Seconds(start), cpu = CpuSeconds() - cpu_start;
     const double megapixels =
         static_cast<double>(dataset.info().width) * dataset.info().height / 1e6;
@@ -222,8 +223,9 @@ int main(int argc, char** argv) {
     if (mode == "write" && (argc == 4 || argc == 5)) {
       return WriteTile(std::stoi(argv[2]), argv[3], SampleDepth(argc == 5 ? argv[4] : "float32"));
     }
-    if (mode == "detect" && (argc == 3 || argc == 4)) {
-      return DetectOnly(argv[2], argc == 4 ? std::stoi(argv[3]) : 1);
+    if (mode == "detect" && argc >= 3 && argc <= 5) {
+      return DetectOnly(argv[2], argc >= 4 ? std::stoi(argv[3]) : 1,
+                        argc == 5 && std::stoi(argv[4]) != 0);
     }
     return CompareWithHough(argc, argv);
   } catch (const std::exception& error) {

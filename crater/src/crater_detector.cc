@@ -19,6 +19,7 @@
 #include "areomap/map/error.h"
 #include "bilinear_sample.h"
 #include "detect_in_core.h"
+#include "edge_scratch.h"
 
 namespace areomap {
 namespace {
@@ -712,6 +713,14 @@ std::vector<CraterDetection> DetectCratersInCore(const cv::Mat& raster, RimSourc
 
 }  // namespace internal
 
+namespace internal {
+
+bool SearchesUpsampledLevel(const CraterDetectorOptions& options) {
+  return options.upsample_small_craters && 0.5 * options.min_diameter_px < kCoarseMinRadius;
+}
+
+}  // namespace internal
+
 namespace {
 
 std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
@@ -733,10 +742,16 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
   }
   // Small craters (radius < kCoarseMinRadius) are searched on a 2x upsampled copy, where their
   // rims hold four times the edge points; GDAL coordinates scale exactly by 2 under cv::resize.
-  const bool upsample = o.upsample_small_craters && min_radius < kCoarseMinRadius;
+  const bool upsample = internal::SearchesUpsampledLevel(o);
   if (upsample) {
     Level up;
     up.scale = 0.5;
+    // In the calling task's scratch when there is one: a fresh 4x tile-sized image would be
+    // page-faulted in again for every tile (edge_scratch.h).
+    if (internal::EdgeScratch* scratch = internal::CurrentEdgeScratch()) {
+      up.image = scratch->Get(internal::EdgeScratch::kUpsampledImageSlot, full.rows * 2,
+                              full.cols * 2, CV_32F);
+    }
     cv::resize(full, up.image, cv::Size(full.cols * 2, full.rows * 2), 0, 0, cv::INTER_LINEAR);
     levels.push_back(std::move(up));
   }

@@ -94,8 +94,11 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
   cv::Mat overview;
   if (overview_from_tiles) overview = cv::Mat(height / factor, width / factor, CV_32F);
   if (run_tiles) {
-    // Edge detection temporaries, reused by consecutive tiles (edge_scratch.h).
-    internal::EdgeScratchPool scratch_pool(static_cast<size_t>(padded) * padded);
+    // Edge detection temporaries, reused by consecutive tiles (edge_scratch.h), sized once for
+    // the largest level of a padded tile (+ the edge map's 1 px border).
+    const size_t level_side =
+        static_cast<size_t>(padded) * (internal::SearchesUpsampledLevel(tile_options) ? 2 : 1) + 2;
+    internal::EdgeScratchPool scratch_pool(level_side * level_side);
     tbb::parallel_for(0, tile_count, [&](int t) {
       if (cancelled) return;
       const int tx = t % tiles_x, ty = t / tiles_x;

@@ -1,5 +1,6 @@
 // Reusable memory for the full-size temporaries of rim edge detection (rim_edges.h): the
-// smoothed image and gradient magnitude, the gradients, the edge map.
+// smoothed image and gradient magnitude, the gradients, the edge map; and for the detector's
+// 2x upsampled copy of a tile (four times a tile's pixels).
 // Internal to the crater module.
 //
 // A tiled detection (DetectCratersInRaster) hands each tile task one EdgeScratch from an
@@ -26,7 +27,10 @@ namespace areomap::internal {
 
 class EdgeScratch {
  public:
-  static constexpr int kSlots = 4;
+  // Slots 0-3: rim_edges.cc's temporaries; kUpsampledImageSlot: the detector's 2x upsampled
+  // level (crater_detector.cc), which lives while its edges are computed in the other slots.
+  static constexpr int kUpsampledImageSlot = 4;
+  static constexpr int kSlots = 5;
   // `reserve_pixels`: the largest image expected (a padded tile), so that growing happens once.
   explicit EdgeScratch(size_t reserve_pixels = 0) : reserve_pixels_(reserve_pixels) {}
   // A continuous rows x cols matrix of `type` over the memory of `slot` (grown when too small,
