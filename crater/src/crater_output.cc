@@ -225,18 +225,8 @@ cv::Mat StretchedRgb(const cv::Mat& image, int max_side, int* factor) {
   if (*factor > 1) {
     cv::resize(f, f, cv::Size(f.cols / *factor, f.rows / *factor), 0, 0, cv::INTER_AREA);
   }
-  std::vector<float> values;
-  for (int r = 0; r < f.rows; r += 2) {
-    for (int c = 0; c < f.cols; c += 2) {
-      if (std::isfinite(f.at<float>(r, c))) values.push_back(f.at<float>(r, c));
-    }
-  }
-  double lo = 0.0, hi = 1.0;
-  if (!values.empty()) {
-    std::sort(values.begin(), values.end());
-    lo = values[values.size() / 100];
-    hi = values[values.size() * 99 / 100];
-  }
+  const std::optional<ValueRange> range = FiniteQuantileRange(f, 0.01, 0.99, 2);
+  double lo = range ? range->low : 0.0, hi = range ? range->high : 1.0;
   if (!(hi > lo)) hi = lo + 1.0;
   cv::Mat gray;
   f.convertTo(gray, CV_8U, 255.0 / (hi - lo), -lo * 255.0 / (hi - lo));

@@ -1,5 +1,9 @@
 #include "areomap/map/image_io.h"
 
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
 #include <OpenImageIO/imageio.h>
 
 #include "areomap/map/atomic_file.h"
@@ -42,7 +46,10 @@ void WriteImage(const std::filesystem::path& path, const cv::Mat& image) {
     }
     const OIIO::TypeDesc type =
         image.depth() == CV_8U ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16;
-    const OIIO::ImageSpec spec(image.cols, image.rows, image.channels(), type);
+    OIIO::ImageSpec spec(image.cols, image.rows, image.channels(), type);
+    // zlib's fastest level (OpenCV's default for PNG) instead of OIIO's 6: on a 2500 x 2500 RGB
+    // crater overlay 3.5x faster for a file 10 % larger.
+    spec.attribute("png:compressionLevel", 1);
     const cv::Mat contiguous = image.isContinuous() ? image : image.clone();
     if (!output->open(file.temp_path().string(), spec) ||
         !output->write_image(type, contiguous.data) || !output->close()) {
@@ -50,6 +57,36 @@ void WriteImage(const std::filesystem::path& path, const cv::Mat& image) {
     }
   }
   file.Commit();
+}
+
+std::optional<ValueRange> FiniteQuantileRange(const cv::Mat& image, double low, double high,
+                                              int step) {
+  RequireOption(image.channels() == 1, "FiniteQuantileRange.image", "a single-channel image");
+  RequireOption(0.0 <= low && low <= high && high <= 1.0, "FiniteQuantileRange.low/high",
+                "0 <= low <= high <= 1");
+  RequireOption(step >= 1, "FiniteQuantileRange.step", ">= 1");
+  cv::Mat values = image;
+  if (image.depth() != CV_32F) image.convertTo(values, CV_32F);
+  std::vector<float> finite;
+  finite.reserve(static_cast<size_t>((values.rows + step - 1) / step) *
+                 static_cast<size_t>((values.cols + step - 1) / step));
+  for (int r = 0; r < values.rows; r += step) {
+    const float* row = values.ptr<float>(r);
+    for (int c = 0; c < values.cols; c += step) {
+      if (std::isfinite(row[c])) finite.push_back(row[c]);
+    }
+  }
+  if (finite.empty()) return std::nullopt;
+  const auto at = [&](double q) {
+    return finite.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(finite.size() - 1));
+  };
+  const auto high_it = at(high);
+  std::nth_element(finite.begin(), high_it, finite.end());
+  const double high_value = *high_it;
+  // The elements before high_it are now those not above it: the low quantile is among them.
+  const auto low_it = at(low);
+  std::nth_element(finite.begin(), low_it, high_it + 1);
+  return ValueRange{*low_it, high_value};
 }
 
 }  // namespace areomap

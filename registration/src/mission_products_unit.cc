@@ -126,22 +126,9 @@ json Correlation(const cv::Mat& a, const cv::Mat& b) {
 // An 8-bit picture of `values` stretched between its 1st and 99th percentiles (NaN black),
 // shrunk so that its longer side is at most `max_side` px.
 cv::Mat Thumbnail(const cv::Mat& values, int max_side) {
-  std::vector<float> finite;
-  for (int row = 0; row < values.rows; ++row) {
-    for (int col = 0; col < values.cols; ++col) {
-      const float v = values.at<float>(row, col);
-      if (std::isfinite(v)) finite.push_back(v);
-    }
-  }
   cv::Mat picture(values.size(), CV_8U, cv::Scalar(0));
-  if (!finite.empty()) {
-    const auto at = [&](double q) {
-      auto it =
-          finite.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(finite.size() - 1));
-      std::nth_element(finite.begin(), it, finite.end());
-      return static_cast<double>(*it);
-    };
-    const double lo = at(0.01), hi = std::max(at(0.99), lo + 1e-6);
+  if (const std::optional<ValueRange> range = FiniteQuantileRange(values, 0.01, 0.99)) {
+    const double lo = range->low, hi = std::max(range->high, lo + 1e-6);
     cv::Mat clean = values.clone();
     clean.setTo(lo, clean != clean);
     clean.convertTo(picture, CV_8U, 254.0 / (hi - lo), 1.0 - 254.0 * lo / (hi - lo));

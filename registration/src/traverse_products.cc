@@ -303,20 +303,8 @@ void WriteTraverseMap(const std::filesystem::path& path, const AnchoredTraverse&
       std::clamp(static_cast<int>(std::ceil(hi.y())), window.row0 + 1, info.height) - window.row0;
   cv::Mat image = dataset.ReadWindowFloat(1, window);
   // 1-99 % stretch to 8 bits.
-  std::vector<float> values;
-  values.reserve(image.total());
-  for (int r = 0; r < image.rows; ++r) {
-    for (int c = 0; c < image.cols; ++c) {
-      const float v = image.at<float>(r, c);
-      if (std::isfinite(v)) values.push_back(v);
-    }
-  }
-  double low = 0.0, high = 1.0;
-  if (!values.empty()) {
-    std::sort(values.begin(), values.end());
-    low = values[values.size() / 100];
-    high = values[values.size() * 99 / 100];
-  }
+  const std::optional<ValueRange> range = FiniteQuantileRange(image, 0.01, 0.99);
+  const double low = range ? range->low : 0.0, high = range ? range->high : 1.0;
   cv::Mat gray;
   image.convertTo(gray, CV_8U, 255.0 / std::max(high - low, 1e-9),
                   -low * 255.0 / std::max(high - low, 1e-9));

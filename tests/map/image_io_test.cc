@@ -1,5 +1,10 @@
 #include "areomap/map/image_io.h"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "areomap/map/error.h"
@@ -45,6 +50,61 @@ TEST(ImageIo, ReadsTheRealHrscImage) {
   EXPECT_EQ(image.cols, 1700);
   EXPECT_EQ(image.rows, 850);
   EXPECT_EQ(image.type(), CV_8UC1);
+}
+
+TEST(FiniteQuantileRange, MatchesTheSortedFiniteValuesAndSkipsNan) {
+  // 0..9999 shuffled into a 100 x 100 image, with NaN and infinities on top of some of them.
+  std::vector<float> values(10000);
+  for (size_t i = 0; i < values.size(); ++i) values[i] = static_cast<float>(i);
+  std::vector<float> shuffled = values;
+  cv::RNG rng(7);
+  for (size_t i = shuffled.size() - 1; i > 0; --i) {
+    std::swap(shuffled[i], shuffled[static_cast<size_t>(rng.uniform(0, static_cast<int>(i) + 1))]);
+  }
+  cv::Mat image(100, 100, CV_32F, shuffled.data());
+  std::vector<float> finite;
+  for (int i = 0; i < 10000; ++i) {
+    float& v = image.at<float>(i / 100, i % 100);
+    if (i % 7 == 0) v = std::numeric_limits<float>::quiet_NaN();
+    if (i % 11 == 0) v = std::numeric_limits<float>::infinity();
+    if (std::isfinite(v)) finite.push_back(v);
+  }
+  std::sort(finite.begin(), finite.end());
+  const auto expected = [&](double q) {
+    return finite[static_cast<size_t>(q * static_cast<double>(finite.size() - 1))];
+  };
+  for (const auto& [low, high] : {std::pair{0.01, 0.99}, {0.0, 1.0}, {0.5, 0.5}, {0.2, 0.3}}) {
+    const auto range = FiniteQuantileRange(image, low, high);
+    ASSERT_TRUE(range.has_value());
+    EXPECT_EQ(range->low, expected(low)) << low;
+    EXPECT_EQ(range->high, expected(high)) << high;
+  }
+  // Every other row and column: the quantiles of that sample; 16-bit input converted.
+  std::vector<float> every_other;
+  for (int r = 0; r < 100; r += 2) {
+    for (int c = 0; c < 100; c += 2) {
+      if (std::isfinite(image.at<float>(r, c))) every_other.push_back(image.at<float>(r, c));
+    }
+  }
+  std::sort(every_other.begin(), every_other.end());
+  const auto strided = FiniteQuantileRange(image, 0.0, 1.0, 2);
+  ASSERT_TRUE(strided.has_value());
+  EXPECT_EQ(strided->low, every_other.front());
+  EXPECT_EQ(strided->high, every_other.back());
+  cv::Mat words(2, 2, CV_16U, cv::Scalar(300));
+  words.at<uint16_t>(1, 1) = 900;
+  EXPECT_EQ(FiniteQuantileRange(words, 0.0, 1.0)->high, 900.0);
+}
+
+TEST(FiniteQuantileRange, NoFinitePixelGivesNothingAndBadArgumentsThrow) {
+  const cv::Mat holes(4, 4, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  EXPECT_FALSE(FiniteQuantileRange(holes, 0.01, 0.99).has_value());
+  EXPECT_FALSE(FiniteQuantileRange(cv::Mat(), 0.01, 0.99).has_value());
+  const cv::Mat ones(4, 4, CV_32F, cv::Scalar(1.0));
+  EXPECT_THROW(FiniteQuantileRange(ones, 0.9, 0.1), Error);
+  EXPECT_THROW(FiniteQuantileRange(ones, 0.0, 1.5), Error);
+  EXPECT_THROW(FiniteQuantileRange(ones, 0.0, 1.0, 0), Error);
+  EXPECT_THROW(FiniteQuantileRange(cv::Mat(2, 2, CV_32FC3), 0.0, 1.0), Error);
 }
 
 }  // namespace

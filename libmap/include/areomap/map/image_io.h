@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 
 #include <opencv2/core.hpp>
 
@@ -13,6 +14,18 @@ namespace areomap {
 cv::Mat ReadImage(const std::filesystem::path& path);
 
 // Writes CV_8UC(n) or CV_16UC(n), n in 1..4, atomically; the format comes from the extension.
+// PNG at zlib's fastest level (plots and overlays are written once and looked at).
 void WriteImage(const std::filesystem::path& path, const cv::Mat& image);
+
+// The values at quantiles `low` and `high` (0 <= low <= high <= 1) of the finite pixels of a
+// single-channel image, read at every `step`-th row and column; the value at quantile q is the
+// sorted sample's element floor(q (n - 1)) (std::nth_element, linear time). For contrast
+// stretches of plots. std::nullopt when no sampled pixel is finite.
+struct ValueRange {
+  double low = 0.0;
+  double high = 0.0;
+};
+std::optional<ValueRange> FiniteQuantileRange(const cv::Mat& image, double low, double high,
+                                              int step = 1);
 
 }  // namespace areomap
