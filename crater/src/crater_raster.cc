@@ -109,11 +109,13 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
                 r0 = std::max(0, core_r0 - o.tile_overlap);
       const int c1 = std::min(width, core_c1 + o.tile_overlap);
       const int r1 = std::min(height, core_r1 + o.tile_overlap);
-      cv::Mat tile;
+      std::unique_ptr<internal::EdgeScratch> scratch = scratch_pool.Acquire();
+      cv::Mat tile = scratch->Get(internal::EdgeScratch::kTileSlot, r1 - r0, c1 - c0, CV_32F,
+                                  static_cast<size_t>(padded) * padded);
       {
         // A GDAL dataset is not thread-safe: reads are serialised, detection is parallel.
         std::lock_guard<std::mutex> read_lock(read_mutex);
-        tile = dataset.ReadWindowFloat(1, {c0, r0, c1 - c0, r1 - r0});
+        dataset.ReadWindowFloatInto(1, {c0, r0, c1 - c0, r1 - r0}, &tile);
       }
       if (overview_from_tiles) {
         const int out_c0 = core_c0 / factor, out_r0 = core_r0 / factor;
@@ -127,7 +129,6 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
           small.copyTo(overview(cv::Rect(out_c0, out_r0, out_w, out_h)));  // disjoint per tile
         }
       }
-      std::unique_ptr<internal::EdgeScratch> scratch = scratch_pool.Acquire();
       std::vector<CraterDetection>& found = per_tile[static_cast<size_t>(t)];
       {
         const internal::UseEdgeScratch use(scratch.get());

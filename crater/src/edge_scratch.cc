@@ -12,13 +12,14 @@ thread_local EdgeScratch* current_scratch = nullptr;
 
 }  // namespace
 
-cv::Mat EdgeScratch::Get(int slot, int rows, int cols, int type) {
+cv::Mat EdgeScratch::Get(int slot, int rows, int cols, int type,
+                         std::optional<size_t> slot_reserve_pixels) {
   RequireOption(slot >= 0 && slot < kSlots, "EdgeScratch.slot", "in [0, kSlots)");
   const size_t bytes = static_cast<size_t>(rows) * static_cast<size_t>(cols) * CV_ELEM_SIZE(type);
   auto& memory = memory_[static_cast<size_t>(slot)];
   size_t& capacity = capacity_[static_cast<size_t>(slot)];
   if (bytes > capacity) {
-    capacity = std::max(bytes, reserve_pixels_ * CV_ELEM_SIZE(type));
+    capacity = std::max(bytes, slot_reserve_pixels.value_or(reserve_pixels_) * CV_ELEM_SIZE(type));
     memory = std::make_unique_for_overwrite<unsigned char[]>(capacity);
   }
   return cv::Mat(rows, cols, type, memory.get());

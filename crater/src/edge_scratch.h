@@ -1,6 +1,6 @@
 // Reusable memory for the full-size temporaries of rim edge detection (rim_edges.h): the
-// smoothed image and gradient magnitude, the gradients, the edge map; and for the detector's
-// 2x upsampled copy of a tile (four times a tile's pixels).
+// smoothed image and gradient magnitude, the gradients, the edge map; and for a tile as read
+// and the detector's 2x upsampled copy of it (four times a tile's pixels).
 // Internal to the crater module.
 //
 // A tiled detection (DetectCratersInRaster) hands each tile task one EdgeScratch from an
@@ -19,6 +19,7 @@
 #include <cstddef>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -28,15 +29,18 @@ namespace areomap::internal {
 class EdgeScratch {
  public:
   // Slots 0-3: rim_edges.cc's temporaries; kUpsampledImageSlot: the detector's 2x upsampled
-  // level (crater_detector.cc), which lives while its edges are computed in the other slots.
+  // level (crater_detector.cc), which lives while its edges are computed in the other slots;
+  // kTileSlot: the tile itself (crater_raster.cc), alive for the whole detection on it.
   static constexpr int kUpsampledImageSlot = 4;
-  static constexpr int kSlots = 5;
+  static constexpr int kTileSlot = 5;
+  static constexpr int kSlots = 6;
   // `reserve_pixels`: the largest image expected (a padded tile), so that growing happens once.
   explicit EdgeScratch(size_t reserve_pixels = 0) : reserve_pixels_(reserve_pixels) {}
   // A continuous rows x cols matrix of `type` over the memory of `slot` (grown when too small,
-  // to at least reserve_pixels); its contents are undefined. Valid until the next Get of the
-  // same slot.
-  cv::Mat Get(int slot, int rows, int cols, int type);
+  // to at least reserve_pixels, or `slot_reserve_pixels` when given); its contents are
+  // undefined. Valid until the next Get of the same slot.
+  cv::Mat Get(int slot, int rows, int cols, int type,
+              std::optional<size_t> slot_reserve_pixels = std::nullopt);
 
  private:
   size_t reserve_pixels_;

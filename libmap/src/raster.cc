@@ -170,10 +170,13 @@ RasterDataset RasterDataset::Open(const std::filesystem::path& path) {
 }
 
 cv::Mat RasterDataset::ReadWindow(int band, const PixelWindow& window) const {
-  return Read(band, window, false);
+  cv::Mat out;
+  Read(band, window, false, &out);
+  return out;
 }
 
-cv::Mat RasterDataset::Read(int band_index, const PixelWindow& w, bool float_if_exact) const {
+void RasterDataset::Read(int band_index, const PixelWindow& w, bool float_if_exact,
+                         cv::Mat* out) const {
   if (band_index < 1 || band_index > info_.band_count) {
     throw Error(info_.path.string() + ": band " + std::to_string(band_index) +
                 " does not exist: expected 1.." + std::to_string(info_.band_count));
@@ -190,27 +193,36 @@ cv::Mat RasterDataset::Read(int band_index, const PixelWindow& w, bool float_if_
   const GdalTypeMapping mapping = float_if_exact && ValuesExactInFloat(stored)
                                       ? GdalTypeMapping{GDT_Float32, CV_32F}
                                       : MappingForGdal(stored, info_.path);
-  cv::Mat out(w.height, w.width, CV_MAKETYPE(mapping.cv_depth, 1));
+  out->create(w.height, w.width, CV_MAKETYPE(mapping.cv_depth, 1));
   internal::QuietGdalErrors quiet;
   const CPLErr err =
-      band->RasterIO(GF_Read, w.col0, w.row0, w.width, w.height, out.data, w.width, w.height,
-                     mapping.gdal, 0, static_cast<GSpacing>(out.step[0]), nullptr);
+      band->RasterIO(GF_Read, w.col0, w.row0, w.width, w.height, out->data, w.width, w.height,
+                     mapping.gdal, 0, static_cast<GSpacing>(out->step[0]), nullptr);
   if (err != CE_None) {
     throw Error(info_.path.string() +
                 ": read failed (truncated or corrupt file?): " + internal::LastGdalError());
   }
-  return out;
 }
 
 cv::Mat RasterDataset::ReadWindowFloat(int band, const PixelWindow& window) const {
+  cv::Mat out;
+  ReadWindowFloatInto(band, window, &out);
+  return out;
+}
+
+void RasterDataset::ReadWindowFloatInto(int band, const PixelWindow& window, cv::Mat* out) const {
   const auto nodata = info_.nodata;
   const bool unscaled = info_.scale == 1.0 && info_.offset == 0.0;
   // Unscaled integers of up to 16 bits come as floats, exactly: so are their comparisons with a
-  // nodata value below (a nodata value that is not such a float matches none of them).
-  cv::Mat stored = Read(band, window, unscaled);
-  // Converted row by row through one double row (a whole-window double copy costs twice the
-  // window's float size); float pixels are converted in place.
-  cv::Mat out = stored.depth() == CV_32F ? stored : cv::Mat(stored.size(), CV_32F);
+  // nodata value below (a nodata value that is not such a float matches none of them). Float
+  // pixels are converted in place, other types row by row through one double row (a
+  // whole-window double copy costs twice the window's float size).
+  Read(band, window, unscaled, out);
+  const cv::Mat stored = *out;
+  if (stored.depth() != CV_32F) {
+    out->release();  // `stored` keeps the pixels
+    out->create(stored.size(), CV_32F);
+  }
   if (stored.depth() == CV_32F && unscaled) {
     // Floats without scaling: the same as below (1 x v + 0 rounds back to v), without the
     // doubles. A nodata value that is not a float never equals one of them.
@@ -222,28 +234,27 @@ cv::Mat RasterDataset::ReadWindowFloat(int band, const PixelWindow& window) cons
     const float nodata_match =
         nodata_is_float ? nodata_value : std::numeric_limits<float>::quiet_NaN();
     const float nan = std::numeric_limits<float>::quiet_NaN();
-    for (int r = 0; r < out.rows; ++r) {
-      float* v = out.ptr<float>(r);
-      for (int c = 0; c < out.cols; ++c) {
+    for (int r = 0; r < out->rows; ++r) {
+      float* v = out->ptr<float>(r);
+      for (int c = 0; c < out->cols; ++c) {
         const float x = v[c];
         const bool finite = std::abs(x) <= std::numeric_limits<float>::max();
         v[c] = finite && x != nodata_match ? x : nan;
       }
     }
-    return out;
+    return;
   }
   cv::Mat row(1, stored.cols, CV_64F);
   for (int r = 0; r < stored.rows; ++r) {
-    stored.row(r).convertTo(row, CV_64F);
+    stored.row(r).convertTo(row, CV_64F);  // a copy: *out may share the pixels of `stored`
     const double* in = row.ptr<double>(0);
-    float* dst = out.ptr<float>(r);
+    float* dst = out->ptr<float>(r);
     for (int c = 0; c < stored.cols; ++c) {
       const bool missing = !std::isfinite(in[c]) || (nodata && in[c] == *nodata);
       dst[c] = missing ? std::numeric_limits<float>::quiet_NaN()
                        : static_cast<float>(info_.scale * in[c] + info_.offset);
     }
   }
-  return out;
 }
 
 std::optional<nlohmann::json> RasterDataset::LabelJson(const std::string& domain) const {

@@ -104,13 +104,23 @@ TEST(Raster, IntegerBandsReadAsFloatExactlyWithNodataAsNan) {
     raster.nodata = c.nodata;
     const auto path = dir.path() / ("band" + std::to_string(c.depth) + ".tif");
     WriteGeoTiff(path, raster);
-    const cv::Mat read = RasterDataset::Open(path).ReadWindowFloat(1, {0, 0, band.cols, 1});
+    const RasterDataset dataset = RasterDataset::Open(path);
+    const cv::Mat read = dataset.ReadWindowFloat(1, {0, 0, band.cols, 1});
     ASSERT_EQ(read.type(), CV_32F);
     EXPECT_TRUE(std::isnan(read.at<float>(0, 0))) << "depth " << c.depth;
     for (size_t i = 1; i < c.values.size(); ++i) {
       EXPECT_EQ(read.at<float>(0, static_cast<int>(i)), static_cast<float>(c.values[i]))
           << "depth " << c.depth << " value " << c.values[i];
     }
+    // Into a caller's window-sized float memory: the same values; integers of up to 16 bits
+    // land in that memory, the others are converted into a new matrix.
+    std::vector<float> memory(c.values.size(), -1.0f);
+    cv::Mat into(1, band.cols, CV_32F, memory.data());
+    dataset.ReadWindowFloatInto(1, {0, 0, band.cols, 1}, &into);
+    EXPECT_EQ(into.ptr<float>() == memory.data(), c.depth != CV_32S) << "depth " << c.depth;
+    EXPECT_TRUE(std::isnan(into.at<float>(0, 0))) << "depth " << c.depth;
+    EXPECT_EQ(cv::norm(into.colRange(1, band.cols), read.colRange(1, band.cols), cv::NORM_INF), 0.0)
+        << "depth " << c.depth;
   }
   // A nodata value no stored integer can equal marks nothing.
   GeoRaster raster;
@@ -120,6 +130,38 @@ TEST(Raster, IntegerBandsReadAsFloatExactlyWithNodataAsNan) {
   const cv::Mat read =
       RasterDataset::Open(dir.path() / "half.tif").ReadWindowFloat(1, {0, 0, 3, 1});
   EXPECT_EQ(cv::countNonZero(read == 7.0f), 3);
+}
+
+TEST(Raster, ScaledBandsReadAsScaledFloatsIntoTheCallersMemoryOrNot) {
+  TempDir dir;
+  // A VRT gives the stored values a scale and offset (as PDS and ISIS products do): value =
+  // 0.5 x stored + 10, stored 0 is nodata.
+  for (const int depth : {CV_16U, CV_32F}) {
+    GeoRaster raster;
+    cv::Mat(1, 4, CV_64F, cv::Scalar(0)).convertTo(raster.bands.emplace_back(), depth);
+    for (int i = 0; i < 4; ++i) raster.bands[0].col(i).setTo(2 * i);
+    const std::string name = depth == CV_16U ? "uint16" : "float32";
+    WriteGeoTiff(dir.path() / (name + ".tif"), raster);
+    std::ofstream(dir.path() / (name + ".vrt"))
+        << "<VRTDataset rasterXSize=\"4\" rasterYSize=\"1\">\n"
+        << "  <VRTRasterBand dataType=\"" << (depth == CV_16U ? "UInt16" : "Float32")
+        << "\" band=\"1\">\n"
+        << "    <NoDataValue>0</NoDataValue><Offset>10</Offset><Scale>0.5</Scale>\n"
+        << "    <SimpleSource><SourceFilename relativeToVRT=\"1\">" << name
+        << ".tif</SourceFilename><SourceBand>1</SourceBand></SimpleSource>\n"
+        << "  </VRTRasterBand>\n</VRTDataset>\n";
+    const RasterDataset dataset = RasterDataset::Open(dir.path() / (name + ".vrt"));
+    std::vector<float> memory(4, -1.0f);
+    cv::Mat into(1, 4, CV_32F, memory.data());
+    dataset.ReadWindowFloatInto(1, {0, 0, 4, 1}, &into);
+    // Float32 is read into the caller's memory and scaled there; UInt16 through a new matrix.
+    EXPECT_EQ(into.ptr<float>() == memory.data(), depth == CV_32F) << name;
+    EXPECT_TRUE(std::isnan(into.at<float>(0, 0))) << name;
+    for (int i = 1; i < 4; ++i)
+      EXPECT_EQ(into.at<float>(0, i), 10.0f + static_cast<float>(i)) << name;
+    const cv::Mat read = dataset.ReadWindowFloat(1, {1, 0, 3, 1});
+    EXPECT_EQ(cv::norm(read, into.colRange(1, 4), cv::NORM_INF), 0.0) << name;
+  }
 }
 
 TEST(Raster, BadFilesGiveErrorsThatNameThem) {

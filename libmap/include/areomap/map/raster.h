@@ -71,6 +71,10 @@ class RasterDataset {
   cv::Mat ReadWindow(int band, const PixelWindow& window) const;
   // Reads one band as CV_32F with scale/offset applied and nodata (or non-finite) as NaN.
   cv::Mat ReadWindowFloat(int band, const PixelWindow& window) const;
+  // The same into *out, which keeps its memory when it already is a window-sized CV_32F matrix
+  // (cv::Mat::create): a caller reading many windows passes a header over memory it reuses,
+  // instead of page-faulting a fresh buffer in for every window.
+  void ReadWindowFloatInto(int band, const PixelWindow& window, cv::Mat* out) const;
   // The product label as JSON from metadata domain `domain` (e.g. "json:PDS", "json:VICAR",
   // "json:ISIS3"); std::nullopt if the file has none.
   std::optional<nlohmann::json> LabelJson(const std::string& domain) const;
@@ -78,9 +82,10 @@ class RasterDataset {
  private:
   struct Impl;
   explicit RasterDataset(std::unique_ptr<Impl> impl);
-  // ReadWindow; with `float_if_exact`, a band whose every value is a float exactly (integers of
-  // up to 16 bits) comes back as CV_32F, converted by GDAL while it copies the blocks.
-  cv::Mat Read(int band, const PixelWindow& window, bool float_if_exact) const;
+  // ReadWindow into *out (cv::Mat::create); with `float_if_exact`, a band whose every value is a
+  // float exactly (integers of up to 16 bits) comes back as CV_32F, converted by GDAL while it
+  // copies the blocks.
+  void Read(int band, const PixelWindow& window, bool float_if_exact, cv::Mat* out) const;
   std::unique_ptr<Impl> impl_;
   RasterInfo info_;
 };
