@@ -97,9 +97,7 @@ const std::vector<double> kBins = {12.0, 24.0, 48.0, 1e9};
 // Precision, recall and F1 of `found` against `truth` by the bench's diameter bins.
 areomap::CraterScore ScoreDetections(const std::vector<CraterCircle>& truth,
                                      const std::vector<areomap::CraterDetection>& found) {
-  std::vector<CraterCircle> circles;
-  for (const auto& d : found) circles.push_back({d.ellipse.center, d.Diameter()});
-  return areomap::ScoreCraters(truth, circles, kBins);
+  return areomap::ScoreCraters(truth, areomap::CirclesOf(found), kBins);
 }
 
 // The GeoTIFF sample type named `samples` ("float32" or "uint16") as a cv::Mat depth.

@@ -148,4 +148,18 @@ std::vector<CraterCircle> ReadCraterCsv(const std::filesystem::path& path) {
   return craters;
 }
 
+std::vector<CraterCircle> CirclesOf(const std::vector<Ellipse>& ellipses) {
+  std::vector<CraterCircle> circles;
+  circles.reserve(ellipses.size());
+  for (const Ellipse& e : ellipses) circles.push_back({e.center, e.semi_major + e.semi_minor});
+  return circles;
+}
+
+std::vector<CraterCircle> CirclesOf(const std::vector<CraterDetection>& detections) {
+  std::vector<CraterCircle> circles;
+  circles.reserve(detections.size());
+  for (const CraterDetection& d : detections) circles.push_back({d.ellipse.center, d.Diameter()});
+  return circles;
+}
+
 }  // namespace areomap

@@ -93,13 +93,9 @@ json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
   if (run.mission->truth_craters_csv) {
     const std::vector<CraterCircle> truth =
         ReadTruthCraters(*run.mission->truth_craters_csv, probe.pixel_size_m);
-    std::vector<CraterCircle> detections;
-    for (const CraterDetection& d : found) {
-      detections.push_back({d.ellipse.center, d.ellipse.semi_major + d.ellipse.semi_minor});
-    }
     const double lo = options.min_diameter_px;
-    const CraterScore score =
-        ScoreCraters(truth, detections, {lo, 4 * lo, std::numeric_limits<double>::infinity()});
+    const CraterScore score = ScoreCraters(truth, CirclesOf(found),
+                                           {lo, 4 * lo, std::numeric_limits<double>::infinity()});
     summary["score"] = CraterMatchStatsJson(score.all);
     summary["score"]["rule"] =
         "centre distance < 0.5 x truth radius and detected/true diameter in [0.7, 1.3]";

@@ -25,18 +25,6 @@ namespace {
 using testing::CraterScene;
 using testing::MakeCraterScene;
 
-std::vector<CraterCircle> Circles(const std::vector<Ellipse>& ellipses) {
-  std::vector<CraterCircle> out;
-  for (const Ellipse& e : ellipses) out.push_back({e.center, e.semi_major + e.semi_minor});
-  return out;
-}
-
-std::vector<CraterCircle> Circles(const std::vector<CraterDetection>& detections) {
-  std::vector<CraterCircle> out;
-  for (const CraterDetection& d : detections) out.push_back({d.ellipse.center, d.Diameter()});
-  return out;
-}
-
 double Median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? std::numeric_limits<double>::quiet_NaN() : v[v.size() / 2];
@@ -183,7 +171,7 @@ TEST(DetectCraters, FindsGeneratedCratersWithSubPixelAccuracy) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const CraterScore score =
-      ScoreCraters(Circles(scene.truth_px), Circles(found), {10.0, 20.0, 40.0, 80.0, 1e9});
+      ScoreCraters(CirclesOf(scene.truth_px), CirclesOf(found), {10.0, 20.0, 40.0, 80.0, 1e9});
   std::vector<double> center_errors, axis_errors;
   for (const auto& [t, d] : score.matches) {
     const Ellipse& truth = scene.truth_px[static_cast<size_t>(t)];
@@ -210,7 +198,8 @@ TEST(DetectCraters, FindsCratersOnDtmAndMeasuresDepth) {
   options.min_diameter_px = 10.0;
   options.dtm_posting = 1.0;
   const std::vector<CraterDetection> found = DetectCraters(dtm, RimSource::kDtm, options);
-  const CraterScore score = ScoreCraters(Circles(scene.truth_dtm_px), Circles(found), {12.0, 1e9});
+  const CraterScore score =
+      ScoreCraters(CirclesOf(scene.truth_dtm_px), CirclesOf(found), {12.0, 1e9});
   RecordProperty("recall_ge_12px", std::to_string(score.all.recall));
   RecordProperty("precision_ge_12px", std::to_string(score.all.precision));
   EXPECT_GE(score.all.recall, 0.9);
@@ -263,7 +252,7 @@ TEST(DetectCraters, NodataHolesHideOnlyTheCratersUnderThem) {
     }
   }
   ASSERT_GE(visible.size(), 8u);
-  const CraterScore score = ScoreCraters(Circles(visible), Circles(found), {10.0, 1e9});
+  const CraterScore score = ScoreCraters(CirclesOf(visible), CirclesOf(found), {10.0, 1e9});
   EXPECT_GE(score.all.recall, 0.9);
   for (const CraterDetection& d : found) {
     EXPECT_TRUE(std::isfinite(d.ellipse.center.x()) && std::isfinite(d.ellipse.semi_major));
@@ -361,7 +350,7 @@ TEST(DetectCraters, HrscNanediLabelledCraters) {
   options.min_edge_contrast = 1.6;
   options.shading_template.enabled = true;
   const std::vector<CraterDetection> found = DetectCraters(image, RimSource::kImage, options);
-  const CraterScore score = ScoreCraters(truth, Circles(found), {8.0, 16.0, 32.0, 1e9});
+  const CraterScore score = ScoreCraters(truth, CirclesOf(found), {8.0, 16.0, 32.0, 1e9});
   for (const auto& b : score.bins) {
     RecordProperty("f1_" + std::to_string(static_cast<int>(b.min_diameter)) + "px",
                    std::to_string(b.f1));

@@ -92,8 +92,7 @@ TEST(DetectCratersInRaster, TilesAndOverviewFindSmallAndLargeCraters) {
         ++progress_calls;
         return true;
       });
-  std::vector<CraterCircle> circles;
-  for (const CraterDetection& d : found) circles.push_back({d.ellipse.center, d.Diameter()});
+  const std::vector<CraterCircle> circles = CirclesOf(found);
   const CraterScore score = ScoreCraters(truth, circles, {10.0, 1e9});
   for (size_t t = 0; t < truth.size(); ++t) {
     if (std::none_of(score.matches.begin(), score.matches.end(),
@@ -284,6 +283,18 @@ TEST(WriteScoreOverlay, MatchedGreenMissedRedFalseAlarmYellow) {
   EXPECT_GT(alarm[0], 150);
   EXPECT_GT(alarm[1], 150);
   EXPECT_LT(alarm[2], 100);
+}
+
+TEST(CirclesOf, TakesTheCentreAndTheRimDiameterAPlusB) {
+  const Ellipse e{Eigen::Vector2d(3.0, -2.0), 5.0, 3.0, 0.4};
+  CraterDetection d;
+  d.ellipse = e;
+  for (const std::vector<CraterCircle>& circles : {CirclesOf({e}), CirclesOf({d})}) {
+    ASSERT_EQ(circles.size(), 1u);
+    EXPECT_EQ(circles[0].center, e.center);
+    EXPECT_EQ(circles[0].diameter, 8.0);
+  }
+  EXPECT_TRUE(CirclesOf(std::vector<Ellipse>{}).empty());
 }
 
 TEST(ReadCraterCsv, NamesFileAndLineOfBadInput) {

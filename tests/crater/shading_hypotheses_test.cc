@@ -23,18 +23,6 @@ using testing::MakeCraterScene;
 
 constexpr double kSunAzimuth = 120.0;
 
-std::vector<CraterCircle> Circles(const std::vector<Ellipse>& ellipses) {
-  std::vector<CraterCircle> out;
-  for (const Ellipse& e : ellipses) out.push_back({e.center, e.semi_major + e.semi_minor});
-  return out;
-}
-
-std::vector<CraterCircle> Circles(const std::vector<CraterDetection>& detections) {
-  std::vector<CraterCircle> out;
-  for (const CraterDetection& d : detections) out.push_back({d.ellipse.center, d.Diameter()});
-  return out;
-}
-
 double Median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? std::numeric_limits<double>::quiet_NaN() : v[v.size() / 2];
@@ -84,8 +72,8 @@ TEST(ShadingHypotheses, FindsDegradedBowlsThatTheEdgePathMisses) {
   options.shading_template.enabled = true;
   const std::vector<CraterDetection> found = DetectCraters(image, RimSource::kImage, options);
   const std::vector<double> bins = {8.0, 1e9};
-  const CraterScore before = ScoreCraters(Circles(scene.truth_px), Circles(edge_only), bins);
-  const CraterScore after = ScoreCraters(Circles(scene.truth_px), Circles(found), bins);
+  const CraterScore before = ScoreCraters(CirclesOf(scene.truth_px), CirclesOf(edge_only), bins);
+  const CraterScore after = ScoreCraters(CirclesOf(scene.truth_px), CirclesOf(found), bins);
   std::vector<double> center_errors, radius_errors;
   int template_only = 0;
   for (const auto& [t, d] : after.matches) {

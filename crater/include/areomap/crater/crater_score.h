@@ -13,6 +13,9 @@
 
 #include <Eigen/Core>
 
+#include "areomap/crater/crater_detector.h"
+#include "areomap/crater/ellipse.h"
+
 namespace areomap {
 
 struct CraterCircle {
@@ -45,6 +48,11 @@ struct CraterScore {
 CraterScore ScoreCraters(const std::vector<CraterCircle>& truth,
                          const std::vector<CraterCircle>& detections,
                          const std::vector<double>& bin_edges);
+
+// Ellipses and detections as the circles the matching rule compares: centre and rim diameter
+// a + b.
+std::vector<CraterCircle> CirclesOf(const std::vector<Ellipse>& ellipses);
+std::vector<CraterCircle> CirclesOf(const std::vector<CraterDetection>& detections);
 
 // Reads a CSV with a header holding columns x_px, y_px and diameter_px (other columns are
 // ignored; areomap's craters.csv qualifies). Throws areomap::Error naming the file and line.
