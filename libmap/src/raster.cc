@@ -211,6 +211,7 @@ cv::Mat RasterDataset::ReadWindowFloat(int band, const PixelWindow& window) cons
 }
 
 void RasterDataset::ReadWindowFloatInto(int band, const PixelWindow& window, cv::Mat* out) const {
+  RequireOption(out != nullptr, "ReadWindowFloatInto.out", "a matrix to read into");
   const auto nodata = info_.nodata;
   const bool unscaled = info_.scale == 1.0 && info_.offset == 0.0;
   // Unscaled integers of up to 16 bits come as floats, exactly: so are their comparisons with a

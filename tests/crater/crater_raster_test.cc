@@ -56,6 +56,23 @@ RasterDataset WritePlainGeoTiff(const std::filesystem::path& path, const cv::Mat
   return RasterDataset::Open(path);
 }
 
+// The same craters in the same order, bit for bit, as DetectCratersInRaster finds with one thread
+// (taking the tiles one by one): the result does not depend on the order the tiles finish in.
+void ExpectSameAsWithOneThread(const RasterDataset& dataset, const CraterDetectorOptions& options,
+                               const std::vector<CraterDetection>& found) {
+  std::vector<CraterDetection> one_thread;
+  tbb::task_arena(1).execute(
+      [&] { one_thread = DetectCratersInRaster(dataset, RimSource::kImage, options); });
+  ASSERT_EQ(one_thread.size(), found.size());
+  for (size_t i = 0; i < found.size(); ++i) {
+    EXPECT_EQ(one_thread[i].ellipse.center, found[i].ellipse.center) << i;
+    EXPECT_EQ(one_thread[i].ellipse.semi_major, found[i].ellipse.semi_major) << i;
+    EXPECT_EQ(one_thread[i].ellipse.semi_minor, found[i].ellipse.semi_minor) << i;
+    EXPECT_EQ(one_thread[i].ellipse.angle, found[i].ellipse.angle) << i;
+    EXPECT_EQ(one_thread[i].confidence, found[i].confidence) << i;
+  }
+}
+
 // Tiles of 400 px with 96 px overlap, so that a 1000 px raster has seams; every crater of these
 // tests is >= 18 px across, so no upsampled level.
 CraterDetectorOptions SmallTileOptions() {
@@ -114,19 +131,7 @@ TEST(DetectCratersInRaster, TilesAndOverviewFindSmallAndLargeCraters) {
   }
   EXPECT_TRUE(big);
 
-  // The same craters in the same order, bit for bit, whatever order the tiles finish in (one
-  // thread takes them one by one).
-  std::vector<CraterDetection> one_thread;
-  tbb::task_arena(1).execute(
-      [&] { one_thread = DetectCratersInRaster(dataset, RimSource::kImage, options); });
-  ASSERT_EQ(one_thread.size(), found.size());
-  for (size_t i = 0; i < found.size(); ++i) {
-    EXPECT_EQ(one_thread[i].ellipse.center, found[i].ellipse.center) << i;
-    EXPECT_EQ(one_thread[i].ellipse.semi_major, found[i].ellipse.semi_major) << i;
-    EXPECT_EQ(one_thread[i].ellipse.semi_minor, found[i].ellipse.semi_minor) << i;
-    EXPECT_EQ(one_thread[i].ellipse.angle, found[i].ellipse.angle) << i;
-    EXPECT_EQ(one_thread[i].confidence, found[i].confidence) << i;
-  }
+  ExpectSameAsWithOneThread(dataset, options, found);
 
   // Outputs: not georeferenced -> CSV/JSON fine, GeoPackage refused with the reason.
   const CraterCatalog catalog = MakeCraterCatalog(found, dataset.info());
@@ -135,6 +140,31 @@ TEST(DetectCratersInRaster, TilesAndOverviewFindSmallAndLargeCraters) {
   EXPECT_EQ(ReadCraterCsv(dir / "craters.csv").size(), found.size());
   EXPECT_THROW(WriteCratersGeoPackage(dir / "craters.gpkg", catalog), Error);
   EXPECT_FALSE(std::filesystem::exists(dir / "craters.gpkg"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(DetectCratersInRaster, SmallCratersOnTheUpsampledLevelOfEveryTile) {
+  // Bowls 10-14 px across (only the 2x upsampled level searches them), on a 3 x 3 tile grid and
+  // across its seams: each tile's level and edges live in the tile's reused scratch. The walls
+  // of such small bowls give arcs whose centres lie apart along the sun line: without grouping
+  // them (GroupArcs) each wall was fitted as its own smaller circle (precision 0.77, recall 0.80).
+  std::vector<CraterCircle> truth;
+  for (int i = 0; i < 9; ++i) {
+    for (int j = 0; j < 9; ++j) {
+      truth.push_back({{60.0 + 120.0 * i + 3.0 * j, 55.0 + 120.0 * j}, 10.0 + (i + j) % 5});
+    }
+  }
+  const auto dir = std::filesystem::temp_directory_path() / "areomap_crater_upsampled_test";
+  const RasterDataset dataset = WritePlainGeoTiff(dir / "small.tif", DrawBowls(1100, truth));
+  CraterDetectorOptions options = SmallTileOptions();
+  options.min_diameter_px = 8.0;
+  options.upsample_small_craters = true;
+  const std::vector<CraterDetection> found =
+      DetectCratersInRaster(dataset, RimSource::kImage, options);
+  const CraterScore score = ScoreCraters(truth, CirclesOf(found), {8.0, 1e9});
+  EXPECT_GE(score.all.recall, 0.95);
+  EXPECT_GE(score.all.precision, 0.95);
+  ExpectSameAsWithOneThread(dataset, options, found);
   std::filesystem::remove_all(dir);
 }
 

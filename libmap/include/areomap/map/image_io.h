@@ -18,9 +18,11 @@ cv::Mat ReadImage(const std::filesystem::path& path);
 void WriteImage(const std::filesystem::path& path, const cv::Mat& image);
 
 // The values at quantiles `low` and `high` (0 <= low <= high <= 1) of the finite pixels of a
-// single-channel image, read at every `step`-th row and column; the value at quantile q is the
-// sorted sample's element floor(q (n - 1)) (std::nth_element, linear time). For contrast
-// stretches of plots. std::nullopt when no sampled pixel is finite.
+// single-channel image (of any depth, compared as floats), read at every `step`-th row and
+// column; the value at quantile q is the sorted sample's element floor(q (n - 1))
+// (std::nth_element, linear time). For contrast stretches of plots. std::nullopt when no sampled
+// pixel is finite; throws areomap::Error naming the argument for a multi-channel image, bad
+// quantiles or step < 1.
 struct ValueRange {
   double low = 0.0;
   double high = 0.0;

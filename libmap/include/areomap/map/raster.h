@@ -71,9 +71,12 @@ class RasterDataset {
   cv::Mat ReadWindow(int band, const PixelWindow& window) const;
   // Reads one band as CV_32F with scale/offset applied and nodata (or non-finite) as NaN.
   cv::Mat ReadWindowFloat(int band, const PixelWindow& window) const;
-  // The same into *out, which keeps its memory when it already is a window-sized CV_32F matrix
+  // The same into *out (not null). Bands read as floats (Float32, and Byte/UInt16/Int16 without
+  // scale and offset) land in *out's memory when it already is a window-sized CV_32F matrix
   // (cv::Mat::create): a caller reading many windows passes a header over memory it reuses,
-  // instead of page-faulting a fresh buffer in for every window.
+  // instead of page-faulting a fresh buffer in for every window. Other bands, or an *out of
+  // another size or type, leave that memory untouched and point *out at a new matrix. Throws as
+  // ReadWindowFloat.
   void ReadWindowFloatInto(int band, const PixelWindow& window, cv::Mat* out) const;
   // The product label as JSON from metadata domain `domain` (e.g. "json:PDS", "json:VICAR",
   // "json:ISIS3"); std::nullopt if the file has none.
