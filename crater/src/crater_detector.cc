@@ -220,6 +220,27 @@ std::vector<Arc> ExtractArcs(const RimEdges& all_edges, double r_lo, double r_hi
   constexpr int kWindowsPerTask = 4;
   static_assert(kSectors % kWindowsPerTask == 0, "every window belongs to one task");
   constexpr int kBandEdges = 8192;
+  // The edges 8-connected to `seed` whose normals lie in the window of `bit` and are not yet
+  // `seen` (marked now), in flood-fill order.
+  const auto component = [&](int seed, uint16_t bit, std::vector<char>& seen,
+                             std::vector<int>& stack, std::vector<int>& members) {
+    members.clear();
+    stack.assign(1, seed);
+    seen[seed] = 1;
+    while (!stack.empty()) {
+      const int i = stack.back();
+      stack.pop_back();
+      members.push_back(i);
+      const int* it = adjacency.neighbours.data() + adjacency.offsets[static_cast<size_t>(i)];
+      const int* last = adjacency.neighbours.data() + adjacency.offsets[static_cast<size_t>(i) + 1];
+      for (; it != last; ++it) {
+        const int j = *it;
+        if (seen[j] || !(windows[j] & bit)) continue;
+        seen[j] = 1;
+        stack.push_back(j);
+      }
+    }
+  };
   std::vector<std::vector<Arc>> per_window(kSectors);
   tbb::parallel_for(0, kSectors / kWindowsPerTask, [&](int task) {
     std::array<std::vector<char>, kWindowsPerTask> visited;
@@ -235,25 +256,8 @@ std::vector<Arc> ExtractArcs(const RimEdges& all_edges, double r_lo, double r_hi
         std::vector<char>& seen = visited[static_cast<size_t>(k)];
         size_t& next = next_seed[static_cast<size_t>(k)];
         for (; next < seeds.size() && seeds[next] < band_end; ++next) {
-          const int seed = seeds[next];
-          if (seen[seed]) continue;
-          members.clear();
-          stack.assign(1, seed);
-          seen[seed] = 1;
-          while (!stack.empty()) {
-            const int i = stack.back();
-            stack.pop_back();
-            members.push_back(i);
-            const int* it = adjacency.neighbours.data() + adjacency.offsets[static_cast<size_t>(i)];
-            const int* last =
-                adjacency.neighbours.data() + adjacency.offsets[static_cast<size_t>(i) + 1];
-            for (; it != last; ++it) {
-              const int j = *it;
-              if (seen[j] || !(windows[j] & bit)) continue;
-              seen[j] = 1;
-              stack.push_back(j);
-            }
-          }
+          if (seen[seeds[next]]) continue;
+          component(seeds[next], bit, seen, stack, members);
           if (static_cast<int>(members.size()) < kMinArcPoints) continue;
           if (auto arc = FitArc(edges.points, members, r_lo, r_hi, sun)) {
             for (int& i : arc->points) i = edges.index[static_cast<size_t>(i)];  // all_edges'
