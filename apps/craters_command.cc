@@ -85,6 +85,8 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
                      {"min_diameter_px", options.min_diameter_px},
                      {"max_diameter_px", options.max_diameter_px},
                      {"upsample_small_craters", options.upsample_small_craters},
+                     // whether that level was searched: only for minimum diameters under 16 px
+                     {"upsampled_level_searched", options.SearchesUpsampledLevel()},
                      {"sun_azimuth_deg",
                       a.sun_azimuth_deg ? nlohmann::json(*a.sun_azimuth_deg) : nlohmann::json()},
                      {"craters", found.size()},

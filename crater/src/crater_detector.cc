@@ -678,6 +678,10 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
 
 }  // namespace
 
+bool CraterDetectorOptions::SearchesUpsampledLevel() const {
+  return upsample_small_craters && 0.5 * min_diameter_px < kCoarseMinRadius;
+}
+
 void CraterDetectorOptions::Check() const {
   RequireOption(std::isfinite(min_diameter_px) && min_diameter_px >= 4.0,
                 "CraterDetectorOptions.min_diameter_px", ">= 4 px");
@@ -753,10 +757,6 @@ std::vector<CraterDetection> DetectCratersInCore(const cv::Mat& raster, RimSourc
   return kept;
 }
 
-bool SearchesUpsampledLevel(const CraterDetectorOptions& options) {
-  return options.upsample_small_craters && 0.5 * options.min_diameter_px < kCoarseMinRadius;
-}
-
 }  // namespace internal
 
 namespace {
@@ -780,7 +780,7 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
   }
   // Small craters (radius < kCoarseMinRadius) are searched on a 2x upsampled copy, where their
   // rims hold four times the edge points; GDAL coordinates scale exactly by 2 under cv::resize.
-  const bool upsample = internal::SearchesUpsampledLevel(o);
+  const bool upsample = o.SearchesUpsampledLevel();
   if (upsample) {
     Level up;
     up.scale = 0.5;

@@ -97,7 +97,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
     // Edge detection temporaries, reused by consecutive tiles (edge_scratch.h), sized once for
     // the largest level of a padded tile (+ the edge map's 1 px border).
     const size_t level_side =
-        static_cast<size_t>(padded) * (internal::SearchesUpsampledLevel(tile_options) ? 2 : 1) + 2;
+        static_cast<size_t>(padded) * (tile_options.SearchesUpsampledLevel() ? 2 : 1) + 2;
     internal::EdgeScratchPool scratch_pool(level_side * level_side);
     tbb::parallel_for(0, tile_count, [&](int t) {
       if (cancelled) return;

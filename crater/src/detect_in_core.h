@@ -27,10 +27,6 @@ namespace areomap::internal {
 // [px] found on a pyramid level of `scale` full-resolution px per level px is still fitted.
 inline double CoreMargin(double radius, double scale) { return radius + 2.0 * scale + 4.0; }
 
-// Whether DetectCraters with `options` searches a 2x upsampled level (its images and edge
-// temporaries then hold four times the input's pixels).
-bool SearchesUpsampledLevel(const CraterDetectorOptions& options);
-
 // DetectCraters restricted to craters centred in `core`; sorted by decreasing confidence.
 std::vector<CraterDetection> DetectCratersInCore(const cv::Mat& raster, RimSource source,
                                                  const CraterDetectorOptions& options,

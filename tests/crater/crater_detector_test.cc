@@ -295,6 +295,33 @@ TEST(DetectCraters, OptionsNameTheBadField) {
   EXPECT_THROW(DetectCraters(cv::Mat(10, 10, CV_8UC3), RimSource::kImage, {}), Error);
 }
 
+// The upsampled level serves craters under 16 px across only: asked for none, it is not searched
+// (craters summary.json `upsampled_level_searched`), and the option changes nothing.
+TEST(CraterDetectorOptions, SearchesTheUpsampledLevelOnlyForCratersUnder16Px) {
+  CraterDetectorOptions o;
+  EXPECT_TRUE(o.SearchesUpsampledLevel());  // the defaults: from 8 px
+  o.upsample_small_craters = false;
+  EXPECT_FALSE(o.SearchesUpsampledLevel());
+  o = {};
+  o.min_diameter_px = 15.9;
+  EXPECT_TRUE(o.SearchesUpsampledLevel());
+  o.min_diameter_px = 16.0;
+  EXPECT_FALSE(o.SearchesUpsampledLevel());
+
+  o.sun_azimuth_deg = 120.0;
+  const cv::Mat& image = FieldScene().products.image.bands[0];
+  const std::vector<CraterDetection> with = DetectCraters(image, RimSource::kImage, o);
+  o.upsample_small_craters = false;
+  const std::vector<CraterDetection> without = DetectCraters(image, RimSource::kImage, o);
+  ASSERT_FALSE(with.empty());
+  ASSERT_EQ(with.size(), without.size());
+  for (size_t i = 0; i < with.size(); ++i) {
+    EXPECT_EQ(with[i].ellipse.center, without[i].ellipse.center) << i;
+    EXPECT_EQ(with[i].ellipse.semi_major, without[i].ellipse.semi_major) << i;
+    EXPECT_EQ(with[i].confidence, without[i].confidence) << i;
+  }
+}
+
 TEST(DetectCraters, RecoversVictoriaSizedCrater) {
   // Victoria crater (ch. 2.2.1): semi-axes 406.3 m and 382.5 m, depth 78.5 m, floor radius about
   // 139 m; rendered at 1 m/px with the sun 30 degrees high.

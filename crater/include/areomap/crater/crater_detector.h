@@ -113,6 +113,10 @@ struct CraterDetectorOptions {
   ShadingTemplateOptions shading_template;
 
   void Check() const;  // throws areomap::Error naming the bad field
+  // Whether detection searches the 2x upsampled level: upsample_small_craters is on and craters
+  // under 16 px across are asked for (min_diameter_px < 16). Its images and edge temporaries hold
+  // four times the input's pixels.
+  bool SearchesUpsampledLevel() const;
 };
 
 // Detects craters in one in-memory raster (single band, any depth, NaN = nodata). Sorted by
