@@ -2,6 +2,7 @@
 // HTML report; areomap report DIR re-writes the report from a finished run's folder.
 #include <cstdio>
 #include <iostream>
+#include <limits>
 
 #include "areomap/map/mission_manifest.h"
 #include "areomap/registration/mission_run.h"
@@ -11,17 +12,25 @@
 namespace areomap::cli {
 namespace {
 
+// A number of the run's summary; NaN (printed "nan") where it is missing or null: undefined, as
+// the precision of no detections.
+double Number(const nlohmann::json& object, const char* key) {
+  const auto it = object.find(key);
+  return it != object.end() && it->is_number() ? it->get<double>()
+                                               : std::numeric_limits<double>::quiet_NaN();
+}
+
 // The lines a person reads after a run: per-leg outcome and RE, and the final errors.
 void PrintRunSummary(const nlohmann::json& s) {
   std::printf("sites: %d computed, %d reused; legs: %d computed, %d reused (%.0f s)\n",
               s["units"]["sites_computed"].get<int>(), s["units"]["sites_reused"].get<int>(),
               s["units"]["legs_computed"].get<int>(), s["units"]["legs_reused"].get<int>(),
-              s["seconds"].get<double>());
+              Number(s, "seconds"));
   for (const nlohmann::json& site : s["sites"]) {
     const nlohmann::json& r = site["registration"];
     char verdict[96];
     if (r.value("matched", false)) {
-      std::snprintf(verdict, sizeof(verdict), "matched, CC %.3f", r.value("correlation", 0.0));
+      std::snprintf(verdict, sizeof(verdict), "matched, CC %.3f", Number(r, "correlation"));
     } else {
       std::snprintf(verdict, sizeof(verdict), "no match: %s",
                     r.value("reason", std::string("?")).c_str());
@@ -34,7 +43,7 @@ void PrintRunSummary(const nlohmann::json& s) {
                 leg["site_b"].get<int>(), leg["outcome"].get<std::string>().c_str(),
                 leg["tie_points"].get<int>());
     if (leg.contains("relative_error_percent")) {
-      std::printf(", RE %.2f %%", leg["relative_error_percent"].get<double>());
+      std::printf(", RE %.2f %%", Number(leg, "relative_error_percent"));
     }
     std::printf("\n");
   }
@@ -42,8 +51,8 @@ void PrintRunSummary(const nlohmann::json& s) {
   if (ties.value("sigma0_squared", nlohmann::json()).is_number()) {
     std::printf(
         "rock tie fits of %d legs: pooled sigma0^2 %.3f (95 %% upper bound %.3f, redundancy %d)\n",
-        ties.value("legs", 0), ties["sigma0_squared"].get<double>(),
-        ties.value("sigma0_squared_upper_95", 0.0), ties.value("redundancy", 0));
+        ties.value("legs", 0), Number(ties, "sigma0_squared"),
+        Number(ties, "sigma0_squared_upper_95"), ties.value("redundancy", 0));
   }
   const nlohmann::json& guided = s.value("guided_registration", nlohmann::json::object());
   for (const nlohmann::json& pass : guided.value("passes", nlohmann::json::array())) {
@@ -60,25 +69,26 @@ void PrintRunSummary(const nlohmann::json& s) {
   const nlohmann::json& a = s["adjustment"];
   std::printf("bundle adjustment: %d tie points, %d control points, %d rejected, sigma0 %.3f\n",
               a.value("tie_points", 0), a.value("control_points", 0), a.value("rejected", 0),
-              a.value("sigma0", 0.0));
+              Number(a, "sigma0"));
   if (a.contains("adjusted_end_error_m")) {
     std::printf("end-point error against truth over %.1f m: telemetry %.2f m, adjusted %.2f m\n",
-                a.value("length_m", 0.0), a.value("initial_end_error_m", 0.0),
-                a.value("adjusted_end_error_m", 0.0));
+                Number(a, "length_m"), Number(a, "initial_end_error_m"),
+                Number(a, "adjusted_end_error_m"));
   }
   if (a.contains("median_adjusted_error_m")) {
     std::printf(
         "adjusted horizontal error against truth: median %.3f m, worst %.3f m; %d of %d "
         "sites within their 1-sigma ellipse's semi-major axis\n",
-        a.value("median_adjusted_error_m", 0.0), a.value("worst_adjusted_error_m", 0.0),
+        Number(a, "median_adjusted_error_m"), Number(a, "worst_adjusted_error_m"),
         a.value("sites_within_1sigma", 0), a.value("sites", 0));
   }
   const nlohmann::json& c = s.value("craters", nlohmann::json::object());
   if (c.is_object() && c.contains("craters")) {
     std::printf("craters on the orbital image: %d", c["craters"].get<int>());
     if (c.contains("score")) {
+      // Precision is undefined (null) when nothing was detected.
       std::printf(" (truth %d: precision %.2f, recall %.2f)", c["score"].value("truth", 0),
-                  c["score"].value("precision", 0.0), c["score"].value("recall", 0.0));
+                  Number(c["score"], "precision"), Number(c["score"], "recall"));
     }
     std::printf("\n");
   }
@@ -88,14 +98,14 @@ void PrintRunSummary(const nlohmann::json& s) {
         "traverse DTM - orbital DTM over %d cells: RMS %.3f m with telemetry poses, %.3f m "
         "adjusted (products/traverse_dtm.tif, traverse_ortho.tif)\n",
         p["dtm_minus_orbital_adjusted"].value("cells", 0),
-        p["dtm_minus_orbital_telemetry"].value("rms_m", 0.0),
-        p["dtm_minus_orbital_adjusted"].value("rms_m", 0.0));
+        Number(p["dtm_minus_orbital_telemetry"], "rms_m"),
+        Number(p["dtm_minus_orbital_adjusted"], "rms_m"));
   }
   const nlohmann::json t = s.value("stage_seconds", nlohmann::json::object());
   std::printf(
       "time: sites %.0f s, legs %.0f s, craters %.0f s, adjustment %.0f s, products %.0f s\n",
-      t.value("sites", 0.0), t.value("legs", 0.0), t.value("craters", 0.0),
-      t.value("adjustment", 0.0), t.value("products", 0.0));
+      Number(t, "sites"), Number(t, "legs"), Number(t, "craters"),
+      Number(t, "adjustment"), Number(t, "products"));
 }
 
 }  // namespace

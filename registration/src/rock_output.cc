@@ -156,8 +156,15 @@ void WriteRocksPlotPng(const std::filesystem::path& path, const PointCloud& clou
     if ((p.position - cloud.camera_center).head<2>().norm() <= max_range_m) shown.push_back(&p);
   }
   if (shown.empty()) {
-    throw Error(path.string() + ": no point of the cloud lies within " +
-                std::to_string(max_range_m) + " m of the camera to plot");
+    // Nothing to draw is a result too (an empty cloud, or none of it in range): say so.
+    cv::Mat empty(pixels, pixels, CV_8UC3, cv::Scalar(0, 0, 0));
+    char note[160];
+    std::snprintf(note, sizeof(note), "no point of the cloud within %.1f m of the camera",
+                  max_range_m);
+    cv::putText(empty, note, cv::Point(10, pixels / 2), cv::FONT_HERSHEY_SIMPLEX, 0.5,
+                cv::Scalar(255, 255, 255), 1);
+    WriteImage(path, empty);
+    return;
   }
   Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
   std::vector<double> elevations;

@@ -93,6 +93,11 @@ nlohmann::json AdjustTraverse(const std::vector<std::filesystem::path>& inputs,
   }
   const BundleResult result = AdjustBundle(file.input, options.bundle, progress);
   const AnchoredTraverse traverse = AnchorTraverse(file.input, result, file.truth);
+  // The map first: it is the one output that reads another input (the orbital image), so an
+  // unusable image fails the command before any earlier result in `out_dir` is replaced.
+  if (!options.orbital_image.empty()) {
+    WriteTraverseMap(out_dir / "traverse_map.png", traverse, options.orbital_image, options.map);
+  }
   WriteFileAtomically(out_dir / "adjustment.json", ToJson(result).dump(1) + "\n");
   WriteFileAtomically(out_dir / "report.txt", ReadableReport(result, traverse));
   WriteTraverseSitesCsv(out_dir / "sites.csv", traverse);
@@ -100,10 +105,7 @@ nlohmann::json AdjustTraverse(const std::vector<std::filesystem::path>& inputs,
   WriteTraverseGeoPackage(out_dir / "traverse.gpkg", traverse, file.input.body);
   nlohmann::json files = {"adjustment.json", "report.txt", "sites.csv", "legs.csv",
                           "traverse.gpkg"};
-  if (!options.orbital_image.empty()) {
-    WriteTraverseMap(out_dir / "traverse_map.png", traverse, options.orbital_image, options.map);
-    files.push_back("traverse_map.png");
-  }
+  if (!options.orbital_image.empty()) files.push_back("traverse_map.png");
   int only_priors = 0;
   double worst_sigma = 0.0;
   for (const AnchoredSite& s : traverse.sites) {

@@ -34,8 +34,8 @@ void WriteRockMatchesCsv(const std::filesystem::path& path, const SiteRocks& a, 
 // rocks.png: a map of the cloud seen from above (x up, y right; points shaded by elevation, the
 // colour scale stretched over the 2nd-98th percentiles) within `max_range_m` of the camera, with
 // each rock's surface reach circled (red: modeled, orange: not) and its id written beside it.
-// `pixels` is the image edge. Throws areomap::Error when the cloud is empty or the file cannot be
-// written.
+// `pixels` is the image edge. With no point in range (or an empty cloud) the map is blank with a
+// note saying so. Throws areomap::Error when the file cannot be written.
 void WriteRocksPlotPng(const std::filesystem::path& path, const PointCloud& cloud,
                        const std::vector<ExtractedRock>& rocks, double max_range_m,
                        int pixels = 1000);
