@@ -104,8 +104,8 @@ void PrintRunSummary(const nlohmann::json& s) {
   const nlohmann::json t = s.value("stage_seconds", nlohmann::json::object());
   std::printf(
       "time: sites %.0f s, legs %.0f s, craters %.0f s, adjustment %.0f s, products %.0f s\n",
-      Number(t, "sites"), Number(t, "legs"), Number(t, "craters"),
-      Number(t, "adjustment"), Number(t, "products"));
+      Number(t, "sites"), Number(t, "legs"), Number(t, "craters"), Number(t, "adjustment"),
+      Number(t, "products"));
 }
 
 }  // namespace
