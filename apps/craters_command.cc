@@ -73,6 +73,7 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   while (std::max(info.width, info.height) / factor > 4096) factor *= 2;
   WriteCraterOverlay(out / "overlay.png", ReadDecimated(dataset, dataset.FullWindow(), factor),
                      found, 4096);
+  RemoveStaleOutputs(out, {"craters.gpkg"}, files.get<std::vector<std::string>>());
   int partial = 0;
   for (const CraterDetection& d : found) partial += d.partial ? 1 : 0;
   WriteSummary(out, {{"command", "craters"},

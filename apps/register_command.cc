@@ -100,6 +100,7 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
                               {"lon_deg", DegFromRad(prior.position.lon)},
                               {"sigma_m", prior.sigma_m}}},
                             {"matches", nlohmann::json::array()}};
+  std::vector<std::string> written;  // the optional outputs (RemoveStaleOutputs below)
   for (size_t k = 0; k < result.matches.size(); ++k) {
     const OrbitalMatch& m = result.matches[k];
     nlohmann::json j = MatchJson(m);
@@ -107,6 +108,7 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
       const std::string name = "cc_surface_" + std::to_string(k) + ".png";
       WriteImage(out / name, CorrelationSurfaceImage(m));
       j["cc_surface_png"] = name;
+      written.push_back(name);
     }
     summary["matches"].push_back(j);
   }
@@ -144,10 +146,17 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
     summary["control_points_json"] = "control_points.json";
     summary["control_points_csv"] = "control_points.csv";
     summary["registered_ortho"] = "registered_ortho.tif";
+    written.insert(written.end(), {"wvv_histograms.png", "control_points.json",
+                                   "control_points.csv", "registered_ortho.tif"});
     if (!global.quiet) {
       std::cout << "edges: " << edges.BriefReport() << "\n";
     }
   }
+  // Without a match no control points: an earlier match's must not stay beside this summary.
+  RemoveStaleOutputs(out,
+                     {"cc_surface_*.png", "wvv_histograms.png", "control_points.json",
+                      "control_points.csv", "registered_ortho.tif"},
+                     written);
   WriteSummary(out, summary);
   progress(1.0, "done");
   if (!global.quiet) {

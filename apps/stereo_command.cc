@@ -143,6 +143,12 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
       WriteImage(out / "left_rectified.png", result.disparity.left8);
       WriteImage(out / "right_rectified.png", result.disparity.right8);
     }
+    std::vector<std::string> written;
+    if (o->tie_points) written.push_back("tie_points.csv");
+    if (o->write_rectified)
+      written.insert(written.end(), {"left_rectified.png", "right_rectified.png"});
+    RemoveStaleOutputs(out, {"tie_points.csv", "left_rectified.png", "right_rectified.png"},
+                       written);
     const DenseStereoSummary& m = result.summary;
     WriteSummary(out, {{"command", "stereo"},
                        {"left", o->left},

@@ -2,7 +2,7 @@
 # and that nothing was written on failure). Invoked by ctest as:
 #   cmake -DCOMMAND=<|-list> [-DSTDIN=<file>] [-DSETUP=<|-list>] -DEXPECT_FAIL=ON|OFF
 #         [-DSTDERR_MATCH=<regex>] [-DSTDOUT_MATCH=<regex>] [-DNO_OUTPUT_IN=<dir>]
-#         [-DREQUIRES=<path>] -P run_cli.cmake
+#         [-DREQUIRES=<path>] [-DABSENT=<path>] -P run_cli.cmake
 # Argument lists arrive joined by "|" (a ";" would not survive add_test).
 string(REPLACE "|" ";" COMMAND "${COMMAND}")
 if(DEFINED SETUP)
@@ -40,6 +40,9 @@ if(DEFINED STDERR_MATCH AND NOT err MATCHES "${STDERR_MATCH}")
 endif()
 if(DEFINED STDOUT_MATCH AND NOT out MATCHES "${STDOUT_MATCH}")
   message(FATAL_ERROR "stdout does not match: ${STDOUT_MATCH}")
+endif()
+if(DEFINED ABSENT AND EXISTS "${ABSENT}")
+  message(FATAL_ERROR "${ABSENT} should not exist after the command")
 endif()
 if(DEFINED NO_OUTPUT_IN AND EXISTS "${NO_OUTPUT_IN}")
   file(GLOB_RECURSE left "${NO_OUTPUT_IN}/*")
