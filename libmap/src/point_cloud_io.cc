@@ -243,6 +243,19 @@ PointCloud ReadPointCloudPly(const std::filesystem::path& path) {
   for (const char* name : kFloatProperties) floats.push_back(RequireProperty(header, name, source));
   const PlyProperty image_id = RequireProperty(header, kImageIdProperty, source);
 
+  // The header's count against what the file holds, before allocating for it: a damaged count
+  // (up to 2^63) must be a truncation error, not an allocation failure.
+  const std::streampos body_start = in.tellg();
+  in.seekg(0, std::ios::end);
+  const std::streamoff available = in.tellg() - body_start;
+  in.seekg(body_start);
+  if (header.record_size > 0 &&
+      header.vertex_count > static_cast<size_t>(available) / header.record_size) {
+    throw Error(source + ": PLY file is truncated: expected " +
+                std::to_string(header.vertex_count) + " vertices of " +
+                std::to_string(header.record_size) + " bytes, got " + std::to_string(available) +
+                " bytes");
+  }
   const size_t bytes = header.vertex_count * header.record_size;
   std::vector<char> body(bytes);
   in.read(body.data(), static_cast<std::streamsize>(bytes));
