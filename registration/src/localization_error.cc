@@ -214,8 +214,9 @@ void ConfigurationStudyOptions::Check() const {
                     min_convergence_deg <= max_convergence_deg,
                 "ConfigurationStudyOptions.min_convergence_deg",
                 "0 < min <= max_convergence_deg < 180");
-  RequireOption(convergence_step_deg > 0.0, "ConfigurationStudyOptions.convergence_step_deg",
-                "> 0 degrees");
+  // A step of 1e-9 degrees once ran for ever: at most 18 000 angles per curve.
+  RequireOption(convergence_step_deg >= 0.01, "ConfigurationStudyOptions.convergence_step_deg",
+                ">= 0.01 degrees");
   camera.Check();
 }
 

@@ -178,6 +178,9 @@ TEST(LocalizationError, StudyLandmarksHaveTheRequestedConvergence) {
   ConfigurationStudyOptions bad;
   bad.max_convergence_deg = 190.0;
   EXPECT_THROW(RunConfigurationStudy(bad), Error);
+  bad = {};
+  bad.convergence_step_deg = 1e-9;
+  EXPECT_THROW(RunConfigurationStudy(bad), Error);
 }
 
 }  // namespace

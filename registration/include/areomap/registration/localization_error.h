@@ -113,7 +113,7 @@ struct ConfigurationStudyOptions {
   std::vector<double> traverse_lengths_m = {7.5, 15.0, 20.0, 25.0};
   double min_convergence_deg = 20.0;
   double max_convergence_deg = 160.0;
-  double convergence_step_deg = 5.0;
+  double convergence_step_deg = 5.0;  // >= 0.01
   LocalizationCamera camera;
   void Check() const;  // Throws areomap::Error naming the field.
 };
