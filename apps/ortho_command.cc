@@ -1,6 +1,7 @@
 // areomap ortho IMAGE... --dtm DTM.tif --origin LAT,LON,H [--site-position N,E,D] --out DIR:
 // drapes one site's rover images on a DTM (areomap dtm) into an orthophoto (ortho.tif: image,
 // valid mask, resolution map, source id) on the DTM's grid.
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -103,6 +104,12 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
     const Body body = Body::Mars2000();
     const Geographic origin{RadFromDeg(o->origin[0]), RadFromDeg(o->origin[1]), o->origin[2]};
     if (!IsValid(origin)) throw Error("--origin: expected lat,lon,h with |lat| <= 90 degrees");
+    if (!std::isfinite(o->heading_correction_deg)) {
+      throw Error("--heading-correction: expected a finite angle in degrees");
+    }
+    for (const double v : o->site_position) {
+      if (!std::isfinite(v)) throw Error("--site-position: expected three finite numbers [m]");
+    }
     const SiteGeoreference site = SiteGeoreference::InMission(
         body, origin,
         Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(RadFromDeg(o->heading_correction_deg),
