@@ -1,5 +1,6 @@
 // areomap register ORTHO ORBITAL... --out DIR: put a rover orthophoto where it belongs on
 // orbital images (masked NCC, coarse to fine), verify by edges, write control points.
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -84,11 +85,11 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
   bool any_overlap = false;
   for (const OrbitalMatch& m : result.matches) any_overlap = any_overlap || m.overlaps;
   if (!any_overlap) {
-    throw Error(
-        "no orbital image overlaps the search window: " +
-        std::to_string(static_cast<int>(std::lround(args.match.search_sigmas * prior.sigma_m))) +
-        " m around latitude " + std::to_string(DegFromRad(prior.position.lat)) + ", longitude " +
-        std::to_string(DegFromRad(prior.position.lon)) + " deg");
+    char where[160];  // %.0f: a radius beyond int (--prior-sigma-m 1e9) printed as it is
+    std::snprintf(where, sizeof(where), "%.0f m around latitude %.6f, longitude %.6f deg",
+                  args.match.search_sigmas * prior.sigma_m, DegFromRad(prior.position.lat),
+                  DegFromRad(prior.position.lon));
+    throw Error(std::string("no orbital image overlaps the search window: ") + where);
   }
 
   PrepareOutputFolder(args.out_dir);
