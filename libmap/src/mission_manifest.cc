@@ -185,9 +185,10 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
   if (mission.sites.empty()) throw Error(manifest.string() + ": \"sites\" is empty");
 
   const json& telemetry = Get<json>(root_json, "telemetry", "", manifest);
-  mission.telemetry = ReadSitePosesCsv(
+  const fs::path telemetry_csv =
       ExistingFile(mission.root, Get<std::string>(telemetry, "sites", "telemetry.", manifest),
-                   "telemetry.sites", manifest));
+                   "telemetry.sites", manifest);
+  mission.telemetry = ReadSitePosesCsv(telemetry_csv);
   for (size_t i = 0; i < mission.sites.size(); ++i) {
     if (i >= mission.telemetry.size() || mission.telemetry[i].site != mission.sites[i].site) {
       throw Error(manifest.string() + ": telemetry has no pose for site " +
@@ -197,9 +198,11 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
   if (root_json.contains("truth")) {
     const json& truth = root_json["truth"];
     if (truth.contains("sites")) {
-      mission.truth_sites = ReadSitePosesCsv(
+      const fs::path csv =
           ExistingFile(mission.root, Get<std::string>(truth, "sites", "truth.", manifest),
-                       "truth.sites", manifest));
+                       "truth.sites", manifest);
+      mission.truth_sites = ReadSitePosesCsv(csv);
+      mission.files.push_back(csv);
     }
     if (truth.contains("craters")) {
       mission.truth_craters_csv =
@@ -212,6 +215,18 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
                        "truth.rocks", manifest);
     }
   }
+  std::vector<fs::path> files = {manifest, telemetry_csv};
+  for (const MissionOrbitalProduct& p : mission.orbital) files.push_back(p.path);
+  for (const MissionSite& site : mission.sites) {
+    for (const MissionStereoPair& pair : site.pairs) {
+      files.insert(files.end(),
+                   {pair.left_image, pair.left_label, pair.right_image, pair.right_label});
+    }
+  }
+  files.insert(files.end(), mission.files.begin(), mission.files.end());  // truth sites
+  if (mission.truth_craters_csv) files.push_back(*mission.truth_craters_csv);
+  if (mission.truth_rocks_csv) files.push_back(*mission.truth_rocks_csv);
+  mission.files = std::move(files);
   return mission;
 }
 

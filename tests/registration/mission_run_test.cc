@@ -3,6 +3,7 @@
 // removed unit recomputed alone).
 #include "areomap/registration/mission_run.h"
 
+#include <chrono>
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -161,6 +162,15 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   EXPECT_TRUE(guided["registered_first_pass"].empty()) << guided.dump();
   EXPECT_TRUE(guided["passes"].empty()) << guided.dump();
   EXPECT_TRUE(guided.contains("first_adjustment"));
+
+  // A changed input file (one label rewritten: its modification time moves) makes every unit
+  // run again; the same options alone would reuse them all.
+  const fs::path label = mission.sites.back().pairs.front().left_label;
+  ASSERT_FALSE(label.empty());
+  fs::last_write_time(label, fs::last_write_time(label) + std::chrono::seconds(1));
+  const MissionRunSummary fifth = RunMission(mission, out, options);
+  EXPECT_EQ(fifth.sites_computed, 2);
+  EXPECT_EQ(fifth.legs_reused, 0);
 }
 
 TEST(MissionRun, PancamPointsReplaceNavcamPointsWhereBothSeeTheGround) {

@@ -60,6 +60,8 @@ struct MissionManifest {
   std::vector<MissionSitePose> truth_sites;  // Empty when the mission has no truth.
   std::optional<std::filesystem::path> truth_craters_csv;
   std::optional<std::filesystem::path> truth_rocks_csv;
+  // Every file the manifest names, mission.json first (what a run's results depend on).
+  std::vector<std::filesystem::path> files;
 
   const MissionOrbitalProduct* FirstOrbital(const std::string& kind) const;  // nullptr if none.
 };

@@ -23,8 +23,10 @@
 //                     ("rock_tie_variance", PoolVarianceFactor); report.html is written from the
 //                     folder by WriteRunReport.
 // A unit is finished when its `unit.json` exists (written last, atomically) and records the
-// same options fingerprint as this run (products/: and the same adjusted poses); finished units
-// are skipped, so an interrupted run resumes where it stopped. Site units run in parallel (TBB).
+// same fingerprint as this run: the mission folder, the options, and the path, size and
+// modification time of every file the manifest names (products/: and the same adjusted poses);
+// finished units are skipped, so an interrupted run resumes where it stopped, and any changed
+// input file makes every unit run again. Site units run in parallel (TBB).
 //
 // Frames: site frames are MER SITE_FRAMEs (x north, y east, z down [m]); the traverse frame is
 // site 0's; the mission map is equirectangular on the local-radius sphere at the mission origin
