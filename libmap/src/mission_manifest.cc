@@ -172,6 +172,10 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
     MissionOrbitalProduct p;
     p.id = Get<std::string>(product, "id", "orbital[].", manifest);
     p.kind = Get<std::string>(product, "kind", "orbital[].", manifest);
+    if (p.kind != "image" && p.kind != "dtm") {
+      throw Error(manifest.string() + ": orbital[" + p.id + "].kind is \"" + p.kind +
+                  "\"; expected \"image\" or \"dtm\"");
+    }
     p.path = ExistingFile(mission.root, Get<std::string>(product, "path", "orbital[].", manifest),
                           "orbital[" + p.id + "].path", manifest);
     p.gsd_m = Get<double>(product, "gsd_m", "orbital[].", manifest);

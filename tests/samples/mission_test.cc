@@ -327,6 +327,31 @@ TEST(MissionManifest, ReadsWhatTheGeneratorWrote) {
   EXPECT_GT((mission.truth_sites[2].position - mission.telemetry[2].position).norm(), 0.0);
   ASSERT_NE(mission.FirstOrbital("image"), nullptr);
   EXPECT_TRUE(std::filesystem::exists(mission.FirstOrbital("dtm")->path));
+  // Every file the manifest names, for the run's fingerprint: mission.json first.
+  EXPECT_EQ(mission.files.front().filename(), "mission.json");
+  for (const auto& file : mission.files) EXPECT_TRUE(std::filesystem::exists(file)) << file;
+  EXPECT_GT(mission.files.size(), 2u + mission.orbital.size() + 3u * 2u * 4u - 1u);
+
+  // An orbital product of an unknown kind is named with the value expected.
+  {
+    const auto manifest = dir.path() / "mission.json";
+    std::string text;
+    {
+      std::ifstream in(manifest);
+      text.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    const std::string good = text;
+    const size_t at = text.find("\"kind\": \"dtm\"");
+    ASSERT_NE(at, std::string::npos);
+    text.replace(at, 13, "\"kind\": \"xyz\"");
+    std::ofstream(manifest) << text;
+    const std::string kind_message =
+        testing::ErrorMessageOf([&] { ReadMissionManifest(dir.path()); });
+    EXPECT_NE(kind_message.find("].kind is \"xyz\"; expected \"image\" or \"dtm\""),
+              std::string::npos)
+        << kind_message;
+    std::ofstream(manifest) << good;
+  }
 
   // A missing image is reported, naming the manifest and the file, before any work.
   std::filesystem::remove(mission.sites[1].pairs[0].left_image);
