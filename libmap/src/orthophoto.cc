@@ -1,6 +1,7 @@
 #include "areomap/map/orthophoto.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -278,6 +279,17 @@ Orthophoto ReadOrthophoto(const std::filesystem::path& path) {
                 ": expected an areomap orthophoto (4 bands: image, valid, resolution_m, "
                 "source_id), found " +
                 std::to_string(info.band_count) + " band(s)");
+  }
+  // The bands as areomap names them: another 4-band product (a DTM: elevation, count, ...)
+  // must not be blended as an image. Files without band descriptions are taken as they are.
+  const std::array<const char*, 4> names = {"image", "valid", "resolution_m", "source_id"};
+  for (size_t b = 0; b < names.size(); ++b) {
+    const std::string& found = info.band_descriptions[b];
+    if (!found.empty() && found != names[b]) {
+      throw Error(path.string() + ": expected an areomap orthophoto (bands image, valid, " +
+                  "resolution_m, source_id); band " + std::to_string(b + 1) + " is '" + found +
+                  "'");
+    }
   }
   Orthophoto ortho;
   ortho.grid = GridOfRaster(info, path.string());

@@ -158,6 +158,10 @@ RasterDataset RasterDataset::Open(const std::filesystem::path& path) {
     if (srs->exportToWkt(&wkt, options) == OGRERR_NONE && wkt != nullptr) info.crs_wkt = wkt;
     CPLFree(wkt);
   }
+  for (int b = 1; b <= info.band_count; ++b) {
+    const char* description = dataset->GetRasterBand(b)->GetDescription();
+    info.band_descriptions.emplace_back(description != nullptr ? description : "");
+  }
   if (char** domains = dataset->GetMetadataDomainList(); domains != nullptr) {
     for (char** d = domains; *d != nullptr; ++d) info.metadata_domains.emplace_back(*d);
     CSLDestroy(domains);

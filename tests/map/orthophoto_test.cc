@@ -255,6 +255,17 @@ TEST(Orthophoto, RejectsBadInput) {
   bad.max_incidence_deg = 90.0;
   EXPECT_NE(testing::ErrorMessageOf([&] { bad.Check(); }).find("OrthoOptions.max_incidence_deg"),
             std::string::npos);
+  // A DTM has four bands too, but it is not an orthophoto to read or blend; the orthophoto itself
+  // reads back.
+  testing::TempDir dir;
+  WriteDtm(dir.path() / "dtm.tif", f.dtm);
+  EXPECT_NE(testing::ErrorMessageOf([&] { ReadOrthophoto(dir.path() / "dtm.tif"); })
+                .find("dtm.tif: expected an areomap orthophoto (bands image, valid, resolution_m, "
+                      "source_id); band 1 is 'elevation'"),
+            std::string::npos);
+  const Orthophoto ortho = MakeOrthophoto(f.dtm, f.site, f.map, {f.images[0]}, OrthoOptions{});
+  WriteOrthophoto(dir.path() / "ortho.tif", ortho);
+  EXPECT_EQ(ReadOrthophoto(dir.path() / "ortho.tif").valid_cells, ortho.valid_cells);
 }
 
 }  // namespace

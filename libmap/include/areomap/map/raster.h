@@ -53,6 +53,7 @@ struct RasterInfo {
   std::optional<GeoTransform> geotransform;  // None for plain images.
   std::string crs_wkt;                       // Empty when the raster has no CRS.
   std::vector<std::string> metadata_domains;
+  std::vector<std::string> band_descriptions;  // One per band; empty strings where none is set.
 };
 
 class RasterDataset {
