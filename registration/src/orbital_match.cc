@@ -475,6 +475,20 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   out.template_pixels = out.templ.valid_pixels;
   const OrbitalTemplate& templ = out.templ;
   if (templ.valid_pixels < options.min_template_pixels) {
+    // An orbital image that no search could reach is that, not a lack of ortho pixels (an empty
+    // template is also what an orthophoto far outside the orbital image's grid resamples to).
+    const double reach_px = (options.search_sigmas * prior.sigma_m +
+                             std::max(options.template_options.reliable_range_m, 0.0)) /
+                                out.gsd_m +
+                            2.0;
+    const double dx =
+        std::max({0.0, -rover_in_orbital.x(), rover_in_orbital.x() - orbital.width()});
+    const double dy =
+        std::max({0.0, -rover_in_orbital.y(), rover_in_orbital.y() - orbital.height()});
+    if (options.template_options.reliable_range_m > 0.0 && std::hypot(dx, dy) > reach_px) {
+      out.reason = "the search window does not overlap the orbital image";
+      return out;
+    }
     out.reason = "the orthophoto has " + std::to_string(templ.valid_pixels) +
                  " valid pixels within the reliable range at the orbital resolution, fewer than " +
                  std::to_string(options.min_template_pixels);

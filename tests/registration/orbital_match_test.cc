@@ -92,6 +92,29 @@ TEST(OrbitalMatch, ASearchWindowOffTheImageIsNoMatch) {
   EXPECT_NE(m.reason.find("does not overlap"), std::string::npos) << m.reason;
 }
 
+// An orthophoto of another region altogether (the MOC image against a rover site 49 degrees of
+// latitude away, found by the CLI audit): no overlap, not an orthophoto without valid pixels,
+// whatever the template resampled to.
+TEST(OrbitalMatch, AnOrthoFarOffTheImageIsNoOverlapEvenWithAnEmptyTemplate) {
+  TrialOptions o = SmallTrial(5);
+  o.decoy = false;
+  Trial trial = MakeTrial(o);
+  trial.ortho.geotransform.c[3] += 3.0e6;  // 3000 km north
+  const PixelGrid grid(trial.ortho.geotransform, trial.ortho.crs_wkt, "ortho");
+  trial.prior.position =
+      *grid.PixelToGeographic({trial.ortho.image.cols / 2.0, trial.ortho.image.rows / 2.0});
+  OrbitalMatchOptions options;
+  options.min_template_pixels = 1 << 30;  // as if the template had come out empty
+  const OrbitalMatch m = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior, options);
+  EXPECT_FALSE(m.overlaps);
+  EXPECT_NE(m.reason.find("does not overlap"), std::string::npos) << m.reason;
+  // Over the image, too few pixels are still the orthophoto's fault.
+  const Trial near = MakeTrial(o);
+  const OrbitalMatch n = MatchOrthoToOrbital(near.ortho, *near.orbital, near.prior, options);
+  EXPECT_TRUE(n.overlaps);
+  EXPECT_NE(n.reason.find("valid pixels within the reliable range"), std::string::npos) << n.reason;
+}
+
 TEST(OrbitalMatch, AnAllNodataOrthoIsNoMatch) {
   TrialOptions o = SmallTrial(5);
   o.decoy = false;
