@@ -1,7 +1,7 @@
 // areomap register ORTHO ORBITAL... --out DIR: put a rover orthophoto where it belongs on
 // orbital images (masked NCC, coarse to fine), verify by edges, write control points.
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <optional>

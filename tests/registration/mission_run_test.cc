@@ -3,8 +3,8 @@
 // removed unit recomputed alone).
 #include "areomap/registration/mission_run.h"
 
-#include <chrono>
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <map>
