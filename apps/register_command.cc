@@ -1,5 +1,6 @@
 // areomap register ORTHO ORBITAL... --out DIR: put a rover orthophoto where it belongs on
 // orbital images (masked NCC, coarse to fine), verify by edges, write control points.
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -19,6 +20,10 @@
 
 namespace areomap::cli {
 namespace {
+
+// The files written only when an orbital image matched (beside one cc_surface_K.png per image).
+const std::array<const char*, 4> kMatchOutputs = {"wvv_histograms.png", "control_points.json",
+                                                  "control_points.csv", "registered_ortho.tif"};
 
 struct RegisterArgs {
   std::string ortho;
@@ -147,17 +152,15 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
     summary["control_points_json"] = "control_points.json";
     summary["control_points_csv"] = "control_points.csv";
     summary["registered_ortho"] = "registered_ortho.tif";
-    written.insert(written.end(), {"wvv_histograms.png", "control_points.json",
-                                   "control_points.csv", "registered_ortho.tif"});
+    written.insert(written.end(), kMatchOutputs.begin(), kMatchOutputs.end());
     if (!global.quiet) {
       std::cout << "edges: " << edges.BriefReport() << "\n";
     }
   }
   // Without a match no control points: an earlier match's must not stay beside this summary.
-  RemoveStaleOutputs(out,
-                     {"cc_surface_*.png", "wvv_histograms.png", "control_points.json",
-                      "control_points.csv", "registered_ortho.tif"},
-                     written);
+  std::vector<std::string> optional = {"cc_surface_*.png"};
+  optional.insert(optional.end(), kMatchOutputs.begin(), kMatchOutputs.end());
+  RemoveStaleOutputs(out, optional, written);
   WriteSummary(out, summary);
   progress(1.0, "done");
   if (!global.quiet) {

@@ -199,14 +199,14 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
                   std::to_string(mission.sites[i].site) + " (row " + std::to_string(i + 1) + ")");
     }
   }
+  std::optional<fs::path> truth_sites_csv;
   if (root_json.contains("truth")) {
     const json& truth = root_json["truth"];
     if (truth.contains("sites")) {
-      const fs::path csv =
+      truth_sites_csv =
           ExistingFile(mission.root, Get<std::string>(truth, "sites", "truth.", manifest),
                        "truth.sites", manifest);
-      mission.truth_sites = ReadSitePosesCsv(csv);
-      mission.files.push_back(csv);
+      mission.truth_sites = ReadSitePosesCsv(*truth_sites_csv);
     }
     if (truth.contains("craters")) {
       mission.truth_craters_csv =
@@ -219,7 +219,8 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
                        "truth.rocks", manifest);
     }
   }
-  std::vector<fs::path> files = {manifest, telemetry_csv};
+  std::vector<fs::path>& files = mission.files;
+  files = {manifest, telemetry_csv};
   for (const MissionOrbitalProduct& p : mission.orbital) files.push_back(p.path);
   for (const MissionSite& site : mission.sites) {
     for (const MissionStereoPair& pair : site.pairs) {
@@ -227,10 +228,9 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
                    {pair.left_image, pair.left_label, pair.right_image, pair.right_label});
     }
   }
-  files.insert(files.end(), mission.files.begin(), mission.files.end());  // truth sites
-  if (mission.truth_craters_csv) files.push_back(*mission.truth_craters_csv);
-  if (mission.truth_rocks_csv) files.push_back(*mission.truth_rocks_csv);
-  mission.files = std::move(files);
+  for (const auto& csv : {truth_sites_csv, mission.truth_craters_csv, mission.truth_rocks_csv}) {
+    if (csv) files.push_back(*csv);
+  }
   return mission;
 }
 

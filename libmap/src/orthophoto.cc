@@ -166,13 +166,18 @@ void OrthoOptions::Check() const {
                 "OrthoOptions.depth_tolerance_relative", "in [0, 1)");
 }
 
+namespace {
+// The bands of an orthophoto GeoTIFF, in order, as written and as expected when read.
+const std::array<const char*, 4> kOrthophotoBands = {"image", "valid", "resolution_m", "source_id"};
+}  // namespace
+
 GeoRaster Orthophoto::ToGeoRaster() const {
   GeoRaster raster;
   cv::Mat valid_f, id_f;
   valid.convertTo(valid_f, CV_32F);
   source_id.convertTo(id_f, CV_32F);
   raster.bands = {image, valid_f, resolution, id_f};
-  raster.band_names = {"image", "valid", "resolution_m", "source_id"};
+  raster.band_names.assign(kOrthophotoBands.begin(), kOrthophotoBands.end());
   raster.geotransform = grid.Transform();
   raster.crs_wkt = crs_wkt;
   raster.nodata = std::numeric_limits<double>::quiet_NaN();
@@ -274,7 +279,7 @@ void WriteOrthophoto(const std::filesystem::path& path, const Orthophoto& ortho)
 Orthophoto ReadOrthophoto(const std::filesystem::path& path) {
   const RasterDataset dataset = RasterDataset::Open(path);
   const RasterInfo& info = dataset.info();
-  if (info.band_count != 4) {
+  if (info.band_count != static_cast<int>(kOrthophotoBands.size())) {
     throw Error(path.string() +
                 ": expected an areomap orthophoto (4 bands: image, valid, resolution_m, "
                 "source_id), found " +
@@ -282,10 +287,9 @@ Orthophoto ReadOrthophoto(const std::filesystem::path& path) {
   }
   // The bands as areomap names them: another 4-band product (a DTM: elevation, count, ...)
   // must not be blended as an image. Files without band descriptions are taken as they are.
-  const std::array<const char*, 4> names = {"image", "valid", "resolution_m", "source_id"};
-  for (size_t b = 0; b < names.size(); ++b) {
+  for (size_t b = 0; b < kOrthophotoBands.size(); ++b) {
     const std::string& found = info.band_descriptions[b];
-    if (!found.empty() && found != names[b]) {
+    if (!found.empty() && found != kOrthophotoBands[b]) {
       throw Error(path.string() + ": expected an areomap orthophoto (bands image, valid, " +
                   "resolution_m, source_id); band " + std::to_string(b + 1) + " is '" + found +
                   "'");

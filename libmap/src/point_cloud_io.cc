@@ -245,26 +245,24 @@ PointCloud ReadPointCloudPly(const std::filesystem::path& path) {
 
   // The header's count against what the file holds, before allocating for it: a damaged count
   // (up to 2^63) must be a truncation error, not an allocation failure.
+  const auto truncated = [&](std::streamoff got) {
+    return Error(source + ": PLY file is truncated: expected " +
+                 std::to_string(header.vertex_count) + " vertices of " +
+                 std::to_string(header.record_size) + " bytes, got " + std::to_string(got) +
+                 " bytes");
+  };
   const std::streampos body_start = in.tellg();
   in.seekg(0, std::ios::end);
   const std::streamoff available = in.tellg() - body_start;
   in.seekg(body_start);
   if (header.record_size > 0 &&
       header.vertex_count > static_cast<size_t>(available) / header.record_size) {
-    throw Error(source + ": PLY file is truncated: expected " +
-                std::to_string(header.vertex_count) + " vertices of " +
-                std::to_string(header.record_size) + " bytes, got " + std::to_string(available) +
-                " bytes");
+    throw truncated(available);
   }
   const size_t bytes = header.vertex_count * header.record_size;
   std::vector<char> body(bytes);
   in.read(body.data(), static_cast<std::streamsize>(bytes));
-  if (static_cast<size_t>(in.gcount()) != bytes) {
-    throw Error(source + ": PLY file is truncated: expected " +
-                std::to_string(header.vertex_count) + " vertices of " +
-                std::to_string(header.record_size) + " bytes, got " + std::to_string(in.gcount()) +
-                " bytes");
-  }
+  if (static_cast<size_t>(in.gcount()) != bytes) throw truncated(in.gcount());
   cloud.points.resize(header.vertex_count);
   for (size_t i = 0; i < header.vertex_count; ++i) {
     const char* record = body.data() + i * header.record_size;
