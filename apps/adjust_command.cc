@@ -2,6 +2,7 @@
 // from tie points, control points, pose priors and heights (docs/adjustment-format.md).
 #include <iostream>
 
+#include "areomap/registration/bundle_io.h"
 #include "areomap/registration/traverse_adjustment.h"
 #include "commands.h"
 
@@ -45,11 +46,12 @@ void AddAdjustCommand(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   cmd->callback([o, &global] {
     o->adjustment.orbital_image = o->orbital;
-    std::vector<std::filesystem::path> inputs(o->inputs.begin(), o->inputs.end());
     o->adjustment.Check();
+    // The inputs are read before the output folder is made: a bad input creates nothing.
+    BundleInputFile input = ReadBundleInput({o->inputs.begin(), o->inputs.end()});
     PrepareOutputFolder(o->out);
-    nlohmann::json summary =
-        AdjustTraverse(inputs, o->out, o->adjustment, MakeProgressBar(global, "adjust"));
+    nlohmann::json summary = AdjustTraverseInput(std::move(input), o->out, o->adjustment,
+                                                 MakeProgressBar(global, "adjust"));
     summary["command"] = "adjust";
     WriteSummary(o->out, summary);
     if (!global.quiet) {

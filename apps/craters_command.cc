@@ -71,8 +71,10 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   }
   int factor = 1;
   while (std::max(info.width, info.height) / factor > 4096) factor *= 2;
-  WriteCraterOverlay(out / "overlay.png", ReadDecimated(dataset, dataset.FullWindow(), factor),
-                     found, 4096);
+  int64_t valid_pixels = 0;
+  WriteCraterOverlay(out / "overlay.png",
+                     ReadDecimated(dataset, dataset.FullWindow(), factor, &valid_pixels), found,
+                     4096);
   RemoveStaleOutputs(out, {"craters.gpkg"}, files.get<std::vector<std::string>>());
   int partial = 0;
   for (const CraterDetection& d : found) partial += d.partial ? 1 : 0;
@@ -90,9 +92,14 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
                      {"upsampled_level_searched", options.SearchesUpsampledLevel()},
                      {"sun_azimuth_deg",
                       a.sun_azimuth_deg ? nlohmann::json(*a.sun_azimuth_deg) : nlohmann::json()},
+                     {"valid_pixels", valid_pixels},
                      {"craters", found.size()},
                      {"partial", partial},
                      {"files", files}});
+  if (valid_pixels == 0) {
+    std::cerr << "warning: " << a.input
+              << " has no valid pixel (every pixel is nodata or NaN): nothing was searched\n";
+  }
   if (!global.quiet) {
     std::cout << "found " << found.size() << " craters (" << partial << " partial) in " << a.input
               << "; wrote " << a.out_dir << "\n";

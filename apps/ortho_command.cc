@@ -148,6 +148,14 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
          {"dtm_cells_in_reach", known_in_window},
          {"coverage_of_dtm",
           known_in_window > 0 ? static_cast<double>(ortho.valid_cells) / known_in_window : 0.0}});
+    if (ortho.valid_cells == 0) {
+      std::cerr << "warning: nothing was painted: "
+                << (known_in_window == 0
+                        ? "the DTM has no elevation within --max-range of the site"
+                        : "no valid image pixel sees the DTM within reach (images all nodata, "
+                          "or looking away from it?)")
+                << "\n";
+    }
     if (!global.quiet) {
       std::cout << "wrote " << path.string() << " (" << ortho.valid_cells << " cells painted of "
                 << known_in_window << " DTM cells within reach)\n";

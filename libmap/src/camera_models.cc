@@ -17,7 +17,9 @@ struct Overloaded : Ts... {
 
 nlohmann::json JsonVector(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
-std::optional<Eigen::Vector2i> ImageSizeOf(const nlohmann::json& label) {
+// The image size the label states, if it states one. Throws areomap::Error naming `source` and
+// the key when a size is stated but not positive.
+std::optional<Eigen::Vector2i> ImageSizeOf(const nlohmann::json& label, const std::string& source) {
   const auto image = label.find("IMAGE");
   if (image == label.end() || !image->is_object()) return std::nullopt;
   const auto lines = image->find("LINES");
@@ -25,6 +27,12 @@ std::optional<Eigen::Vector2i> ImageSizeOf(const nlohmann::json& label) {
   if (lines == image->end() || samples == image->end() || !lines->is_number_integer() ||
       !samples->is_number_integer()) {
     return std::nullopt;
+  }
+  for (const auto& [key, value] : {std::pair{"LINES", lines}, std::pair{"LINE_SAMPLES", samples}}) {
+    if (value->get<long long>() <= 0 || value->get<long long>() > 1'000'000) {
+      throw Error(source + ": IMAGE." + key + " is " + value->dump() +
+                  ": expected a positive image size (at most 1000000)");
+    }
   }
   return Eigen::Vector2i(samples->get<int>(), lines->get<int>());
 }
@@ -82,7 +90,7 @@ CameraFile CameraFileFromLabel(const nlohmann::json& label, const std::string& s
       if (!f.index.empty()) file.site = f.index.front();
     }
   }
-  file.image_size = ImageSizeOf(label);
+  file.image_size = ImageSizeOf(label, source);
   return file;
 }
 
@@ -111,6 +119,7 @@ CameraFile ReadCameraFile(const std::filesystem::path& path) {
 }
 
 CameraFile ReadCameraForImage(const std::filesystem::path& image) {
+  if (!std::filesystem::exists(image)) throw Error(image.string() + ": no such file");
   const std::string extension = image.extension().string();
   if (extension != ".png" && extension != ".PNG" && extension != ".tif" && extension != ".TIF") {
     return ReadCameraFile(image);  // A planetary product carries its own label.

@@ -10,14 +10,21 @@
 #include "areomap/map/error.h"
 
 namespace areomap {
+namespace {
+
+// OIIO's error text repeats itself on several lines (e.g. libpng's "Read error", then "PNG read
+// error: ...", then "PNG library error"); the first line says what happened.
+std::string FirstLine(const std::string& text) { return text.substr(0, text.find('\n')); }
+
+}  // namespace
 
 cv::Mat ReadImage(const std::filesystem::path& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw Error(path.string() + ": no such file");
   auto input = OIIO::ImageInput::open(path.string());
   if (!input) {
-    throw Error(path.string() +
-                ": not a readable image (expected PNG, TIFF or JPEG): " + OIIO::geterror());
+    throw Error(path.string() + ": not a readable image (expected PNG, TIFF or JPEG): " +
+                FirstLine(OIIO::geterror()));
   }
   const OIIO::ImageSpec& spec = input->spec();
   if (spec.nchannels < 1 || spec.nchannels > 4) {
@@ -28,7 +35,7 @@ cv::Mat ReadImage(const std::filesystem::path& path) {
   const OIIO::TypeDesc read_type = eight_bit ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16;
   cv::Mat image(spec.height, spec.width, CV_MAKETYPE(eight_bit ? CV_8U : CV_16U, spec.nchannels));
   if (!input->read_image(0, 0, 0, spec.nchannels, read_type, image.data)) {
-    throw Error(path.string() + ": read failed (truncated file?): " + input->geterror());
+    throw Error(path.string() + ": read failed (truncated file?): " + FirstLine(input->geterror()));
   }
   return image;
 }

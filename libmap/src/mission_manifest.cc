@@ -187,6 +187,15 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
     mission.sites.push_back(ReadSite(site, mission.root, manifest));
   }
   if (mission.sites.empty()) throw Error(manifest.string() + ": \"sites\" is empty");
+  for (size_t i = 0; i < mission.sites.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      if (mission.sites[j].site == mission.sites[i].site) {
+        throw Error(manifest.string() + ": sites[" + std::to_string(i) + "].site " +
+                    std::to_string(mission.sites[i].site) + " repeats sites[" + std::to_string(j) +
+                    "]; expected each site once");
+      }
+    }
+  }
 
   const json& telemetry = Get<json>(root_json, "telemetry", "", manifest);
   const fs::path telemetry_csv =

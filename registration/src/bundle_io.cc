@@ -1,6 +1,7 @@
 #include "areomap/registration/bundle_io.h"
 
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 
@@ -294,12 +295,36 @@ json ToJson(const Eigen::Quaterniond& q) { return {q.w(), q.x(), q.y(), q.z()}; 
 BundleInputFile ReadBundleInput(const std::vector<std::filesystem::path>& paths) {
   if (paths.empty()) throw Error("no adjustment input file given");
   BundleInputFile out;
+  std::map<std::string, std::string> file_of_point;  // Point id -> the file that defines it.
   for (size_t i = 0; i < paths.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      std::error_code ec;
+      if (std::filesystem::equivalent(paths[i], paths[j], ec)) {
+        throw Error(paths[i].string() + ": given twice (as input " + std::to_string(j + 1) +
+                    " and " + std::to_string(i + 1) + "); expected each input file once");
+      }
+    }
     const json doc = ReadJson(paths[i]);
     const Where where{paths[i].string(), ""};
     if (!doc.is_object()) throw Error(paths[i].string() + ": expected a JSON object");
     if (i == 0) ReadHeader(doc, where, out);
+    const size_t ties_before = out.input.tie_points.size();
+    const size_t controls_before = out.input.control_points.size();
     ReadSections(doc, where, out);
+    const auto claim = [&](const std::string& id, const char* section) {
+      const auto [it, inserted] = file_of_point.emplace(id, paths[i].string());
+      if (!inserted) {
+        throw Error(paths[i].string() + ": " + section + " id '" + id + "' is already defined" +
+                    (it->second == paths[i].string() ? std::string() : " in " + it->second) +
+                    "; expected every tie and control point id once");
+      }
+    };
+    for (size_t k = ties_before; k < out.input.tie_points.size(); ++k) {
+      claim(out.input.tie_points[k].id, "tie_points");
+    }
+    for (size_t k = controls_before; k < out.input.control_points.size(); ++k) {
+      claim(out.input.control_points[k].id, "control_points");
+    }
   }
   try {
     out.input.Check();

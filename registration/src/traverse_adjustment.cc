@@ -24,6 +24,9 @@ void TraverseAdjustmentOptions::Check() const {
   map.Check();
   RequireOption(std::isfinite(rock_tie_variance_factor) && rock_tie_variance_factor > 0.0,
                 "TraverseAdjustmentOptions.rock_tie_variance_factor", "finite and > 0");
+  if (!orbital_image.empty() && !std::filesystem::exists(orbital_image)) {
+    throw Error(orbital_image.string() + ": no such file");
+  }
 }
 
 std::string ReadableReport(const BundleResult& result, const AnchoredTraverse& traverse) {
@@ -82,14 +85,17 @@ nlohmann::json AdjustTraverse(const std::vector<std::filesystem::path>& inputs,
                               const TraverseAdjustmentOptions& options,
                               const ProgressCallback& progress) {
   options.Check();
-  BundleInputFile file = ReadBundleInput(inputs);
+  return AdjustTraverseInput(ReadBundleInput(inputs), out_dir, options, progress);
+}
+
+nlohmann::json AdjustTraverseInput(BundleInputFile file, const std::filesystem::path& out_dir,
+                                   const TraverseAdjustmentOptions& options,
+                                   const ProgressCallback& progress) {
+  options.Check();
   for (TiePoint& t : file.input.tie_points) {
     if (t.source != "rock") continue;
     t.covariance_in_a *= options.rock_tie_variance_factor;
     t.covariance_in_b *= options.rock_tie_variance_factor;
-  }
-  if (!options.orbital_image.empty() && !std::filesystem::exists(options.orbital_image)) {
-    throw Error(options.orbital_image.string() + ": no such file");
   }
   const BundleResult result = AdjustBundle(file.input, options.bundle, progress);
   const AnchoredTraverse traverse = AnchorTraverse(file.input, result, file.truth);

@@ -283,10 +283,29 @@ TEST(CameraFile, LabelsWriteAndReadBack) {
   EXPECT_EQ(m.e, MerHazcam(3, 0.37).e);
   EXPECT_EQ(m.type, 3);
   EXPECT_EQ(m.parameter, 0.37);
-  const std::string message =
+  // A missing image is named as missing, not as an image without a camera.
+  const std::string missing =
       testing::ErrorMessageOf([&] { ReadCameraForImage(dir.path() / "nothing.png"); });
-  EXPECT_NE(message.find("nothing.png"), std::string::npos) << message;
+  EXPECT_NE(missing.find("nothing.png: no such file"), std::string::npos) << missing;
+  std::ofstream(dir.path() / "bare.png") << "pixels";
+  const std::string message =
+      testing::ErrorMessageOf([&] { ReadCameraForImage(dir.path() / "bare.png"); });
+  EXPECT_NE(message.find("bare.png"), std::string::npos) << message;
   EXPECT_NE(message.find("no camera model"), std::string::npos) << message;
+
+  // An image size stated but not positive is an error naming the file and the key.
+  nlohmann::json label = nlohmann::json::parse(std::ifstream(dir.path() / "hazcam.json"));
+  label["IMAGE"] = {{"LINES", -5}, {"LINE_SAMPLES", 1024}};
+  std::ofstream(dir.path() / "negative.json") << label.dump();
+  const std::string negative =
+      testing::ErrorMessageOf([&] { ReadCameraFile(dir.path() / "negative.json"); });
+  EXPECT_NE(negative.find("negative.json: IMAGE.LINES is -5"), std::string::npos) << negative;
+  label["IMAGE"]["LINES"] = 1024;
+  std::ofstream(dir.path() / "positive.json") << label.dump();
+  const auto size = ReadCameraFile(dir.path() / "positive.json").image_size;
+  ASSERT_TRUE(size.has_value());
+  EXPECT_EQ(size->x(), 1024);
+  EXPECT_EQ(size->y(), 1024);
 }
 
 TEST(CameraFile, RealMerHazcamAndNavcamLabels) {

@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -42,6 +45,20 @@ TEST(ImageIo, ErrorsNameTheFile) {
     EXPECT_NE(std::string(e.what()).find("nope.png: no such file"), std::string::npos);
   }
   EXPECT_THROW(WriteImage(dir.path() / "x.png", cv::Mat(3, 3, CV_32F)), Error);
+
+  // A truncated PNG: one line naming the file and the cause.
+  cv::Mat ramp(200, 300, CV_16UC1);
+  cv::randu(ramp, 0, 65535);
+  WriteImage(dir.path() / "whole.png", ramp);
+  std::string bytes;
+  {
+    std::ifstream in(dir.path() / "whole.png", std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  std::ofstream(dir.path() / "cut.png", std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  const std::string message = testing::ErrorMessageOf([&] { ReadImage(dir.path() / "cut.png"); });
+  EXPECT_NE(message.find("cut.png: read failed (truncated file?): "), std::string::npos) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
 }
 
 TEST(ImageIo, ReadsTheRealHrscImage) {

@@ -16,6 +16,7 @@
 #include "areomap/registration/bundle_io.h"
 #include "areomap/registration/traverse_adjustment.h"
 #include "bundle_simulation.h"
+#include "test_support.h"
 
 namespace areomap {
 namespace {
@@ -93,6 +94,21 @@ TEST(BundleIo, JsonRoundTripGivesTheSameAdjustment) {
     EXPECT_LT((a.sites[s].adjusted.translation - b.sites[s].adjusted.translation).norm(), 1e-6);
   }
   EXPECT_NEAR(a.sigma0, b.sigma0, 1e-6);
+
+  // The same file given twice, and a point id a second file repeats, are named where they are.
+  const std::string twice = testing::ErrorMessageOf([&] {
+    ReadBundleInput({dir / "network.json", dir / "." / "network.json"});
+  });
+  EXPECT_NE(twice.find("network.json: given twice (as input 1 and 2)"), std::string::npos) << twice;
+  nlohmann::json extra = {{"control_points", ControlPointsToJson({net.input.control_points[0]})}};
+  WriteFileAtomically(dir / "extra.json", extra.dump());
+  const std::string repeated = testing::ErrorMessageOf([&] {
+    ReadBundleInput({dir / "network.json", dir / "extra.json"});
+  });
+  EXPECT_NE(repeated.find("extra.json: control_points id '" + net.input.control_points[0].id +
+                          "' is already defined in " + (dir / "network.json").string()),
+            std::string::npos)
+      << repeated;
   std::filesystem::remove_all(dir);
 }
 

@@ -351,6 +351,16 @@ TEST(MissionManifest, ReadsWhatTheGeneratorWrote) {
               std::string::npos)
         << kind_message;
     std::ofstream(manifest) << good;
+
+    // A site listed twice is named as such, not as a site the telemetry lacks.
+    nlohmann::json twice = nlohmann::json::parse(good);
+    twice["sites"][2]["site"] = twice["sites"][0]["site"];
+    std::ofstream(manifest) << twice.dump();
+    const std::string twice_message =
+        testing::ErrorMessageOf([&] { ReadMissionManifest(dir.path()); });
+    EXPECT_NE(twice_message.find("sites[2].site 0 repeats sites[0]"), std::string::npos)
+        << twice_message;
+    std::ofstream(manifest) << good;
   }
 
   // A missing image is reported, naming the manifest and the file, before any work.

@@ -8,6 +8,7 @@
 // Failure: unreadable rasters throw areomap::Error (from RasterDataset); content never does.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "areomap/crater/crater_detector.h"
@@ -24,7 +25,10 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
 
 // `window` of band 1 averaged over factor x factor blocks (factor >= 1), read in strips so that
 // memory stays at the output plus one strip. Output size: window size / factor (rounded down);
-// NaN where any input pixel of a block is nodata.
-cv::Mat ReadDecimated(const RasterDataset& dataset, const PixelWindow& window, int factor);
+// NaN where any input pixel of a block is nodata. `valid_pixels`, when given, receives the number
+// of the pixels read that are valid (finite, not nodata); pixels beyond the last whole block of
+// a row or column are not read.
+cv::Mat ReadDecimated(const RasterDataset& dataset, const PixelWindow& window, int factor,
+                      int64_t* valid_pixels = nullptr);
 
 }  // namespace areomap

@@ -16,6 +16,7 @@
 
 #include "areomap/map/progress.h"
 #include "areomap/registration/bundle_adjustment.h"
+#include "areomap/registration/bundle_io.h"
 #include "areomap/registration/traverse_anchoring.h"
 #include "areomap/registration/traverse_products.h"
 
@@ -37,9 +38,15 @@ struct TraverseAdjustmentOptions {
 std::string ReadableReport(const BundleResult& result, const AnchoredTraverse& traverse);
 
 // Runs the job and returns the key figures (what summary.json holds besides "command").
+// `out_dir` must exist. Throws areomap::Error, before writing anything, for bad options, an
+// unreadable input (ReadBundleInput) or a missing orbital image.
 nlohmann::json AdjustTraverse(const std::vector<std::filesystem::path>& inputs,
                               const std::filesystem::path& out_dir,
                               const TraverseAdjustmentOptions& options,
                               const ProgressCallback& progress = nullptr);
+// Same from inputs already read (so that a caller can validate them before creating `out_dir`).
+nlohmann::json AdjustTraverseInput(BundleInputFile file, const std::filesystem::path& out_dir,
+                                   const TraverseAdjustmentOptions& options,
+                                   const ProgressCallback& progress = nullptr);
 
 }  // namespace areomap
