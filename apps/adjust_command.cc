@@ -30,19 +30,24 @@ void AddAdjustCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--huber", bundle.huber_scale,
                   "Huber scale on each observation's Mahalanobis "
                   "distance [sigmas]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_option("--alpha", bundle.rejection_alpha,
                   "Significance of the normalized residual test for rejecting observations")
+      ->check(NumberIn(0.0, 0.5, Bound::kOpen, Bound::kOpen))
       ->capture_default_str();
   cmd->add_option("--rejection-rounds", bundle.max_rejection_rounds,
                   "Most re-solves after rejecting observations")
+      ->check(IntegerAtLeast(0))
       ->capture_default_str();
   cmd->add_option("--rock-tie-variance-factor", o->adjustment.rock_tie_variance_factor,
                   "Multiplies the rock tie points' covariances (e.g. by a run's pooled sigma0^2, "
                   "summary.json rock_tie_variance, which the run itself reports only)")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_option("--ellipse-scale", o->adjustment.map.ellipse_scale,
                   "Exaggeration of the 1-sigma ellipses on the traverse map")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->callback([o, &global] {
     o->adjustment.orbital_image = o->orbital;

@@ -267,12 +267,16 @@ void AddCameraCommand(CLI::App& app, const GlobalOptions& /*global*/) {
   footprint->add_option("files", footprint_options->files, "Labelled images of one site")
       ->required();
   footprint->add_option("--out", footprint_options->out, "Output folder")->required();
+  // At most 10 km: beyond the horizon of any rover camera, and the plot draws a grid line every
+  // 5 m of it.
   footprint->add_option("--max-range", footprint_options->max_range_m, "Footprint cut [m]")
+      ->check(NumberIn(0.0, 1e4, Bound::kOpen))
       ->capture_default_str();
   footprint
       ->add_option("--ground-z-rover", footprint_options->ground_z_rover_m,
                    "Ground z in the first image's rover frame [m] (0: rover origin on the "
                    "ground, as the generator's labels)")
+      ->check(FiniteNumber())
       ->capture_default_str();
   footprint->callback([footprint_options] { WriteFootprints(*footprint_options); });
 

@@ -50,8 +50,12 @@ std::optional<Geographic> ParseOrigin(const std::string& text) {
   } catch (const Error& e) {
     throw Error("--origin '" + text + "': " + e.what() + ": expected LAT,LON[,H]");
   }
+  if (!v.allFinite()) throw Error("--origin '" + text + "': expected finite numbers LAT,LON[,H]");
   if (std::abs(v.x()) > 90.0) {
     throw Error("--origin latitude " + std::to_string(v.x()) + " is outside [-90, 90] degrees");
+  }
+  if (std::abs(v.y()) > 360.0) {
+    throw Error("--origin longitude " + std::to_string(v.y()) + " is outside [-360, 360] degrees");
   }
   return Geographic{RadFromDeg(v.x()), RadFromDeg(v.y()), v.z()};
 }

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <sstream>
 
 #include "areomap/crater/crater_output.h"
 #include "areomap/crater/crater_raster.h"
@@ -23,6 +24,9 @@ struct CratersArgs {
   CraterDetectorOptions detector;
 };
 
+// The smallest rim diameter the detector takes (CraterDetectorOptions::Check) [px].
+constexpr double kMinDiameterPx = 4.0;
+
 void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   const RasterDataset dataset = RasterDataset::Open(a.input);
   const RasterInfo& info = dataset.info();
@@ -36,6 +40,18 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   const double to_px = a.units == "m" ? 1.0 / probe.pixel_size_m : 1.0;
   options.min_diameter_px = a.min_diameter * to_px;
   options.max_diameter_px = a.max_diameter * to_px;
+  if (!(options.min_diameter_px >= kMinDiameterPx)) {
+    std::ostringstream text;
+    text << "--min-diameter: " << a.min_diameter;
+    if (a.units == "m") {
+      text << " m (" << options.min_diameter_px << " px of " << probe.pixel_size_m << " m on "
+           << a.input << ")";
+    } else {
+      text << " px";
+    }
+    text << " is below the smallest rim diameter detected, " << kMinDiameterPx << " px";
+    throw Error(text.str());
+  }
   options.sun_azimuth_deg = a.sun_azimuth_deg;
   const double posting = probe.pixel_size_m > 0.0 ? probe.pixel_size_m : 1.0;
   options.dtm_posting = posting;
@@ -119,26 +135,37 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--units", args->units, "Unit of the diameter limits: px or m")
       ->check(CLI::IsMember({"px", "m"}))
       ->capture_default_str();
-  cmd->add_option("--min-diameter", args->min_diameter, "Smallest rim diameter")
+  // At least 4 px, checked in px once --units and the raster's pixel size are known.
+  cmd->add_option("--min-diameter", args->min_diameter, "Smallest rim diameter (at least 4 px)")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_option("--max-diameter", args->max_diameter, "Largest rim diameter (0: no limit)")
+      ->check(NonNegativeNumber())
       ->capture_default_str();
   cmd->add_option("--sun-azimuth", args->sun_azimuth_deg,
-                  "Sun azimuth [deg clockwise from image up]: enables the shading checks");
+                  "Sun azimuth [deg clockwise from image up]: enables the shading checks")
+      ->check(FiniteNumber());
   cmd->add_option("--tile-size", args->detector.tile_size, "Tile core edge [px]")
+      ->check(IntegerAtLeast(256))
       ->capture_default_str();
-  cmd->add_option("--tile-overlap", args->detector.tile_overlap, "Tile margin [px]")
+  cmd->add_option("--tile-overlap", args->detector.tile_overlap,
+                  "Tile margin [px] (at most --tile-size)")
+      ->check(IntegerAtLeast(32))
       ->capture_default_str();
   cmd->add_option("--min-shading-contrast", args->detector.min_shading_contrast,
                   "Image with sun: wall contrast threshold")
+      ->check(FiniteNumber())
       ->capture_default_str();
   cmd->add_option("--min-coverage", args->detector.min_coverage,
                   "Fraction of rim sectors that must hold edges")
+      ->check(NumberIn(0.0, 1.0))
       ->capture_default_str();
   cmd->add_option("--max-axis-ratio", args->detector.max_axis_ratio, "Largest a / b accepted")
+      ->check(NumberAtLeast(1.0))
       ->capture_default_str();
   cmd->add_option("--min-edge-contrast", args->detector.min_edge_contrast,
                   "Rim edge strength / high Canny threshold")
+      ->check(NonNegativeNumber())
       ->capture_default_str();
   cmd->add_flag("--no-upsample{false}", args->detector.upsample_small_craters,
                 "Skip the 2x upsampled level for craters under 16 px across (faster; finds fewer "
@@ -155,7 +182,8 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
       "Match: centre distance < 0.5 x truth radius and diameter ratio within +-30 %");
   score->add_option("detections", (*score_args)[0], "Detections CSV")->required();
   score->add_option("truth", (*score_args)[1], "Truth CSV")->required();
-  score->add_option("--min-diameter", *min_score_diameter, "Smallest diameter scored [px]")
+  score->add_option("--min-diameter", *min_score_diameter, "Smallest diameter scored [px] (0: all)")
+      ->check(NonNegativeNumber())
       ->capture_default_str();
   score->add_option("--out", (*score_args)[2], "Also write DIR/summary.json");
   score->add_option("--image", (*score_args)[3],

@@ -5,7 +5,9 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "areomap/map/crs.h"
@@ -64,6 +66,22 @@ Georeference ReadGeoreference(const DtmCommandOptions& o) {
   return g;
 }
 
+// MakeDtm, with its refusal of a posting too fine for the clouds' extent (a grid of more than
+// 4e8 cells, which only the clouds tell) said in terms of --posting.
+Dtm MakeDtmNamingPosting(const std::vector<SiteCloud>& sites, const MapFrame& map,
+                         const DtmOptions& options, const ProgressCallback& progress) {
+  try {
+    return MakeDtm(sites, map, options, progress);
+  } catch (const Error& e) {
+    if (!std::string_view(e.what()).starts_with("GridSpec.posting")) throw;
+    std::ostringstream text;
+    text << "--posting: " << options.posting_m
+         << " m is too fine for these clouds: the DTM would have more than 4e8 cells; expected "
+            "a coarser posting";
+    throw Error(text.str());
+  }
+}
+
 }  // namespace
 
 void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
@@ -74,36 +92,56 @@ void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
       ->required();
   cmd->add_option("--out", o->out, "Output folder (created if needed)")->required();
   cmd->add_option("--mission", o->mission,
-                  "Mission folder: origin and site poses (each cloud's site selects its pose)");
+                  "Mission folder: origin and site poses (each cloud's site selects its pose); "
+                  "instead of --origin and --site-position");
   cmd->add_option("--poses", o->poses,
-                  "Site poses from the mission: telemetry or truth (truth also turns each cloud "
+                  "With --mission: site poses telemetry or truth (truth also turns each cloud "
                   "by the heading the labels' telemetry got wrong)")
       ->capture_default_str();
-  cmd->add_option("--origin", o->origin,
-                  "Without --mission: site 0's origin, planetocentric lat, east lon [deg], h [m]")
-      ->expected(3)
-      ->delimiter(',');
+  CheckLatLonHeight(
+      cmd->add_option(
+             "--origin", o->origin,
+             "Without --mission: site 0's origin, planetocentric lat, east lon [deg], h [m]")
+          ->expected(3)
+          ->delimiter(','));
   cmd->add_option("--site-position", o->site_position,
                   "With --origin: the clouds' site origin in site 0's frame, north,east,down [m]")
       ->expected(3)
       ->delimiter(',')
+      ->check(FiniteNumber())
       ->capture_default_str();
   cmd->add_option("--crs", o->crs,
                   "Projected Mars CRS of the DTM (e.g. IAU_2015:49910); default: equirectangular "
                   "on the local-radius sphere at the origin");
-  cmd->add_option("--posting", o->dtm.posting_m, "Cell size [m]")->capture_default_str();
+  cmd->add_option("--posting", o->dtm.posting_m, "Cell size [m]")
+      ->check(NumberIn(0.0, 100.0, Bound::kOpen))
+      ->capture_default_str();
   cmd->add_option("--method", o->method, "tin, mean, max or idw")->capture_default_str();
   cmd->add_option("--max-edge", o->dtm.gridding.max_edge_m,
                   "TIN: longest triangle edge not taken for a gap [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_option("--max-edge-per-range", o->dtm.gridding.max_edge_per_range,
                   "TIN: the edge limit grows by this much per metre of range [m/m]")
+      ->check(NumberIn(0.0, 10.0, Bound::kClosed, Bound::kOpen))
       ->capture_default_str();
   cmd->add_option("--idw-radius", o->dtm.gridding.idw_radius_m, "IDW: search radius [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_option("--idw-points", o->dtm.gridding.idw_max_points, "IDW: nearest points used")
+      ->check(IntegerAtLeast(1))
       ->capture_default_str();
-  cmd->callback([o, &global] {
+  cmd->callback([o, cmd, &global] {
+    // The mission gives the origin and every site's pose: --origin and --site-position would be
+    // ignored beside it, and --poses means nothing without it.
+    if (!o->mission.empty() && (cmd->count("--origin") > 0 || cmd->count("--site-position") > 0)) {
+      throw Error(
+          "--mission gives the origin and each cloud's site pose: leave out --origin and "
+          "--site-position, or give them without --mission");
+    }
+    if (o->mission.empty() && cmd->count("--poses") > 0) {
+      throw Error("--poses chooses the mission's site poses: it needs --mission");
+    }
     o->dtm.gridding.method = GriddingMethodFromString(o->method);
     o->dtm.Check();
     const ProgressCallback progress = MakeProgressBar(global, "dtm");
@@ -136,7 +174,7 @@ void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
     const MapFrame map = o->crs.empty() ? MapFrame::LocalEquirectangular(g.body, g.origin)
                                         : MapFrame::FromCrs(g.body, Crs::FromUserInput(o->crs));
     PrepareOutputFolder(o->out);
-    const Dtm dtm = MakeDtm(sites, map, o->dtm, progress);
+    const Dtm dtm = MakeDtmNamingPosting(sites, map, o->dtm, progress);
     const std::filesystem::path path = std::filesystem::path(o->out) / "dtm.tif";
     WriteDtm(path, dtm);
     size_t points = 0;

@@ -27,18 +27,25 @@ void AddErrorsCommand(CLI::App& app, const GlobalOptions& global) {
       "landmarks and several traverse lengths (Figs. 4.2-4.5): study.csv, re_<length>m.png");
   simulate->add_option("--out", o->out, "Output folder (created if needed)")->required();
   simulate->add_option("--lengths", o->study.traverse_lengths_m, "Traverse lengths [m]")
+      ->check(NumberIn(0.0, 1000.0, Bound::kOpen))
       ->capture_default_str();
   simulate->add_option("--landmarks", o->study.landmark_counts, "Landmark counts (2 3 4 6 9)")
+      ->check(IntegerAmong({2, 3, 4, 6, 9}))
       ->capture_default_str();
+  // At least 0.01 degrees: at most 18 000 angles per curve.
   simulate->add_option("--step", o->study.convergence_step_deg, "Convergence angle step [deg]")
+      ->check(NumberAtLeast(0.01))
       ->capture_default_str();
   simulate
       ->add_option("--sigma-p", o->study.camera.parallax_sigma_px,
                    "Parallax error sigma_p of eq. 4.3 [px]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   simulate->add_option("--baseline", o->study.camera.baseline_m, "Stereo base [m] (Navcam 0.2)")
+      ->check(PositiveNumber())
       ->capture_default_str();
   simulate->add_option("--focal-px", o->study.camera.focal_px, "Focal length [px] (Navcam 1222.5)")
+      ->check(NumberAbove(10.0))
       ->capture_default_str();
   simulate->callback([o, &global] {
     const std::vector<ConfigurationSample> samples = RunConfigurationStudy(o->study);

@@ -2,12 +2,43 @@
 #include <cstdio>
 #include <exception>
 #include <iostream>
+#include <string>
 
 #include <glog/logging.h>
 #include <CLI/CLI.hpp>
 
 #include "areomap/map/error.h"
 #include "commands.h"
+
+namespace {
+
+// When parsing stopped because a command that takes a subcommand (areomap itself, rocks, camera,
+// errors) got a word that names none of its subcommands: "unknown subcommand 'WORD'; expected
+// one of: ...". Empty otherwise (CLI11's own message then says what went wrong).
+std::string UnknownSubcommandMessage(const CLI::App& app) {
+  const CLI::App* leaf = &app;  // The last subcommand parsed.
+  while (!leaf->get_subcommands().empty()) leaf = leaf->get_subcommands().back();
+  if (leaf->get_require_subcommand_min() == 0) return {};
+  // Unmatched words fall through to the top (app.fallthrough()).
+  std::string word;
+  for (const std::string& arg : app.remaining(true)) {
+    if (!arg.empty() && arg.front() != '-') {
+      word = arg;
+      break;
+    }
+  }
+  if (word.empty()) return {};
+  std::string names;
+  // Option groups are unnamed subcommands.
+  for (const CLI::App* sub :
+       leaf->get_subcommands([](const CLI::App* a) { return !a->get_name().empty(); })) {
+    names += (names.empty() ? "" : ", ") + sub->get_name();
+  }
+  return "unknown subcommand '" + word + "'" +
+         (leaf == &app ? std::string() : " of " + leaf->get_name()) + "; expected one of: " + names;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   // Ceres logs through glog (a failed crater fit, a rank-deficient Jacobian in the adjustment);
@@ -40,7 +71,9 @@ int main(int argc, char** argv) {
     return e.get_exit_code();  // The command reported its own failures (e.g. coords lines).
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
-    std::fprintf(stderr, "error: %s\nRun with --help for more information.\n", e.what());
+    const std::string unknown = UnknownSubcommandMessage(app);
+    std::fprintf(stderr, "error: %s\nRun with --help for more information.\n",
+                 unknown.empty() ? e.what() : unknown.c_str());
     return e.get_exit_code();
   } catch (const areomap::Error& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

@@ -22,6 +22,7 @@ void AddMosaicCommand(CLI::App& app, const GlobalOptions& global) {
       ->required();
   cmd->add_option("--out", *out_dir, "Output folder (created if needed)")->required();
   cmd->add_option("--feather", options->feather_m, "Blend width at seams [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->callback([inputs, out_dir, options, &global] {
     options->Check();

@@ -78,25 +78,30 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
                   "Rover images of one site (PNG with a .json label beside it, or MER .IMG)")
       ->required();
   cmd->add_option("--dtm", o->dtm, "DTM GeoTIFF (areomap dtm) covering the site")->required();
-  cmd->add_option("--origin", o->origin,
-                  "Mission origin (site 0's frame): planetocentric lat, east lon [deg], h [m]")
-      ->required()
-      ->expected(3)
-      ->delimiter(',');
+  CheckLatLonHeight(
+      cmd->add_option("--origin", o->origin,
+                      "Mission origin (site 0's frame): planetocentric lat, east lon [deg], h [m]")
+          ->required()
+          ->expected(3)
+          ->delimiter(','));
   cmd->add_option("--site-position", o->site_position,
                   "The site's origin in site 0's frame: north, east, down [m]")
       ->expected(3)
       ->delimiter(',')
+      ->check(FiniteNumber())
       ->capture_default_str();
   cmd->add_option("--heading-correction", o->heading_correction_deg,
                   "True heading minus the labels' (telemetry) heading, e.g. from a bundle "
                   "adjustment [deg, clockwise]")
+      ->check(FiniteNumber())
       ->capture_default_str();
   cmd->add_option("--out", o->out, "Output folder (created if needed)")->required();
   cmd->add_option("--max-range", o->ortho.max_range_m, "Paint cells up to this range [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_option("--max-incidence", o->ortho.max_incidence_deg,
                   "Most oblique view accepted (ray vs surface normal) [deg]")
+      ->check(NumberIn(0.0, 90.0, Bound::kOpen, Bound::kOpen))
       ->capture_default_str();
   cmd->callback([o, &global] {
     o->ortho.Check();
@@ -104,12 +109,6 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
     const Body body = Body::Mars2000();
     const Geographic origin{RadFromDeg(o->origin[0]), RadFromDeg(o->origin[1]), o->origin[2]};
     if (!IsValid(origin)) throw Error("--origin: expected lat,lon,h with |lat| <= 90 degrees");
-    if (!std::isfinite(o->heading_correction_deg)) {
-      throw Error("--heading-correction: expected a finite angle in degrees");
-    }
-    for (const double v : o->site_position) {
-      if (!std::isfinite(v)) throw Error("--site-position: expected three finite numbers [m]");
-    }
     const SiteGeoreference site = SiteGeoreference::InMission(
         body, origin,
         Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(RadFromDeg(o->heading_correction_deg),

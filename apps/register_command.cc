@@ -184,38 +184,49 @@ void AddRegisterCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("orbital", args->orbitals, "Orbital images (any Mars GDAL raster)")->required();
   cmd->add_option("--out", args->out_dir, "Output folder (created if needed)")->required();
   auto* prior = cmd->add_option_group("Prior (telemetry)");
-  prior->add_option("--prior-lat", args->prior_lat_deg,
-                    "Rover planetocentric latitude [deg] (default: the ortho's centre)");
-  prior->add_option("--prior-lon", args->prior_lon_deg, "Rover east longitude [deg]");
+  prior
+      ->add_option("--prior-lat", args->prior_lat_deg,
+                   "Rover planetocentric latitude [deg] (default: the ortho's centre)")
+      ->check(Latitude());
+  prior->add_option("--prior-lon", args->prior_lon_deg, "Rover east longitude [deg]")
+      ->check(Longitude());
   prior
       ->add_option("--prior-height", args->prior_height_m,
                    "Height above the ellipsoid used without a DTM [m]")
+      ->check(FiniteNumber())
       ->capture_default_str();
   prior
       ->add_option("--prior-sigma-m", args->prior_sigma_m,
                    "Horizontal 1-sigma of the prior [m]; the search covers 3 sigma")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_option("--orbital-dtm", args->orbital_dtm, "Orbital DTM for control point heights");
   cmd->add_option("--site", args->site,
-                  "MER site index: control points also in its site frame (origin: the prior)");
+                  "MER site index: control points also in its site frame (origin: the prior)")
+      ->check(IntegerAtLeast(0));
   auto* matching = cmd->add_option_group("Matching");
   matching
       ->add_option("--range-m", args->match.template_options.reliable_range_m,
                    "Reliable range kept around the rover [m] (0 = all)")
+      ->check(NonNegativeNumber())
       ->capture_default_str();
   matching
       ->add_option("--max-rotation-deg", args->match.max_rotation_deg,
                    "Rotation (heading error) searched: +-this [deg]")
+      ->check(NumberIn(0.0, 45.0))
       ->capture_default_str();
   matching
       ->add_option("--max-scale-change", args->match.max_scale_change, "Scale searched: 1 +- this")
+      ->check(NumberIn(0.0, 0.5, Bound::kClosed, Bound::kOpen))
       ->capture_default_str();
   matching
       ->add_option("--min-correlation", args->match.min_correlation, "No match below this peak CC")
+      ->check(NumberIn(-1.0, 1.0))
       ->capture_default_str();
   matching
       ->add_option("--min-peak-ratio", args->match.min_peak_ratio,
                    "No match below this best / second-best peak ratio")
+      ->check(NumberAtLeast(1.0))
       ->capture_default_str();
   matching->add_flag("--similarity", args->similarity,
                      "Edge refinement fits a similarity instead of a translation");

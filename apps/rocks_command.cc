@@ -161,14 +161,20 @@ void RunMatch(const RocksArgs& a, const GlobalOptions& global) {
 }
 
 void AddExtractionOptions(CLI::App* cmd, RockExtractionOptions& o) {
-  cmd->add_option("--window", o.peak_window_m, "Peak window edge [m]")->capture_default_str();
+  cmd->add_option("--window", o.peak_window_m, "Peak window edge [m]")
+      ->check(NumberIn(0.05, 10.0, Bound::kOpen, Bound::kOpen))
+      ->capture_default_str();
   cmd->add_option("--min-relief", o.min_peak_relief_m, "Elevation range within the window [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_option("--max-range", o.max_peak_range_m, "Peaks beyond this from the camera [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_option("--min-height", o.min_height_m, "Lowest rock kept (peak to plane) [m]")
+      ->check(NonNegativeNumber())
       ->capture_default_str();
   cmd->add_option("--model-min-height", o.model_min_height_m, "Lowest rock modeled [m]")
+      ->check(NonNegativeNumber())
       ->capture_default_str();
 }
 
@@ -190,8 +196,8 @@ void AddRocksCommand(CLI::App& app, const GlobalOptions& global) {
   extract
       ->add_option("--pair", extract_args->image_pair,
                    "Which stereo pair of the site --image is (the cloud's image_id)")
-      ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(IntegerIn(0, 65535))  // image_id is 16 bits
+      ->capture_default_str();
   AddExtractionOptions(extract, extract_args->extraction);
   extract->callback([extract_args, &global] { RunExtract(*extract_args, global); });
 
@@ -207,20 +213,25 @@ void AddRocksCommand(CLI::App& app, const GlobalOptions& global) {
       ->required();
   match
       ->add_option("--prior-sigma", match_args->prior_sigma_m,
-                   "1-sigma of the prior position, per axis [m]")
+                   "1-sigma of the prior position, per axis [m] (a large one: position unknown, "
+                   "--search-radius bounds the search)")
+      ->check(PositiveNumber())
       ->capture_default_str();
   match
       ->add_option("--prior-heading-sigma", match_args->prior_heading_sigma_deg,
                    "1-sigma of the prior heading [deg]")
+      ->check(NonNegativeNumber())
       ->capture_default_str();
   match
       ->add_option("--search-radius", match_args->matching.search_radius_m,
                    "Largest search radius around a rock [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   match
       ->add_option("--tie-variance-factor", match_args->matching.tie_variance_factor,
                    "Variance factor of the tie points' eq. 4.3 covariances (a run's pooled "
                    "sigma0^2, summary.json rock_tie_variance) for the fit, RE and the output")
+      ->check(PositiveNumber())
       ->capture_default_str();
   match->add_option("--out", match_args->out_dir, "Output folder")->required();
   AddExtractionOptions(match, match_args->extraction);

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <iostream>
 #include <limits>
+#include <sstream>
 
 #include "areomap/map/mission_manifest.h"
 #include "areomap/registration/mission_run.h"
@@ -127,27 +128,39 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
       "anchored traverse and report.html. Finished sites and legs are reused on a re-run.");
   run->add_option("MISSION", o->mission, "Mission folder (or its mission.json)")->required();
   run->add_option("--out", o->out, "Output folder (created if needed)")->required();
-  run->add_option("--max-range", o->run.stereo.max_range_m, "Stereo points beyond are dropped [m]")
+  // Beyond the stereo's nearest range, which run does not change.
+  std::ostringstream max_range_help;
+  max_range_help << "Stereo points beyond are dropped [m] (more than the nearest range searched, "
+                 << o->run.stereo.min_range_m << " m)";
+  run->add_option("--max-range", o->run.stereo.max_range_m, max_range_help.str())
+      ->check(NumberAbove(o->run.stereo.min_range_m))
       ->capture_default_str();
   run->add_option("--point-spacing", o->run.point_spacing_m,
                   "Stereo points kept about this far apart on the ground, per pair [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   run->add_option("--fine-point-spacing", o->run.fine_pair_point_spacing_m,
                   "The same for pairs with pixels finer than --fine-pair-ifov (Pancam) [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   run->add_option("--fine-pair-ifov", o->run.fine_pair_max_ifov_mrad,
                   "Angular resolution below which a pair is fine [mrad/px]; 0: none")
+      ->check(NonNegativeNumber())
       ->capture_default_str();
   run->add_option("--posting", o->run.dtm.posting_m, "Site DTM and orthophoto posting [m]")
+      ->check(NumberIn(0.0, 100.0, Bound::kOpen))
       ->capture_default_str();
   run->add_option("--prior-sigma-per-m", o->run.prior_sigma_per_m,
                   "Orbital search prior: telemetry sigma per metre driven")
+      ->check(NonNegativeNumber())
       ->capture_default_str();
   run->add_option("--traverse-posting", o->run.traverse_posting_m,
                   "Whole-traverse DTM and orthomosaic posting [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   run->add_option("--crater-min-diameter", o->run.crater_min_diameter_m,
                   "Smallest crater rim diameter on the orbital image [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   run->add_flag("--keep-coarse-points", o->keep_coarse_points,
                 "Keep every pair's points where a more precise pair (Pancam over Navcam) sees the "

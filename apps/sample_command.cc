@@ -15,14 +15,23 @@ void AddSampleCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--out", *out_dir, "Output folder (created if needed)")->required();
   auto* group = cmd->add_option_group("Terrain");
   group->add_option("--seed", options->seed, "Seed of the background relief")
+      ->check(IntegerIn(0, 4294967295))  // 32 bits
       ->capture_default_str();
-  group->add_option("--size", options->size_px, "Tile edge [px]")->capture_default_str();
-  group->add_option("--posting", options->posting_m, "Pixel size [m]")->capture_default_str();
+  group->add_option("--size", options->size_px, "Tile edge [px]")
+      ->check(IntegerIn(16, 8192))
+      ->capture_default_str();
+  group->add_option("--posting", options->posting_m, "Pixel size [m]")
+      ->check(NumberIn(0.0, 1000.0, Bound::kOpen))
+      ->capture_default_str();
+  // Not at the poles: the terrain is an equirectangular tile.
   group->add_option("--lat", options->center_lat_deg, "Centre planetocentric latitude [deg]")
+      ->check(NumberIn(-85.0, 85.0, Bound::kOpen, Bound::kOpen))
       ->capture_default_str();
   group->add_option("--lon", options->center_lon_deg, "Centre east longitude [deg]")
+      ->check(Longitude())
       ->capture_default_str();
   group->add_option("--crater-diameter", options->crater_diameter_m, "Crater diameter [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->callback([options, out_dir, &global] {
     options->Check();

@@ -26,20 +26,29 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
       "orthoimage and DTM, a rover traverse with telemetry errors (docs/mission-format.md)");
   cmd->add_option("--preset", o->preset, "demo (small, ~1 min) or long (~1.1 km traverse)")
       ->capture_default_str();
-  cmd->add_option("--seed", o->seed, "Seed of every random choice")->capture_default_str();
+  cmd->add_option("--seed", o->seed, "Seed of every random choice")
+      ->check(IntegerIn(0, 4294967295))  // 32 bits
+      ->capture_default_str();
   cmd->add_option("--out", o->out, "Mission folder (created if needed)")->required();
   auto* site = cmd->add_option_group("Site and traverse");
   site->add_option("--landing-site", o->landing_site, "gusev (Spirit) or meridiani (Opportunity)")
       ->capture_default_str();
-  site->add_option("--lat", o->lat, "Planetocentric latitude of site 0 [deg] (overrides)");
-  site->add_option("--lon", o->lon, "East longitude of site 0 [deg]");
-  site->add_option("--sites", o->sites, "Number of sites");
-  site->add_option("--min-leg", o->min_leg, "Shortest leg [m]");
-  site->add_option("--max-leg", o->max_leg, "Longest leg [m]");
+  site->add_option("--lat", o->lat, "Planetocentric latitude of site 0 [deg] (overrides)")
+      ->check(NumberIn(-80.0, 80.0, Bound::kOpen, Bound::kOpen));
+  site->add_option("--lon", o->lon, "East longitude of site 0 [deg]")->check(Longitude());
+  site->add_option("--sites", o->sites, "Number of sites")->check(IntegerIn(1, 1000));
+  site->add_option("--min-leg", o->min_leg, "Shortest leg [m]")->check(PositiveNumber());
+  site->add_option("--max-leg", o->max_leg, "Longest leg [m] (at least the shortest)")
+      ->check(PositiveNumber());
   auto* rover = cmd->add_option_group("Rover cameras");
-  rover->add_option("--navcam-pairs", o->pairs, "Navcam stereo pairs per site (0: no images)");
-  rover->add_option("--navcam-fov", o->fov, "Navcam horizontal field of view [deg] (45.4)");
-  rover->add_option("--pancam-pairs", o->pancam_pairs, "Pancam stereo pairs per site (0)");
+  rover->add_option("--navcam-pairs", o->pairs, "Navcam stereo pairs per site (0: no images)")
+      ->check(IntegerIn(0, 64));
+  rover
+      ->add_option("--navcam-fov", o->fov,
+                   "Navcam horizontal field of view [deg] (45.4; 0: from the focal length)")
+      ->check(NumberIn(0.0, 180.0, Bound::kClosed, Bound::kOpen));
+  rover->add_option("--pancam-pairs", o->pancam_pairs, "Pancam stereo pairs per site (0)")
+      ->check(IntegerIn(0, 64));
   auto* orbital = cmd->add_option_group("Orbital products");
   orbital->add_flag("--second-sun", o->second_sun, "Also an orthoimage under another sun");
   orbital->add_flag("--ctx", o->ctx, "Also a CTX-like 6 m image");

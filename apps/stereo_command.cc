@@ -85,22 +85,32 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
                   "Left camera model (.json label, .tsai, or labelled product)");
   cmd->add_option("--right-camera", o->right_camera, "Right camera model");
   DenseStereoOptions& s = o->stereo;
-  cmd->add_option("--max-range", s.max_range_m, "Drop points beyond this range [m]")
+  cmd->add_option("--max-range", s.max_range_m,
+                  "Drop points beyond this range [m] (beyond --min-range)")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_option("--min-range", s.min_range_m, "Nearest range searched [m]")
+      ->check(PositiveNumber())
       ->capture_default_str();
-  cmd->add_option("--block-size", s.block_size, "SGBM window [px]")->capture_default_str();
+  cmd->add_option("--block-size", s.block_size, "SGBM window [px]")
+      ->check(OddIntegerIn(3, 11))
+      ->capture_default_str();
   cmd->add_option("--uniqueness", s.uniqueness_ratio, "SGBM uniqueness margin [%]")
+      ->check(IntegerIn(0, 100))
       ->capture_default_str();
   cmd->add_option("--lr-max-diff", s.lr_max_diff_px, "Left-right consistency tolerance [px]")
+      ->check(NonNegativeNumber())
       ->capture_default_str();
   cmd->add_option("--max-disparity-step", s.max_disparity_step_px,
                   "Disparity jump marking an occlusion edge [px] (0: keep edges)")
+      ->check(NonNegativeNumber())
       ->capture_default_str();
   cmd->add_option("--occlusion-margin", s.occlusion_margin_px,
                   "Pixels dropped on each side of an occlusion edge [px] (-1: block size / 2)")
+      ->check(IntegerIn(-1, 64))
       ->capture_default_str();
   cmd->add_option("--parallax-sigma", s.parallax_sigma_px, "sigma_p of eq. 4.3 [px]")
+      ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_flag("--rectified", o->write_rectified,
                 "Also write the rectified 8-bit pair (left_rectified.png, right_rectified.png)");
@@ -110,6 +120,7 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
                 "Also match Förstner interest points (NCC >= 0.85 and the other Table 4.5 "
                 "filters) into tie_points.csv");
   cmd->add_option("--image-id", s.image_id, "Pair id written into every point")
+      ->check(IntegerIn(0, 65535))  // 16 bits
       ->capture_default_str();
   cmd->callback([o, &global] {
     const auto start = std::chrono::steady_clock::now();
