@@ -24,9 +24,6 @@ struct CratersArgs {
   CraterDetectorOptions detector;
 };
 
-// The smallest rim diameter the detector takes (CraterDetectorOptions::Check) [px].
-constexpr double kMinDiameterPx = 4.0;
-
 void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   const RasterDataset dataset = RasterDataset::Open(a.input);
   const RasterInfo& info = dataset.info();
@@ -40,7 +37,7 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   const double to_px = a.units == "m" ? 1.0 / probe.pixel_size_m : 1.0;
   options.min_diameter_px = a.min_diameter * to_px;
   options.max_diameter_px = a.max_diameter * to_px;
-  if (!(options.min_diameter_px >= kMinDiameterPx)) {
+  if (!(options.min_diameter_px >= CraterDetectorOptions::kSmallestDiameterPx)) {
     std::ostringstream text;
     text << "--min-diameter: " << a.min_diameter;
     if (a.units == "m") {
@@ -49,7 +46,8 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
     } else {
       text << " px";
     }
-    text << " is below the smallest rim diameter detected, " << kMinDiameterPx << " px";
+    text << " is below the smallest rim diameter detected, "
+         << CraterDetectorOptions::kSmallestDiameterPx << " px";
     throw Error(text.str());
   }
   options.sun_azimuth_deg = a.sun_azimuth_deg;

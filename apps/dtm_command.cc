@@ -5,9 +5,7 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
-#include <sstream>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "areomap/map/crs.h"
@@ -64,22 +62,6 @@ Georeference ReadGeoreference(const DtmCommandOptions& o) {
   g.origin = {RadFromDeg(o.origin[0]), RadFromDeg(o.origin[1]), o.origin[2]};
   if (!IsValid(g.origin)) throw Error("--origin: expected lat,lon,h with |lat| <= 90 degrees");
   return g;
-}
-
-// MakeDtm, with its refusal of a posting too fine for the clouds' extent (a grid of more than
-// 4e8 cells, which only the clouds tell) said in terms of --posting.
-Dtm MakeDtmNamingPosting(const std::vector<SiteCloud>& sites, const MapFrame& map,
-                         const DtmOptions& options, const ProgressCallback& progress) {
-  try {
-    return MakeDtm(sites, map, options, progress);
-  } catch (const Error& e) {
-    if (!std::string_view(e.what()).starts_with("GridSpec.posting")) throw;
-    std::ostringstream text;
-    text << "--posting: " << options.posting_m
-         << " m is too fine for these clouds: the DTM would have more than 4e8 cells; expected "
-            "a coarser posting";
-    throw Error(text.str());
-  }
 }
 
 }  // namespace
@@ -174,7 +156,7 @@ void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
     const MapFrame map = o->crs.empty() ? MapFrame::LocalEquirectangular(g.body, g.origin)
                                         : MapFrame::FromCrs(g.body, Crs::FromUserInput(o->crs));
     PrepareOutputFolder(o->out);
-    const Dtm dtm = MakeDtmNamingPosting(sites, map, o->dtm, progress);
+    const Dtm dtm = MakeDtm(sites, map, o->dtm, progress);
     const std::filesystem::path path = std::filesystem::path(o->out) / "dtm.tif";
     WriteDtm(path, dtm);
     size_t points = 0;

@@ -683,7 +683,7 @@ bool CraterDetectorOptions::SearchesUpsampledLevel() const {
 }
 
 void CraterDetectorOptions::Check() const {
-  RequireOption(std::isfinite(min_diameter_px) && min_diameter_px >= 4.0,
+  RequireOption(std::isfinite(min_diameter_px) && min_diameter_px >= kSmallestDiameterPx,
                 "CraterDetectorOptions.min_diameter_px", ">= 4 px");
   RequireOption(max_diameter_px == 0.0 ||
                     (std::isfinite(max_diameter_px) && max_diameter_px >= min_diameter_px),

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <string>
 #include <utility>
@@ -369,8 +370,14 @@ GridSpec GridSpec::Covering(const Eigen::Vector2d& min, const Eigen::Vector2d& m
   g.y_top = (std::floor(max.y() / posting) + 1.0) * posting;
   const double width = std::floor(max.x() / posting) - std::floor(min.x() / posting) + 1.0;
   const double height = std::floor(max.y() / posting) - std::floor(min.y() / posting) + 1.0;
-  RequireOption(width * height <= 4e8, "GridSpec.posting",
-                "a posting giving at most 4e8 cells over the points");
+  if (!(width * height <= 4e8)) {
+    char text[200];
+    std::snprintf(text, sizeof(text),
+                  "DTM posting %g m is too fine for the points' extent of %.0f x %.0f m: %.3g "
+                  "cells, more than 4e8; expected a coarser posting",
+                  posting, max.x() - min.x(), max.y() - min.y(), width * height);
+    throw Error(text);
+  }
   g.width = static_cast<int>(width);
   g.height = static_cast<int>(height);
   g.Check();

@@ -83,7 +83,8 @@ struct CraterDetection {
 };
 
 struct CraterDetectorOptions {
-  double min_diameter_px = 8.0;           // rim diameter a + b [px], >= 4
+  static constexpr double kSmallestDiameterPx = 4.0;  // the least min_diameter_px accepted
+  double min_diameter_px = 8.0;           // rim diameter a + b [px], >= kSmallestDiameterPx
   double max_diameter_px = 0.0;           // 0: no limit besides the raster size
   std::optional<double> sun_azimuth_deg;  // image only; enables the shading checks
   EdgeOptions edges;
