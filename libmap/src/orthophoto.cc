@@ -198,13 +198,25 @@ Orthophoto MakeOrthophoto(const Dtm& dtm, const SiteGeoreference& site, const Ma
     source.image.convertTo(f, CV_32F);
     float_images.push_back(f);
   }
-  // The window of the DTM within reach of the site (map scale differs from 1 by < 2 %).
-  const Eigen::Vector2d origin = map.MapFromMbf(site.mbf_from_site.translation).head<2>();
+  // The window of the DTM within reach of the cameras (map scale differs from 1 by < 2 %). The
+  // cameras, not the site origin: a MER rover works tens of metres from its site's origin.
+  Eigen::Vector2d low = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d high = -low;
+  for (const OrthoSourceImage& source : images) {
+    const Eigen::Vector2d camera =
+        map.MapFromMbf(site.mbf_from_site * source.camera_in_site.c).head<2>();
+    if (!camera.allFinite()) {
+      throw Error("orthophoto: image " + std::to_string(source.id) +
+                  ": the camera is outside the map's CRS domain");
+    }
+    low = low.cwiseMin(camera);
+    high = high.cwiseMax(camera);
+  }
   const Eigen::Vector2d reach = Eigen::Vector2d::Constant(1.02 * options.max_range_m + 2.0);
   Orthophoto ortho;
   ortho.crs_wkt = dtm.crs_wkt;
-  const std::optional<GridSpec> window = dtm.layers.grid.Window(origin - reach, origin + reach);
-  if (!window) throw Error("orthophoto: the DTM does not reach the site");
+  const std::optional<GridSpec> window = dtm.layers.grid.Window(low - reach, high + reach);
+  if (!window) throw Error("orthophoto: the DTM does not reach the cameras");
   ortho.grid = *window;
   const int w = window->width, h = window->height;
   ortho.image = cv::Mat(h, w, CV_32F, cv::Scalar(kNaNf));

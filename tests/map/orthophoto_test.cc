@@ -238,6 +238,29 @@ TEST(Orthophoto, ResolutionGrowsWithRangeAndLayersAgree) {
   EXPECT_TRUE(Crs::FromWkt(dataset.info().crs_wkt, "ortho.tif").Describe().is_mars);
 }
 
+// A MER rover works tens of metres from its site's origin: the same cameras in a site frame whose
+// origin lies 50 m away paint the same cells (the window follows the cameras, not the origin).
+TEST(Orthophoto, CamerasFarFromTheSiteOriginPaintTheSameCells) {
+  const OrthoFixture& f = Fixture();
+  const Orthophoto near = MakeOrthophoto(f.dtm, f.site, f.map, f.images, OrthoOptions{});
+  const Eigen::Vector3d rover_in_site(40.0, 30.0, 0.0);  // north, east, down [m]
+  SiteGeoreference far_site = f.site;
+  far_site.mbf_from_site =
+      f.site.mbf_from_site * Rigid3d(Eigen::Quaterniond::Identity(), -rover_in_site);
+  std::vector<OrthoSourceImage> far_images = f.images;
+  for (OrthoSourceImage& image : far_images) {
+    image.camera_in_site =
+        image.camera_in_site.Transformed(Rigid3d(Eigen::Quaterniond::Identity(), rover_in_site));
+  }
+  const Orthophoto far = MakeOrthophoto(f.dtm, far_site, f.map, far_images, OrthoOptions{});
+  ASSERT_GT(near.valid_cells, 10000);
+  EXPECT_NEAR(far.valid_cells, near.valid_cells, 0.001 * near.valid_cells);
+  EXPECT_NEAR(far.grid.x_left, near.grid.x_left, 1e-6);
+  EXPECT_NEAR(far.grid.y_top, near.grid.y_top, 1e-6);
+  EXPECT_EQ(far.grid.width, near.grid.width);
+  EXPECT_EQ(far.grid.height, near.grid.height);
+}
+
 TEST(Orthophoto, RejectsBadInput) {
   const OrthoFixture& f = Fixture();
   EXPECT_NE(testing::ErrorMessageOf([&] {

@@ -67,7 +67,9 @@ struct Orthophoto {
   GeoRaster ToGeoRaster() const;
 };
 
-// The orthophoto of one site's images on the window of `dtm` within max_range_m of the site.
+// The orthophoto of one site's images on the window of `dtm` within max_range_m of their
+// cameras (which may stand far from the site's origin). Throws areomap::Error when the DTM does
+// not reach the cameras, or for bad images or options.
 Orthophoto MakeOrthophoto(const Dtm& dtm, const SiteGeoreference& site, const MapFrame& map,
                           const std::vector<OrthoSourceImage>& images, const OrthoOptions& options,
                           const ProgressCallback& progress = nullptr);
