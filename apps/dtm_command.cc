@@ -59,8 +59,8 @@ Georeference ReadGeoreference(const DtmCommandOptions& o) {
   }
   if (o.origin.size() != 3)
     throw Error("give the site poses with --mission DIR or --origin LAT,LON,H");
+  // Checked while parsing (CheckLatLonHeight).
   g.origin = {RadFromDeg(o.origin[0]), RadFromDeg(o.origin[1]), o.origin[2]};
-  if (!IsValid(g.origin)) throw Error("--origin: expected lat,lon,h with |lat| <= 90 degrees");
   return g;
 }
 

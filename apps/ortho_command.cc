@@ -107,8 +107,8 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
     o->ortho.Check();
     const ProgressCallback progress = MakeProgressBar(global, "ortho");
     const Body body = Body::Mars2000();
+    // Checked while parsing (CheckLatLonHeight).
     const Geographic origin{RadFromDeg(o->origin[0]), RadFromDeg(o->origin[1]), o->origin[2]};
-    if (!IsValid(origin)) throw Error("--origin: expected lat,lon,h with |lat| <= 90 degrees");
     const SiteGeoreference site = SiteGeoreference::InMission(
         body, origin,
         Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(RadFromDeg(o->heading_correction_deg),
@@ -150,7 +150,7 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
     if (ortho.valid_cells == 0) {
       std::cerr << "warning: nothing was painted: "
                 << (known_in_window == 0
-                        ? "the DTM has no elevation within --max-range of the site"
+                        ? "the DTM has no elevation within --max-range of the cameras"
                         : "no valid image pixel sees the DTM within reach (images all nodata, "
                           "or looking away from it?)")
                 << "\n";
