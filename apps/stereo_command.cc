@@ -114,6 +114,10 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   cmd->add_flag("--rectified", o->write_rectified,
                 "Also write the rectified 8-bit pair (left_rectified.png, right_rectified.png)");
+  cmd->add_flag("!--no-line-of-sight", s.check_line_of_sight,
+                "Keep the points buried under the ground seen in front of them (the rover's own "
+                "deck) or floating over the ground seen behind them; by default dropped "
+                "(the frame's +z must point down)");
   cmd->add_flag("!--no-align-rows", s.align_rows,
                 "Do not estimate the residual vertical disparity from tracked features");
   cmd->add_flag("--tie-points", o->tie_points,
@@ -189,14 +193,18 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
                        {"vertical_disparity_rms_px_after", disparity.row_shift_rms_px},
                        {"points", m.points},
                        {"dropped_beyond_range", m.beyond_range},
+                       {"dropped_buried", m.line_of_sight.buried},
+                       {"dropped_floating", m.line_of_sight.floating},
                        {"max_range_m", o->stereo.max_range_m},
                        {"interest_points", ties.size()},
                        {"tie_points", accepted_ties},
                        {"seconds", seconds}});
     if (!global.quiet) {
-      std::printf("%zu points (%.1f%% of the overlap has a disparity), %zu beyond %.0f m -> %s\n",
-                  m.points, 100.0 * m.valid_fraction, m.beyond_range, o->stereo.max_range_m,
-                  (out / "points.ply").c_str());
+      std::printf(
+          "%zu points (%.1f%% of the overlap has a disparity), %zu beyond %.0f m, %zu buried under "
+          "and %zu floating over the ground they see -> %s\n",
+          m.points, 100.0 * m.valid_fraction, m.beyond_range, o->stereo.max_range_m,
+          m.line_of_sight.buried, m.line_of_sight.floating, (out / "points.ply").c_str());
       if (o->tie_points) {
         std::printf("%zu of %zu Förstner points matched as tie points -> %s\n", accepted_ties,
                     ties.size(), (out / "tie_points.csv").c_str());

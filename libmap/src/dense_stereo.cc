@@ -200,6 +200,7 @@ void DenseStereoOptions::Check() const {
                 "zero (the input size) or a positive width and height");
   RequireOption(parallax_sigma_px > 0.0, "DenseStereoOptions.parallax_sigma_px", "> 0 px");
   RequireOption(azimuth_sigma_px > 0.0, "DenseStereoOptions.azimuth_sigma_px", "> 0 px");
+  line_of_sight.Check();
 }
 
 cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_disparity,
@@ -372,8 +373,8 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
   const Rigid3d out_from_model = left.site_from_frame.value_or(Rigid3d());
   const Eigen::Vector3d center_out = out_from_model * rect.left.c;
   struct RowPoints {
-    std::vector<StereoPoint> points;
-    size_t beyond = 0, not_intersecting = 0;
+    std::vector<StereoPoint> points, beyond;
+    size_t not_intersecting = 0;
   };
   std::vector<RowPoints> rows(static_cast<size_t>(rect.size.y()));
   tbb::parallel_for(0, rect.size.y(), [&](int y) {
@@ -391,10 +392,6 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
         ++row.not_intersecting;
         continue;
       }
-      if (hit->range_first_m > options.max_range_m) {
-        ++row.beyond;
-        continue;
-      }
       StereoPoint p;
       p.position = out_from_model * hit->point;
       p.covariance = StereoPointCovariance(p.position, center_out, error_model);
@@ -402,7 +399,8 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
       p.left_x = rect.left_map_x.at<float>(y, x);
       p.left_y = rect.left_map_y.at<float>(y, x);
       p.image_id = options.image_id;
-      row.points.push_back(p);
+      // Points beyond max_range_m are dropped but still witness the line of sight.
+      (hit->range_first_m > options.max_range_m ? row.beyond : row.points).push_back(p);
     }
   });
   PointCloud& cloud = result.cloud;
@@ -415,10 +413,15 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
     cloud.site = -1;
   }
   DenseStereoSummary& summary = result.summary;
+  std::vector<StereoPoint> beyond;
   for (RowPoints& row : rows) {
     cloud.points.insert(cloud.points.end(), row.points.begin(), row.points.end());
-    summary.beyond_range += row.beyond;
+    beyond.insert(beyond.end(), row.beyond.begin(), row.beyond.end());
     summary.not_intersecting += row.not_intersecting;
+  }
+  summary.beyond_range = beyond.size();
+  if (options.check_line_of_sight) {
+    summary.line_of_sight = DropLineOfSightConflicts(&cloud, options.line_of_sight, beyond);
   }
   summary.overlap_pixels = disparity.overlap_pixels;
   summary.valid_pixels = disparity.valid_pixels;

@@ -77,6 +77,8 @@ SiteStereo RunSiteStereo(const RunContext& run, const MissionSite& site,
                             {"pair", pair.pair},
                             {"image_id", i},
                             {"points", dense.summary.points},
+                            {"points_buried", dense.summary.line_of_sight.buried},
+                            {"points_floating", dense.summary.line_of_sight.floating},
                             {"points_kept", thinned.points.size()},
                             {"point_spacing_m", spacing_m},
                             {"valid_fraction", dense.summary.valid_fraction}});

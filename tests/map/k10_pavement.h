@@ -2,7 +2,9 @@
 // pavement, ASP .tsai cameras, z down): a robust plane through the pavement 1.5-4 m away (the
 // near rock's columns, full-size left x 400-760, and the rover body, rows > 600, excluded), its
 // robust RMS (1.4826 x median |residual|) against the error model's RMS along the normal, and
-// the near rock's 95th-percentile height above it (full-size left x 450-700, y 340-580).
+// the near rock's 95th-percentile height above it (full-size left x 450-700, y 340-580), and the
+// points of the whole cloud that lie under the plane by more than 1 m + 3 sigma (their own,
+// along the normal): nothing the camera sees is inside the pavement.
 // Shared by the unit test (half size) and the stereo bench (full size).
 #pragma once
 
@@ -51,9 +53,10 @@ inline std::pair<Eigen::Vector3d, double> FitPlane(const std::vector<Eigen::Vect
 
 struct K10Pavement {
   size_t pavement_points = 0, rock_points = 0;
-  double robust_rms_m = 0.0;  // Of the pavement about its plane.
-  double model_rms_m = 0.0;   // Error model (point covariances) along the plane normal.
-  double rock_top_m = 0.0;    // 95th-percentile height of the near rock above the plane.
+  double robust_rms_m = 0.0;      // Of the pavement about its plane.
+  double model_rms_m = 0.0;       // Error model (point covariances) along the plane normal.
+  double rock_top_m = 0.0;        // 95th-percentile height of the near rock above the plane.
+  size_t underground_points = 0;  // Deeper than 1 m + 3 sigma below the plane.
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
 };
 
@@ -83,6 +86,12 @@ inline K10Pavement EvaluateK10Pavement(const PointCloud& cloud, double scale) {
     if (!is_pavement(p)) continue;
     abs_residuals.push_back(std::abs(normal.dot(p.position) - offset));
     model_sq += normal.dot(p.covariance * normal);
+  }
+  for (const StereoPoint& p : cloud.points) {
+    const double height = normal.dot(p.position) - offset;
+    if (height < -(1.0 + 3.0 * std::sqrt(normal.dot(p.covariance * normal)))) {
+      ++out.underground_points;
+    }
   }
   std::sort(abs_residuals.begin(), abs_residuals.end());
   out.robust_rms_m = 1.4826 * abs_residuals[abs_residuals.size() / 2];

@@ -17,7 +17,9 @@
 // made near ground ranges ~0.4 px of disparity too long); pixels near disparity
 // jumps (occlusion edges) dropped; ray triangulation
 // (TriangulateRays) of the rectified rays; points farther than max_range_m from the left camera are
-// dropped.
+// dropped, and so are points that contradict the line of sight (line_of_sight.h: buried under
+// the ground seen in front of them, like the rover's own deck, or floating over the ground seen
+// behind them; the frame's +z must point down).
 //
 // Frames: the two camera models must be in the same frame. When the left camera's file gives
 // the frame's pose in a site frame (the MER / generator ROVER_COORDINATE_SYSTEM group) the cloud
@@ -35,6 +37,7 @@
 #include <opencv2/core.hpp>
 
 #include "areomap/map/camera_models.h"
+#include "areomap/map/line_of_sight.h"
 #include "areomap/map/point_cloud.h"
 #include "areomap/map/progress.h"
 #include "areomap/map/rectification.h"
@@ -59,9 +62,11 @@ struct DenseStereoOptions {
   Eigen::Vector2i output_size = Eigen::Vector2i::Zero();  // Rectified size; zero: input size.
   double parallax_sigma_px = 0.5;                         // sigma_p of eq. 4.3 for the covariances.
   double azimuth_sigma_px = 1.0;                          // Across-track sigma [px] (ch. 4.1).
-  bool align_rows = true;  // Estimate and remove the residual vertical disparity.
-  uint16_t image_id = 0;   // Written into every point.
-  void Check() const;      // Throws areomap::Error naming the field.
+  bool align_rows = true;           // Estimate and remove the residual vertical disparity.
+  bool check_line_of_sight = true;  // Drop the points line_of_sight.h condemns.
+  LineOfSightOptions line_of_sight;
+  uint16_t image_id = 0;  // Written into every point.
+  void Check() const;     // Throws areomap::Error naming the field.
 };
 
 // The 8-bit rectified pair and its disparity (CV_32F on the rectified left grid, NaN where
@@ -90,7 +95,8 @@ struct DenseStereoSummary {
   size_t valid_pixels = 0;
   double valid_fraction = 0.0;  // valid_pixels / overlap_pixels.
   size_t points = 0;
-  size_t beyond_range = 0;  // Triangulated but farther than max_range_m.
+  size_t beyond_range = 0;         // Triangulated but farther than max_range_m.
+  LineOfSightDrops line_of_sight;  // Dropped by the line-of-sight check.
   size_t not_intersecting = 0;
   double baseline_m = 0.0;
   double focal_px = 0.0;
