@@ -7,6 +7,7 @@
 #include "areomap/crater/crater_output.h"
 #include "areomap/crater/crater_raster.h"
 #include "areomap/crater/crater_score.h"
+#include "areomap/crater/sun_azimuth.h"
 #include "areomap/map/error.h"
 #include "commands.h"
 
@@ -21,8 +22,62 @@ struct CratersArgs {
   double min_diameter = 8.0;
   double max_diameter = 0.0;
   std::optional<double> sun_azimuth_deg;
+  bool estimate_sun = true;
   CraterDetectorOptions detector;
 };
+
+// The sun azimuth the detector uses: --sun-azimuth, else (an image) estimated from the shading of
+// craters found without it; `json` records which and how. Throws when --shading-templates are
+// asked for and no sun is known.
+std::optional<double> ChooseSunAzimuth(const CratersArgs& a, const RasterDataset& dataset,
+                                       const CraterDetectorOptions& options,
+                                       const GlobalOptions& global, nlohmann::json* json) {
+  (*json)["sun_azimuth_source"] = "given";
+  if (a.sun_azimuth_deg || a.dtm) {
+    if (a.dtm) (*json)["sun_azimuth_source"] = "none (DTM)";
+    return a.sun_azimuth_deg;
+  }
+  (*json)["sun_azimuth_source"] = "none";
+  if (!a.estimate_sun) {
+    if (options.shading_template.enabled) {
+      throw Error(
+          "craters: --shading-templates needs a sun azimuth: give --sun-azimuth, or "
+          "drop --no-sun-estimate");
+    }
+    return std::nullopt;
+  }
+  const SunAzimuthEstimate e =
+      EstimateSunAzimuthInRaster(dataset, options, {}, MakeProgressBar(global, "sun azimuth"));
+  (*json)["sun_azimuth_estimate"] = {
+      {"azimuth_deg",
+       std::isfinite(e.azimuth_deg) ? nlohmann::json(e.azimuth_deg) : nlohmann::json()},
+      {"candidates", e.candidates},
+      {"votes", e.votes},
+      {"agreement", e.agreement},
+      {"reliable", e.reliable}};
+  std::ostringstream text;
+  text << std::fixed << std::setprecision(0) << e.votes << " of " << e.candidates
+       << " craters found without a sun show a bright and a dark wall; " << std::setprecision(2)
+       << e.agreement << " of them agree";
+  if (!e.reliable) {
+    if (options.shading_template.enabled) {
+      throw Error(
+          "craters: --shading-templates needs a sun azimuth: give --sun-azimuth (the "
+          "estimate from " +
+          a.input + " is not reliable: " + text.str() + ")");
+    }
+    std::cerr << "warning: no sun azimuth given and none could be estimated from " << a.input
+              << " (" << text.str() << "): the shading checks are off, expect more false "
+              << "detections (nested rims, mounds); give --sun-azimuth\n";
+    return std::nullopt;
+  }
+  (*json)["sun_azimuth_source"] = "estimated";
+  if (!global.quiet) {
+    std::cout << "sun azimuth estimated from the image: " << std::fixed << std::setprecision(1)
+              << e.azimuth_deg << " deg (" << text.str() << ")\n";
+  }
+  return e.azimuth_deg;
+}
 
 void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   const RasterDataset dataset = RasterDataset::Open(a.input);
@@ -50,11 +105,12 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
          << CraterDetectorOptions::kSmallestDiameterPx << " px";
     throw Error(text.str());
   }
-  options.sun_azimuth_deg = a.sun_azimuth_deg;
   const double posting = probe.pixel_size_m > 0.0 ? probe.pixel_size_m : 1.0;
   options.dtm_posting = posting;
   options.Check();
   PrepareOutputFolder(a.out_dir);
+  nlohmann::json sun_json;
+  options.sun_azimuth_deg = ChooseSunAzimuth(a, dataset, options, global, &sun_json);
   const RimSource source = a.dtm ? RimSource::kDtm : RimSource::kImage;
   const ProgressCallback progress = MakeProgressBar(global, "craters");
   const std::vector<CraterDetection> found =
@@ -92,24 +148,27 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   RemoveStaleOutputs(out, {"craters.gpkg"}, files.get<std::vector<std::string>>());
   int partial = 0;
   for (const CraterDetection& d : found) partial += d.partial ? 1 : 0;
-  WriteSummary(out, {{"command", "craters"},
-                     {"input", a.input},
-                     {"source", a.dtm ? "dtm" : "image"},
-                     {"width_px", info.width},
-                     {"height_px", info.height},
-                     {"georeferenced", catalog.IsGeoreferenced()},
-                     {"pixel_size_m", catalog.pixel_size_m},
-                     {"min_diameter_px", options.min_diameter_px},
-                     {"max_diameter_px", options.max_diameter_px},
-                     {"upsample_small_craters", options.upsample_small_craters},
-                     // whether that level was searched: only for minimum diameters under 16 px
-                     {"upsampled_level_searched", options.SearchesUpsampledLevel()},
-                     {"sun_azimuth_deg",
-                      a.sun_azimuth_deg ? nlohmann::json(*a.sun_azimuth_deg) : nlohmann::json()},
-                     {"valid_pixels", valid_pixels},
-                     {"craters", found.size()},
-                     {"partial", partial},
-                     {"files", files}});
+  nlohmann::json summary = {
+      {"command", "craters"},
+      {"input", a.input},
+      {"source", a.dtm ? "dtm" : "image"},
+      {"width_px", info.width},
+      {"height_px", info.height},
+      {"georeferenced", catalog.IsGeoreferenced()},
+      {"pixel_size_m", catalog.pixel_size_m},
+      {"min_diameter_px", options.min_diameter_px},
+      {"max_diameter_px", options.max_diameter_px},
+      {"upsample_small_craters", options.upsample_small_craters},
+      // whether that level was searched: only for minimum diameters under 16 px
+      {"upsampled_level_searched", options.SearchesUpsampledLevel()},
+      {"sun_azimuth_deg",
+       options.sun_azimuth_deg ? nlohmann::json(*options.sun_azimuth_deg) : nlohmann::json()},
+      {"valid_pixels", valid_pixels},
+      {"craters", found.size()},
+      {"partial", partial},
+      {"files", files}};
+  summary.update(sun_json);
+  WriteSummary(out, summary);
   if (valid_pixels == 0) {
     std::cerr << "warning: " << a.input
               << " has no valid pixel (every pixel is nodata or NaN): nothing was searched\n";
@@ -143,6 +202,9 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("--sun-azimuth", args->sun_azimuth_deg,
                   "Sun azimuth [deg clockwise from image up]: enables the shading checks")
       ->check(FiniteNumber());
+  cmd->add_flag("!--no-sun-estimate", args->estimate_sun,
+                "Without --sun-azimuth, do not estimate it from the shading of the image's craters "
+                "(the shading checks stay off)");
   cmd->add_option("--tile-size", args->detector.tile_size, "Tile core edge [px]")
       ->check(IntegerAtLeast(256))
       ->capture_default_str();
@@ -168,9 +230,9 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_flag("--no-upsample{false}", args->detector.upsample_small_craters,
                 "Skip the 2x upsampled level for craters under 16 px across (faster; finds fewer "
                 "of them)");
-  cmd->add_flag(
-      "--shading-templates", args->detector.shading_template.enabled,
-      "Also seek small degraded bowls by their shading (needs --sun-azimuth; ~1.35x time)");
+  cmd->add_flag("--shading-templates", args->detector.shading_template.enabled,
+                "Also seek small degraded bowls by their shading (needs a sun azimuth, given or "
+                "estimated; ~1.35x time)");
 
   auto score_args = std::make_shared<std::array<std::string, 4>>();
   auto min_score_diameter = std::make_shared<double>(8.0);
@@ -234,10 +296,10 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
     if (!cmd->get_subcommands().empty()) return;  // `craters score` ran
     if (args->input.empty()) throw Error("craters: missing INPUT raster (or use 'craters score')");
     if (args->out_dir.empty()) throw Error("craters: --out DIR is required");
-    if (args->detector.shading_template.enabled && (!args->sun_azimuth_deg || args->dtm))
+    if (args->detector.shading_template.enabled && args->dtm)
       throw Error(
-          "craters: --shading-templates needs an image and --sun-azimuth (the bowl's "
-          "shading depends on where the sun is)");
+          "craters: --shading-templates needs an image, not a DTM (the bowl's shading depends on "
+          "where the sun is)");
     RunDetect(*args, global);
   });
 }

@@ -1,0 +1,155 @@
+#include "areomap/crater/sun_azimuth.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Core>
+
+#include "areomap/crater/crater_raster.h"
+#include "areomap/map/error.h"
+#include "bilinear_sample.h"
+
+namespace areomap {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kRadPerDeg = kPi / 180.0;
+constexpr int kAngles = 48;
+constexpr double kAgreementHalfWidthDeg = 60.0;
+constexpr double kKernelConcentration = 4.0;  // von Mises kappa: ~30 degrees wide
+
+// The point of `e` scaled by rho about its centre at eccentric anomaly k / kAngles x 2 pi.
+Eigen::Vector2d Scaled(const Ellipse& e, double rho, int k) {
+  return e.center + rho * (e.PointAt(2.0 * kPi * k / kAngles) - e.center);
+}
+
+// Azimuth [deg, clockwise from up] of a pixel-frame direction (x right, y down).
+double AzimuthOf(const Eigen::Vector2d& d) {
+  const double az = std::atan2(d.x(), -d.y()) / kRadPerDeg;
+  return az < 0.0 ? az + 360.0 : az;
+}
+
+double AngleBetweenDeg(double a, double b) {
+  const double d = std::fmod(std::abs(a - b), 360.0);
+  return std::min(d, 360.0 - d);
+}
+
+// The direction towards the sun one crater's shading votes for, weighted by its strength
+// (dipole / surroundings' std); nullopt without a clear dipole.
+std::optional<double> Vote(const cv::Mat& image, const Ellipse& e, double min_dipole) {
+  Eigen::Vector2d weighted = Eigen::Vector2d::Zero();
+  double sum = 0.0, sum_out = 0.0, sum_out2 = 0.0;
+  int n = 0, n_out = 0;
+  std::array<std::pair<Eigen::Vector2d, double>, 4 * kAngles> inside;
+  for (const double rho : {0.3, 0.45, 0.6, 0.75}) {
+    for (int k = 0; k < kAngles; ++k) {
+      const Eigen::Vector2d p = Scaled(e, rho, k);
+      const double v = internal::SampleBilinear(image, p.x(), p.y());
+      if (!std::isfinite(v)) continue;
+      inside[static_cast<size_t>(n++)] = {(p - e.center).normalized(), v};
+      sum += v;
+    }
+  }
+  for (const double rho : {1.3, 1.6, 1.9}) {
+    for (int k = 0; k < kAngles; ++k) {
+      const Eigen::Vector2d p = Scaled(e, rho, k);
+      const double v = internal::SampleBilinear(image, p.x(), p.y());
+      if (!std::isfinite(v)) continue;
+      sum_out += v;
+      sum_out2 += v * v;
+      ++n_out;
+    }
+  }
+  if (n < kAngles || n_out < kAngles) return std::nullopt;  // mostly off the image or nodata
+  const double mean = sum / n;
+  for (int i = 0; i < n; ++i)
+    weighted +=
+        (inside[static_cast<size_t>(i)].second - mean) * inside[static_cast<size_t>(i)].first;
+  weighted /= n;
+  const double mean_out = sum_out / n_out;
+  const double std_out = std::sqrt(std::max(0.0, sum_out2 / n_out - mean_out * mean_out));
+  if (!(std_out > 0.0) || weighted.norm() < min_dipole * std_out) return std::nullopt;
+  return AzimuthOf(-weighted);  // bright wall away from the sun
+}
+
+}  // namespace
+
+void SunAzimuthOptions::Check() const {
+  RequireOption(min_dipole > 0.0 && std::isfinite(min_dipole), "SunAzimuthOptions.min_dipole",
+                "> 0");
+  RequireOption(min_votes >= 1, "SunAzimuthOptions.min_votes", ">= 1");
+  RequireOption(min_agreement > 0.0 && min_agreement <= 1.0, "SunAzimuthOptions.min_agreement",
+                "(0, 1]");
+  RequireOption(candidate_min_diameter_px >= CraterDetectorOptions::kSmallestDiameterPx,
+                "SunAzimuthOptions.candidate_min_diameter_px", ">= 4 px");
+  RequireOption(overview_size_px >= 256, "SunAzimuthOptions.overview_size_px", ">= 256 px");
+}
+
+SunAzimuthEstimate EstimateSunAzimuth(const cv::Mat& image,
+                                      const std::vector<CraterDetection>& candidates,
+                                      const SunAzimuthOptions& options) {
+  options.Check();
+  cv::Mat image32;
+  if (image.depth() == CV_32F) {
+    image32 = image;
+  } else {
+    image.convertTo(image32, CV_32F);
+  }
+  SunAzimuthEstimate out;
+  out.candidates = static_cast<int>(candidates.size());
+  std::vector<double> votes;
+  for (const CraterDetection& c : candidates) {
+    if (const auto vote = Vote(image32, c.ellipse, options.min_dipole)) votes.push_back(*vote);
+  }
+  out.votes = static_cast<int>(votes.size());
+  if (votes.empty()) return out;
+  // Mode of the votes' kernel density, 1 degree steps.
+  double best = 0.0, best_density = -1.0;
+  for (int step = 0; step < 360; ++step) {
+    double density = 0.0;
+    for (const double v : votes) {
+      density += std::exp(kKernelConcentration * (std::cos((v - step) * kRadPerDeg) - 1.0));
+    }
+    if (density > best_density) best_density = density, best = step;
+  }
+  // Circular mean of the votes near the mode.
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  int near = 0;
+  for (const double v : votes) {
+    if (AngleBetweenDeg(v, best) > kAgreementHalfWidthDeg) continue;
+    mean += Eigen::Vector2d(std::sin(v * kRadPerDeg), -std::cos(v * kRadPerDeg));
+    ++near;
+  }
+  out.azimuth_deg = AzimuthOf(mean);
+  out.agreement = static_cast<double>(near) / static_cast<double>(votes.size());
+  out.reliable = out.votes >= options.min_votes && out.agreement >= options.min_agreement;
+  return out;
+}
+
+SunAzimuthEstimate EstimateSunAzimuthInRaster(const RasterDataset& dataset,
+                                              const CraterDetectorOptions& detector,
+                                              const SunAzimuthOptions& options,
+                                              const ProgressCallback& progress) {
+  options.Check();
+  const RasterInfo& info = dataset.info();
+  int factor = 1;
+  while (std::max(info.width, info.height) / factor > options.overview_size_px) factor *= 2;
+  const cv::Mat overview = ReadDecimated(dataset, dataset.FullWindow(), factor);
+  CraterDetectorOptions search = detector;
+  search.sun_azimuth_deg.reset();
+  search.shading_template.enabled = false;
+  search.upsample_small_craters = false;
+  search.min_diameter_px =
+      std::max(options.candidate_min_diameter_px, detector.min_diameter_px / factor);
+  search.max_diameter_px = detector.max_diameter_px / factor;
+  if (search.max_diameter_px > 0.0 && search.max_diameter_px <= search.min_diameter_px) {
+    search.max_diameter_px = 0.0;  // the limits leave nothing to search: use every size
+  }
+  const std::vector<CraterDetection> candidates =
+      DetectCraters(overview, RimSource::kImage, search, progress);
+  return EstimateSunAzimuth(overview, candidates, options);
+}
+
+}  // namespace areomap
