@@ -60,12 +60,24 @@ std::optional<Geographic> ParseOrigin(const std::string& text) {
   return Geographic{RadFromDeg(v.x()), RadFromDeg(v.y()), v.z()};
 }
 
-int RunCoords(const CoordsOptions& options) {
+int RunCoords(const CoordsOptions& options, bool body_given) {
   CoordinateSystemContext context;
   context.body = Body::FromName(options.body);
   context.origin = ParseOrigin(options.origin);
-  const CoordinateSystem from = CoordinateSystem::Parse(options.from, context);
-  const CoordinateSystem to = CoordinateSystem::Parse(options.to, context);
+  CoordinateSystem from = CoordinateSystem::Parse(options.from, context);
+  CoordinateSystem to = CoordinateSystem::Parse(options.to, context);
+  // Without --body, geographic and local systems take the datum of a raster or CRS on the other
+  // side, so that a raster's pixels come out in the latitudes its own CRS (and `info`) gives.
+  const std::optional<Body> datum = from.DatumBody() ? from.DatumBody() : to.DatumBody();
+  if (!body_given && datum && (datum->a != context.body.a || datum->b != context.body.b)) {
+    context.body = *datum;
+    from = CoordinateSystem::Parse(options.from, context);
+    to = CoordinateSystem::Parse(options.to, context);
+    std::fprintf(stderr,
+                 "note: geographic and local coordinates on the datum of %s (a = %.0f m, b = %.0f "
+                 "m); --body mars2000 puts them on the IAU 2000 ellipsoid\n",
+                 (from.DatumBody() ? from.spec() : to.spec()).c_str(), datum->a, datum->b);
+  }
   std::string line;
   int line_number = 0;
   int failures = 0;
@@ -100,15 +112,17 @@ void AddCoordsCommand(CLI::App& app, const GlobalOptions& /*global*/) {
       "IAU_2015:49910 (x/lon first)");
   cmd->add_option("--from", options->from, "Input coordinate system")->required();
   cmd->add_option("--to", options->to, "Output coordinate system")->required();
-  cmd->add_option("--body", options->body,
-                  "Body of the geographic and local systems: mars2000 (IAU 2000 ellipsoid "
-                  "3396190/3376200 m), mars-sphere (3396190 m), mola-sphere (3396000 m)")
-      ->capture_default_str();
+  CLI::Option* body =
+      cmd->add_option("--body", options->body,
+                      "Body of the geographic and local systems: mars2000 (IAU 2000 ellipsoid "
+                      "3396190/3376200 m), mars-sphere (3396190 m), mola-sphere (3396000 m); "
+                      "default: the datum of a raster:, pixel: or CRS system on the other side, "
+                      "else mars2000");
   cmd->add_option("--origin", options->origin,
                   "Origin of enu/site frames: LAT,LON[,H] in planetocentric degrees east, "
                   "metres above the ellipsoid");
-  cmd->callback([options] {
-    const int status = RunCoords(*options);
+  cmd->callback([options, body] {
+    const int status = RunCoords(*options, body->count() > 0);
     if (status != 0) throw CLI::RuntimeError(status);
   });
 }

@@ -59,6 +59,11 @@ struct CoordinateSystem::Impl {
   GeoTransform geotransform;  // kPixel only.
 };
 
+std::optional<Body> CoordinateSystem::DatumBody() const {
+  if (!impl_->crs) return std::nullopt;
+  return impl_->crs->description().body;
+}
+
 CoordinateSystem::CoordinateSystem(std::unique_ptr<Impl> impl, std::string spec)
     : impl_(std::move(impl)), spec_(std::move(spec)) {}
 CoordinateSystem::~CoordinateSystem() = default;

@@ -78,5 +78,21 @@ TEST(CoordinateSystem, PixelAndRasterSystemsFollowTheFilesGeoreference) {
             1e-6);
 }
 
+// CRS systems carry their datum's radii (what `coords` uses for the other side by default);
+// the geographic and local systems have none of their own.
+TEST(CoordinateSystem, DatumBodyIsTheCrsEllipsoid) {
+  const CoordinateSystemContext context;
+  const std::optional<Body> sphere = CoordinateSystem::Parse("IAU_2015:49910", context).DatumBody();
+  ASSERT_TRUE(sphere.has_value());
+  EXPECT_EQ(sphere->a, 3396190.0);
+  EXPECT_EQ(sphere->b, 3396190.0);
+  const std::optional<Body> ellipsoid =
+      CoordinateSystem::Parse("IAU_2015:49902", context).DatumBody();
+  ASSERT_TRUE(ellipsoid.has_value());
+  EXPECT_EQ(ellipsoid->b, 3376200.0);
+  EXPECT_FALSE(CoordinateSystem::Parse("planetocentric", context).DatumBody().has_value());
+  EXPECT_FALSE(CoordinateSystem::Parse("mbf", context).DatumBody().has_value());
+}
+
 }  // namespace
 }  // namespace areomap

@@ -50,6 +50,9 @@ class CoordinateSystem {
   Eigen::Vector3d FromMbf(const Eigen::Vector3d& p_in_mbf) const;
   // printf-style precision per component for output (degrees get 12 decimals, metres 6).
   int Decimals(int component) const;
+  // The body of the CRS's datum (ellipsoid or sphere radii) for raster:, pixel: and CRS
+  // systems; nullopt for the others (they use the context's body).
+  std::optional<Body> DatumBody() const;
   const std::string& spec() const { return spec_; }
 
  private:
