@@ -69,7 +69,8 @@ int RunCoords(const CoordsOptions& options, bool body_given) {
   // Without --body, geographic and local systems take the datum of a raster or CRS on the other
   // side, so that a raster's pixels come out in the latitudes its own CRS (and `info`) gives.
   const std::optional<Body> datum = from.DatumBody() ? from.DatumBody() : to.DatumBody();
-  if (!body_given && datum && (datum->a != context.body.a || datum->b != context.body.b)) {
+  if (!body_given && datum && (from.UsesBody() || to.UsesBody()) &&
+      (datum->a != context.body.a || datum->b != context.body.b)) {
     context.body = *datum;
     from = CoordinateSystem::Parse(options.from, context);
     to = CoordinateSystem::Parse(options.to, context);

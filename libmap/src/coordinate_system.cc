@@ -64,6 +64,11 @@ std::optional<Body> CoordinateSystem::DatumBody() const {
   return impl_->crs->description().body;
 }
 
+bool CoordinateSystem::UsesBody() const {
+  return impl_->kind == Kind::kGeographic || impl_->kind == Kind::kEnu ||
+         impl_->kind == Kind::kSite;
+}
+
 CoordinateSystem::CoordinateSystem(std::unique_ptr<Impl> impl, std::string spec)
     : impl_(std::move(impl)), spec_(std::move(spec)) {}
 CoordinateSystem::~CoordinateSystem() = default;

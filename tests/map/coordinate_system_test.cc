@@ -92,6 +92,9 @@ TEST(CoordinateSystem, DatumBodyIsTheCrsEllipsoid) {
   EXPECT_EQ(ellipsoid->b, 3376200.0);
   EXPECT_FALSE(CoordinateSystem::Parse("planetocentric", context).DatumBody().has_value());
   EXPECT_FALSE(CoordinateSystem::Parse("mbf", context).DatumBody().has_value());
+  EXPECT_TRUE(CoordinateSystem::Parse("planetocentric", context).UsesBody());
+  EXPECT_FALSE(CoordinateSystem::Parse("mbf", context).UsesBody());
+  EXPECT_FALSE(CoordinateSystem::Parse("IAU_2015:49910", context).UsesBody());
 }
 
 }  // namespace

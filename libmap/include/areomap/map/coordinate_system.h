@@ -53,6 +53,8 @@ class CoordinateSystem {
   // The body of the CRS's datum (ellipsoid or sphere radii) for raster:, pixel: and CRS
   // systems; nullopt for the others (they use the context's body).
   std::optional<Body> DatumBody() const;
+  // Whether the context's body shapes this system (geographic and local systems).
+  bool UsesBody() const;
   const std::string& spec() const { return spec_; }
 
  private:
