@@ -976,9 +976,18 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
       if (d.Diameter() >= o.min_diameter_px * 0.9) all.push_back(d);
     }
   }
-  return SuppressDuplicateCraters(std::move(all));
+  return KeepWithinDiameterLimits(SuppressDuplicateCraters(std::move(all)), o);
 }
 
 }  // namespace
+
+std::vector<CraterDetection> KeepWithinDiameterLimits(std::vector<CraterDetection> detections,
+                                                      const CraterDetectorOptions& options) {
+  std::erase_if(detections, [&](const CraterDetection& d) {
+    return d.Diameter() < options.min_diameter_px ||
+           (options.max_diameter_px > 0.0 && d.Diameter() > options.max_diameter_px);
+  });
+  return detections;
+}
 
 }  // namespace areomap

@@ -193,7 +193,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
     }
   }
   Report(progress, 1.0, "craters: done");
-  return SuppressDuplicateCraters(std::move(all));
+  return KeepWithinDiameterLimits(SuppressDuplicateCraters(std::move(all)), o);
 }
 
 }  // namespace areomap

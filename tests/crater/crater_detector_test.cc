@@ -362,6 +362,36 @@ TEST(DetectCraters, RecoversVictoriaSizedCrater) {
   EXPECT_GE(best.efs, 0.998);
 }
 
+// The limits hold for what is reported, though the search reaches 10 % beyond them.
+TEST(DetectCraters, ReportsOnlyDiametersWithinTheLimits) {
+  const auto with_diameter = [](double d) {
+    CraterDetection c;
+    c.ellipse.semi_major = c.ellipse.semi_minor = 0.5 * d;
+    return c;
+  };
+  CraterDetectorOptions o;
+  o.min_diameter_px = 10.0;
+  o.max_diameter_px = 60.0;
+  const std::vector<CraterDetection> kept = KeepWithinDiameterLimits(
+      {with_diameter(9.5), with_diameter(10.0), with_diameter(60.0), with_diameter(61.0)}, o);
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_EQ(kept[0].Diameter(), 10.0);
+  EXPECT_EQ(kept[1].Diameter(), 60.0);
+  o.max_diameter_px = 0.0;  // no upper limit
+  EXPECT_EQ(KeepWithinDiameterLimits({with_diameter(1000.0)}, o).size(), 1u);
+  // On a scene: every detection of a 20-40 px search lies within 20-40 px.
+  o.min_diameter_px = 20.0;
+  o.max_diameter_px = 40.0;
+  o.sun_azimuth_deg = 120.0;
+  const std::vector<CraterDetection> found =
+      DetectCraters(FieldScene().products.image.bands[0], RimSource::kImage, o);
+  ASSERT_FALSE(found.empty());
+  for (const CraterDetection& d : found) {
+    EXPECT_GE(d.Diameter(), 20.0);
+    EXPECT_LE(d.Diameter(), 40.0);
+  }
+}
+
 TEST(DetectCraters, HrscNanediLabelledCraters) {
   SKIP_WITHOUT_SHARED_DATA();
   const auto dir = testing::SharedDataDir() / "craters";

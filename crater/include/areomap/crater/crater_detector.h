@@ -84,7 +84,9 @@ struct CraterDetection {
 
 struct CraterDetectorOptions {
   static constexpr double kSmallestDiameterPx = 4.0;  // the least min_diameter_px accepted
-  double min_diameter_px = 8.0;           // rim diameter a + b [px], >= kSmallestDiameterPx
+  // Limits of the rim diameter a + b reported [px]; the search reaches 10 % beyond them, so that
+  // a crater measured near a limit on a coarse level is not lost before its final fit.
+  double min_diameter_px = 8.0;           // >= kSmallestDiameterPx
   double max_diameter_px = 0.0;           // 0: no limit besides the raster size
   std::optional<double> sun_azimuth_deg;  // image only; enables the shading checks
   EdgeOptions edges;
@@ -131,6 +133,11 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
 std::optional<CraterDetection> RefineCrater(const cv::Mat& raster, RimSource source,
                                             const Ellipse& initial,
                                             const CraterDetectorOptions& options = {});
+
+// The detections whose diameter lies within options' min_diameter_px and max_diameter_px (0: no
+// upper limit), in their order.
+std::vector<CraterDetection> KeepWithinDiameterLimits(std::vector<CraterDetection> detections,
+                                                      const CraterDetectorOptions& options);
 
 // Suppresses duplicates, keeping the more confident of two detections when their centres are
 // closer than half the smaller mean radius and their diameters agree within 30 %, or when one is
