@@ -109,7 +109,7 @@ struct FootprintOptions {
 
 // Plan view (north up, east right) of the footprints of images whose labels place them in one
 // site frame, on the level plane through the first image's rover-frame z = ground_z_rover_m.
-void WriteFootprints(const FootprintOptions& options) {
+void WriteFootprints(const FootprintOptions& options, const GlobalOptions& global) {
   struct Item {
     std::string name;
     std::vector<Eigen::Vector2d> polygon;
@@ -208,11 +208,19 @@ void WriteFootprints(const FootprintOptions& options) {
                              {"max_range_m", options.max_range_m},
                              {"images", images},
                              {"consecutive_overlaps", overlaps}});
+  if (!global.quiet) {
+    for (const nlohmann::json& image : images) {
+      std::printf("%s: azimuth %.1f deg, elevation %.1f deg, footprint %.1f m2\n",
+                  image["file"].get<std::string>().c_str(), image["azimuth_deg"].get<double>(),
+                  image["elevation_deg"].get<double>(), image["footprint_area_m2"].get<double>());
+    }
+    std::printf("wrote %s\n", (std::filesystem::path(options.out) / "footprints.png").c_str());
+  }
 }
 
 }  // namespace
 
-void AddCameraCommand(CLI::App& app, const GlobalOptions& /*global*/) {
+void AddCameraCommand(CLI::App& app, const GlobalOptions& global) {
   auto options = std::make_shared<CameraOptions>();
   auto* camera = app.add_subcommand(
       "camera", "Camera models of rover products (CAHV, CAHVOR, CAHVORE, pinhole .tsai)");
@@ -278,13 +286,15 @@ void AddCameraCommand(CLI::App& app, const GlobalOptions& /*global*/) {
                    "ground, as the generator's labels)")
       ->check(FiniteNumber())
       ->capture_default_str();
-  footprint->callback([footprint_options] { WriteFootprints(*footprint_options); });
+  footprint->callback(
+      [footprint_options, &global] { WriteFootprints(*footprint_options, global); });
 
   auto* project = camera->add_subcommand(
       "project", "Project 3D points (x y z [m] per line on stdin, in --frame) to pixels (x y)");
   add_common(project);
   project->callback([options] {
-    const CameraModel m = LoadModel(*options).model;
+    const CameraFile file = LoadModel(*options);
+    const CameraModel& m = file.model;
     std::string line;
     int number = 0, failures = 0;
     while (std::getline(std::cin, line)) {
@@ -309,6 +319,13 @@ void AddCameraCommand(CLI::App& app, const GlobalOptions& /*global*/) {
         continue;
       }
       std::printf("%.6f %.6f\n", pixel->x(), pixel->y());
+      // Pixel centres at integers: the image spans [-0.5, size - 0.5).
+      if (file.image_size &&
+          !(pixel->x() >= -0.5 && pixel->y() >= -0.5 && pixel->x() < file.image_size->x() - 0.5 &&
+            pixel->y() < file.image_size->y() - 0.5)) {
+        std::fprintf(stderr, "note: stdin line %d: pixel (%.1f, %.1f) is outside the %dx%d image\n",
+                     number, pixel->x(), pixel->y(), file.image_size->x(), file.image_size->y());
+      }
     }
     if (failures > 0) throw CLI::RuntimeError(1);
   });
