@@ -4,6 +4,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "areomap/crater/crater_raster.h"
 #include "areomap/map/error.h"
 #include "areomap/map/raster_description.h"
 #include "commands.h"
@@ -145,6 +146,21 @@ std::string Text(const RasterDescription& d, LongitudeDomain domain) {
   return out.str();
 }
 
+// Fraction of band 1's pixels that are valid (finite, not nodata): every pixel is read, in
+// strips (ReadDecimated), so memory stays small whatever the raster's size.
+double ValidFraction(const std::string& file) {
+  const RasterDataset dataset = RasterDataset::Open(file);
+  const RasterInfo& info = dataset.info();
+  int factor = 1;
+  while (std::max(info.width, info.height) / factor > 1024) factor *= 2;
+  int64_t valid = 0;
+  ReadDecimated(dataset, dataset.FullWindow(), factor, &valid);
+  // ReadDecimated reads whole blocks only: the pixels it read are the blocks' pixels.
+  const double read = static_cast<double>(info.width / factor * factor) *
+                      static_cast<double>(info.height / factor * factor);
+  return read > 0.0 ? static_cast<double>(valid) / read : 0.0;
+}
+
 }  // namespace
 
 void AddInfoCommand(CLI::App& app, const GlobalOptions& /*global*/) {
@@ -166,10 +182,20 @@ void AddInfoCommand(CLI::App& app, const GlobalOptions& /*global*/) {
     for (const std::string& file : *files) {
       try {
         const RasterDescription d = DescribeRaster(file);
+        const double valid = ValidFraction(file);
         if (*json) {
           all.push_back(ToJson(d, lon_domain));
+          all.back()["valid_fraction_band1"] = valid;
         } else {
-          std::cout << Text(d, lon_domain);
+          std::cout << Text(d, lon_domain) << "  valid pixels (band 1): " << std::fixed
+                    << std::setprecision(1) << 100.0 * valid << " %\n"
+                    << std::defaultfloat;
+        }
+        if (valid == 0.0) {
+          std::fprintf(stderr,
+                       "warning: %s: band 1 has no valid pixel (every pixel is nodata or "
+                       "NaN)\n",
+                       file.c_str());
         }
       } catch (const Error& e) {
         // One bad file does not hide the others; the exit status reports it.
