@@ -32,9 +32,12 @@ struct CratersArgs {
 std::optional<double> ChooseSunAzimuth(const CratersArgs& a, const RasterDataset& dataset,
                                        const CraterDetectorOptions& options,
                                        const GlobalOptions& global, nlohmann::json* json) {
-  (*json)["sun_azimuth_source"] = "given";
-  if (a.sun_azimuth_deg || a.dtm) {
-    if (a.dtm) (*json)["sun_azimuth_source"] = "none (DTM)";
+  if (a.dtm) {
+    (*json)["sun_azimuth_source"] = "none (DTM)";
+    return std::nullopt;
+  }
+  if (a.sun_azimuth_deg) {
+    (*json)["sun_azimuth_source"] = "given";
     return a.sun_azimuth_deg;
   }
   (*json)["sun_azimuth_source"] = "none";
@@ -108,9 +111,9 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   const double posting = probe.pixel_size_m > 0.0 ? probe.pixel_size_m : 1.0;
   options.dtm_posting = posting;
   options.Check();
-  PrepareOutputFolder(a.out_dir);
   nlohmann::json sun_json;
   options.sun_azimuth_deg = ChooseSunAzimuth(a, dataset, options, global, &sun_json);
+  PrepareOutputFolder(a.out_dir);
   const RimSource source = a.dtm ? RimSource::kDtm : RimSource::kImage;
   const ProgressCallback progress = MakeProgressBar(global, "craters");
   const std::vector<CraterDetection> found =
