@@ -152,7 +152,10 @@ double ValidFraction(const std::string& file) {
   const RasterDataset dataset = RasterDataset::Open(file);
   const RasterInfo& info = dataset.info();
   int factor = 1;
-  while (std::max(info.width, info.height) / factor > 1024) factor *= 2;
+  while (std::max(info.width, info.height) / factor > 1024 &&
+         std::min(info.width, info.height) / (2 * factor) >= 1) {
+    factor *= 2;
+  }
   int64_t valid = 0;
   ReadDecimated(dataset, dataset.FullWindow(), factor, &valid);
   // ReadDecimated reads whole blocks only: the pixels it read are the blocks' pixels.

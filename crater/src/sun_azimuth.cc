@@ -36,8 +36,8 @@ double AngleBetweenDeg(double a, double b) {
   return std::min(d, 360.0 - d);
 }
 
-// The direction towards the sun one crater's shading votes for, weighted by its strength
-// (dipole / surroundings' std); nullopt without a clear dipole.
+// The azimuth towards the sun one crater's shading votes for; nullopt without a clear dipole
+// (under min_dipole x the surroundings' std) or with most samples off the image or nodata.
 std::optional<double> Vote(const cv::Mat& image, const Ellipse& e, double min_dipole) {
   Eigen::Vector2d weighted = Eigen::Vector2d::Zero();
   double sum = 0.0, sum_out = 0.0, sum_out2 = 0.0;
