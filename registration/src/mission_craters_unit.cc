@@ -1,6 +1,7 @@
 // The crater stage of a mission run (craters/): rims detected on the mission's first orbital
-// image (the sun azimuth from the manifest enables the shading checks), the catalogue as CSV,
-// JSON and GeoPackage, an overlay PNG, and the score against the generator's truth/craters.csv.
+// image (the sun azimuth from the manifest, else estimated from the image, enables the shading
+// checks), the catalogue as CSV, JSON and GeoPackage, an overlay PNG, and the score against the
+// generator's truth/craters.csv.
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -12,6 +13,7 @@
 #include "areomap/crater/crater_output.h"
 #include "areomap/crater/crater_raster.h"
 #include "areomap/crater/crater_score.h"
+#include "areomap/crater/sun_azimuth.h"
 #include "areomap/map/csv.h"
 #include "areomap/map/error.h"
 #include "mission_units.h"
@@ -74,6 +76,16 @@ json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
   options.min_diameter_px = run.options->crater_min_diameter_m / probe.pixel_size_m;
   options.sun_azimuth_deg = image->sun_azimuth_deg;  // North-up: clockwise from image up.
   options.Check();
+  // A manifest without the image's sun: estimated from its craters' shading (sun_azimuth.h).
+  json sun = {{"sun_azimuth_source", "manifest"}};
+  if (!options.sun_azimuth_deg) {
+    const SunAzimuthEstimate e = EstimateSunAzimuthInRaster(dataset, options);
+    sun = {{"sun_azimuth_source", e.reliable ? "estimated" : "none"},
+           {"sun_azimuth_votes", e.votes},
+           {"sun_azimuth_agreement", e.agreement}};
+    if (e.reliable) options.sun_azimuth_deg = e.azimuth_deg;
+  }
+  sun["sun_azimuth_deg"] = options.sun_azimuth_deg ? json(*options.sun_azimuth_deg) : json();
   const std::vector<CraterDetection> found =
       DetectCratersInRaster(dataset, RimSource::kImage, options, progress);
   const CraterCatalog catalog = MakeCraterCatalog(found, info);
@@ -90,6 +102,7 @@ json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
                   {"min_diameter_m", run.options->crater_min_diameter_m},
                   {"craters", found.size()},
                   {"files", {"craters.csv", "craters.json", "craters.gpkg", "overlay.png"}}};
+  summary.update(sun);
   if (run.mission->truth_craters_csv) {
     const std::vector<CraterCircle> truth =
         ReadTruthCraters(*run.mission->truth_craters_csv, probe.pixel_size_m);

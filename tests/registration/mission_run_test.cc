@@ -113,6 +113,7 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   EXPECT_TRUE(fs::exists(out / "craters" / "overlay.png"));
   EXPECT_EQ(first.json["craters"]["score"]["truth"].get<int>(), 1);
   EXPECT_EQ(first.json["craters"]["score"]["matched_truth"].get<int>(), 1);
+  EXPECT_EQ(first.json["craters"]["sun_azimuth_source"], "manifest");
   for (const char* stage : {"sites", "legs", "craters", "adjustment", "products"}) {
     EXPECT_GE(first.json["stage_seconds"][stage].get<double>(), 0.0) << stage;
   }
