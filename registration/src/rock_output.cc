@@ -56,6 +56,45 @@ cv::Scalar RockColour(const ExtractedRock& rock) {
   return rock.modeled() ? cv::Scalar(255, 0, 0) : cv::Scalar(255, 165, 0);
 }
 
+// A bar of a round length (1, 2 or 5 x 10^k m) near a fifth of the plot's width, labelled, with
+// its right end at `right_end`.
+void DrawScaleBar(cv::Mat* image, cv::Point right_end, double pixels_per_m) {
+  const double target_m = 0.2 * image->cols / pixels_per_m;
+  const double decade = std::pow(10.0, std::floor(std::log10(target_m)));
+  double length_m = decade;
+  for (const double step : {2.0, 5.0, 10.0}) {
+    if (step * decade <= target_m) length_m = step * decade;
+  }
+  const int length_px = static_cast<int>(std::lround(length_m * pixels_per_m));
+  const cv::Scalar white(255, 255, 255);
+  const cv::Point left_end = right_end - cv::Point(length_px, 0);
+  cv::line(*image, left_end, right_end, white, 2);
+  cv::line(*image, left_end - cv::Point(0, 4), left_end + cv::Point(0, 4), white, 2);
+  cv::line(*image, right_end - cv::Point(0, 4), right_end + cv::Point(0, 4), white, 2);
+  char label[32];
+  std::snprintf(label, sizeof(label), "%g m", length_m);
+  cv::putText(*image, label, left_end + cv::Point(0, -8), cv::FONT_HERSHEY_SIMPLEX, 0.45, white, 1);
+}
+
+// The elevation colour ramp (grey levels 40..255 of viridis, as the points) from `lo` to `hi`
+// metres, 150 x 10 px with its top left corner at `corner`, labelled at both ends.
+void DrawElevationRamp(cv::Mat* image, cv::Point corner, double lo, double hi) {
+  cv::Mat ramp(1, 150, CV_8UC1);
+  for (int i = 0; i < ramp.cols; ++i)
+    ramp.at<uint8_t>(0, i) = static_cast<uint8_t>(40 + 215 * i / 149);
+  cv::Mat colours;
+  cv::applyColorMap(ramp, colours, cv::COLORMAP_VIRIDIS);
+  cv::cvtColor(colours, colours, cv::COLOR_BGR2RGB);
+  cv::resize(colours, colours, cv::Size(150, 10), 0, 0, cv::INTER_NEAREST);
+  colours.copyTo((*image)(cv::Rect(corner, cv::Size(150, 10))));
+  const cv::Scalar white(255, 255, 255);
+  char text[48];
+  std::snprintf(text, sizeof(text), "%.2f m", lo);
+  cv::putText(*image, text, corner + cv::Point(0, -4), cv::FONT_HERSHEY_SIMPLEX, 0.4, white, 1);
+  std::snprintf(text, sizeof(text), "%.2f m", hi);
+  cv::putText(*image, text, corner + cv::Point(110, -4), cv::FONT_HERSHEY_SIMPLEX, 0.4, white, 1);
+}
+
 }  // namespace
 
 nlohmann::json RockToJson(const ExtractedRock& rock) {
@@ -203,6 +242,10 @@ void WriteRocksPlotPng(const std::filesystem::path& path, const PointCloud& clou
     cv::circle(image, to_pixel(r.peak), radius, colour, 2);
     cv::putText(image, std::to_string(r.id), to_pixel(r.peak) + cv::Point(radius + 2, 0),
                 cv::FONT_HERSHEY_SIMPLEX, 0.5, colour, 1);
+  }
+  if (pixels >= 400) {
+    DrawElevationRamp(&image, cv::Point(10, pixels - 45), e_lo, e_hi);
+    DrawScaleBar(&image, cv::Point(pixels - 15, pixels - 30), scale);
   }
   char legend[160];
   std::snprintf(legend, sizeof(legend),
