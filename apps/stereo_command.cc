@@ -48,7 +48,7 @@ std::string TiePointsCsv(const std::vector<SparseTiePoint>& ties) {
   std::ostringstream csv;
   csv << "left_x_px,left_y_px,right_x_px,right_y_px,correlation,vertical_disparity_px,range_m,"
          "x_m,y_m,z_m,forstner_weight,forstner_roundness\n"
-      << std::setprecision(10);
+      << std::fixed << std::setprecision(6);  // micro-pixels and micrometres
   for (const SparseTiePoint& t : ties) {
     if (!t.match.ok) continue;
     const SparseStereoMatch& m = t.match;
