@@ -85,14 +85,15 @@ void JudgeSector(std::vector<SectorPoint>& sector, const LineOfSightOptions& o,
   }
 
   // Floating: for each P in decreasing rho, the points surely behind it (behind_of > rho_P) are
-  // inserted in decreasing behind_of; count those seen lower than P.
+  // inserted in decreasing behind_of; count those seen lower than P. Buried points are no
+  // witnesses: the rover deck's mismatches, far and steep, would condemn the good ground in
+  // front of them where nothing else lies behind it (at the image's edges).
   RankCounter behind(n);
-  for (size_t i = n; i-- > 0;) {
+  for (size_t i = n, next = n; i-- > 0;) {
     const SectorPoint& p = sector[i];
-    while (behind.Inserted() < n) {
-      const SectorPoint& q = sector[by_behind_of[n - 1 - behind.Inserted()]];
-      if (!(q.behind_of > p.rho)) break;
-      behind.Insert(rank_of(q.elevation));
+    for (; next > 0 && sector[by_behind_of[next - 1]].behind_of > p.rho; --next) {
+      const SectorPoint& q = sector[by_behind_of[next - 1]];
+      if ((*verdicts)[q.index] != kBuried) behind.Insert(rank_of(q.elevation));
     }
     const size_t lower = behind.Below(rank_of(p.elevation - tolerance));
     if (Condemns(lower, behind.Inserted(), o) && (*verdicts)[p.index] == kKept) {

@@ -114,6 +114,34 @@ TEST(LineOfSight, DropsMismatchesFloatingOverTheGroundBehind) {
   for (const StereoPoint& p : cloud.points) EXPECT_NE(p.left_x, -1.0f);
 }
 
+// At the image's edge the ground ends 4 m out; behind it lie only the rover deck's mismatches,
+// far and steep. They are buried, and being buried they condemn none of the ground as floating.
+TEST(LineOfSight, BuriedPointsAreNoWitnessesOfFloating) {
+  PointCloud cloud;
+  cloud.camera_center = kCamera;
+  const Eigen::Vector2d along(std::cos(45.0 * kDeg), std::sin(45.0 * kDeg));
+  for (double rho = 1.0; rho <= 4.0; rho += 0.15) {
+    StereoPoint p;
+    p.position = Eigen::Vector3d(rho * along.x(), rho * along.y(), 0.0);
+    p.covariance = std::pow(0.002 * rho * rho, 2) * Eigen::Matrix3d::Identity();
+    cloud.points.push_back(p);
+  }
+  const size_t ground = cloud.points.size();
+  for (double range = 12.0; range <= 17.0; range += 0.6) {
+    StereoPoint p;
+    const double el = -51.0 * kDeg;
+    p.position = kCamera + range * Eigen::Vector3d(std::cos(el) * along.x(),
+                                                   std::cos(el) * along.y(), -std::sin(el));
+    p.covariance = std::pow(0.002 * range * range, 2) * Eigen::Matrix3d::Identity();
+    cloud.points.push_back(p);
+  }
+  const size_t deck = cloud.points.size() - ground;
+  const LineOfSightDrops drops = DropLineOfSightConflicts(&cloud);
+  EXPECT_EQ(drops.buried, deck);
+  EXPECT_EQ(drops.floating, 0u);
+  EXPECT_EQ(cloud.points.size(), ground);
+}
+
 TEST(LineOfSight, PointsBelowTheCameraAndLoneOnesAreKept) {
   PointCloud cloud;
   cloud.camera_center = kCamera;

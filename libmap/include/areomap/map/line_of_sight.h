@@ -17,9 +17,10 @@
 // (from its covariance) and elevation angle e (up positive): point Q lies surely behind P when
 // rho_Q - range_sigmas x s_Q - min_gap_m > rho_P. Within P's azimuth sector, P is buried when, of
 // the points it lies surely behind, at least max_fraction (and at least min_count) are seen
-// higher than e_P + elevation_tolerance; P is floating when, of the points surely behind it, at
-// least max_fraction (and min_count) are seen lower than e_P - elevation_tolerance. A few
-// mismatches do not condemn the good points around them; the whole ground does condemn one.
+// higher than e_P + elevation_tolerance; P is floating when, of the points surely behind it that
+// are not buried, at least max_fraction (and min_count) are seen lower than e_P -
+// elevation_tolerance. A few mismatches do not condemn the good points around them; the whole
+// ground does condemn one.
 //
 // Frame: the cloud's +z must point down (MER site, rover and local-level frames; the K10 TSAI
 // world), camera_center the left camera centre. Points within 1 cm of the camera's vertical are
