@@ -14,6 +14,7 @@
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
+#include "plot_marks.h"
 
 namespace areomap {
 
@@ -54,26 +55,6 @@ nlohmann::json ModelJson(const RockModelFit& fit) {
 // A rock's colour in the plots (RGB): red when modeled, orange when not.
 cv::Scalar RockColour(const ExtractedRock& rock) {
   return rock.modeled() ? cv::Scalar(255, 0, 0) : cv::Scalar(255, 165, 0);
-}
-
-// A bar of a round length (1, 2 or 5 x 10^k m) near a fifth of the plot's width, labelled, with
-// its right end at `right_end`.
-void DrawScaleBar(cv::Mat* image, cv::Point right_end, double pixels_per_m) {
-  const double target_m = 0.2 * image->cols / pixels_per_m;
-  const double decade = std::pow(10.0, std::floor(std::log10(target_m)));
-  double length_m = decade;
-  for (const double step : {2.0, 5.0, 10.0}) {
-    if (step * decade <= target_m) length_m = step * decade;
-  }
-  const int length_px = static_cast<int>(std::lround(length_m * pixels_per_m));
-  const cv::Scalar white(255, 255, 255);
-  const cv::Point left_end = right_end - cv::Point(length_px, 0);
-  cv::line(*image, left_end, right_end, white, 2);
-  cv::line(*image, left_end - cv::Point(0, 4), left_end + cv::Point(0, 4), white, 2);
-  cv::line(*image, right_end - cv::Point(0, 4), right_end + cv::Point(0, 4), white, 2);
-  char label[32];
-  std::snprintf(label, sizeof(label), "%g m", length_m);
-  cv::putText(*image, label, left_end + cv::Point(0, -8), cv::FONT_HERSHEY_SIMPLEX, 0.45, white, 1);
 }
 
 // The elevation colour ramp (grey levels 40..255 of viridis, as the points) from `lo` to `hi`
@@ -245,7 +226,7 @@ void WriteRocksPlotPng(const std::filesystem::path& path, const PointCloud& clou
   }
   if (pixels >= 400) {
     DrawElevationRamp(&image, cv::Point(10, pixels - 45), e_lo, e_hi);
-    DrawScaleBar(&image, cv::Point(pixels - 15, pixels - 30), scale);
+    internal::DrawScaleBar(&image, cv::Point(pixels - 15, pixels - 30), scale);
   }
   char legend[160];
   std::snprintf(legend, sizeof(legend),

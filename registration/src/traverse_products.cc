@@ -18,6 +18,7 @@
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "areomap/map/raster.h"
+#include "plot_marks.h"
 
 namespace areomap {
 namespace {
@@ -360,6 +361,7 @@ void WriteTraverseMap(const std::filesystem::path& path, const AnchoredTraverse&
                 cv::LINE_AA);
     y += 24;
   }
+  internal::DrawScaleBar(&canvas, cv::Point(canvas.cols - 15, canvas.rows - 15), scale / px_m);
   cv::cvtColor(canvas, canvas, cv::COLOR_BGR2RGB);  // WriteImage keeps file (RGB) order.
   WriteImage(path, canvas);
 }
