@@ -1,33 +1,30 @@
 #include "areomap/crater/sun_azimuth.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <numbers>
+#include <optional>
 
 #include <Eigen/Core>
 
 #include "areomap/crater/crater_raster.h"
 #include "areomap/map/error.h"
+#include "areomap/map/geodesy.h"
 #include "bilinear_sample.h"
+#include "ring_sampler.h"
 
 namespace areomap {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kRadPerDeg = kPi / 180.0;
-constexpr int kAngles = 48;
+using internal::kRingSamples;
+using internal::RingSampler;
+using internal::RingStats;
+
 constexpr double kAgreementHalfWidthDeg = 60.0;
 constexpr double kKernelConcentration = 4.0;  // von Mises kappa: ~30 degrees wide
 
-// The point of `e` scaled by rho about its centre at eccentric anomaly k / kAngles x 2 pi.
-Eigen::Vector2d Scaled(const Ellipse& e, double rho, int k) {
-  return e.center + rho * (e.PointAt(2.0 * kPi * k / kAngles) - e.center);
-}
-
 // Azimuth [deg, clockwise from up] of a pixel-frame direction (x right, y down).
 double AzimuthOf(const Eigen::Vector2d& d) {
-  const double az = std::atan2(d.x(), -d.y()) / kRadPerDeg;
+  const double az = DegFromRad(std::atan2(d.x(), -d.y()));
   return az < 0.0 ? az + 360.0 : az;
 }
 
@@ -39,39 +36,33 @@ double AngleBetweenDeg(double a, double b) {
 // The azimuth towards the sun one crater's shading votes for; nullopt without a clear dipole
 // (under min_dipole x the surroundings' std) or with most samples off the image or nodata.
 std::optional<double> Vote(const cv::Mat& image, const Ellipse& e, double min_dipole) {
-  Eigen::Vector2d weighted = Eigen::Vector2d::Zero();
-  double sum = 0.0, sum_out = 0.0, sum_out2 = 0.0;
-  int n = 0, n_out = 0;
-  std::array<std::pair<Eigen::Vector2d, double>, 4 * kAngles> inside;
+  const RingSampler ring(e);
+  // Dipole sum (v - mean) u = sum v u - mean sum u, u the unit vector from the centre.
+  Eigen::Vector2d sum_vu = Eigen::Vector2d::Zero(), sum_u = Eigen::Vector2d::Zero();
+  RingStats inside, outside;
   for (const double rho : {0.3, 0.45, 0.6, 0.75}) {
-    for (int k = 0; k < kAngles; ++k) {
-      const Eigen::Vector2d p = Scaled(e, rho, k);
+    for (int k = 0; k < kRingSamples; ++k) {
+      const Eigen::Vector2d p = ring.Point(rho, k);
       const double v = internal::SampleBilinear(image, p.x(), p.y());
       if (!std::isfinite(v)) continue;
-      inside[static_cast<size_t>(n++)] = {(p - e.center).normalized(), v};
-      sum += v;
+      const Eigen::Vector2d u = (p - e.center).normalized();
+      sum_vu += v * u;
+      sum_u += u;
+      inside.Add(v);
     }
   }
   for (const double rho : {1.3, 1.6, 1.9}) {
-    for (int k = 0; k < kAngles; ++k) {
-      const Eigen::Vector2d p = Scaled(e, rho, k);
-      const double v = internal::SampleBilinear(image, p.x(), p.y());
-      if (!std::isfinite(v)) continue;
-      sum_out += v;
-      sum_out2 += v * v;
-      ++n_out;
+    for (int k = 0; k < kRingSamples; ++k) {
+      const Eigen::Vector2d p = ring.Point(rho, k);
+      outside.Add(internal::SampleBilinear(image, p.x(), p.y()));
     }
   }
-  if (n < kAngles || n_out < kAngles) return std::nullopt;  // mostly off the image or nodata
-  const double mean = sum / n;
-  for (int i = 0; i < n; ++i)
-    weighted +=
-        (inside[static_cast<size_t>(i)].second - mean) * inside[static_cast<size_t>(i)].first;
-  weighted /= n;
-  const double mean_out = sum_out / n_out;
-  const double std_out = std::sqrt(std::max(0.0, sum_out2 / n_out - mean_out * mean_out));
-  if (!(std_out > 0.0) || weighted.norm() < min_dipole * std_out) return std::nullopt;
-  return AzimuthOf(-weighted);  // bright wall away from the sun
+  // Mostly off the image or nodata: no vote.
+  if (inside.n < kRingSamples || outside.n < kRingSamples) return std::nullopt;
+  const Eigen::Vector2d dipole = (sum_vu - inside.Mean() * sum_u) / inside.n;
+  const double scale = outside.Std();
+  if (!(scale > 0.0) || dipole.norm() < min_dipole * scale) return std::nullopt;
+  return AzimuthOf(-dipole);  // bright wall away from the sun
 }
 
 }  // namespace
@@ -110,7 +101,7 @@ SunAzimuthEstimate EstimateSunAzimuth(const cv::Mat& image,
   for (int step = 0; step < 360; ++step) {
     double density = 0.0;
     for (const double v : votes) {
-      density += std::exp(kKernelConcentration * (std::cos((v - step) * kRadPerDeg) - 1.0));
+      density += std::exp(kKernelConcentration * (std::cos(RadFromDeg(v - step)) - 1.0));
     }
     if (density > best_density) best_density = density, best = step;
   }
@@ -119,7 +110,7 @@ SunAzimuthEstimate EstimateSunAzimuth(const cv::Mat& image,
   int near = 0;
   for (const double v : votes) {
     if (AngleBetweenDeg(v, best) > kAgreementHalfWidthDeg) continue;
-    mean += Eigen::Vector2d(std::sin(v * kRadPerDeg), -std::cos(v * kRadPerDeg));
+    mean += Eigen::Vector2d(std::sin(RadFromDeg(v)), -std::cos(RadFromDeg(v)));
     ++near;
   }
   out.azimuth_deg = AzimuthOf(mean);

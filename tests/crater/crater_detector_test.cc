@@ -30,22 +30,9 @@ double Median(std::vector<double> v) {
   return v.empty() ? std::numeric_limits<double>::quiet_NaN() : v[v.size() / 2];
 }
 
-// 800 x 800 px at 0.5 m/px: craters of 5-80 m are 10-160 px.
+// The field scene (crater_scene.h), sun from azimuth 120 degrees.
 const CraterScene& FieldScene() {
-  static const CraterScene scene = [] {
-    SceneOptions s;
-    s.half_extent_m = 200.0;
-    s.crater_count = 24;
-    s.crater_min_diameter_m = 5.0;
-    s.crater_max_diameter_m = 80.0;
-    s.seed = 7;
-    OrbitalImageOptions o;
-    o.gsd_m = 0.5;
-    o.sun_azimuth_deg = 120.0;
-    o.sun_elevation_deg = 30.0;
-    o.supersample = 1;
-    return MakeCraterScene(s, o, 1.0);
-  }();
+  static const CraterScene scene = testing::MakeFieldScene(120.0);
   return scene;
 }
 

@@ -62,4 +62,21 @@ inline CraterScene MakeCraterScene(const SceneOptions& scene_options,
   return out;
 }
 
+// The crater tests' field: 800 x 800 px at 0.5 m/px, 24 craters of 5-80 m (10-160 px), seed 7,
+// lit from `sun_azimuth_deg` 30 degrees high.
+inline CraterScene MakeFieldScene(double sun_azimuth_deg) {
+  SceneOptions s;
+  s.half_extent_m = 200.0;
+  s.crater_count = 24;
+  s.crater_min_diameter_m = 5.0;
+  s.crater_max_diameter_m = 80.0;
+  s.seed = 7;
+  OrbitalImageOptions o;
+  o.gsd_m = 0.5;
+  o.sun_azimuth_deg = sun_azimuth_deg;
+  o.sun_elevation_deg = 30.0;
+  o.supersample = 1;
+  return MakeCraterScene(s, o, 1.0);
+}
+
 }  // namespace areomap::testing

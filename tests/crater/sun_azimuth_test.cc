@@ -17,25 +17,9 @@ double AngleBetweenDeg(double a, double b) {
   return std::min(d, 360.0 - d);
 }
 
-// 800 x 800 px at 0.5 m/px, craters of 10-160 px, lit from `sun_azimuth_deg` at 30 degrees.
-cv::Mat FieldImage(double sun_azimuth_deg) {
-  SceneOptions s;
-  s.half_extent_m = 200.0;
-  s.crater_count = 24;
-  s.crater_min_diameter_m = 5.0;
-  s.crater_max_diameter_m = 80.0;
-  s.seed = 7;
-  OrbitalImageOptions o;
-  o.gsd_m = 0.5;
-  o.sun_azimuth_deg = sun_azimuth_deg;
-  o.sun_elevation_deg = 30.0;
-  o.supersample = 1;
-  return testing::MakeCraterScene(s, o, 1.0).products.image.bands[0];
-}
-
 TEST(SunAzimuth, RecoversTheRenderersSunFromCratersFoundWithoutIt) {
   for (const double truth : {30.0, 120.0, 215.0, 300.0}) {
-    const cv::Mat image = FieldImage(truth);
+    const cv::Mat image = testing::MakeFieldScene(truth).products.image.bands[0];
     const std::vector<CraterDetection> found = DetectCraters(image, RimSource::kImage);
     const SunAzimuthEstimate e = EstimateSunAzimuth(image, found);
     std::printf("sun %.0f deg: estimated %.1f from %d votes of %d candidates, agreement %.2f\n",

@@ -23,11 +23,24 @@ double GroundHeight(double x, double y) {  // up, [m]
 
 const Eigen::Vector3d kCamera(0.0, 0.0, -1.5);
 
+// Unit ray of azimuth `az` and elevation `el` [rad] (up positive) in the z-down frame.
+Eigen::Vector3d Ray(double az, double el) {
+  return {std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), -std::sin(el)};
+}
+
+// A point with an isotropic 1-sigma [m]; `left_x` -1 marks a mismatch the test adds.
+StereoPoint PointAt(const Eigen::Vector3d& position, double sigma, float left_x = 0.0f) {
+  StereoPoint p;
+  p.position = position;
+  p.covariance = sigma * sigma * Eigen::Matrix3d::Identity();
+  p.left_x = left_x;
+  return p;
+}
+
 // The first surface point along the ray of azimuth `az` and elevation `el` [rad] (marched in
 // 1 mm steps up to 30 m), with a covariance like stereo's: sigma along the ray 0.002 r^2.
 std::optional<StereoPoint> FirstHit(double az, double el) {
-  const Eigen::Vector3d direction(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
-                                  -std::sin(el));
+  const Eigen::Vector3d direction = Ray(az, el);
   for (double r = 0.5; r < 30.0; r += 0.001) {
     const Eigen::Vector3d p = kCamera + r * direction;
     if (-p.z() <= GroundHeight(p.x(), p.y())) {
@@ -75,13 +88,8 @@ TEST(LineOfSight, DropsMismatchesFarBelowTheGroundInFront) {
   for (double az = -15.0; az <= 15.0; az += 1.0) {
     for (double el = -55.0; el <= -40.0; el += 1.0, ++added) {
       const double r = 8.0 + 17.0 * (el + 55.0) / 15.0;
-      StereoPoint p;
-      p.position = kCamera + r * Eigen::Vector3d(std::cos(el * kDeg) * std::cos(az * kDeg),
-                                                 std::cos(el * kDeg) * std::sin(az * kDeg),
-                                                 -std::sin(el * kDeg));
-      p.covariance = std::pow(0.002 * r * r, 2) * Eigen::Matrix3d::Identity();
-      p.left_x = -1.0f;  // marks the mismatch
-      cloud.points.push_back(p);
+      cloud.points.push_back(
+          PointAt(kCamera + r * Ray(az * kDeg, el * kDeg), 0.002 * r * r, -1.0f));
     }
   }
   const LineOfSightDrops drops = DropLineOfSightConflicts(&cloud);
@@ -99,11 +107,9 @@ TEST(LineOfSight, DropsMismatchesFloatingOverTheGroundBehind) {
   // those have the ground in front of them too.
   for (double az = -2.0; az <= 2.0; az += 0.1) {
     for (double dz = 0.0; dz < 0.5; dz += 0.1) {
-      StereoPoint p;
-      p.position = Eigen::Vector3d(3.0 * std::cos(az * kDeg), 3.0 * std::sin(az * kDeg), -2.0 - dz);
-      p.covariance = 1e-4 * Eigen::Matrix3d::Identity();
-      p.left_x = -1.0f;  // marks the mismatch
-      cloud.points.push_back(p);
+      cloud.points.push_back(
+          PointAt(Eigen::Vector3d(3.0 * std::cos(az * kDeg), 3.0 * std::sin(az * kDeg), -2.0 - dz),
+                  0.01, -1.0f));
     }
   }
   const size_t floating = cloud.points.size() - n;
@@ -119,21 +125,14 @@ TEST(LineOfSight, DropsMismatchesFloatingOverTheGroundBehind) {
 TEST(LineOfSight, BuriedPointsAreNoWitnessesOfFloating) {
   PointCloud cloud;
   cloud.camera_center = kCamera;
-  const Eigen::Vector2d along(std::cos(45.0 * kDeg), std::sin(45.0 * kDeg));
+  const Eigen::Vector3d along = Ray(45.0 * kDeg, 0.0);
   for (double rho = 1.0; rho <= 4.0; rho += 0.15) {
-    StereoPoint p;
-    p.position = Eigen::Vector3d(rho * along.x(), rho * along.y(), 0.0);
-    p.covariance = std::pow(0.002 * rho * rho, 2) * Eigen::Matrix3d::Identity();
-    cloud.points.push_back(p);
+    cloud.points.push_back(PointAt(rho * along, 0.002 * rho * rho));
   }
   const size_t ground = cloud.points.size();
   for (double range = 12.0; range <= 17.0; range += 0.6) {
-    StereoPoint p;
-    const double el = -51.0 * kDeg;
-    p.position = kCamera + range * Eigen::Vector3d(std::cos(el) * along.x(),
-                                                   std::cos(el) * along.y(), -std::sin(el));
-    p.covariance = std::pow(0.002 * range * range, 2) * Eigen::Matrix3d::Identity();
-    cloud.points.push_back(p);
+    cloud.points.push_back(
+        PointAt(kCamera + range * Ray(45.0 * kDeg, -51.0 * kDeg), 0.002 * range * range));
   }
   const size_t deck = cloud.points.size() - ground;
   const LineOfSightDrops drops = DropLineOfSightConflicts(&cloud);
