@@ -142,8 +142,7 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
     WriteCratersGeoPackage(out / "craters.gpkg", catalog);
     files.push_back("craters.gpkg");
   }
-  int factor = 1;
-  while (std::max(info.width, info.height) / factor > 4096) factor *= 2;
+  const int factor = DecimationFactor(info.width, info.height, 4096);
   int64_t valid_pixels = 0;
   WriteCraterOverlay(out / "overlay.png",
                      ReadDecimated(dataset, dataset.FullWindow(), factor, &valid_pixels), found,

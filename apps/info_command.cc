@@ -151,11 +151,7 @@ std::string Text(const RasterDescription& d, LongitudeDomain domain) {
 double ValidFraction(const std::string& file) {
   const RasterDataset dataset = RasterDataset::Open(file);
   const RasterInfo& info = dataset.info();
-  int factor = 1;
-  while (std::max(info.width, info.height) / factor > 1024 &&
-         std::min(info.width, info.height) / (2 * factor) >= 1) {
-    factor *= 2;
-  }
+  const int factor = DecimationFactor(info.width, info.height, 1024);
   int64_t valid = 0;
   ReadDecimated(dataset, dataset.FullWindow(), factor, &valid);
   // ReadDecimated reads whole blocks only: the pixels it read are the blocks' pixels.

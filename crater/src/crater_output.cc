@@ -10,6 +10,7 @@
 #include <ogrsf_frmts.h>
 #include <opencv2/imgproc.hpp>
 
+#include "areomap/crater/crater_raster.h"
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/crs.h"
 #include "areomap/map/error.h"
@@ -220,8 +221,7 @@ namespace {
 cv::Mat StretchedRgb(const cv::Mat& image, int max_side, int* factor) {
   cv::Mat f;
   image.convertTo(f, CV_32F);
-  *factor = 1;
-  while (std::max(f.cols, f.rows) / *factor > max_side) *factor *= 2;
+  *factor = DecimationFactor(f.cols, f.rows, max_side);
   if (*factor > 1) {
     cv::resize(f, f, cv::Size(f.cols / *factor, f.rows / *factor), 0, 0, cv::INTER_AREA);
   }

@@ -37,6 +37,15 @@ CraterDetection Shifted(CraterDetection d, double dx, double dy, double factor) 
 
 }  // namespace
 
+int DecimationFactor(int width, int height, int max_side) {
+  int factor = 1;
+  while (std::max(width, height) / factor > max_side &&
+         std::min(width, height) / (2 * factor) >= 1) {
+    factor *= 2;
+  }
+  return factor;
+}
+
 cv::Mat ReadDecimated(const RasterDataset& dataset, const PixelWindow& window, int factor,
                       int64_t* valid_pixels) {
   RequireOption(factor >= 1, "ReadDecimated.factor", ">= 1");
@@ -90,8 +99,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
   // The overview, decimated so it fits one padded tile. Tile cores start at multiples of
   // tile_size, a multiple of the factor, so each tile fills its core's share of the overview
   // (2 x 2 box averages, as ReadDecimated) and the raster is read once.
-  int factor = 1;
-  while (std::max(width, height) / factor > padded) factor *= 2;
+  const int factor = DecimationFactor(width, height, padded);
   const bool run_tiles = tile_options.max_diameter_px >= o.min_diameter_px;
   const bool overview_from_tiles = need_overview && run_tiles && o.tile_size % factor == 0;
   cv::Mat overview;

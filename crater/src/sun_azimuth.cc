@@ -125,8 +125,7 @@ SunAzimuthEstimate EstimateSunAzimuthInRaster(const RasterDataset& dataset,
                                               const ProgressCallback& progress) {
   options.Check();
   const RasterInfo& info = dataset.info();
-  int factor = 1;
-  while (std::max(info.width, info.height) / factor > options.overview_size_px) factor *= 2;
+  const int factor = DecimationFactor(info.width, info.height, options.overview_size_px);
   const cv::Mat overview = ReadDecimated(dataset, dataset.FullWindow(), factor);
   CraterDetectorOptions search = detector;
   search.sun_azimuth_deg.reset();

@@ -92,8 +92,7 @@ json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
   WriteCratersCsv(dir / "craters.csv", catalog);
   WriteCratersJson(dir / "craters.json", catalog);
   WriteCratersGeoPackage(dir / "craters.gpkg", catalog);
-  int factor = 1;
-  while (std::max(info.width, info.height) / factor > 2048) factor *= 2;
+  const int factor = DecimationFactor(info.width, info.height, 2048);
   WriteCraterOverlay(dir / "overlay.png", ReadDecimated(dataset, dataset.FullWindow(), factor),
                      found, 2048);
 

@@ -23,6 +23,10 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
                                                    const CraterDetectorOptions& options = {},
                                                    const ProgressCallback& progress = nullptr);
 
+// The power of two by which a width x height raster is decimated for an overview whose longer side
+// is at most `max_side` px (>= 1); never so far that the shorter side falls below 1 px.
+int DecimationFactor(int width, int height, int max_side);
+
 // `window` of band 1 averaged over factor x factor blocks (factor >= 1), read in strips so that
 // memory stays at the output plus one strip. Output size: window size / factor (rounded down);
 // NaN where any input pixel of a block is nodata. `valid_pixels`, when given, receives the number
