@@ -373,8 +373,8 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
   const Rigid3d out_from_model = left.site_from_frame.value_or(Rigid3d());
   const Eigen::Vector3d center_out = out_from_model * rect.left.c;
   struct RowPoints {
-    std::vector<StereoPoint> points, beyond;
-    size_t not_intersecting = 0;
+    std::vector<StereoPoint> points, beyond;  // beyond: kept only as line-of-sight witnesses
+    size_t beyond_count = 0, not_intersecting = 0;
   };
   std::vector<RowPoints> rows(static_cast<size_t>(rect.size.y()));
   tbb::parallel_for(0, rect.size.y(), [&](int y) {
@@ -392,6 +392,11 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
         ++row.not_intersecting;
         continue;
       }
+      const bool is_beyond = hit->range_first_m > options.max_range_m;
+      if (is_beyond) {
+        ++row.beyond_count;
+        if (!options.check_line_of_sight) continue;
+      }
       StereoPoint p;
       p.position = out_from_model * hit->point;
       p.covariance = StereoPointCovariance(p.position, center_out, error_model);
@@ -400,7 +405,7 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
       p.left_y = rect.left_map_y.at<float>(y, x);
       p.image_id = options.image_id;
       // Points beyond max_range_m are dropped but still witness the line of sight.
-      (hit->range_first_m > options.max_range_m ? row.beyond : row.points).push_back(p);
+      (is_beyond ? row.beyond : row.points).push_back(p);
     }
   });
   PointCloud& cloud = result.cloud;
@@ -417,9 +422,9 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
   for (RowPoints& row : rows) {
     cloud.points.insert(cloud.points.end(), row.points.begin(), row.points.end());
     beyond.insert(beyond.end(), row.beyond.begin(), row.beyond.end());
+    summary.beyond_range += row.beyond_count;
     summary.not_intersecting += row.not_intersecting;
   }
-  summary.beyond_range = beyond.size();
   if (options.check_line_of_sight) {
     summary.line_of_sight = DropLineOfSightConflicts(&cloud, options.line_of_sight, beyond);
   }
