@@ -72,8 +72,9 @@ int RunCoords(const CoordsOptions& options, bool body_given) {
   if (!body_given && datum && (from.UsesBody() || to.UsesBody()) &&
       (datum->a != context.body.a || datum->b != context.body.b)) {
     context.body = *datum;
-    from = CoordinateSystem::Parse(options.from, context);
-    to = CoordinateSystem::Parse(options.to, context);
+    // Only the systems shaped by the body change (no raster is opened again).
+    if (from.UsesBody()) from = CoordinateSystem::Parse(options.from, context);
+    if (to.UsesBody()) to = CoordinateSystem::Parse(options.to, context);
     std::fprintf(stderr,
                  "note: geographic and local coordinates on the datum of %s (a = %.0f m, b = %.0f "
                  "m); --body mars2000 puts them on the IAU 2000 ellipsoid\n",
