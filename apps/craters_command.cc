@@ -51,13 +51,7 @@ std::optional<double> ChooseSunAzimuth(const CratersArgs& a, const RasterDataset
   }
   const SunAzimuthEstimate e =
       EstimateSunAzimuthInRaster(dataset, options, {}, MakeProgressBar(global, "sun azimuth"));
-  (*json)["sun_azimuth_estimate"] = {
-      {"azimuth_deg",
-       std::isfinite(e.azimuth_deg) ? nlohmann::json(e.azimuth_deg) : nlohmann::json()},
-      {"candidates", e.candidates},
-      {"votes", e.votes},
-      {"agreement", e.agreement},
-      {"reliable", e.reliable}};
+  (*json)["sun_azimuth_estimate"] = SunAzimuthEstimateJson(e);
   std::ostringstream text;
   text << std::fixed << std::setprecision(0) << e.votes << " of " << e.candidates
        << " craters found without a sun show a bright and a dark wall; " << std::setprecision(2)

@@ -103,6 +103,15 @@ CraterCatalog MakeCraterCatalog(const std::vector<CraterDetection>& detections,
   return catalog;
 }
 
+nlohmann::json SunAzimuthEstimateJson(const SunAzimuthEstimate& e) {
+  return {{"azimuth_deg",
+           std::isfinite(e.azimuth_deg) ? nlohmann::json(e.azimuth_deg) : nlohmann::json()},
+          {"candidates", e.candidates},
+          {"votes", e.votes},
+          {"agreement", e.agreement},
+          {"reliable", e.reliable}};
+}
+
 nlohmann::json CraterMatchStatsJson(const CraterMatchStats& s) {
   const auto number = [](double v) {
     return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();

@@ -81,8 +81,7 @@ json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
   if (!options.sun_azimuth_deg) {
     const SunAzimuthEstimate e = EstimateSunAzimuthInRaster(dataset, options);
     sun = {{"sun_azimuth_source", e.reliable ? "estimated" : "none"},
-           {"sun_azimuth_votes", e.votes},
-           {"sun_azimuth_agreement", e.agreement}};
+           {"sun_azimuth_estimate", SunAzimuthEstimateJson(e)}};
     if (e.reliable) options.sun_azimuth_deg = e.azimuth_deg;
   }
   sun["sun_azimuth_deg"] = options.sun_azimuth_deg ? json(*options.sun_azimuth_deg) : json();

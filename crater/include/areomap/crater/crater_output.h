@@ -18,6 +18,7 @@
 #include "areomap/crater/crater_detector.h"
 #include "areomap/crater/crater_model.h"
 #include "areomap/crater/crater_score.h"
+#include "areomap/crater/sun_azimuth.h"
 #include "areomap/map/raster.h"
 
 namespace areomap {
@@ -50,6 +51,8 @@ CraterCatalog MakeCraterCatalog(const std::vector<CraterDetection>& detections,
 nlohmann::json CraterCatalogJson(const CraterCatalog& catalog);
 // One bin of a crater score (crater_score.h) as JSON; NaN rates are null, an open bin edge "inf".
 nlohmann::json CraterMatchStatsJson(const CraterMatchStats& stats);
+// azimuth_deg (null without votes), candidates, votes, agreement, reliable.
+nlohmann::json SunAzimuthEstimateJson(const SunAzimuthEstimate& estimate);
 void WriteCratersCsv(const std::filesystem::path& path, const CraterCatalog& catalog);
 void WriteCratersJson(const std::filesystem::path& path, const CraterCatalog& catalog);
 // Layer "craters": rim polygons (72 vertices) in the raster's CRS with the CSV's attributes.
