@@ -4,8 +4,8 @@
 #include <iostream>
 #include <sstream>
 
-#include "areomap/crater/crater_raster.h"
 #include "areomap/map/error.h"
+#include "areomap/map/raster.h"
 #include "areomap/map/raster_description.h"
 #include "commands.h"
 

@@ -1,10 +1,12 @@
 #include "areomap/map/raster.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
 #include <cpl_string.h>
 #include <gdal_priv.h>
+#include <opencv2/imgproc.hpp>
 
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
@@ -340,6 +342,39 @@ void WriteGeoTiff(const std::filesystem::path& path, const GeoRaster& raster,
     }
   }
   file.Commit();
+}
+
+int DecimationFactor(int width, int height, int max_side) {
+  int factor = 1;
+  while (std::max(width, height) / factor > max_side &&
+         std::min(width, height) / (2 * factor) >= 1) {
+    factor *= 2;
+  }
+  return factor;
+}
+
+cv::Mat ReadDecimated(const RasterDataset& dataset, const PixelWindow& window, int factor,
+                      int64_t* valid_pixels) {
+  RequireOption(factor >= 1, "ReadDecimated.factor", ">= 1");
+  const int out_w = window.width / factor, out_h = window.height / factor;
+  cv::Mat out(std::max(out_h, 0), std::max(out_w, 0), CV_32F);
+  if (valid_pixels != nullptr) *valid_pixels = 0;
+  if (out_w == 0 || out_h == 0) return out;
+  const int strip_rows = std::max(1, 512 / factor);  // output rows per strip
+  for (int row = 0; row < out_h; row += strip_rows) {
+    const int rows = std::min(strip_rows, out_h - row);
+    const PixelWindow strip{window.col0, window.row0 + row * factor, out_w * factor, rows * factor};
+    const cv::Mat full = dataset.ReadWindowFloat(1, strip);
+    if (valid_pixels != nullptr) *valid_pixels += cv::countNonZero(full == full);  // NaN != NaN
+    cv::Mat small;
+    if (factor == 1) {
+      small = full;
+    } else {
+      cv::resize(full, small, cv::Size(out_w, rows), 0, 0, cv::INTER_AREA);
+    }
+    small.copyTo(out.rowRange(row, row + rows));
+  }
+  return out;
 }
 
 }  // namespace areomap

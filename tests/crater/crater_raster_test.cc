@@ -341,13 +341,5 @@ TEST(ReadCraterCsv, NamesFileAndLineOfBadInput) {
   std::filesystem::remove(path);
 }
 
-TEST(DecimationFactor, PowerOfTwoToTheLongestSideButNeverBelowOnePixel) {
-  EXPECT_EQ(DecimationFactor(1000, 800, 2048), 1);
-  EXPECT_EQ(DecimationFactor(10000, 10000, 2048), 8);  // 1250 px; 4 would leave 2500
-  EXPECT_EQ(DecimationFactor(4096, 100, 4096), 1);
-  EXPECT_EQ(DecimationFactor(1, 3000, 1024), 1);  // a 1 px wide raster is read whole
-  EXPECT_EQ(DecimationFactor(3000, 2, 1024), 2);
-}
-
 }  // namespace
 }  // namespace areomap

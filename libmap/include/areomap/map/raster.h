@@ -9,6 +9,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -112,5 +113,17 @@ struct GeoTiffOptions {
 // an unsupported type or an unwritable destination; nothing is left behind on failure.
 void WriteGeoTiff(const std::filesystem::path& path, const GeoRaster& raster,
                   const GeoTiffOptions& options = {});
+
+// The power of two by which a width x height raster is decimated for an overview whose longer side
+// is at most `max_side` px (>= 1); never so far that the shorter side falls below 1 px.
+int DecimationFactor(int width, int height, int max_side);
+
+// `window` of band 1 averaged over factor x factor blocks (factor >= 1), read in strips so that
+// memory stays at the output plus one strip. Output size: window size / factor (rounded down);
+// NaN where any input pixel of a block is nodata. `valid_pixels`, when given, receives the number
+// of the pixels read that are valid (finite, not nodata); pixels beyond the last whole block of
+// a row or column are not read.
+cv::Mat ReadDecimated(const RasterDataset& dataset, const PixelWindow& window, int factor,
+                      int64_t* valid_pixels = nullptr);
 
 }  // namespace areomap
