@@ -3,18 +3,16 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <numbers>
 #include <numeric>
 #include <vector>
 
 #include <tbb/parallel_for.h>
 
 #include "areomap/map/error.h"
+#include "areomap/map/geodesy.h"
 
 namespace areomap {
 namespace {
-
-constexpr double kRadPerDeg = std::numbers::pi / 180.0;
 
 enum Verdict : uint8_t { kKept = 0, kBuried = 1, kFloating = 2 };
 
@@ -66,7 +64,7 @@ void JudgeSector(std::vector<SectorPoint>& sector, const LineOfSightOptions& o,
     return static_cast<size_t>(std::lower_bound(elevations.begin(), elevations.end(), e) -
                                elevations.begin());
   };
-  const double tolerance = o.elevation_tolerance_deg * kRadPerDeg;
+  const double tolerance = RadFromDeg(o.elevation_tolerance_deg);
   std::vector<size_t> by_behind_of(n);
   std::iota(by_behind_of.begin(), by_behind_of.end(), size_t{0});
   std::sort(by_behind_of.begin(), by_behind_of.end(),
@@ -132,7 +130,7 @@ LineOfSightDrops DropLineOfSightConflicts(PointCloud* cloud, const LineOfSightOp
     if (rho < 0.01) continue;
     const Eigen::Vector3d horizontal(d.x() / rho, d.y() / rho, 0.0);
     const double rho_sigma = std::sqrt(std::max(0.0, horizontal.dot(p.covariance * horizontal)));
-    double azimuth = std::atan2(d.y(), d.x()) / kRadPerDeg;
+    double azimuth = DegFromRad(std::atan2(d.y(), d.x()));
     if (azimuth < 0.0) azimuth += 360.0;
     const int s = std::min(sectors - 1, static_cast<int>(azimuth / options.sector_deg));
     by_sector[static_cast<size_t>(s)].push_back(

@@ -57,12 +57,15 @@ cv::Scalar RockColour(const ExtractedRock& rock) {
   return rock.modeled() ? cv::Scalar(255, 0, 0) : cv::Scalar(255, 165, 0);
 }
 
+// Grey level of an elevation at fraction t in [0, 1] of the plotted range, before viridis: 40..255
+// (0 stays black, the background).
+uint8_t ElevationGrey(double t) { return static_cast<uint8_t>(40 + 215 * t); }
+
 // The elevation colour ramp (grey levels 40..255 of viridis, as the points) from `lo` to `hi`
 // metres, 150 x 10 px with its top left corner at `corner`, labelled at both ends.
 void DrawElevationRamp(cv::Mat* image, cv::Point corner, double lo, double hi) {
   cv::Mat ramp(1, 150, CV_8UC1);
-  for (int i = 0; i < ramp.cols; ++i)
-    ramp.at<uint8_t>(0, i) = static_cast<uint8_t>(40 + 215 * i / 149);
+  for (int i = 0; i < ramp.cols; ++i) ramp.at<uint8_t>(0, i) = ElevationGrey(i / 149.0);
   cv::Mat colours;
   cv::applyColorMap(ramp, colours, cv::COLORMAP_VIRIDIS);
   cv::cvtColor(colours, colours, cv::COLOR_BGR2RGB);
@@ -208,8 +211,7 @@ void WriteRocksPlotPng(const std::filesystem::path& path, const PointCloud& clou
     const cv::Point q = to_pixel(p->position);
     if (q.x < 0 || q.y < 0 || q.x >= pixels || q.y >= pixels) continue;
     const double t = std::clamp((-p->position.z() - e_lo) / (e_hi - e_lo), 0.0, 1.0);
-    gray.at<uint8_t>(q) =
-        std::max<uint8_t>(gray.at<uint8_t>(q), static_cast<uint8_t>(40 + 215 * t));
+    gray.at<uint8_t>(q) = std::max<uint8_t>(gray.at<uint8_t>(q), ElevationGrey(t));
   }
   cv::Mat image;
   cv::applyColorMap(gray, image, cv::COLORMAP_VIRIDIS);
