@@ -2,16 +2,19 @@
 // the same image in the same run. Usage:
 //   areomap_bench_crater [SIZE_PX [UPSAMPLE [SHADING [SAMPLES]]]]
 // (default 4000 1 1 float32; UPSAMPLE 0 skips the 2x upsampled level for craters under 16 px,
-// SHADING 0 the bowl-shading template hypotheses; SAMPLES float32 or uint16, the GeoTIFF's sample
-// type: Float32 as areomap's own products, deflate with the floating-point predictor; UInt16 as
-// HiRISE or CTX images, deflate with horizontal differencing, the scene rounded to integers).
+// 1 searches it near strong full-resolution edges (the default options) and also runs the
+// whole-level search of 2 as a baseline in the same process, 2 searches all of it; SHADING 0 the
+// bowl-shading template hypotheses; SAMPLES float32 or uint16, the GeoTIFF's sample type: Float32
+// as areomap's own products, deflate with the floating-point predictor; UInt16 as HiRISE or CTX
+// images, deflate with horizontal differencing, the scene rounded to integers).
 //
 // For profiling the detection alone (callgrind, perf, alternated runs of two builds on the same
 // file):
 //   areomap_bench_crater write SIZE_PX PATH [SAMPLES]   the tile as a GeoTIFF at PATH, truth at
 //                                                       PATH.csv
 //   areomap_bench_crater detect PATH [RUNS [UPSAMPLE]]   DetectCratersInRaster on PATH (templates
-//                                             off; the upsampled level off unless UPSAMPLE is 1),
+//                                             off; the upsampled level off unless UPSAMPLE is 1
+//                                             (near strong edges) or 2 (all of it)),
 //                                             scored against PATH.csv if present
 //
 // The tile holds bowls lit from the east (bright western wall, dark eastern wall, sharp rim,
@@ -82,12 +85,13 @@ double Seconds(std::chrono::steady_clock::time_point start) {
 // time depends on their load, CPU time much less.
 double CpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
-// The bench's detector options; `upsample` and `shading` as the command line says.
-areomap::CraterDetectorOptions BenchOptions(bool upsample, bool shading) {
+// The bench's detector options; `upsample` (0, 1, 2) and `shading` as the command line says.
+areomap::CraterDetectorOptions BenchOptions(int upsample, bool shading) {
   areomap::CraterDetectorOptions options;
   options.sun_azimuth_deg = 90.0;
   options.min_diameter_px = 10.0;
-  options.upsample_small_craters = upsample;
+  options.upsample_small_craters = upsample != 0;
+  options.upsample_only_near_strong_edges = upsample != 2;
   options.shading_template.enabled = shading;
   return options;
 }
@@ -128,7 +132,7 @@ int WriteTile(int size, const std::filesystem::path& path, int depth) {
   return csv ? 0 : 1;
 }
 
-int DetectOnly(const std::filesystem::path& path, int runs, bool upsample) {
+int DetectOnly(const std::filesystem::path& path, int runs, int upsample) {
   const std::filesystem::path truth_path = path.string() + ".csv";
   const bool scored = std::filesystem::exists(truth_path);
   const std::vector<CraterCircle> truth =
@@ -166,12 +170,26 @@ int CompareWithHough(int argc, char** argv) {
   double cpu_start = CpuSeconds();
   auto start = std::chrono::steady_clock::now();
   const areomap::RasterDataset dataset = areomap::RasterDataset::Open(path);
-  const areomap::CraterDetectorOptions options =
-      BenchOptions(argc > 2 ? std::stoi(argv[2]) != 0 : true, argc > 3 && std::stoi(argv[3]) != 0);
-  const auto found = areomap::DetectCratersInRaster(dataset, areomap::RimSource::kImage, options);
+  const int upsample = argc > 2 ? std::stoi(argv[2]) : 1;
+  const bool shading = argc > 3 && std::stoi(argv[3]) != 0;
+  const auto found = areomap::DetectCratersInRaster(dataset, areomap::RimSource::kImage,
+                                                    BenchOptions(upsample, shading));
   const double ours_s = Seconds(start);
   const double ours_cpu = CpuSeconds() - cpu_start;
   const auto ours_score = ScoreDetections(truth, found);
+
+  // The upsampled level searched everywhere (the default options before it was searched only
+  // near strong edges), on the same file.
+  double whole_level_s = 0.0, whole_level_cpu = 0.0;
+  std::vector<areomap::CraterDetection> whole_level_found;
+  if (upsample == 1) {
+    cpu_start = CpuSeconds();
+    start = std::chrono::steady_clock::now();
+    whole_level_found = areomap::DetectCratersInRaster(
+        areomap::RasterDataset::Open(path), areomap::RimSource::kImage, BenchOptions(2, shading));
+    whole_level_s = Seconds(start);
+    whole_level_cpu = CpuSeconds() - cpu_start;
+  }
 
   cv::Mat gray;
   cv::normalize(image, gray, 0, 255, cv::NORM_MINMAX, CV_8U);
@@ -204,9 +222,17 @@ int CompareWithHough(int argc, char** argv) {
                 score.all.f1, count);
   };
   row("areomap (tiled, disk)", ours_s, ours_cpu, ours_score, found.size());
+  if (upsample == 1) {
+    row("  upsampled everywhere", whole_level_s, whole_level_cpu,
+        ScoreDetections(truth, whole_level_found), whole_level_found.size());
+  }
   row("cv::HoughCircles", hough_s, hough_cpu, hough_score, hough.size());
   std::printf("time ratio areomap / HoughCircles: wall %.2f, cpu %.2f\n", ours_s / hough_s,
               ours_cpu / hough_cpu);
+  if (upsample == 1) {
+    std::printf("time ratio upsampled near strong edges / everywhere: wall %.2f, cpu %.2f\n",
+                ours_s / whole_level_s, ours_cpu / whole_level_cpu);
+  }
   std::printf("areomap throughput with %d threads fully busy (MP per cpu_s x %d): %.2f MP/s\n",
               threads, threads, megapixels / ours_cpu * threads);
   std::filesystem::remove(path);
@@ -223,7 +249,7 @@ int main(int argc, char** argv) {
     }
     if (mode == "detect" && argc >= 3 && argc <= 5) {
       return DetectOnly(argv[2], argc >= 4 ? std::stoi(argv[3]) : 1,
-                        argc == 5 && std::stoi(argv[4]) != 0);
+                        argc == 5 ? std::stoi(argv[4]) : 0);
     }
     return CompareWithHough(argc, argv);
   } catch (const std::exception& error) {

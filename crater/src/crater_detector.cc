@@ -629,6 +629,43 @@ double DistanceOutside(const cv::Rect2d* core, const Eigen::Vector2d& p) {
   return std::hypot(dx, dy);
 }
 
+// Where the upsampled level (scale 0.5) is worth searching: the rows of 16 px blocks of the
+// full-resolution level holding >= kMinArcPoints edge points of at least `min_strength`, and the
+// blocks next to them (a small crater's rim lies within a block of any of its points); as
+// rectangles of upsampled pixels, one per run of such blocks along a block row.
+std::vector<cv::Rect> UpsampledSearchRegions(const RimEdges& full_resolution, double min_strength,
+                                             cv::Size upsampled_size) {
+  constexpr int kBlock = 16;
+  const int block_rows = (full_resolution.rows + kBlock - 1) / kBlock;
+  const int block_cols = (full_resolution.cols + kBlock - 1) / kBlock;
+  cv::Mat strong = cv::Mat::zeros(block_rows, block_cols, CV_32S);
+  for (const RimEdgePoint& p : full_resolution.points) {
+    if (p.strength < min_strength) continue;
+    const int r = std::clamp(static_cast<int>(p.y) / kBlock, 0, block_rows - 1);
+    const int c = std::clamp(static_cast<int>(p.x) / kBlock, 0, block_cols - 1);
+    ++strong.at<int>(r, c);
+  }
+  cv::Mat searched;
+  cv::dilate(strong >= kMinArcPoints, searched, cv::Mat::ones(3, 3, CV_8U));
+  std::vector<cv::Rect> regions;
+  const cv::Rect whole(0, 0, upsampled_size.width, upsampled_size.height);
+  const int step = 2 * kBlock;  // a block in upsampled pixels
+  for (int r = 0; r < block_rows; ++r) {
+    const uchar* row = searched.ptr<uchar>(r);
+    for (int c = 0; c < block_cols;) {
+      if (row[c] == 0) {
+        ++c;
+        continue;
+      }
+      const int begin = c;
+      while (c < block_cols && row[c] != 0) ++c;
+      const cv::Rect region = cv::Rect(begin * step, r * step, (c - begin) * step, step) & whole;
+      if (!region.empty()) regions.push_back(region);
+    }
+  }
+  return regions;
+}
+
 // DetectCraters; with `core`, only craters centred in it (detect_in_core.h).
 std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
                                     const CraterDetectorOptions& o,
@@ -754,6 +791,21 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
   const size_t base = levels.size();  // index of the full-resolution level
   levels.push_back({});
   levels.back().image = full;
+  if (upsample && o.upsample_only_near_strong_edges && source == RimSource::kImage) {
+    // The full-resolution edges first (searched anyway), to choose where the upsampled level's
+    // edges are needed.
+    Level& full_level = levels[base];
+    full_level.edges = EdgesOf(full_level.image, source, o, full_level.scale);
+    full_level.has_edges = true;
+    Level& up = levels.front();
+    up.edges = DetectImageEdgesInRegions(
+        up.image,
+        UpsampledSearchRegions(full_level.edges,
+                               0.8 * o.min_edge_contrast * full_level.edges.high_threshold,
+                               up.image.size()),
+        o.edges);
+    up.has_edges = true;
+  }
   while (true) {
     const Level& last = levels.back();
     const double next_scale = last.scale * 2.0;
@@ -787,8 +839,10 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
     if (upsample && li == 0) r_hi = std::min(r_hi, 2.0 * kCoarseMinRadius + 2.0);
     if (upsample && li == base) r_lo = kCoarseMinRadius - 1.0;
     if (r_hi < r_lo * 0.8) continue;  // no crater of the asked sizes at this level
-    level.edges = EdgesOf(level.image, source, o, level.scale);
-    level.has_edges = true;
+    if (!level.has_edges) {
+      level.edges = EdgesOf(level.image, source, o, level.scale);
+      level.has_edges = true;
+    }
     const std::vector<Arc> arcs =
         ExtractArcs(level.edges, r_lo, r_hi, sun,
                     kArcStrengthShare * o.min_edge_contrast * level.edges.high_threshold);

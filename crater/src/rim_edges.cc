@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include <opencv2/core/hal/intrin.hpp>
@@ -179,25 +180,30 @@ std::array<float, N> NonNegativeOrderStatistics(const std::vector<float>& values
   return result;
 }
 
-// Hysteresis thresholds from the strength statistics over usable pixels (every 3rd pixel).
-bool AutomaticThresholds(const cv::Mat& strength, const UsableArea& usable, const EdgeOptions& o,
-                         double* high, double* low) {
-  std::vector<float> values;
-  values.reserve(static_cast<size_t>(strength.total() / 9 + 1));
-  for (int r = 0; r < strength.rows; r += 3) {
+// Appends the strengths the automatic thresholds are drawn from: every 3rd pixel of every 3rd
+// row among rows [row_begin, row_end) of `strength`, usable pixels only.
+void SampleStrengths(const cv::Mat& strength, const UsableArea& usable, int row_begin, int row_end,
+                     std::vector<float>* values) {
+  for (int r = row_begin; r < row_end; r += 3) {
     const float* s = strength.ptr<float>(r);
     const uchar* u = usable.MaskRow(r);
     if (u != nullptr) {
       for (int c = 0; c < strength.cols; c += 3) {
-        if (u[c]) values.push_back(s[c]);
+        if (u[c]) values->push_back(s[c]);
       }
     } else if (r >= usable.interior.y && r < usable.interior.br().y) {
       // The sampled columns inside the interior: multiples of 3 in [x, br.x).
       for (int c = (usable.interior.x + 2) / 3 * 3; c < usable.interior.br().x; c += 3) {
-        values.push_back(s[c]);
+        values->push_back(s[c]);
       }
     }
   }
+}
+
+// Hysteresis thresholds from sampled strengths (SampleStrengths); false when there are too few
+// samples or the image is flat.
+bool ThresholdsFromStrengths(const std::vector<float>& values, const EdgeOptions& o, double* high,
+                             double* low) {
   if (values.size() < 16) return false;
   const auto rank = [&](double q) {
     return static_cast<size_t>(q * static_cast<double>(values.size() - 1));
@@ -210,6 +216,15 @@ bool AutomaticThresholds(const cv::Mat& strength, const UsableArea& usable, cons
   *high = std::max(top, o.noise_factor * noise);
   *low = o.low_ratio * *high;
   return *high > 1e-6 * (max_value + 1e-30) && *high > 0.0;
+}
+
+// Hysteresis thresholds from the strength statistics over usable pixels (every 3rd pixel).
+bool AutomaticThresholds(const cv::Mat& strength, const UsableArea& usable, const EdgeOptions& o,
+                         double* high, double* low) {
+  std::vector<float> values;
+  values.reserve(static_cast<size_t>(strength.total() / 9 + 1));
+  SampleStrengths(strength, usable, 0, strength.rows, &values);
+  return ThresholdsFromStrengths(values, o, high, low);
 }
 
 // The loops over a row's separate arrays below have no dependence between iterations; GCC
@@ -565,6 +580,53 @@ RimEdges Empty(const cv::Mat& input, bool signed_normals) {
   return out;
 }
 
+// Smoothed image gradients of a single-band image (blur, Sobel, magnitude), with its usable
+// area. The full-size temporaries live in the calling task's scratch when there is one
+// (edge_scratch.h), else they are allocated here.
+struct ImageGradients {
+  ImageGradients(const cv::Mat& image, const EdgeOptions& o) {
+    PrepareInput(image, &input, &usable);
+    internal::EdgeScratch* scratch = internal::CurrentEdgeScratch();
+    const auto temporary = [&](int slot, int type) {
+      return scratch != nullptr ? scratch->Get(slot, input.rows, input.cols, type) : cv::Mat();
+    };
+    cv::Mat smoothed = temporary(0, CV_32F);
+    cv::GaussianBlur(input, smoothed, cv::Size(), o.smoothing_sigma_px);
+    gx = temporary(1, CV_32F);
+    gy = temporary(2, CV_32F);
+    cv::Sobel(smoothed, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
+    cv::Sobel(smoothed, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+    magnitude = smoothed;  // the smoothed image is not needed any more: its memory holds this
+    cv::magnitude(gx, gy, magnitude);
+  }
+  cv::Mat input;  // float copy, nodata filled (PrepareInput)
+  UsableArea usable;
+  cv::Mat gx, gy, magnitude;
+};
+
+// Sub-pixel Canny edges of `image` from its gradients with the hysteresis thresholds high, low.
+RimEdges CannyEdges(const cv::Mat& image, const ImageGradients& g, double high, double low) {
+  const double max_mag = UsableMax(g.magnitude, g.usable);
+  if (!(max_mag > high)) return Empty(image, true);
+  // cv::Canny's input: 16-bit gradients. Squared in int, they must stay below 2^15 / sqrt(2)
+  // per component.
+  const double scale = 20000.0 / max_mag;
+  // cv::Canny's integer thresholds on the squared magnitude.
+  const auto squared_threshold = [&](double t) {
+    t = std::min(32767.0, t * scale);
+    return static_cast<int>(std::floor(t > 0.0 ? t * t : t));
+  };
+  internal::EdgeScratch* scratch = internal::CurrentEdgeScratch();
+  const int rows = g.input.rows, cols = g.input.cols;
+  cv::Mat map = scratch != nullptr ? scratch->Get(3, rows + 2, cols + 2, CV_8U)
+                                   : cv::Mat(rows + 2, cols + 2, CV_8U);
+  const size_t count = NonMaximumHysteresis(g.gx, g.gy, static_cast<float>(scale),
+                                            squared_threshold(low), squared_threshold(high), &map);
+  if (count == 0) return Empty(image, true);
+  return Collect(map(cv::Rect(1, 1, cols, rows)), count, g.usable, g.magnitude, g.gx, g.gy, true,
+                 high, low);
+}
+
 }  // namespace
 
 int RimEdges::FirstInRow(int row, int col) const {
@@ -585,41 +647,102 @@ void EdgeOptions::Check() const {
 RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& o) {
   o.Check();
   if (image.rows < 8 || image.cols < 8) return Empty(image, true);
-  cv::Mat input;
-  UsableArea usable;
-  PrepareInput(image, &input, &usable);
-  // Full-size temporaries: in the calling task's scratch when there is one (edge_scratch.h),
-  // else allocated here.
-  internal::EdgeScratch* scratch = internal::CurrentEdgeScratch();
-  const auto temporary = [&](int slot, int type) {
-    return scratch != nullptr ? scratch->Get(slot, input.rows, input.cols, type) : cv::Mat();
-  };
-  cv::Mat f = temporary(0, CV_32F);
-  cv::GaussianBlur(input, f, cv::Size(), o.smoothing_sigma_px);
-  cv::Mat gx = temporary(1, CV_32F), gy = temporary(2, CV_32F);
-  cv::Sobel(f, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
-  cv::Sobel(f, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
-  cv::Mat mag = f;  // the smoothed image is not needed any more: its memory holds the magnitude
-  cv::magnitude(gx, gy, mag);
+  ImageGradients g(image, o);
   double high = 0.0, low = 0.0;
-  if (!AutomaticThresholds(mag, usable, o, &high, &low)) return Empty(image, true);
-  const double max_mag = UsableMax(mag, usable);
-  if (!(max_mag > high)) return Empty(image, true);
-  // cv::Canny's input: 16-bit gradients. Squared in int, they must stay below 2^15 / sqrt(2)
-  // per component.
-  const double scale = 20000.0 / max_mag;
-  // cv::Canny's integer thresholds on the squared magnitude.
-  const auto squared_threshold = [&](double t) {
-    t = std::min(32767.0, t * scale);
-    return static_cast<int>(std::floor(t > 0.0 ? t * t : t));
+  if (!AutomaticThresholds(g.magnitude, g.usable, o, &high, &low)) return Empty(image, true);
+  return CannyEdges(image, g, high, low);
+}
+
+RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::Rect>& regions,
+                                   const EdgeOptions& o) {
+  o.Check();
+  if (image.rows < 8 || image.cols < 8) return Empty(image, true);
+  const cv::Rect whole(0, 0, image.cols, image.rows);
+  for (const cv::Rect& region : regions) {
+    if ((region & whole) != region) {
+      throw Error("crater edges: a region lies outside the " + std::to_string(image.cols) + " x " +
+                  std::to_string(image.rows) + " px image");
+    }
+  }
+  // Blur, Sobel and non-maximum suppression reach 2 px; the margin also lets hysteresis follow
+  // an edge a little way out of its region.
+  constexpr int kMargin = 4;
+  const auto with_margin = [&](const cv::Rect& r) {
+    return cv::Rect(r.x - kMargin, r.y - kMargin, r.width + 2 * kMargin, r.height + 2 * kMargin) &
+           whole;
   };
-  cv::Mat map = scratch != nullptr ? scratch->Get(3, input.rows + 2, input.cols + 2, CV_8U)
-                                   : cv::Mat(input.rows + 2, input.cols + 2, CV_8U);
-  const size_t count = NonMaximumHysteresis(gx, gy, static_cast<float>(scale),
-                                            squared_threshold(low), squared_threshold(high), &map);
-  if (count == 0) return Empty(image, true);
-  return Collect(map(cv::Rect(1, 1, input.cols, input.rows)), count, usable, mag, gx, gy, true,
-                 high, low);
+  // Thresholds: the automatic thresholds' statistic over strips of 9 rows every kStripPeriod
+  // rows (the whole width), about 1/16 of the image: a quantile of ~10^5 samples spread over all
+  // of it, whatever the regions hold.
+  constexpr int kStripRows = 9, kStripPeriod = 144;
+  std::vector<float> values;
+  for (int y = 0; y < image.rows; y += kStripPeriod) {
+    const cv::Rect strip(0, y, image.cols, std::min(kStripRows, image.rows - y));
+    const cv::Rect window = with_margin(strip);
+    if (window.height < 8) continue;
+    const ImageGradients g(image(window), o);
+    SampleStrengths(g.magnitude, g.usable, strip.y - window.y, strip.br().y - window.y, &values);
+  }
+  double high = 0.0, low = 0.0;
+  if (!ThresholdsFromStrengths(values, o, &high, &low)) return Empty(image, true);
+  // Each region's edges with those thresholds, in image pixels; then in raster order.
+  struct Placed {
+    int row, col;
+    RimEdgePoint point;
+  };
+  std::vector<Placed> placed;
+  for (const cv::Rect& region : regions) {
+    const cv::Rect window = with_margin(region);
+    if (window.width < 8 || window.height < 8) continue;
+    ImageGradients g(image(window), o);
+    const RimEdges edges = CannyEdges(image(window), g, high, low);
+    for (int r = region.y - window.y; r < region.br().y - window.y; ++r) {
+      for (int i = edges.FirstInRow(r, region.x - window.x);
+           i < edges.row_start[static_cast<size_t>(r) + 1] &&
+           edges.column[static_cast<size_t>(i)] < region.br().x - window.x;
+           ++i) {
+        RimEdgePoint p = edges.points[static_cast<size_t>(i)];
+        p.x += static_cast<float>(window.x);
+        p.y += static_cast<float>(window.y);
+        placed.push_back({r + window.y, edges.column[static_cast<size_t>(i)] + window.x, p});
+      }
+    }
+  }
+  // By row (a stable counting sort: each region's points of a row stay in column order), then
+  // by column within the rows that regions share.
+  std::vector<int> row_start(static_cast<size_t>(image.rows) + 1, 0);
+  for (const Placed& p : placed) ++row_start[static_cast<size_t>(p.row) + 1];
+  for (size_t r = 1; r < row_start.size(); ++r) row_start[r] += row_start[r - 1];
+  {
+    std::vector<Placed> by_row(placed.size());
+    std::vector<int> next(row_start.begin(), row_start.end() - 1);
+    for (const Placed& p : placed)
+      by_row[static_cast<size_t>(next[static_cast<size_t>(p.row)]++)] = p;
+    placed.swap(by_row);
+  }
+  const auto by_column = [](const Placed& a, const Placed& b) { return a.col < b.col; };
+  for (size_t r = 0; r + 1 < row_start.size(); ++r) {
+    const auto begin = placed.begin() + row_start[r], end = placed.begin() + row_start[r + 1];
+    if (!std::is_sorted(begin, end, by_column)) std::sort(begin, end, by_column);
+  }
+  // Overlapping regions found some pixels twice: one point per pixel.
+  placed.erase(std::unique(placed.begin(), placed.end(),
+                           [](const Placed& a, const Placed& b) {
+                             return a.row == b.row && a.col == b.col;
+                           }),
+               placed.end());
+  RimEdges out = Empty(image, true);
+  out.high_threshold = high;
+  out.low_threshold = low;
+  out.points.reserve(placed.size());
+  out.column.reserve(placed.size());
+  for (const Placed& p : placed) {
+    out.points.push_back(p.point);
+    out.column.push_back(p.col);
+    ++out.row_start[static_cast<size_t>(p.row) + 1];
+  }
+  for (size_t r = 1; r < out.row_start.size(); ++r) out.row_start[r] += out.row_start[r - 1];
+  return out;
 }
 
 RimEdges DetectDtmCrests(const cv::Mat& dtm, double posting, const EdgeOptions& o) {

@@ -115,6 +115,96 @@ TEST(DetectImageEdges, EdgePixelsAreCvCannysOnTheSameGradients) {
   EXPECT_EQ(cv::countNonZero(differ), 0) << "of " << cv::countNonZero(ours) << " edge pixels";
 }
 
+// The edge map of `edges` (255 at each point's pixel) and a check of the layout rim_edges.h
+// promises: raster order, one point per pixel, each point within its pixel's reach.
+cv::Mat EdgePixels(const RimEdges& edges) {
+  cv::Mat map = cv::Mat::zeros(edges.rows, edges.cols, CV_8U);
+  EXPECT_EQ(edges.row_start.size(), static_cast<size_t>(edges.rows) + 1);
+  EXPECT_EQ(edges.row_start.back(), static_cast<int>(edges.points.size()));
+  for (int r = 0; r < edges.rows; ++r) {
+    for (int i = edges.row_start[static_cast<size_t>(r)]; i < edges.row_start[r + 1]; ++i) {
+      const int c = edges.column[static_cast<size_t>(i)];
+      if (i > edges.row_start[static_cast<size_t>(r)]) {
+        EXPECT_LT(edges.column[static_cast<size_t>(i) - 1], c) << "row " << r;
+      }
+      const RimEdgePoint& p = edges.points[static_cast<size_t>(i)];
+      EXPECT_LT(std::abs(p.x - (static_cast<float>(c) + 0.5f)), 1.5f);
+      EXPECT_LT(std::abs(p.y - (static_cast<float>(r) + 0.5f)), 1.5f);
+      map.at<uchar>(r, c) = 255;
+    }
+  }
+  return map;
+}
+
+// Inside its regions, DetectImageEdgesInRegions finds DetectImageEdges' points; outside, none.
+// They differ only by the thresholds' sampling (every 3rd row of strips every 144 rows instead
+// of every 3rd row), the 16-bit rounding and hysteresis cut 4 px beyond a region.
+TEST(DetectImageEdgesInRegions, InsideTheRegionsTheEdgesOfTheWholeImage) {
+  cv::Mat image;
+  FieldScene().products.image.bands[0].convertTo(image, CV_32F);
+  const EdgeOptions options;
+  const RimEdges whole = DetectImageEdges(image, options);
+  // Two regions side by side in the same rows, one on the image's corner, one overlapping
+  // another (its shared pixels come once).
+  const std::vector<cv::Rect> regions = {{100, 100, 200, 64},
+                                         {360, 120, 150, 64},
+                                         {0, 0, 96, 96},
+                                         {300, 400, 300, 200},
+                                         {500, 500, 200, 150}};
+  const RimEdges regional = DetectImageEdgesInRegions(image, regions, options);
+  EXPECT_NEAR(regional.high_threshold, whole.high_threshold, 0.03 * whole.high_threshold);
+  EXPECT_EQ(regional.low_threshold, options.low_ratio * regional.high_threshold);
+  const cv::Mat theirs = EdgePixels(whole), ours = EdgePixels(regional);
+  cv::Mat inside = cv::Mat::zeros(image.size(), CV_8U);
+  for (const cv::Rect& r : regions) inside(r).setTo(255);
+  EXPECT_EQ(cv::countNonZero(ours & ~inside), 0);
+  const cv::Mat expected = theirs & inside;
+  ASSERT_GT(cv::countNonZero(expected), 5000);
+  cv::Mat differ;
+  cv::compare(ours, expected, differ, cv::CMP_NE);
+  EXPECT_LT(cv::countNonZero(differ), 0.02 * cv::countNonZero(expected))
+      << "of " << cv::countNonZero(expected) << " edge pixels";
+  // Where both have a point, it is the same point (the same gradients, but for float rounding:
+  // OpenCV filters a region with other vector alignments).
+  int compared = 0;
+  for (int r = 0; r < image.rows; ++r) {
+    for (int i = regional.row_start[static_cast<size_t>(r)]; i < regional.row_start[r + 1]; ++i) {
+      const int j = whole.FirstInRow(r, regional.column[static_cast<size_t>(i)]);
+      if (j == whole.row_start[static_cast<size_t>(r) + 1] ||
+          whole.column[static_cast<size_t>(j)] != regional.column[static_cast<size_t>(i)]) {
+        continue;
+      }
+      const RimEdgePoint& a = regional.points[static_cast<size_t>(i)];
+      const RimEdgePoint& b = whole.points[static_cast<size_t>(j)];
+      EXPECT_NEAR(a.x, b.x, 2e-3);
+      EXPECT_NEAR(a.y, b.y, 2e-3);
+      EXPECT_NEAR(a.nx, b.nx, 1e-3);
+      EXPECT_NEAR(a.strength, b.strength, 1e-3 * b.strength);
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 5000);
+}
+
+TEST(DetectImageEdgesInRegions, NoRegionsNoPointsAndARegionOutsideTheImageIsAnError) {
+  cv::Mat image;
+  FieldScene().products.image.bands[0].convertTo(image, CV_32F);
+  const RimEdges none = DetectImageEdgesInRegions(image, {});
+  EXPECT_TRUE(none.points.empty());
+  EXPECT_EQ(none.rows, image.rows);
+  EXPECT_GT(none.high_threshold, 0.0);  // the image's thresholds all the same
+  try {
+    DetectImageEdgesInRegions(image, {{image.cols - 10, 0, 20, 20}});
+    ADD_FAILURE() << "no error for a region beyond the right border";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("outside"), std::string::npos) << error.what();
+  }
+  // A constant image: no thresholds, no points, no error.
+  EXPECT_TRUE(
+      DetectImageEdgesInRegions(cv::Mat(300, 300, CV_32F, cv::Scalar(7.0f)), {{10, 10, 100, 100}})
+          .points.empty());
+}
+
 TEST(SuppressDuplicateCraters, OfEquallyConfidentDuplicatesKeepsTheFirst) {
   // 20 craters in a row, then a duplicate of each (0.5 px off), all equally confident, then a
   // less confident duplicate of each: the first 20 stay, in their order. (Enough of them that
