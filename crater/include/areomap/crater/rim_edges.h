@@ -59,7 +59,7 @@ RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& options = {})
 // DetectImageEdges restricted to `regions` (rectangles inside the image, [px]): the edges of the
 // pixels in them, in image coordinates and raster order, each region's computed on it plus a
 // 4 px margin of the image around it. The thresholds are the automatic ones of the whole image,
-// estimated on strips of 9 rows every 144 rows (about 1/16 of the image) instead of every row:
+// estimated on strips of 6 rows every 72 rows (1/12 of the samples) instead of the whole image:
 // they do not depend on the regions. Inside the regions the edges are those of DetectImageEdges
 // but for the thresholds' sampling, the 16-bit gradient rounding (scaled to each region's
 // largest gradient) and hysteresis followed at most 4 px beyond a region. For a search that
