@@ -629,13 +629,16 @@ double DistanceOutside(const cv::Rect2d* core, const Eigen::Vector2d& p) {
   return std::hypot(dx, dy);
 }
 
-// Where the upsampled level (scale 0.5) is worth searching: the rows of 16 px blocks of the
-// full-resolution level holding >= kMinArcPoints edge points of at least `min_strength`, and the
-// blocks next to them (a small crater's rim lies within a block of any of its points); as
-// rectangles of upsampled pixels, one per run of such blocks along a block row.
+// Where the upsampled level (scale 0.5) is worth searching: the 8 px blocks of the
+// full-resolution level holding >= 4 edge points of at least `min_strength` (a rim crossing the
+// block has about 8 edge points, most of them that strong when its mean is), and the blocks next
+// to them (a small crater's rim lies within a block or two of its strong points); as rectangles
+// of upsampled pixels, one per run of such blocks along a block row. Measured against 16 px
+// blocks with >= 5 points: half the area, the same craters on the bench tile and HRSC.
 std::vector<cv::Rect> UpsampledSearchRegions(const RimEdges& full_resolution, double min_strength,
                                              cv::Size upsampled_size) {
-  constexpr int kBlock = 16;
+  constexpr int kBlock = 8;
+  constexpr int kMinStrongPoints = 4;
   const int block_rows = (full_resolution.rows + kBlock - 1) / kBlock;
   const int block_cols = (full_resolution.cols + kBlock - 1) / kBlock;
   cv::Mat strong = cv::Mat::zeros(block_rows, block_cols, CV_32S);
@@ -646,7 +649,7 @@ std::vector<cv::Rect> UpsampledSearchRegions(const RimEdges& full_resolution, do
     ++strong.at<int>(r, c);
   }
   cv::Mat searched;
-  cv::dilate(strong >= kMinArcPoints, searched, cv::Mat::ones(3, 3, CV_8U));
+  cv::dilate(strong >= kMinStrongPoints, searched, cv::Mat::ones(3, 3, CV_8U));
   std::vector<cv::Rect> regions;
   const cv::Rect whole(0, 0, upsampled_size.width, upsampled_size.height);
   const int step = 2 * kBlock;  // a block in upsampled pixels

@@ -176,13 +176,14 @@ TEST(DetectCratersInRaster, SmallCratersOnTheUpsampledLevelOfEveryTile) {
               1.5 / static_cast<double>(truth.size()));
   EXPECT_NEAR(everywhere_score.all.precision, score.all.precision, 0.02);
   const CraterScore same = ScoreCraters(CirclesOf(everywhere), CirclesOf(found), {8.0, 1e9});
-  EXPECT_GE(same.matches.size() + 1, found.size());
+  size_t same_fits = 0;
   for (const auto& [e, f] : same.matches) {
-    EXPECT_LT((everywhere[static_cast<size_t>(e)].ellipse.center -
-               found[static_cast<size_t>(f)].ellipse.center)
-                  .norm(),
-              0.1);
+    const double shift = (everywhere[static_cast<size_t>(e)].ellipse.center -
+                          found[static_cast<size_t>(f)].ellipse.center)
+                             .norm();
+    if (shift < 0.1) ++same_fits;
   }
+  EXPECT_GE(same_fits + 1, found.size());
   std::filesystem::remove_all(dir);
 }
 
