@@ -6,9 +6,10 @@
 // A tiled detection (DetectCratersInRaster) hands each tile task one EdgeScratch from an
 // EdgeScratchPool for the duration of the call: consecutive tiles and pyramid levels reuse the
 // memory instead of allocating it afresh, each page faulted in again (in a VM about 8 us a
-// page). Per pixel of a padded tile a scratch holds 17 bytes, or 72 with the upsampled level
-// (for 2304 px tiles 90 or 380 MB). Memory stays bounded by the tile size times the tiles in
-// flight; the pool frees everything when it is destroyed.
+// page). Per pixel of a padded tile a scratch reserves 17 bytes, or 72 with the upsampled level
+// (for 2304 px tiles 90 or 380 MB); pages are touched only as far as used (the upsampled level's
+// edge temporaries hold one search region or threshold strip at a time). Memory stays bounded
+// by the tile size times the tiles in flight; the pool frees everything when it is destroyed.
 //
 // Thread safety: an EdgeScratch is used by one task at a time. UseEdgeScratch makes it the
 // calling thread's current scratch until it goes out of scope, restoring the previous one: a
