@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core/hal/intrin.hpp>
@@ -627,6 +628,55 @@ RimEdges CannyEdges(const cv::Mat& image, const ImageGradients& g, double high, 
                  high, low);
 }
 
+// An edge point with the image pixel it belongs to.
+struct PlacedEdgePoint {
+  int row, col;
+  RimEdgePoint point;
+};
+
+// Image edges (thresholds high, low) from points of `image`'s pixels in any order: in raster
+// order, one point per pixel (the first of equals).
+RimEdges InRasterOrder(std::vector<PlacedEdgePoint> placed, const cv::Mat& image, double high,
+                       double low) {
+  // By row (a stable counting sort: each region's points of a row stay in column order), then
+  // by column where the points of several regions share a row.
+  std::vector<int> row_start(static_cast<size_t>(image.rows) + 1, 0);
+  for (const PlacedEdgePoint& p : placed) ++row_start[static_cast<size_t>(p.row) + 1];
+  for (size_t r = 1; r < row_start.size(); ++r) row_start[r] += row_start[r - 1];
+  {
+    std::vector<PlacedEdgePoint> by_row(placed.size());
+    std::vector<int> next(row_start.begin(), row_start.end() - 1);
+    for (const PlacedEdgePoint& p : placed)
+      by_row[static_cast<size_t>(next[static_cast<size_t>(p.row)]++)] = p;
+    placed.swap(by_row);
+  }
+  const auto by_column = [](const PlacedEdgePoint& a, const PlacedEdgePoint& b) {
+    return a.col < b.col;
+  };
+  for (size_t r = 0; r + 1 < row_start.size(); ++r) {
+    const auto begin = placed.begin() + row_start[r], end = placed.begin() + row_start[r + 1];
+    if (!std::is_sorted(begin, end, by_column)) std::stable_sort(begin, end, by_column);
+  }
+  // A pixel found twice (overlapping regions): its first point.
+  placed.erase(std::unique(placed.begin(), placed.end(),
+                           [](const PlacedEdgePoint& a, const PlacedEdgePoint& b) {
+                             return a.row == b.row && a.col == b.col;
+                           }),
+               placed.end());
+  RimEdges out = Empty(image, true);
+  out.high_threshold = high;
+  out.low_threshold = low;
+  out.points.reserve(placed.size());
+  out.column.reserve(placed.size());
+  for (const PlacedEdgePoint& p : placed) {
+    out.points.push_back(p.point);
+    out.column.push_back(p.col);
+    ++out.row_start[static_cast<size_t>(p.row) + 1];
+  }
+  for (size_t r = 1; r < out.row_start.size(); ++r) out.row_start[r] += out.row_start[r - 1];
+  return out;
+}
+
 }  // namespace
 
 int RimEdges::FirstInRow(int row, int col) const {
@@ -664,8 +714,11 @@ RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::R
                   std::to_string(image.rows) + " px image");
     }
   }
-  // Blur, Sobel and non-maximum suppression reach 2 px; the margin also lets hysteresis follow
-  // an edge a little way out of its region.
+  // In a view of a float image OpenCV's filters read the pixels beyond the window, so there the
+  // gradients are the whole image's; the margin keeps a region's pixels inside the window's
+  // usable interior (2 px) with their suppression neighbours, covers the smoothing and Sobel
+  // reach (4 px) of an input that had to be copied (another depth, nodata filled with the
+  // window's mean), and lets hysteresis follow an edge a little way out of its region.
   constexpr int kMargin = 4;
   const auto with_margin = [&](const cv::Rect& r) {
     return cv::Rect(r.x - kMargin, r.y - kMargin, r.width + 2 * kMargin, r.height + 2 * kMargin) &
@@ -689,11 +742,7 @@ RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::R
   double high = 0.0, low = 0.0;
   if (!ThresholdsFromStrengths(values, o, &high, &low)) return Empty(image, true);
   // Each region's edges with those thresholds, in image pixels; then in raster order.
-  struct Placed {
-    int row, col;
-    RimEdgePoint point;
-  };
-  std::vector<Placed> placed;
+  std::vector<PlacedEdgePoint> placed;
   for (const cv::Rect& region : regions) {
     const cv::Rect window = with_margin(region);
     if (window.width < 8 || window.height < 8) continue;
@@ -711,41 +760,7 @@ RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::R
       }
     }
   }
-  // By row (a stable counting sort: each region's points of a row stay in column order), then
-  // by column within the rows that regions share.
-  std::vector<int> row_start(static_cast<size_t>(image.rows) + 1, 0);
-  for (const Placed& p : placed) ++row_start[static_cast<size_t>(p.row) + 1];
-  for (size_t r = 1; r < row_start.size(); ++r) row_start[r] += row_start[r - 1];
-  {
-    std::vector<Placed> by_row(placed.size());
-    std::vector<int> next(row_start.begin(), row_start.end() - 1);
-    for (const Placed& p : placed)
-      by_row[static_cast<size_t>(next[static_cast<size_t>(p.row)]++)] = p;
-    placed.swap(by_row);
-  }
-  const auto by_column = [](const Placed& a, const Placed& b) { return a.col < b.col; };
-  for (size_t r = 0; r + 1 < row_start.size(); ++r) {
-    const auto begin = placed.begin() + row_start[r], end = placed.begin() + row_start[r + 1];
-    if (!std::is_sorted(begin, end, by_column)) std::sort(begin, end, by_column);
-  }
-  // Overlapping regions found some pixels twice: one point per pixel.
-  placed.erase(std::unique(placed.begin(), placed.end(),
-                           [](const Placed& a, const Placed& b) {
-                             return a.row == b.row && a.col == b.col;
-                           }),
-               placed.end());
-  RimEdges out = Empty(image, true);
-  out.high_threshold = high;
-  out.low_threshold = low;
-  out.points.reserve(placed.size());
-  out.column.reserve(placed.size());
-  for (const Placed& p : placed) {
-    out.points.push_back(p.point);
-    out.column.push_back(p.col);
-    ++out.row_start[static_cast<size_t>(p.row) + 1];
-  }
-  for (size_t r = 1; r < out.row_start.size(); ++r) out.row_start[r] += out.row_start[r - 1];
-  return out;
+  return InRasterOrder(std::move(placed), image, high, low);
 }
 
 RimEdges DetectDtmCrests(const cv::Mat& dtm, double posting, const EdgeOptions& o) {

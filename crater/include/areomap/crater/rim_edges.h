@@ -62,7 +62,8 @@ RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& options = {})
 // estimated on strips of 6 rows every 72 rows (1/12 of the samples) instead of the whole image:
 // they do not depend on the regions. Inside the regions the edges are those of DetectImageEdges
 // but for the thresholds' sampling, the 16-bit gradient rounding (scaled to each region's
-// largest gradient) and hysteresis followed at most 4 px beyond a region. For a search that
+// largest gradient), nodata filled with each window's mean, and hysteresis followed at most 4 px
+// beyond a region. For a search that
 // only some parts of a large image need: the work is that of the regions plus the strips.
 // Throws areomap::Error when a region leaves the image; overlapping regions give each pixel's
 // point once.
