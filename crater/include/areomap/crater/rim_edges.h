@@ -63,10 +63,9 @@ RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& options = {})
 // they do not depend on the regions. Inside the regions the edges are those of DetectImageEdges
 // but for the thresholds' sampling, the 16-bit gradient rounding (scaled to each region's
 // largest gradient), nodata filled with each window's mean, and hysteresis followed at most 4 px
-// beyond a region. For a search that
-// only some parts of a large image need: the work is that of the regions plus the strips.
-// Throws areomap::Error when a region leaves the image; overlapping regions give each pixel's
-// point once.
+// beyond a region. For a search that only some parts of a large image need: the work is that
+// of the regions plus the strips. Throws areomap::Error when a region leaves the image;
+// overlapping regions give each pixel's point once.
 RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::Rect>& regions,
                                    const EdgeOptions& options = {});
 
