@@ -404,10 +404,19 @@ void ToInt16(const float* g, float scale, int n, short* out) {
   for (; i < n; ++i) out[i] = cv::saturate_cast<short>(g[i] * scale);
 }
 
-// out[c] = dx[c]^2 + dy[c]^2 for c in [0, n).
+// out[c] = dx[c]^2 + dy[c]^2 for c in [0, n), at most INT_MAX. Usable pixels' gradients stay
+// below 2^15 / sqrt(2) per component (the 16-bit scale comes from their largest magnitude), but
+// those outside the usable area (a window's border, next to nodata filled with a mean) may
+// saturate at -2^15 in both, whose sum 2^31 an int cannot hold; capped, they still exceed every
+// usable pixel's magnitude, as before.
 AREOMAP_ALSO_FOR_AVX2
 void SquaredMagnitudes(const short* dx, const short* dy, int n, int* out) {
-  for (int c = 0; c < n; ++c) out[c] = int{dx[c]} * dx[c] + int{dy[c]} * dy[c];
+  constexpr uint32_t kIntMax = std::numeric_limits<int>::max();
+  for (int c = 0; c < n; ++c) {
+    const uint32_t sum =
+        static_cast<uint32_t>(int{dx[c]} * dx[c]) + static_cast<uint32_t>(int{dy[c]} * dy[c]);
+    out[c] = static_cast<int>(sum < kIntMax ? sum : kIntMax);
+  }
 }
 
 // OpenCV's CANNY_SHIFT and TG22 = round(tan(22.5 degrees) 2^15); tan(67.5 degrees) 2^15 =
