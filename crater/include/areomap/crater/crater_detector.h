@@ -106,7 +106,7 @@ struct CraterDetectorOptions {
   // Images: search the upsampled copy only around 8 px blocks of the full-resolution image
   // holding at least 4 edge points as strong as a rim's mean must be (0.8 x min_edge_contrast x
   // the high Canny threshold); a small crater that can pass the edge contrast test has them.
-  // false: the whole copy (DTMs always), 1.6x the time on the bench's 10000^2 tile.
+  // false: the whole copy (DTMs always), 1.4-1.9x the time on the bench's 10000^2 tile.
   bool upsample_only_near_strong_edges = true;
   // false: each crater gets its geometric fit on the pyramid level where it was found, not
   // refined down to full resolution (for a caller that refines it itself, e.g. the overview of
