@@ -44,6 +44,10 @@ constexpr size_t kMaxFitPoints = 128;
 // x the high Canny threshold): a rim passing that threshold on average has most edges above half
 // of it, while texture edges mostly stay below.
 constexpr double kArcStrengthShare = 0.5;
+// A group of arcs is rejected before any fit when its mean edge strength is below this share of
+// the rim strength threshold (the fitted rim is checked at the full threshold); the upsampled
+// level is searched around full-resolution edges this strong (UpsampledSearchRegions).
+constexpr double kGroupStrengthShare = 0.8;
 // Robust loop: reject when the first (most tolerant) support covers less than this share of
 // min_coverage; stop refitting once centre and axes move less than kConvergedShift [px] together.
 constexpr double kEarlyCoverageShare = 0.75;
@@ -801,12 +805,10 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
     full_level.edges = EdgesOf(full_level.image, source, o, full_level.scale);
     full_level.has_edges = true;
     Level& up = levels.front();
+    const double strong =
+        kGroupStrengthShare * o.min_edge_contrast * full_level.edges.high_threshold;
     up.edges = DetectImageEdgesInRegions(
-        up.image,
-        UpsampledSearchRegions(full_level.edges,
-                               0.8 * o.min_edge_contrast * full_level.edges.high_threshold,
-                               up.image.size()),
-        o.edges);
+        up.image, UpsampledSearchRegions(full_level.edges, strong, up.image.size()), o.edges);
     up.has_edges = true;
   }
   while (true) {
@@ -867,7 +869,7 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
       // Cheap rejection before any fit: texture edges are weak (the rim's full support is
       // checked again after fitting).
       if (strength / static_cast<double>(indices.size()) <
-          0.8 * o.min_edge_contrast * level.edges.high_threshold) {
+          kGroupStrengthShare * o.min_edge_contrast * level.edges.high_threshold) {
         return;
       }
       std::vector<Eigen::Vector2d> points;
