@@ -8,7 +8,6 @@
 #include <cstring>
 #include <limits>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include <opencv2/core/hal/intrin.hpp>
@@ -645,44 +644,40 @@ struct PlacedEdgePoint {
 
 // Image edges (thresholds high, low) from points of `image`'s pixels in any order: in raster
 // order, one point per pixel (the first of equals).
-RimEdges InRasterOrder(std::vector<PlacedEdgePoint> placed, const cv::Mat& image, double high,
-                       double low) {
-  // By row (a stable counting sort: each region's points of a row stay in column order), then
-  // by column where the points of several regions share a row.
+RimEdges InRasterOrder(const std::vector<PlacedEdgePoint>& placed, const cv::Mat& image,
+                       double high, double low) {
+  // By row (a stable counting sort: each region's points of a row stay in column order).
   std::vector<int> row_start(static_cast<size_t>(image.rows) + 1, 0);
   for (const PlacedEdgePoint& p : placed) ++row_start[static_cast<size_t>(p.row) + 1];
   for (size_t r = 1; r < row_start.size(); ++r) row_start[r] += row_start[r - 1];
-  {
-    std::vector<PlacedEdgePoint> by_row(placed.size());
-    std::vector<int> next(row_start.begin(), row_start.end() - 1);
-    for (const PlacedEdgePoint& p : placed)
-      by_row[static_cast<size_t>(next[static_cast<size_t>(p.row)]++)] = p;
-    placed.swap(by_row);
+  std::vector<PlacedEdgePoint> by_row(placed.size());
+  std::vector<int> next(row_start.begin(), row_start.end() - 1);
+  for (const PlacedEdgePoint& p : placed) {
+    by_row[static_cast<size_t>(next[static_cast<size_t>(p.row)]++)] = p;
   }
-  const auto by_column = [](const PlacedEdgePoint& a, const PlacedEdgePoint& b) {
-    return a.col < b.col;
-  };
-  for (size_t r = 0; r + 1 < row_start.size(); ++r) {
-    const auto begin = placed.begin() + row_start[r], end = placed.begin() + row_start[r + 1];
-    if (!std::is_sorted(begin, end, by_column)) std::stable_sort(begin, end, by_column);
-  }
-  // A pixel found twice (overlapping regions): its first point.
-  placed.erase(std::unique(placed.begin(), placed.end(),
-                           [](const PlacedEdgePoint& a, const PlacedEdgePoint& b) {
-                             return a.row == b.row && a.col == b.col;
-                           }),
-               placed.end());
+  // Then by column where the points of several regions share a row; a pixel found twice
+  // (overlapping regions) keeps its first point.
   RimEdges out = Empty(image, true);
   out.high_threshold = high;
   out.low_threshold = low;
   out.points.reserve(placed.size());
   out.column.reserve(placed.size());
-  for (const PlacedEdgePoint& p : placed) {
-    out.points.push_back(p.point);
-    out.column.push_back(p.col);
-    ++out.row_start[static_cast<size_t>(p.row) + 1];
+  const auto by_column = [](const PlacedEdgePoint& a, const PlacedEdgePoint& b) {
+    return a.col < b.col;
+  };
+  for (size_t r = 0; r + 1 < row_start.size(); ++r) {
+    const auto begin = by_row.begin() + row_start[r], end = by_row.begin() + row_start[r + 1];
+    if (!std::is_sorted(begin, end, by_column)) std::stable_sort(begin, end, by_column);
+    for (auto p = begin; p != end; ++p) {
+      if (out.column.size() > static_cast<size_t>(out.row_start[r]) &&
+          out.column.back() == p->col) {
+        continue;
+      }
+      out.points.push_back(p->point);
+      out.column.push_back(p->col);
+    }
+    out.row_start[r + 1] = static_cast<int>(out.points.size());
   }
-  for (size_t r = 1; r < out.row_start.size(); ++r) out.row_start[r] += out.row_start[r - 1];
   return out;
 }
 
@@ -769,7 +764,7 @@ RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::R
       }
     }
   }
-  return InRasterOrder(std::move(placed), image, high, low);
+  return InRasterOrder(placed, image, high, low);
 }
 
 RimEdges DetectDtmCrests(const cv::Mat& dtm, double posting, const EdgeOptions& o) {
