@@ -52,6 +52,35 @@ SmoothedGradient SmoothedGradientOf(const cv::Mat& image, const EdgeOptions& opt
   return g;
 }
 
+// The edge map of `edges`: 255 at each point's pixel.
+cv::Mat EdgePixels(const RimEdges& edges) {
+  cv::Mat map = cv::Mat::zeros(edges.rows, edges.cols, CV_8U);
+  for (int r = 0; r < edges.rows; ++r) {
+    for (int i = edges.row_start[static_cast<size_t>(r)]; i < edges.row_start[r + 1]; ++i) {
+      map.at<uchar>(r, edges.column[static_cast<size_t>(i)]) = 255;
+    }
+  }
+  return map;
+}
+
+// The layout rim_edges.h promises: raster order, one point per pixel, each point within its
+// pixel's reach.
+void ExpectRasterOrder(const RimEdges& edges) {
+  ASSERT_EQ(edges.row_start.size(), static_cast<size_t>(edges.rows) + 1);
+  EXPECT_EQ(edges.row_start.back(), static_cast<int>(edges.points.size()));
+  for (int r = 0; r < edges.rows; ++r) {
+    for (int i = edges.row_start[static_cast<size_t>(r)]; i < edges.row_start[r + 1]; ++i) {
+      const int c = edges.column[static_cast<size_t>(i)];
+      if (i > edges.row_start[static_cast<size_t>(r)]) {
+        EXPECT_LT(edges.column[static_cast<size_t>(i) - 1], c) << "row " << r;
+      }
+      const RimEdgePoint& p = edges.points[static_cast<size_t>(i)];
+      EXPECT_LT(std::abs(p.x - (static_cast<float>(c) + 0.5f)), 1.5f);
+      EXPECT_LT(std::abs(p.y - (static_cast<float>(r) + 0.5f)), 1.5f);
+    }
+  }
+}
+
 TEST(DetectImageEdges, HysteresisThresholdsAreTheStrengthQuantilesExactly) {
   // The header's rule, recomputed here with std::nth_element on the same samples (every 3rd
   // pixel of every 3rd row, at least 2 px inside the border) of the same smoothed gradient
@@ -103,37 +132,11 @@ TEST(DetectImageEdges, EdgePixelsAreCvCannysOnTheSameGradients) {
   g.x.convertTo(dx, CV_16S, static_cast<float>(scale));
   g.y.convertTo(dy, CV_16S, static_cast<float>(scale));
   cv::Canny(dx, dy, canny, edges.low_threshold * scale, edges.high_threshold * scale, true);
-  cv::Mat ours = cv::Mat::zeros(image.size(), CV_8U);
-  for (int r = 0; r < edges.rows; ++r) {
-    for (int i = edges.row_start[static_cast<size_t>(r)]; i < edges.row_start[r + 1]; ++i) {
-      ours.at<uchar>(r, edges.column[static_cast<size_t>(i)]) = 255;
-    }
-  }
+  const cv::Mat ours = EdgePixels(edges);
   ASSERT_GT(cv::countNonZero(ours), 5000);
   cv::Mat differ;
   cv::compare(ours(interior), canny(interior), differ, cv::CMP_NE);
   EXPECT_EQ(cv::countNonZero(differ), 0) << "of " << cv::countNonZero(ours) << " edge pixels";
-}
-
-// The edge map of `edges` (255 at each point's pixel) and a check of the layout rim_edges.h
-// promises: raster order, one point per pixel, each point within its pixel's reach.
-cv::Mat EdgePixels(const RimEdges& edges) {
-  cv::Mat map = cv::Mat::zeros(edges.rows, edges.cols, CV_8U);
-  EXPECT_EQ(edges.row_start.size(), static_cast<size_t>(edges.rows) + 1);
-  EXPECT_EQ(edges.row_start.back(), static_cast<int>(edges.points.size()));
-  for (int r = 0; r < edges.rows; ++r) {
-    for (int i = edges.row_start[static_cast<size_t>(r)]; i < edges.row_start[r + 1]; ++i) {
-      const int c = edges.column[static_cast<size_t>(i)];
-      if (i > edges.row_start[static_cast<size_t>(r)]) {
-        EXPECT_LT(edges.column[static_cast<size_t>(i) - 1], c) << "row " << r;
-      }
-      const RimEdgePoint& p = edges.points[static_cast<size_t>(i)];
-      EXPECT_LT(std::abs(p.x - (static_cast<float>(c) + 0.5f)), 1.5f);
-      EXPECT_LT(std::abs(p.y - (static_cast<float>(r) + 0.5f)), 1.5f);
-      map.at<uchar>(r, c) = 255;
-    }
-  }
-  return map;
 }
 
 // Inside its regions, DetectImageEdgesInRegions finds DetectImageEdges' points; outside, none.
@@ -154,6 +157,8 @@ TEST(DetectImageEdgesInRegions, InsideTheRegionsTheEdgesOfTheWholeImage) {
   const RimEdges regional = DetectImageEdgesInRegions(image, regions, options);
   EXPECT_NEAR(regional.high_threshold, whole.high_threshold, 0.01 * whole.high_threshold);
   EXPECT_EQ(regional.low_threshold, options.low_ratio * regional.high_threshold);
+  ExpectRasterOrder(whole);
+  ExpectRasterOrder(regional);
   const cv::Mat theirs = EdgePixels(whole), ours = EdgePixels(regional);
   cv::Mat inside = cv::Mat::zeros(image.size(), CV_8U);
   for (const cv::Rect& r : regions) inside(r).setTo(255);
