@@ -613,10 +613,10 @@ struct ImageGradients {
   cv::Mat gx, gy, magnitude;
 };
 
-// Sub-pixel Canny edges of `image` from its gradients with the hysteresis thresholds high, low.
-RimEdges CannyEdges(const cv::Mat& image, const ImageGradients& g, double high, double low) {
+// Sub-pixel Canny edges of the image of `g` with the hysteresis thresholds high, low.
+RimEdges CannyEdges(const ImageGradients& g, double high, double low) {
   const double max_mag = UsableMax(g.magnitude, g.usable);
-  if (!(max_mag > high)) return Empty(image, true);
+  if (!(max_mag > high)) return Empty(g.input, true);
   // cv::Canny's input: 16-bit gradients. Squared in int, they must stay below 2^15 / sqrt(2)
   // per component.
   const double scale = 20000.0 / max_mag;
@@ -631,7 +631,7 @@ RimEdges CannyEdges(const cv::Mat& image, const ImageGradients& g, double high, 
                                    : cv::Mat(rows + 2, cols + 2, CV_8U);
   const size_t count = NonMaximumHysteresis(g.gx, g.gy, static_cast<float>(scale),
                                             squared_threshold(low), squared_threshold(high), &map);
-  if (count == 0) return Empty(image, true);
+  if (count == 0) return Empty(g.input, true);
   return Collect(map(cv::Rect(1, 1, cols, rows)), count, g.usable, g.magnitude, g.gx, g.gy, true,
                  high, low);
 }
@@ -704,7 +704,7 @@ RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& o) {
   ImageGradients g(image, o);
   double high = 0.0, low = 0.0;
   if (!AutomaticThresholds(g.magnitude, g.usable, o, &high, &low)) return Empty(image, true);
-  return CannyEdges(image, g, high, low);
+  return CannyEdges(g, high, low);
 }
 
 RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::Rect>& regions,
@@ -750,8 +750,7 @@ RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::R
   for (const cv::Rect& region : regions) {
     const cv::Rect window = with_margin(region);
     if (window.width < 8 || window.height < 8) continue;
-    ImageGradients g(image(window), o);
-    const RimEdges edges = CannyEdges(image(window), g, high, low);
+    const RimEdges edges = CannyEdges(ImageGradients(image(window), o), high, low);
     for (int r = region.y - window.y; r < region.br().y - window.y; ++r) {
       for (int i = edges.FirstInRow(r, region.x - window.x);
            i < edges.row_start[static_cast<size_t>(r) + 1] &&
