@@ -633,16 +633,17 @@ double DistanceOutside(const cv::Rect2d* core, const Eigen::Vector2d& p) {
   return std::hypot(dx, dy);
 }
 
-// Where the upsampled level (scale 0.5) is worth searching: the 8 px blocks of the
-// full-resolution level holding >= 4 edge points of at least `min_strength` (a rim crossing the
-// block has about 8 edge points, most of them that strong when its mean is), and the blocks next
-// to them (a small crater's rim lies within a block or two of its strong points); as rectangles
-// of upsampled pixels, one per run of such blocks along a block row. Measured against 16 px
-// blocks with >= 5 points: half the area, the same craters on the bench tile and HRSC.
+// Where the upsampled level (scale 0.5) is worth searching: the 4 px blocks of the
+// full-resolution level holding >= 2 edge points of at least `min_strength` (a rim crossing the
+// block has about 4 edge points, most of them that strong when its mean is), and the blocks next
+// to them (a small crater's rim lies within a few pixels of its strong points); as rectangles of
+// upsampled pixels, one per run of such blocks along a block row. Against 8 px blocks with >= 4
+// points (round 9): two thirds of the area, on the bench tile the same craters but one false
+// detection, on HRSC F1 within one crater (docs/benchmarks.md, round 10).
 std::vector<cv::Rect> UpsampledSearchRegions(const RimEdges& full_resolution, double min_strength,
                                              cv::Size upsampled_size) {
-  constexpr int kBlock = 8;
-  constexpr int kMinStrongPoints = 4;
+  constexpr int kBlock = 4;
+  constexpr int kMinStrongPoints = 2;
   const int block_rows = (full_resolution.rows + kBlock - 1) / kBlock;
   const int block_cols = (full_resolution.cols + kBlock - 1) / kBlock;
   cv::Mat strong = cv::Mat::zeros(block_rows, block_cols, CV_32S);

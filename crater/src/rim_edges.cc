@@ -636,49 +636,66 @@ RimEdges CannyEdges(const ImageGradients& g, double high, double low) {
                  high, low);
 }
 
-// An edge point with the image pixel it belongs to.
-struct PlacedEdgePoint {
-  int row, col;
-  RimEdgePoint point;
+// The windows DetectImageEdgesInRegions computes edges on. The image is cut into bands of
+// kBandRows rows; in each band the regions' parts less than kJoinGap px apart along the row are
+// joined into one window. Joining pays because a window costs about 30 us beyond its pixels
+// (OpenCV's filter set-up: as much as filtering some 2000 px), and the upsampled crater level's
+// regions are runs of 8 px tall blocks: one window per region spent more on the calls and on
+// the 4 px margins (1.6x the regions' area) than on the regions. Bands of 64 rows joined across
+// 64 px: measured against 16-128 rows and 0-256 px on the bench tile (docs/benchmarks.md, crater
+// speed round 10). A cut between bands also cuts hysteresis 4 px beyond it.
+constexpr int kBandRows = 64;
+constexpr int kJoinGap = 64;
+
+struct EdgeWindow {
+  cv::Rect core;                // the joined parts' extent [image px]
+  std::vector<cv::Rect> parts;  // the regions within the band, by left edge [image px]
+  RimEdges edges;               // of the window around `core`, in its own pixels
+  cv::Point origin;             // the window's top-left corner in the image
 };
 
-// Image edges (thresholds high, low) from points of `image`'s pixels in any order: in raster
-// order, one point per pixel (the first of equals).
-RimEdges InRasterOrder(const std::vector<PlacedEdgePoint>& placed, const cv::Mat& image,
-                       double high, double low) {
-  // By row (a stable counting sort: each region's points of a row stay in column order).
-  std::vector<int> row_start(static_cast<size_t>(image.rows) + 1, 0);
-  for (const PlacedEdgePoint& p : placed) ++row_start[static_cast<size_t>(p.row) + 1];
-  for (size_t r = 1; r < row_start.size(); ++r) row_start[r] += row_start[r - 1];
-  std::vector<PlacedEdgePoint> by_row(placed.size());
-  std::vector<int> next(row_start.begin(), row_start.end() - 1);
-  for (const PlacedEdgePoint& p : placed) {
-    by_row[static_cast<size_t>(next[static_cast<size_t>(p.row)]++)] = p;
+// The windows of the band of rows [band_begin, band_end), by left edge; no window when no
+// region reaches into the band.
+std::vector<EdgeWindow> BandWindows(const std::vector<cv::Rect>& regions, int band_begin,
+                                    int band_end, int image_cols) {
+  const cv::Rect band(0, band_begin, image_cols, band_end - band_begin);
+  std::vector<cv::Rect> parts;
+  for (const cv::Rect& region : regions) {
+    const cv::Rect part = region & band;
+    if (!part.empty()) parts.push_back(part);
   }
-  // Then by column where the points of several regions share a row; a pixel found twice
-  // (overlapping regions) keeps its first point.
-  RimEdges out = Empty(image, true);
-  out.high_threshold = high;
-  out.low_threshold = low;
-  out.points.reserve(placed.size());
-  out.column.reserve(placed.size());
-  const auto by_column = [](const PlacedEdgePoint& a, const PlacedEdgePoint& b) {
-    return a.col < b.col;
-  };
-  for (size_t r = 0; r + 1 < row_start.size(); ++r) {
-    const auto begin = by_row.begin() + row_start[r], end = by_row.begin() + row_start[r + 1];
-    if (!std::is_sorted(begin, end, by_column)) std::stable_sort(begin, end, by_column);
-    for (auto p = begin; p != end; ++p) {
-      if (out.column.size() > static_cast<size_t>(out.row_start[r]) &&
-          out.column.back() == p->col) {
-        continue;
-      }
-      out.points.push_back(p->point);
-      out.column.push_back(p->col);
+  std::sort(parts.begin(), parts.end(),
+            [](const cv::Rect& a, const cv::Rect& b) { return a.x < b.x; });
+  std::vector<EdgeWindow> windows;
+  for (const cv::Rect& part : parts) {
+    if (windows.empty() || part.x > windows.back().core.br().x + kJoinGap) windows.emplace_back();
+    EdgeWindow& w = windows.back();
+    w.core = w.parts.empty() ? part : (w.core | part);
+    w.parts.push_back(part);
+  }
+  return windows;
+}
+
+// Appends to `out` the points of `w.edges` in image row `row` inside the window's parts, in
+// column order, skipping columns up to `*last_column` (a pixel of overlapping parts comes once);
+// updates `*last_column`.
+void AppendRowInParts(const EdgeWindow& w, int row, RimEdges* out, int* last_column) {
+  const int r = row - w.origin.y;
+  for (const cv::Rect& part : w.parts) {
+    if (row < part.y || row >= part.br().y) continue;
+    const int begin = std::max(part.x, *last_column + 1) - w.origin.x;
+    const int end = part.br().x - w.origin.x;
+    for (int i = w.edges.FirstInRow(r, begin); i < w.edges.row_start[static_cast<size_t>(r) + 1] &&
+                                               w.edges.column[static_cast<size_t>(i)] < end;
+         ++i) {
+      RimEdgePoint p = w.edges.points[static_cast<size_t>(i)];
+      p.x += static_cast<float>(w.origin.x);
+      p.y += static_cast<float>(w.origin.y);
+      out->points.push_back(p);
+      out->column.push_back(w.edges.column[static_cast<size_t>(i)] + w.origin.x);
     }
-    out.row_start[r + 1] = static_cast<int>(out.points.size());
+    *last_column = std::max(*last_column, part.br().x - 1);
   }
-  return out;
 }
 
 }  // namespace
@@ -745,25 +762,27 @@ RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::R
   }
   double high = 0.0, low = 0.0;
   if (!ThresholdsFromStrengths(values, o, &high, &low)) return Empty(image, true);
-  // Each region's edges with those thresholds, in image pixels; then in raster order.
-  std::vector<PlacedEdgePoint> placed;
-  for (const cv::Rect& region : regions) {
-    const cv::Rect window = with_margin(region);
-    if (window.width < 8 || window.height < 8) continue;
-    const RimEdges edges = CannyEdges(ImageGradients(image(window), o), high, low);
-    for (int r = region.y - window.y; r < region.br().y - window.y; ++r) {
-      for (int i = edges.FirstInRow(r, region.x - window.x);
-           i < edges.row_start[static_cast<size_t>(r) + 1] &&
-           edges.column[static_cast<size_t>(i)] < region.br().x - window.x;
-           ++i) {
-        RimEdgePoint p = edges.points[static_cast<size_t>(i)];
-        p.x += static_cast<float>(window.x);
-        p.y += static_cast<float>(window.y);
-        placed.push_back({r + window.y, edges.column[static_cast<size_t>(i)] + window.x, p});
-      }
+  // Each band's windows with those thresholds; their points inside the regions, row by row.
+  RimEdges out = Empty(image, true);
+  out.high_threshold = high;
+  out.low_threshold = low;
+  for (int band_begin = 0; band_begin < image.rows; band_begin += kBandRows) {
+    const int band_end = std::min(image.rows, band_begin + kBandRows);
+    std::vector<EdgeWindow> windows = BandWindows(regions, band_begin, band_end, image.cols);
+    for (EdgeWindow& w : windows) {
+      const cv::Rect window = with_margin(w.core);
+      w.origin = window.tl();
+      w.edges = window.width < 8 || window.height < 8
+                    ? Empty(image(window), true)
+                    : CannyEdges(ImageGradients(image(window), o), high, low);
+    }
+    for (int row = band_begin; row < band_end; ++row) {
+      int last_column = -1;
+      for (const EdgeWindow& w : windows) AppendRowInParts(w, row, &out, &last_column);
+      out.row_start[static_cast<size_t>(row) + 1] = static_cast<int>(out.points.size());
     }
   }
-  return InRasterOrder(placed, image, high, low);
+  return out;
 }
 
 RimEdges DetectDtmCrests(const cv::Mat& dtm, double posting, const EdgeOptions& o) {

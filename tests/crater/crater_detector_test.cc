@@ -141,7 +141,10 @@ TEST(DetectImageEdges, EdgePixelsAreCvCannysOnTheSameGradients) {
 
 // Inside its regions, DetectImageEdgesInRegions finds DetectImageEdges' points; outside, none.
 // They differ only by the thresholds' sampling (strips of 6 rows every 72 instead of the whole
-// image), the 16-bit rounding and hysteresis cut 4 px beyond a region.
+// image), the 16-bit rounding and hysteresis cut 4 px beyond a window: most of the differing
+// pixels are edges whose only strong end lies further beyond, here mostly across the cuts
+// between bands of 64 rows in these tall regions (2.6 % of the edge pixels differ; 2.0 % with
+// one window per region, before the bands).
 TEST(DetectImageEdgesInRegions, InsideTheRegionsTheEdgesOfTheWholeImage) {
   cv::Mat image;
   FieldScene().products.image.bands[0].convertTo(image, CV_32F);
@@ -167,7 +170,7 @@ TEST(DetectImageEdgesInRegions, InsideTheRegionsTheEdgesOfTheWholeImage) {
   ASSERT_GT(cv::countNonZero(expected), 5000);
   cv::Mat differ;
   cv::compare(ours, expected, differ, cv::CMP_NE);
-  EXPECT_LT(cv::countNonZero(differ), 0.02 * cv::countNonZero(expected))
+  EXPECT_LT(cv::countNonZero(differ), 0.03 * cv::countNonZero(expected))
       << "of " << cv::countNonZero(expected) << " edge pixels";
   // Where both have a point, it is the same point (the same gradients, but for float rounding:
   // OpenCV filters a region with other vector alignments).

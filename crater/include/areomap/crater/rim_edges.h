@@ -57,15 +57,16 @@ struct EdgeOptions {
 RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& options = {});
 
 // DetectImageEdges restricted to `regions` (rectangles inside the image, [px]): the edges of the
-// pixels in them, in image coordinates and raster order, each region's computed on it plus a
-// 4 px margin of the image around it. The thresholds are the automatic ones of the whole image,
-// estimated on strips of 6 rows every 72 rows (1/12 of the samples) instead of the whole image:
-// they do not depend on the regions. Inside the regions the edges are those of DetectImageEdges
-// but for the thresholds' sampling, the 16-bit gradient rounding (scaled to each region's
-// largest gradient), nodata filled with each window's mean, and hysteresis followed at most 4 px
-// beyond a region. For a search that only some parts of a large image need: the work is that
-// of the regions plus the strips. Throws areomap::Error when a region leaves the image;
-// overlapping regions give each pixel's point once.
+// pixels in them, in image coordinates and raster order. The image is cut into bands of 64 rows;
+// in each, the regions' parts less than 64 px apart along the row share a window, computed with
+// a 4 px margin of the image around it. The thresholds are the automatic ones of the whole
+// image, estimated on strips of 6 rows every 72 rows (1/12 of the samples) instead of the whole
+// image: they do not depend on the regions. Inside the regions the edges are those of
+// DetectImageEdges but for the thresholds' sampling, the 16-bit gradient rounding (scaled to
+// each window's largest gradient), nodata filled with each window's mean, and hysteresis
+// followed at most 4 px beyond a window (so also across a band's cut). For a search that only
+// some parts of a large image need: the work is that of the windows plus the strips. Throws
+// areomap::Error when a region leaves the image; overlapping regions give each pixel's point once.
 RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::Rect>& regions,
                                    const EdgeOptions& options = {});
 
