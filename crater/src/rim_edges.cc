@@ -613,6 +613,23 @@ struct ImageGradients {
   cv::Mat gx, gy, magnitude;
 };
 
+// SampleStrengths' samples of image row `row` (2 <= row < rows - 2) computed from its
+// neighbourhood alone: three rows smoothed (OpenCV's filters on a view read the image beyond it,
+// so these are the whole image's smoothed rows), their gradients, the middle row's magnitude.
+// The same values as ImageGradients over any window that holds the row 4 px inside, for a
+// CV_32F image without nodata within 4 rows of `row`.
+void SampleRowStrengths(const cv::Mat& image, int row, const EdgeOptions& o,
+                        std::vector<float>* values) {
+  cv::Mat smoothed, gx, gy, magnitude;
+  cv::GaussianBlur(image.rowRange(row - 1, row + 2), smoothed, cv::Size(), o.smoothing_sigma_px);
+  cv::Sobel(smoothed, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(smoothed, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  cv::magnitude(gx.row(1), gy.row(1), magnitude);
+  const float* s = magnitude.ptr<float>(0);
+  // The usable columns [2, cols - 2), every 3rd from 3, as SampleStrengths takes them.
+  for (int c = 3; c < image.cols - 2; c += 3) values->push_back(s[c]);
+}
+
 // Sub-pixel Canny edges of the image of `g` with the hysteresis thresholds high, low.
 RimEdges CannyEdges(const ImageGradients& g, double high, double low) {
   const double max_mag = UsableMax(g.magnitude, g.usable);
@@ -757,6 +774,13 @@ RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::R
     const cv::Rect strip(0, y, image.cols, std::min(kStripRows, image.rows - y));
     const cv::Rect window = with_margin(strip);
     if (window.height < 8) continue;
+    if (image.depth() == CV_32F && AllFinite(image(window))) {
+      // Only the sampled rows' gradients (a strip's window computed whole has 7 rows per sample).
+      for (int r = strip.y; r < strip.br().y; r += 3) {
+        if (r >= window.y + 2 && r < window.br().y - 2) SampleRowStrengths(image, r, o, &values);
+      }
+      continue;
+    }
     const ImageGradients g(image(window), o);
     SampleStrengths(g.magnitude, g.usable, strip.y - window.y, strip.br().y - window.y, &values);
   }

@@ -194,6 +194,22 @@ TEST(DetectImageEdgesInRegions, InsideTheRegionsTheEdgesOfTheWholeImage) {
   EXPECT_GT(compared, 5000);
 }
 
+// The thresholds' strips of a float image are computed row by row (only the sampled rows'
+// gradients); of any other depth, and where a strip's window holds nodata, on the strip's whole
+// window. Both give the same samples, so the same thresholds, to the bit.
+TEST(DetectImageEdgesInRegions, ThresholdsFromSampledRowsAreThoseOfWholeStrips) {
+  cv::Mat image, as_double;
+  FieldScene().products.image.bands[0].convertTo(image, CV_32F);
+  image.at<float>(75, 300) = std::numeric_limits<float>::quiet_NaN();  // in the 2nd strip's window
+  image.convertTo(as_double, CV_64F);
+  const std::vector<cv::Rect> regions = {{100, 100, 200, 64}};
+  const RimEdges by_rows = DetectImageEdgesInRegions(image, regions);
+  const RimEdges by_strips = DetectImageEdgesInRegions(as_double, regions);
+  ASSERT_GT(by_rows.high_threshold, 0.0);
+  EXPECT_EQ(by_rows.high_threshold, by_strips.high_threshold);
+  EXPECT_EQ(by_rows.low_threshold, by_strips.low_threshold);
+}
+
 TEST(DetectImageEdgesInRegions, NoRegionsNoPointsAndARegionOutsideTheImageIsAnError) {
   cv::Mat image;
   FieldScene().products.image.bands[0].convertTo(image, CV_32F);
