@@ -35,6 +35,9 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // levels from kCoarseMinRadius; consecutive levels overlap (16-20 px at level 0 = 8-10 at 1).
 constexpr double kLevelMaxRadius = 20.0;
 constexpr double kCoarseMinRadius = 8.0;
+// The upsampled level (scale 0.5) searches up to this radius [its px]: its craters reach into
+// the full-resolution level's band by 1 px.
+constexpr double kUpsampledMaxRadius = 2.0 * kCoarseMinRadius + 2.0;
 constexpr int kSectors = 12;   // 30 degree normal-direction sectors
 constexpr int kArcWindow = 3;  // sectors per arc window (90 degrees)
 constexpr int kMinArcPoints = 5;
@@ -637,11 +640,11 @@ double DistanceOutside(const cv::Rect2d* core, const Eigen::Vector2d& p) {
 // full-resolution level holding >= 2 edge points of at least `min_strength` (a rim crossing the
 // block has about 4 edge points, most of them that strong when its mean is), and the blocks next
 // to them (a small crater's rim lies within a few pixels of its strong points); as rectangles of
-// upsampled pixels, one per run of such blocks along a block row. Against 8 px blocks with >= 4
-// points (round 9): two thirds of the area, on the bench tile the same craters but one false
-// detection, on HRSC F1 within one crater (docs/benchmarks.md, round 10).
+// upsampled pixels inside `area`, one per run of such blocks along a block row. Against 8 px blocks
+// with >= 4 points (round 9): two thirds of the area, on the bench tile the same craters but one
+// false detection, on HRSC F1 within one crater (docs/benchmarks.md, round 10).
 std::vector<cv::Rect> UpsampledSearchRegions(const RimEdges& full_resolution, double min_strength,
-                                             cv::Size upsampled_size) {
+                                             const cv::Rect& area) {
   constexpr int kBlock = 4;
   constexpr int kMinStrongPoints = 2;
   const int block_rows = (full_resolution.rows + kBlock - 1) / kBlock;
@@ -656,7 +659,6 @@ std::vector<cv::Rect> UpsampledSearchRegions(const RimEdges& full_resolution, do
   cv::Mat searched;
   cv::dilate(strong >= kMinStrongPoints, searched, cv::Mat::ones(3, 3, CV_8U));
   std::vector<cv::Rect> regions;
-  const cv::Rect whole(0, 0, upsampled_size.width, upsampled_size.height);
   const int step = 2 * kBlock;  // a block in upsampled pixels
   for (int r = 0; r < block_rows; ++r) {
     const uchar* row = searched.ptr<uchar>(r);
@@ -667,7 +669,7 @@ std::vector<cv::Rect> UpsampledSearchRegions(const RimEdges& full_resolution, do
       }
       const int begin = c;
       while (c < block_cols && row[c] != 0) ++c;
-      const cv::Rect region = cv::Rect(begin * step, r * step, (c - begin) * step, step) & whole;
+      const cv::Rect region = cv::Rect(begin * step, r * step, (c - begin) * step, step) & area;
       if (!region.empty()) regions.push_back(region);
     }
   }
@@ -799,19 +801,6 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
   const size_t base = levels.size();  // index of the full-resolution level
   levels.push_back({});
   levels.back().image = full;
-  if (upsample && o.upsample_only_near_strong_edges && source == RimSource::kImage) {
-    // The full-resolution edges first (searched anyway), to choose where the upsampled level's
-    // edges are needed.
-    Level& full_level = levels[base];
-    full_level.edges = EdgesOf(full_level.image, source, o, full_level.scale);
-    full_level.has_edges = true;
-    Level& up = levels.front();
-    const double strong =
-        kGroupStrengthShare * o.min_edge_contrast * full_level.edges.high_threshold;
-    up.edges = DetectImageEdgesInRegions(
-        up.image, UpsampledSearchRegions(full_level.edges, strong, up.image.size()), o.edges);
-    up.has_edges = true;
-  }
   while (true) {
     const Level& last = levels.back();
     const double next_scale = last.scale * 2.0;
@@ -828,6 +817,34 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
     cv::resize(cropped, next.image, cv::Size(src.cols / 2, src.rows / 2), 0, 0, cv::INTER_AREA);
     levels.push_back(std::move(next));
   }
+  if (upsample && o.upsample_only_near_strong_edges && source == RimSource::kImage) {
+    // The full-resolution edges first (searched anyway), to choose where the upsampled level's
+    // edges are needed. After the pyramid is built: growing `levels` copies its Levels (cv::Mat's
+    // move is not noexcept), edges included.
+    Level& full_level = levels[base];
+    full_level.edges = EdgesOf(full_level.image, source, o, full_level.scale);
+    full_level.has_edges = true;
+    Level& up = levels.front();
+    const double strong =
+        kGroupStrengthShare * o.min_edge_contrast * full_level.edges.high_threshold;
+    // In a tile, only where the rim of a crater that may end in the core can lie: one whose
+    // arcs' centre is within CoreMargin of it (arcs up to 1.3 x the level's radius band) and the
+    // robust fit moves by up to 1.35 r, plus its radius (in full-resolution px, then the level's).
+    cv::Rect area(0, 0, up.image.cols, up.image.rows);
+    if (core != nullptr) {
+      const double r = 1.3 * kUpsampledMaxRadius * up.scale;
+      const double reach = internal::CoreMargin(r, up.scale) + 2.35 * r;
+      const cv::Rect2d around(core->x - reach, core->y - reach, core->width + 2.0 * reach,
+                              core->height + 2.0 * reach);
+      area &= cv::Rect(cv::Point(static_cast<int>(std::floor(around.x / up.scale)),
+                                 static_cast<int>(std::floor(around.y / up.scale))),
+                       cv::Point(static_cast<int>(std::ceil(around.br().x / up.scale)),
+                                 static_cast<int>(std::ceil(around.br().y / up.scale))));
+    }
+    up.edges = DetectImageEdgesInRegions(
+        up.image, UpsampledSearchRegions(full_level.edges, strong, area), o.edges);
+    up.has_edges = true;
+  }
   const std::optional<Eigen::Vector2d> sun = SunVector(o, source);
   // Bowl-shading template hypotheses (shading_hypotheses.h), tried on their level below.
   std::vector<ShadingHypothesis> shading;
@@ -842,7 +859,7 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
     Level& level = levels[li];
     double r_lo = std::max(li == 0 ? 0.0 : kCoarseMinRadius, min_radius / level.scale);
     double r_hi = std::min(kLevelMaxRadius, max_radius / level.scale * 1.1);
-    if (upsample && li == 0) r_hi = std::min(r_hi, 2.0 * kCoarseMinRadius + 2.0);
+    if (upsample && li == 0) r_hi = std::min(r_hi, kUpsampledMaxRadius);
     if (upsample && li == base) r_lo = kCoarseMinRadius - 1.0;
     if (r_hi < r_lo * 0.8) continue;  // no crater of the asked sizes at this level
     if (!level.has_edges) {
