@@ -641,7 +641,7 @@ double DistanceOutside(const cv::Rect2d* core, const Eigen::Vector2d& p) {
 // block has about 4 edge points, most of them that strong when its mean is), and the blocks next
 // to them (a small crater's rim lies within a few pixels of its strong points); as rectangles of
 // upsampled pixels inside `area`, one per run of such blocks along a block row. Against 8 px blocks
-// with >= 4 points (round 9): two thirds of the area, on the bench tile the same craters but one
+// with >= 4 points (round 9): three fifths of the area, on the bench tile the same craters but one
 // false detection, on HRSC F1 within one crater (docs/benchmarks.md, round 10).
 std::vector<cv::Rect> UpsampledSearchRegions(const RimEdges& full_resolution, double min_strength,
                                              const cv::Rect& area) {
