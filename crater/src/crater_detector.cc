@@ -801,6 +801,15 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
   const size_t base = levels.size();  // index of the full-resolution level
   levels.push_back({});
   levels.back().image = full;
+  // The coarser levels one after the other in the calling task's scratch when there is one
+  // (together less than a third of the full level's pixels): fresh images would be page-faulted
+  // in again for every tile.
+  float* pyramid_memory = nullptr;
+  if (internal::EdgeScratch* scratch = internal::CurrentEdgeScratch()) {
+    const int pixels = static_cast<int>(full.total() / 3 + 1);
+    pyramid_memory =
+        scratch->Get(internal::EdgeScratch::kPyramidSlot, 1, pixels, CV_32F).ptr<float>();
+  }
   while (true) {
     const Level& last = levels.back();
     const double next_scale = last.scale * 2.0;
@@ -810,6 +819,10 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
     }
     Level next;
     next.scale = next_scale;
+    if (pyramid_memory != nullptr) {
+      next.image = cv::Mat(last.image.rows / 2, last.image.cols / 2, CV_32F, pyramid_memory);
+      pyramid_memory += next.image.total();
+    }
     // 2x2 box averaging keeps the GDAL pixel grid: level coordinates x 2 = finer coordinates.
     // NaN holes stay NaN through the average.
     const cv::Mat& src = last.image;

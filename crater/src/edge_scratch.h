@@ -6,10 +6,11 @@
 // A tiled detection (DetectCratersInRaster) hands each tile task one EdgeScratch from an
 // EdgeScratchPool for the duration of the call: consecutive tiles and pyramid levels reuse the
 // memory instead of allocating it afresh, each page faulted in again (in a VM about 8 us a
-// page). Per pixel of a padded tile a scratch reserves 17 bytes, or 72 with the upsampled level
-// (for 2304 px tiles 90 or 380 MB); pages are touched only as far as used (the upsampled level's
-// edge temporaries hold one search region or threshold strip at a time). Memory stays bounded
-// by the tile size times the tiles in flight; the pool frees everything when it is destroyed.
+// page). Per pixel of a padded tile a scratch reserves 18 bytes, or 73 with the upsampled level
+// (for 2304 px tiles 97 or 390 MB; the coarser levels take a third of a tile's floats); pages are
+// touched only as far as used (the upsampled level's edge temporaries hold one search region or
+// threshold strip at a time). Memory stays bounded by the tile size times the tiles in flight; the
+// pool frees everything when it is destroyed.
 //
 // Thread safety: an EdgeScratch is used by one task at a time. UseEdgeScratch makes it the
 // calling thread's current scratch until it goes out of scope, restoring the previous one: a
@@ -30,12 +31,14 @@ namespace areomap::internal {
 
 class EdgeScratch {
  public:
-  // Slots 0-3: rim_edges.cc's temporaries; kUpsampledImageSlot: the detector's 2x upsampled
-  // level (crater_detector.cc), which lives while its edges are computed in the other slots;
-  // kTileSlot: the tile itself (crater_raster.cc), alive for the whole detection on it.
+  // Slots 0-3: rim_edges.cc's temporaries; kUpsampledImageSlot and kPyramidSlot: the
+  // detector's 2x upsampled level and its coarser levels (crater_detector.cc), which live while
+  // their edges are computed in the other slots; kTileSlot: the tile itself (crater_raster.cc),
+  // alive for the whole detection on it.
   static constexpr int kUpsampledImageSlot = 4;
   static constexpr int kTileSlot = 5;
-  static constexpr int kSlots = 6;
+  static constexpr int kPyramidSlot = 6;  // the detector's coarser levels, one after the other
+  static constexpr int kSlots = 7;
   // `reserve_pixels`: the largest level expected (a padded tile, or its 2x upsampled copy, plus
   // the edge map's 1 px border), so that growing happens once.
   explicit EdgeScratch(size_t reserve_pixels = 0) : reserve_pixels_(reserve_pixels) {}
