@@ -84,7 +84,8 @@ std::optional<Eigen::Vector2d> SunVector(const CraterDetectorOptions& o, RimSour
 
 int SectorOf(const RimEdgePoint& p, bool signed_normals) {
   double angle = std::atan2(p.ny, p.nx);
-  if (!signed_normals) angle = std::fmod(angle + 2.0 * kPi, kPi) * 2.0;  // fold to 180, spread
+  // Unsigned (a DTM crest's): the direction folded to [0, 180) degrees, spread over the circle.
+  if (!signed_normals) angle = std::fmod(angle + 2.0 * kPi, kPi) * 2.0 - kPi;
   const int s = static_cast<int>(std::floor((angle + kPi) / (2.0 * kPi) * kSectors));
   return std::clamp(s, 0, kSectors - 1);
 }
