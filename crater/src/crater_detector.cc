@@ -35,8 +35,8 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // levels from kCoarseMinRadius; consecutive levels overlap (16-20 px at level 0 = 8-10 at 1).
 constexpr double kLevelMaxRadius = 20.0;
 constexpr double kCoarseMinRadius = 8.0;
-// The upsampled level (scale 0.5) searches up to this radius [its px]: its craters reach into
-// the full-resolution level's band by 1 px.
+// The upsampled level (scale 0.5) searches up to this radius [its px]: 1 full-resolution px
+// beyond kCoarseMinRadius, where the full-resolution level's radii begin.
 constexpr double kUpsampledMaxRadius = 2.0 * kCoarseMinRadius + 2.0;
 constexpr int kSectors = 12;   // 30 degree normal-direction sectors
 constexpr int kArcWindow = 3;  // sectors per arc window (90 degrees)

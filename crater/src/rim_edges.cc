@@ -671,16 +671,24 @@ struct EdgeWindow {
   cv::Point origin;             // the window's top-left corner in the image
 };
 
-// The windows of the band of rows [band_begin, band_end), by left edge; no window when no
-// region reaches into the band.
-std::vector<EdgeWindow> BandWindows(const std::vector<cv::Rect>& regions, int band_begin,
-                                    int band_end, int image_cols) {
-  const cv::Rect band(0, band_begin, image_cols, band_end - band_begin);
-  std::vector<cv::Rect> parts;
+// The regions' parts in each band of kBandRows rows (band b: rows [b kBandRows, (b + 1)
+// kBandRows)), for an image of `rows` rows.
+std::vector<std::vector<cv::Rect>> PartsByBand(const std::vector<cv::Rect>& regions, int rows) {
+  std::vector<std::vector<cv::Rect>> parts(static_cast<size_t>((rows + kBandRows - 1) / kBandRows));
   for (const cv::Rect& region : regions) {
-    const cv::Rect part = region & band;
-    if (!part.empty()) parts.push_back(part);
+    if (region.empty()) continue;
+    for (int b = region.y / kBandRows; b <= (region.br().y - 1) / kBandRows; ++b) {
+      const int band_begin = b * kBandRows;
+      const int top = std::max(region.y, band_begin);
+      const int bottom = std::min(region.br().y, band_begin + kBandRows);
+      parts[static_cast<size_t>(b)].emplace_back(region.x, top, region.width, bottom - top);
+    }
   }
+  return parts;
+}
+
+// The windows of one band's `parts`, by left edge.
+std::vector<EdgeWindow> BandWindows(std::vector<cv::Rect> parts) {
   std::sort(parts.begin(), parts.end(),
             [](const cv::Rect& a, const cv::Rect& b) { return a.x < b.x; });
   std::vector<EdgeWindow> windows;
@@ -790,9 +798,11 @@ RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::R
   RimEdges out = Empty(image, true);
   out.high_threshold = high;
   out.low_threshold = low;
-  for (int band_begin = 0; band_begin < image.rows; band_begin += kBandRows) {
+  std::vector<std::vector<cv::Rect>> parts_by_band = PartsByBand(regions, image.rows);
+  for (size_t b = 0; b < parts_by_band.size(); ++b) {
+    const int band_begin = static_cast<int>(b) * kBandRows;
     const int band_end = std::min(image.rows, band_begin + kBandRows);
-    std::vector<EdgeWindow> windows = BandWindows(regions, band_begin, band_end, image.cols);
+    std::vector<EdgeWindow> windows = BandWindows(std::move(parts_by_band[b]));
     for (EdgeWindow& w : windows) {
       const cv::Rect window = with_margin(w.core);
       w.origin = window.tl();
