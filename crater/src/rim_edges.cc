@@ -755,7 +755,12 @@ RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::R
   if (image.rows < 8 || image.cols < 8) return Empty(image, true);
   const cv::Rect whole(0, 0, image.cols, image.rows);
   for (const cv::Rect& region : regions) {
-    if ((region & whole) != region) {
+    if (region.width < 0 || region.height < 0) {
+      throw Error("crater edges: a region has a negative size (" + std::to_string(region.width) +
+                  " x " + std::to_string(region.height) + " px)");
+    }
+    // An empty region selects nothing, wherever it lies (cv::Rect's & of it is (0, 0, 0, 0)).
+    if (!region.empty() && (region & whole) != region) {
       throw Error("crater edges: a region lies outside the " + std::to_string(image.cols) + " x " +
                   std::to_string(image.rows) + " px image");
     }

@@ -210,6 +210,35 @@ TEST(DetectImageEdgesInRegions, ThresholdsFromSampledRowsAreThoseOfWholeStrips) 
   EXPECT_EQ(by_rows.low_threshold, by_strips.low_threshold);
 }
 
+// Random regions (overlapping, empty, up to 300 px, anywhere): every point lies in one of
+// them, one per pixel, in raster order, on its pixel (ExpectRasterOrder).
+TEST(DetectImageEdgesInRegions, AnyRegionsGivePointsInsideThemInRasterOrder) {
+  cv::Mat image;
+  FieldScene().products.image.bands[0].convertTo(image, CV_32F);
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 60; ++trial) {
+    std::vector<cv::Rect> regions(std::uniform_int_distribution<int>(0, 12)(rng));
+    for (cv::Rect& region : regions) {
+      region.x = std::uniform_int_distribution<int>(0, image.cols - 1)(rng);
+      region.y = std::uniform_int_distribution<int>(0, image.rows - 1)(rng);
+      region.width =
+          std::uniform_int_distribution<int>(0, std::min(300, image.cols - region.x))(rng);
+      region.height =
+          std::uniform_int_distribution<int>(0, std::min(300, image.rows - region.y))(rng);
+    }
+    const RimEdges edges = DetectImageEdgesInRegions(image, regions);
+    ExpectRasterOrder(edges);
+    for (int r = 0; r < image.rows; ++r) {
+      for (int i = edges.row_start[static_cast<size_t>(r)]; i < edges.row_start[r + 1]; ++i) {
+        const cv::Point pixel(edges.column[static_cast<size_t>(i)], r);
+        EXPECT_TRUE(std::any_of(regions.begin(), regions.end(),
+                                [&](const cv::Rect& g) { return g.contains(pixel); }))
+            << "trial " << trial << ": a point at " << pixel << " outside every region";
+      }
+    }
+  }
+}
+
 TEST(DetectImageEdgesInRegions, NoRegionsNoPointsAndARegionOutsideTheImageIsAnError) {
   cv::Mat image;
   FieldScene().products.image.bands[0].convertTo(image, CV_32F);
@@ -222,6 +251,15 @@ TEST(DetectImageEdgesInRegions, NoRegionsNoPointsAndARegionOutsideTheImageIsAnEr
     ADD_FAILURE() << "no error for a region beyond the right border";
   } catch (const Error& error) {
     EXPECT_NE(std::string(error.what()).find("outside"), std::string::npos) << error.what();
+  }
+  // An empty region selects nothing, even on the border; a negative size is an error.
+  EXPECT_TRUE(
+      DetectImageEdgesInRegions(image, {{image.cols, 10, 0, 20}, {10, 10, 5, 0}}).points.empty());
+  try {
+    DetectImageEdgesInRegions(image, {{100, 100, -20, 20}});
+    ADD_FAILURE() << "no error for a region of negative width";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("negative"), std::string::npos) << error.what();
   }
   // A constant image: no thresholds, no points, no error.
   EXPECT_TRUE(

@@ -66,7 +66,8 @@ RimEdges DetectImageEdges(const cv::Mat& image, const EdgeOptions& options = {})
 // each window's largest gradient), nodata filled with each window's mean, and hysteresis
 // followed at most 4 px beyond a window (so also across a band's cut). For a search that only
 // some parts of a large image need: the work is that of the windows plus the strips. Throws
-// areomap::Error when a region leaves the image; overlapping regions give each pixel's point once.
+// areomap::Error when a region leaves the image or has a negative size; an empty region selects
+// nothing; overlapping regions give each pixel's point once.
 RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::Rect>& regions,
                                    const EdgeOptions& options = {});
 
