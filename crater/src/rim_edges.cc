@@ -592,6 +592,16 @@ RimEdges Empty(const cv::Mat& input, bool signed_normals) {
 // Smoothed image gradients of a single-band image (blur, Sobel, magnitude), with its usable
 // area. The full-size temporaries live in the calling task's scratch when there is one
 // (edge_scratch.h), else they are allocated here.
+// The rim edges' gradients: `input` smoothed (Gaussian of o.smoothing_sigma_px), its Sobel
+// derivatives / 8 and their magnitude. `magnitude` may share `smoothed`'s memory (written last).
+void SmoothedGradients(const cv::Mat& input, const EdgeOptions& o, cv::Mat* smoothed, cv::Mat* gx,
+                       cv::Mat* gy, cv::Mat* magnitude) {
+  cv::GaussianBlur(input, *smoothed, cv::Size(), o.smoothing_sigma_px);
+  cv::Sobel(*smoothed, *gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
+  cv::Sobel(*smoothed, *gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
+  cv::magnitude(*gx, *gy, *magnitude);
+}
+
 struct ImageGradients {
   ImageGradients(const cv::Mat& image, const EdgeOptions& o) {
     PrepareInput(image, &input, &usable);
@@ -600,13 +610,11 @@ struct ImageGradients {
       return scratch != nullptr ? scratch->Get(slot, input.rows, input.cols, type) : cv::Mat();
     };
     cv::Mat smoothed = temporary(0, CV_32F);
-    cv::GaussianBlur(input, smoothed, cv::Size(), o.smoothing_sigma_px);
     gx = temporary(1, CV_32F);
     gy = temporary(2, CV_32F);
-    cv::Sobel(smoothed, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
-    cv::Sobel(smoothed, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
-    magnitude = smoothed;  // the smoothed image is not needed any more: its memory holds this
-    cv::magnitude(gx, gy, magnitude);
+    // The magnitude goes into the smoothed image's memory, not needed after the gradients.
+    SmoothedGradients(input, o, &smoothed, &gx, &gy, &smoothed);
+    magnitude = smoothed;
   }
   cv::Mat input;  // float copy, nodata filled (PrepareInput)
   UsableArea usable;
@@ -621,13 +629,10 @@ struct ImageGradients {
 void SampleRowStrengths(const cv::Mat& image, int row, const EdgeOptions& o,
                         std::vector<float>* values) {
   cv::Mat smoothed, gx, gy, magnitude;
-  cv::GaussianBlur(image.rowRange(row - 1, row + 2), smoothed, cv::Size(), o.smoothing_sigma_px);
-  cv::Sobel(smoothed, gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
-  cv::Sobel(smoothed, gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
-  cv::magnitude(gx.row(1), gy.row(1), magnitude);
-  const float* s = magnitude.ptr<float>(0);
-  // The usable columns [2, cols - 2), every 3rd from 3, as SampleStrengths takes them.
-  for (int c = 3; c < image.cols - 2; c += 3) values->push_back(s[c]);
+  SmoothedGradients(image.rowRange(row - 1, row + 2), o, &smoothed, &gx, &gy, &magnitude);
+  UsableArea middle_row;  // the image's usable columns, 2 px inside its border
+  middle_row.interior = cv::Rect(2, 1, image.cols - 4, 1);
+  SampleStrengths(magnitude, middle_row, 1, 2, values);
 }
 
 // Sub-pixel Canny edges of the image of `g` with the hysteresis thresholds high, low.
