@@ -841,13 +841,11 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
     Level& up = levels.front();
     const double strong =
         kGroupStrengthShare * o.min_edge_contrast * full_level.edges.high_threshold;
-    // In a tile, only where the rim of a crater that may end in the core can lie: one whose
-    // arcs' centre is within CoreMargin of it (arcs up to 1.3 x the level's radius band) and the
-    // robust fit moves by up to 1.35 r, plus its radius (in full-resolution px, then the level's).
+    // In a tile, only where the rim of a crater that may end in the core can lie (RimReach of
+    // the level's largest arc, 1.3 x its radius band; full-resolution px, then the level's).
     cv::Rect area(0, 0, up.image.cols, up.image.rows);
     if (core != nullptr) {
-      const double r = 1.3 * kUpsampledMaxRadius * up.scale;
-      const double reach = internal::CoreMargin(r, up.scale) + 2.35 * r;
+      const double reach = internal::RimReach(1.3 * kUpsampledMaxRadius * up.scale, up.scale);
       const cv::Rect2d around(core->x - reach, core->y - reach, core->width + 2.0 * reach,
                               core->height + 2.0 * reach);
       area &= cv::Rect(cv::Point(static_cast<int>(std::floor(around.x / up.scale)),

@@ -27,6 +27,14 @@ namespace areomap::internal {
 // [px] found on a pyramid level of `scale` full-resolution px per level px is still fitted.
 inline double CoreMargin(double radius, double scale) { return radius + 2.0 * scale + 4.0; }
 
+// Largest distance [px] outside the core at which a rim point of such a crater can matter: its
+// centre within CoreMargin, moved by the robust fit by up to 1.35 r, plus its radius. Edges
+// further out cannot change a crater kept in the core (the upsampled level is searched only
+// within it).
+inline double RimReach(double radius, double scale) {
+  return CoreMargin(radius, scale) + 2.35 * radius;
+}
+
 // DetectCraters restricted to craters centred in `core`; sorted by decreasing confidence.
 std::vector<CraterDetection> DetectCratersInCore(const cv::Mat& raster, RimSource source,
                                                  const CraterDetectorOptions& options,
