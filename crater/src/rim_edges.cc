@@ -14,24 +14,14 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "cpu_dispatch.h"
 #include "edge_scratch.h"
 
 namespace areomap {
 namespace {
 
-// The per-pixel loops marked with this also get an AVX2 build, chosen at load time where the CPU
-// has AVX2 (GCC's target_clones through an ELF ifunc, as glibc picks its string functions).
-// The values are the same at any vector width: integer operations, and float operations that
-// IEEE rounds exactly (+, -, x, /, sqrt; no fused multiply-add, which AVX2 alone does not
-// enable). The wider registers with native blends and absolute values halve the Canny
-// suppression's instructions. Elsewhere, and with AREOMAP_CPU_DISPATCH off in CMake (the asan
-// preset, so that CI tests both builds), the baseline build runs alone.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__ELF__) && \
-    !defined(AREOMAP_NO_CPU_DISPATCH)
-#define AREOMAP_ALSO_FOR_AVX2 __attribute__((target_clones("avx2", "default")))
-#else
-#define AREOMAP_ALSO_FOR_AVX2
-#endif
+// AREOMAP_ALSO_FOR_AVX2 (cpu_dispatch.h): the wider registers with native blends and absolute
+// values halve the Canny suppression's instructions.
 
 // Pixels whose edges are kept: those whose 5x5 neighbourhood is all valid (edges there see no
 // filled values through a 3x3 operator on a smoothed image). Without nodata (the common case)
@@ -592,16 +582,6 @@ RimEdges Empty(const cv::Mat& input, bool signed_normals) {
 // Smoothed image gradients of a single-band image (blur, Sobel, magnitude), with its usable
 // area. The full-size temporaries live in the calling task's scratch when there is one
 // (edge_scratch.h), else they are allocated here.
-// The rim edges' gradients: `input` smoothed (Gaussian of o.smoothing_sigma_px), its Sobel
-// derivatives / 8 and their magnitude. `magnitude` may share `smoothed`'s memory (written last).
-void SmoothedGradients(const cv::Mat& input, const EdgeOptions& o, cv::Mat* smoothed, cv::Mat* gx,
-                       cv::Mat* gy, cv::Mat* magnitude) {
-  cv::GaussianBlur(input, *smoothed, cv::Size(), o.smoothing_sigma_px);
-  cv::Sobel(*smoothed, *gx, CV_32F, 1, 0, 3, 1.0 / 8.0);
-  cv::Sobel(*smoothed, *gy, CV_32F, 0, 1, 3, 1.0 / 8.0);
-  cv::magnitude(*gx, *gy, *magnitude);
-}
-
 struct ImageGradients {
   ImageGradients(const cv::Mat& image, const EdgeOptions& o) {
     PrepareInput(image, &input, &usable);
@@ -609,12 +589,10 @@ struct ImageGradients {
     const auto temporary = [&](int slot, int type) {
       return scratch != nullptr ? scratch->Get(slot, input.rows, input.cols, type) : cv::Mat();
     };
-    cv::Mat smoothed = temporary(0, CV_32F);
+    magnitude = temporary(0, CV_32F);
     gx = temporary(1, CV_32F);
     gy = temporary(2, CV_32F);
-    // The magnitude goes into the smoothed image's memory, not needed after the gradients.
-    SmoothedGradients(input, o, &smoothed, &gx, &gy, &smoothed);
-    magnitude = smoothed;
+    SmoothedImageGradients(input, o.smoothing_sigma_px, &gx, &gy, &magnitude);
   }
   cv::Mat input;  // float copy, nodata filled (PrepareInput)
   UsableArea usable;
@@ -622,14 +600,15 @@ struct ImageGradients {
 };
 
 // SampleStrengths' samples of image row `row` (2 <= row < rows - 2) computed from its
-// neighbourhood alone: three rows smoothed (OpenCV's filters on a view read the image beyond it,
+// neighbourhood alone: three rows smoothed (the smoothing of a view reads the image beyond it,
 // so these are the whole image's smoothed rows), their gradients, the middle row's magnitude.
 // The same values as ImageGradients over any window that holds the row 4 px inside, for a
 // CV_32F image without nodata within 4 rows of `row`.
 void SampleRowStrengths(const cv::Mat& image, int row, const EdgeOptions& o,
                         std::vector<float>* values) {
-  cv::Mat smoothed, gx, gy, magnitude;
-  SmoothedGradients(image.rowRange(row - 1, row + 2), o, &smoothed, &gx, &gy, &magnitude);
+  cv::Mat gx, gy, magnitude;
+  SmoothedImageGradients(image.rowRange(row - 1, row + 2), o.smoothing_sigma_px, &gx, &gy,
+                         &magnitude);
   UsableArea middle_row;  // the image's usable columns, 2 px inside its border
   middle_row.interior = cv::Rect(2, 1, image.cols - 4, 1);
   SampleStrengths(magnitude, middle_row, 1, 2, values);

@@ -36,20 +36,65 @@ const CraterScene& FieldScene() {
   return scene;
 }
 
-// The smoothed gradient DetectImageEdges works on (rim_edges.h), recomputed here with OpenCV:
-// Gaussian smoothing, Sobel / 8, magnitude.
+// The smoothed gradient DetectImageEdges works on (rim_edges.h).
 struct SmoothedGradient {
   cv::Mat x, y, magnitude;
 };
 
 SmoothedGradient SmoothedGradientOf(const cv::Mat& image, const EdgeOptions& options) {
   SmoothedGradient g;
+  SmoothedImageGradients(image, options.smoothing_sigma_px, &g.x, &g.y, &g.magnitude);
+  return g;
+}
+
+// The same recomputed with OpenCV: Gaussian smoothing, Sobel / 8, magnitude.
+SmoothedGradient OpenCvSmoothedGradientOf(const cv::Mat& image, double sigma_px) {
+  SmoothedGradient g;
   cv::Mat smooth;
-  cv::GaussianBlur(image, smooth, cv::Size(), options.smoothing_sigma_px);
+  cv::GaussianBlur(image, smooth, cv::Size(), sigma_px);
   cv::Sobel(smooth, g.x, CV_32F, 1, 0, 3, 1.0 / 8.0);
   cv::Sobel(smooth, g.y, CV_32F, 0, 1, 3, 1.0 / 8.0);
   cv::magnitude(g.x, g.y, g.magnitude);
   return g;
+}
+
+// rim_edges.h's claim: OpenCV's values up to float rounding, for whole images and for views,
+// whose smoothing reads the parent beyond them (reflected only at the parent's border) while
+// the derivatives reflect at the view's border. A kernel one tap short (sigma from the wrong
+// rule), a border read wrongly or a swapped derivative is off by far more than the tolerance.
+TEST(SmoothedImageGradients, AreOpenCvsBlurSobelAndMagnitudeOnImagesAndViews) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> grey(0.0f, 1000.0f);
+  cv::Mat parent(61, 83, CV_32F);
+  for (int r = 0; r < parent.rows; ++r) {
+    for (int c = 0; c < parent.cols; ++c) {
+      parent.at<float>(r, c) =
+          grey(rng) + 20.0f * static_cast<float>(c) - 7.0f * static_cast<float>(r);
+    }
+  }
+  const std::vector<cv::Rect> views = {
+      cv::Rect(0, 0, 83, 61),   cv::Rect(10, 12, 40, 30), cv::Rect(0, 0, 20, 9),
+      cv::Rect(70, 50, 13, 11), cv::Rect(2, 30, 79, 3),   cv::Rect(5, 7, 1, 20),
+      cv::Rect(40, 40, 1, 1),   cv::Rect(0, 58, 83, 3),   cv::Rect(1, 1, 81, 1)};
+  for (const double sigma : {0.8, 2.5}) {
+    for (const cv::Rect& view : views) {
+      SCOPED_TRACE(::testing::Message() << "sigma " << sigma << ", view " << view);
+      SmoothedGradient ours;
+      SmoothedImageGradients(parent(view), sigma, &ours.x, &ours.y, &ours.magnitude);
+      const SmoothedGradient opencv = OpenCvSmoothedGradientOf(parent(view), sigma);
+      ASSERT_EQ(ours.x.size(), view.size());
+      // float rounding of sums of ~1000 DN: a few 1e-4 DN / px.
+      EXPECT_LE(cv::norm(ours.x, opencv.x, cv::NORM_INF), 2e-3);
+      EXPECT_LE(cv::norm(ours.y, opencv.y, cv::NORM_INF), 2e-3);
+      EXPECT_LE(cv::norm(ours.magnitude, opencv.magnitude, cv::NORM_INF), 2e-3);
+      EXPECT_GT(cv::norm(opencv.magnitude, cv::NORM_INF), view.area() > 1 ? 10.0 : -1.0);
+    }
+  }
+  cv::Mat gx, gy, magnitude;
+  EXPECT_THROW(
+      SmoothedImageGradients(cv::Mat(4, 4, CV_8U, cv::Scalar(1)), 0.8, &gx, &gy, &magnitude),
+      Error);
+  EXPECT_THROW(SmoothedImageGradients(parent, 0.0, &gx, &gy, &magnitude), Error);
 }
 
 // The edge map of `edges`: 255 at each point's pixel.
