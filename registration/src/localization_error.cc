@@ -132,6 +132,30 @@ std::optional<ConformalTransform2d> FitConformalTransform(const std::vector<Plan
   return std::nullopt;
 }
 
+std::vector<double> LeaveOneOutChi2(const std::vector<PlanarTiePoint>& ties) {
+  std::vector<double> chi2(ties.size(), std::nan(""));
+  std::vector<PlanarTiePoint> others;
+  for (size_t k = 0; k < ties.size(); ++k) {
+    others.clear();
+    for (size_t i = 0; i < ties.size(); ++i) {
+      if (i != k) others.push_back(ties[i]);
+    }
+    const std::optional<ConformalTransform2d> fit = FitConformalTransform(others);
+    if (!fit) continue;
+    const PlanarTiePoint& t = ties[k];
+    const Eigen::Vector4d& p = fit->parameters;
+    Eigen::Matrix2d scaled_rotation;
+    scaled_rotation << p(0), -p(1), p(1), p(0);
+    const Eigen::Vector2d discrepancy = t.in_current - fit->Apply(t.in_adjacent);
+    const Eigen::Matrix2d covariance =
+        t.covariance_current +
+        scaled_rotation * t.covariance_adjacent * scaled_rotation.transpose() +
+        fit->PointCovariance(t.in_adjacent);
+    chi2[k] = discrepancy.dot(covariance.ldlt().solve(discrepancy));
+  }
+  return chi2;
+}
+
 double ConvergenceAngle(const Eigen::Vector2d& site, const std::vector<Eigen::Vector2d>& points) {
   std::vector<double> azimuths;
   for (const Eigen::Vector2d& p : points) {

@@ -539,25 +539,18 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     return t;
   };
   // Outlier test in the site-to-site adjustment (data snooping): with redundancy left, the tie
-  // point whose residual in the 2D conformal fit (eq. 4.4) has the largest chi-square above
-  // `max_residual_chi2` is dropped, and the fit repeated.
+  // point that disagrees most with the conformal fit (eq. 4.4) of the others, if its chi-square
+  // exceeds `max_residual_chi2` (LeaveOneOutChi2), is dropped and the test repeated.
   int outliers = 0;
   while (static_cast<int>(result.matches.size()) > fd.min_tie_points) {
     std::vector<PlanarTiePoint> ties;
     for (const RockMatch& m : result.matches) ties.push_back(planar_tie(m));
-    const std::optional<ConformalTransform2d> fit = FitConformalTransform(ties);
-    if (!fit) break;
-    Eigen::Matrix2d sr;
-    sr << fit->parameters(0), -fit->parameters(1), fit->parameters(1), fit->parameters(0);
+    const std::vector<double> chi2 = LeaveOneOutChi2(ties);
     size_t worst = 0;
     double worst_chi2 = 0.0;
-    for (size_t k = 0; k < ties.size(); ++k) {
-      const Eigen::Vector2d r = ties[k].in_current - fit->Apply(ties[k].in_adjacent);
-      const Eigen::Matrix2d cov =
-          ties[k].covariance_current + sr * ties[k].covariance_adjacent * sr.transpose();
-      const double chi2 = r.dot(cov.ldlt().solve(r));
-      if (chi2 > worst_chi2) {
-        worst_chi2 = chi2;
+    for (size_t k = 0; k < chi2.size(); ++k) {
+      if (chi2[k] > worst_chi2) {  // NaN (the others not fittable) never is
+        worst_chi2 = chi2[k];
         worst = k;
       }
     }

@@ -1,5 +1,6 @@
 #include "areomap/registration/localization_error.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -75,6 +76,45 @@ TEST(LocalizationError, GaussHelmertRecoversTheTransformAndItsCovariance) {
   // The scatter of the adjusted adjacent-site position matches eq. 4.8 (400 runs: the trace's
   // standard error is ~7 %).
   EXPECT_NEAR(sample_cov.trace() / predicted.trace(), 1.0, 0.2);
+}
+
+TEST(LocalizationError, LeaveOneOutChi2IsCalibratedAndFindsAnOutlier) {
+  // Without outliers, each tie point's chi-square against the fit of the other four is
+  // chi-square with 2 dof: mean 2 (400 runs x 5 points: standard error ~0.05). Leaving out the
+  // fit's own uncertainty (eq. 4.8) gives a larger mean; testing the residuals of the fit that
+  // includes the point against the tie points' covariances a smaller one (6 / 5 = 1.2).
+  std::mt19937 rng(7);
+  double sum = 0.0;
+  int count = 0, above = 0;
+  for (int run = 0; run < 400; ++run) {
+    for (const double chi2 : LeaveOneOutChi2(NoisyTies(&rng, 1.0))) {
+      ASSERT_TRUE(std::isfinite(chi2));
+      sum += chi2;
+      ++count;
+      above += chi2 > 13.8 ? 1 : 0;
+    }
+  }
+  EXPECT_EQ(count, 2000);
+  EXPECT_NEAR(sum / count, 2.0, 0.2);
+  EXPECT_LE(above, 8);  // 99.9 % quantile: ~2 of 2000 expected
+  // One tie point moved by 0.5 m (about 5 sigma of its discrepancy, which is mostly the other
+  // four's fit extrapolated to it): its chi-square is the largest and above 13.8 in 190 of 200
+  // runs. (Each tie point's residual in the fit that includes the moved one, against the tie
+  // point's own covariance, the test before LeaveOneOutChi2, singles it out in none of them: the
+  // fit bends towards it and the largest residual falls on a correct tie point.)
+  int found = 0;
+  for (int run = 0; run < 200; ++run) {
+    std::vector<PlanarTiePoint> ties = NoisyTies(&rng, 1.0);
+    ties[2].in_current += 0.5 * Eigen::Vector2d::UnitY();
+    const std::vector<double> chi2 = LeaveOneOutChi2(ties);
+    const auto worst = std::max_element(chi2.begin(), chi2.end());
+    found += worst - chi2.begin() == 2 && *worst > 13.8 ? 1 : 0;
+  }
+  EXPECT_GE(found, 170);
+  // Two tie points: the other one alone cannot be fitted.
+  const std::vector<PlanarTiePoint> five = NoisyTies(&rng, 1.0);
+  const std::vector<PlanarTiePoint> two(five.begin(), five.begin() + 2);
+  for (const double chi2 : LeaveOneOutChi2(two)) EXPECT_TRUE(std::isnan(chi2));
 }
 
 TEST(LocalizationError, PooledVarianceFactorMeasuresHowPessimisticTheCovariancesAre) {

@@ -64,6 +64,16 @@ struct ConformalTransform2d {
 // when fewer than 2 tie points, a singular normal matrix or no convergence in 20 iterations.
 std::optional<ConformalTransform2d> FitConformalTransform(const std::vector<PlanarTiePoint>& ties);
 
+// Data snooping with each tie point left out: the transformation fitted to all the other tie
+// points, the left-out one's discrepancy current - T(adjacent) and its chi-square under the
+// discrepancy's covariance (the tie point's own, the adjacent part rotated and scaled by T, plus
+// the fit's eq. 4.8 at that point): chi-square with 2 degrees of freedom when the tie point is no
+// outlier and the covariances hold. Unlike the residual of a fit that includes it, an outlier
+// cannot pull the fit towards itself, and the covariance is that of the quantity tested. One
+// value per tie point, in order; NaN where the others cannot be fitted (fewer than 2 left, or
+// FitConformalTransform fails).
+std::vector<double> LeaveOneOutChi2(const std::vector<PlanarTiePoint>& ties);
+
 struct SitePairError {
   double traverse_length_m = 0.0;
   double position_sigma_m = 0.0;        // sqrt(trace) of eq. 4.8 at the adjacent site.

@@ -25,7 +25,8 @@
 // sites once the partner is known); rocks whose peak sigma exceeds `max_peak_sigma_m` are not used.
 // (5) A pair is matched only where both methods agree; when several rocks of a take the same rock
 // of b, only the lowest-cost one is kept. (6) Data snooping in the 2D conformal fit of the matches
-// (eq. 4.4) drops residual outliers while more than min_tie_points remain. Pair-level rules
+// (eq. 4.4), each tie point tested against the fit of the others, drops outliers while more than
+// min_tie_points remain. Pair-level rules
 // (traverse, peaks, tie-point count, distance ratio, RE) decide the outcome.
 //
 // Failures: invalid options throw areomap::Error; everything about the data (no overlap, no
@@ -79,8 +80,9 @@ struct RockMatchingOptions {
   // The highest point of a rock seen from two sides is not the same surface point: this sigma
   // (horizontal, each site) is added to the peaks' stereo covariance in the tie points and RE [m].
   double peak_definition_sigma_m = 0.08;
-  // Tie points whose residual in the site-to-site conformal fit exceeds this chi-square (2 dof,
-  // 99.9 %: 13.8) are dropped one by one while more than min_tie_points remain.
+  // Tie points whose discrepancy from the site-to-site conformal fit of the other tie points
+  // exceeds this chi-square (LeaveOneOutChi2; 2 dof, 99.9 %: 13.8) are dropped one by one, the
+  // worst first, while more than min_tie_points remain.
   double max_residual_chi2 = 13.8;
   // Variance factor (a-posteriori sigma_0^2) applied to the tie points' covariances (the peaks'
   // eq. 4.3 covariance plus the peak definition) in the conformal fit, its outlier test, RE and
