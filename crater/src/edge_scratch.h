@@ -1,6 +1,6 @@
 // Reusable memory for the full-size temporaries of rim edge detection (rim_edges.h): the
-// smoothed image and gradient magnitude, the gradients, the edge map; and for a tile as read
-// and the detector's 2x upsampled copy of it (four times a tile's pixels).
+// gradient magnitude, the gradients, the edge map; and for a tile as read and the detector's 2x
+// upsampled copy of it (four times a tile's pixels).
 // Internal to the crater module.
 //
 // A tiled detection (DetectCratersInRaster) hands each tile task one EdgeScratch from an

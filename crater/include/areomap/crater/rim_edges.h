@@ -52,14 +52,14 @@ struct EdgeOptions {
 };
 
 // The gradients the image edges are found on: `image` (CV_32F, single band, finite) smoothed by
-// a Gaussian of `sigma_px` (in (0, 10]; cv::GaussianBlur's kernel of 2 round(4 sigma) + 1 taps),
-// its 3 x 3 Sobel derivatives / 8 (`gx` towards +x, `gy` towards +y) and their magnitude, each
-// CV_32F of the image's size (reallocated unless they already are). The values of
-// cv::GaussianBlur, cv::Sobel and cv::magnitude up to float rounding: like GaussianBlur, a view
-// reads its parent image beyond its border (reflected at the parent's border: BORDER_REFLECT_101),
-// and the derivatives reflect at the view's own border, like Sobel of the smoothed view. One pass
-// over the rows: the smoothed image is never stored. Throws areomap::Error for another image
-// type or sigma.
+// a Gaussian of `sigma_px` (in (0, 10]; cv::GaussianBlur's kernel for float images, of
+// round(8 sigma + 1) taps made odd), its 3 x 3 Sobel derivatives / 8 (`gx` towards +x, `gy`
+// towards +y) and their magnitude, each CV_32F of the image's size (reallocated unless they
+// already are). The values of cv::GaussianBlur, cv::Sobel and cv::magnitude up to float rounding:
+// like GaussianBlur, a view reads its parent image beyond its border (reflected at the parent's
+// border: BORDER_REFLECT_101), and the derivatives reflect at the view's own border, like Sobel of
+// the smoothed view. One pass over the rows: the smoothed image is never stored. Throws
+// areomap::Error for another image type or sigma.
 void SmoothedImageGradients(const cv::Mat& image, double sigma_px, cv::Mat* gx, cv::Mat* gy,
                             cv::Mat* magnitude);
 

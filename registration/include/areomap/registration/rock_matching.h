@@ -26,8 +26,8 @@
 // (5) A pair is matched only where both methods agree; when several rocks of a take the same rock
 // of b, only the lowest-cost one is kept. (6) Data snooping in the 2D conformal fit of the matches
 // (eq. 4.4), each tie point tested against the fit of the others, drops outliers while more than
-// min_tie_points remain. Pair-level rules
-// (traverse, peaks, tie-point count, distance ratio, RE) decide the outcome.
+// min_tie_points remain. Pair-level rules (traverse, peaks, tie-point count, distance ratio, RE)
+// decide the outcome.
 //
 // Failures: invalid options throw areomap::Error; everything about the data (no overlap, no
 // rocks, too few tie points) is a verdict in the report, never an exception.
