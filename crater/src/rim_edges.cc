@@ -749,11 +749,12 @@ RimEdges DetectImageEdgesInRegions(const cv::Mat& image, const std::vector<cv::R
                   std::to_string(image.rows) + " px image");
     }
   }
-  // In a view of a float image OpenCV's filters read the pixels beyond the window, so there the
-  // gradients are the whole image's; the margin keeps a region's pixels inside the window's
-  // usable interior (2 px) with their suppression neighbours, covers the smoothing and Sobel
-  // reach (4 px) of an input that had to be copied (another depth, nodata filled with the
-  // window's mean), and lets hysteresis follow an edge a little way out of its region.
+  // In a view of a float image the smoothing reads the pixels beyond the window, so there the
+  // gradients are the whole image's (SmoothedImageGradients); the margin keeps a region's pixels
+  // inside the window's usable interior (2 px) with their suppression neighbours, covers the
+  // smoothing and Sobel reach (4 px) of an input that had to be copied (another depth, nodata
+  // filled with the window's mean), and lets hysteresis follow an edge a little way out of its
+  // region.
   constexpr int kMargin = 4;
   const auto with_margin = [&](const cv::Rect& r) {
     return cv::Rect(r.x - kMargin, r.y - kMargin, r.width + 2 * kMargin, r.height + 2 * kMargin) &
