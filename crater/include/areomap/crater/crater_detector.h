@@ -106,7 +106,7 @@ struct CraterDetectorOptions {
   // Images: search the upsampled copy only around 4 px blocks of the full-resolution image
   // holding at least 2 edge points as strong as a rim's mean must be (0.8 x min_edge_contrast x
   // the high Canny threshold), and in a tile only within reach of its core; a small crater that
-  // can pass the edge contrast test has them. false: the whole copy (DTMs always), 1.8-2x the
+  // can pass the edge contrast test has them. false: the whole copy (DTMs always), 1.7-2x the
   // time on the bench's 10000^2 tile.
   bool upsample_only_near_strong_edges = true;
   // false: each crater gets its geometric fit on the pyramid level where it was found, not
