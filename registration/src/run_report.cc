@@ -311,7 +311,7 @@ std::string LegSection(const json& leg) {
                      Number(leg.value("relative_error_percent", json()), "%.2f %%") +
                      ", telemetry distance " +
                      Number(leg.value("telemetry_distance_m", json()), "%.1f m") + ".</p>";
-  const json& checks = leg.value("faults", json::object()).value("checks", json::array());
+  const json& checks = leg.value("faults", json::object()).value("rules", json::array());
   html +=
       "<table><tr><th>module</th><th>rule</th><th>value</th><th>threshold</th>"
       "<th>verdict</th></tr>";

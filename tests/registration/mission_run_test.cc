@@ -124,6 +124,8 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   WriteRunReport(out);
   const std::string html = ReadText(out / "report.html");
   EXPECT_NE(html.find("Leg 0 &rarr; 1"), std::string::npos);
+  // The leg's fault report, one row per rule (PairFaultReport::ToJson's "rules").
+  EXPECT_NE(html.find("<td>traverse length</td>"), std::string::npos);
   EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
   EXPECT_NE(html.find("Traverse DTM and orthomosaic"), std::string::npos);
   EXPECT_NE(html.find("Craters on the orbital image"), std::string::npos);
