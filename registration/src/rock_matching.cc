@@ -582,6 +582,11 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   if (result.error) {
     report.Add(MaxCheck("IV adjustment", "relative error RE (eq. 4.9)",
                         result.error->relative_error_percent, fd.max_relative_error_percent, "%"));
+  } else if (planar.size() >= 2) {
+    // Tie points the conformal fit cannot adjust (degenerate, or not converging): RE unknown,
+    // and a leg is never accepted without it.
+    report.Add({"IV adjustment", "relative error RE (eq. 4.9)", std::nan(""),
+                fd.max_relative_error_percent, "%", FaultVerdict::kFail, true});
   } else {
     report.Add({"IV adjustment", "relative error RE (eq. 4.9)", std::nan(""),
                 fd.max_relative_error_percent, "%", FaultVerdict::kNotEvaluated, false});

@@ -61,7 +61,7 @@ struct ConformalTransform2d {
 };
 
 // Gauss-Helmert adjustment of eq. 4.4 with errors in both coordinate sets (eq. 4.5). nullopt
-// when fewer than 2 tie points, a singular normal matrix or no convergence in 20 iterations.
+// when fewer than 2 tie points, a singular normal matrix or no convergence in 100 iterations.
 std::optional<ConformalTransform2d> FitConformalTransform(const std::vector<PlanarTiePoint>& ties);
 
 // Data snooping with each tie point left out: the transformation fitted to all the other tie
