@@ -46,6 +46,11 @@ void PrintRunSummary(const nlohmann::json& s) {
     if (leg.contains("relative_error_percent")) {
       std::printf(", RE %.2f %%", Number(leg, "relative_error_percent"));
     }
+    const nlohmann::json& test = leg.value("leg_test", nlohmann::json::object());
+    if (test.value("tested", false) && !test.value("dropped", nlohmann::json::array()).empty()) {
+      std::printf(" (legs' test: F %.2f > %.2f, dropped %zu)", Number(test, "first_f_statistic"),
+                  Number(test, "f_threshold"), test["dropped"].size());
+    }
     std::printf("\n");
   }
   const nlohmann::json& ties = s.value("rock_tie_variance", nlohmann::json::object());
@@ -119,6 +124,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     bool no_craters = false;
     bool no_products = false;
     bool keep_coarse_points = false;
+    bool no_leg_test = false;
   };
   auto o = std::make_shared<Options>();
   auto* run = app.add_subcommand(
@@ -165,6 +171,13 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
   run->add_flag("--keep-coarse-points", o->keep_coarse_points,
                 "Keep every pair's points where a more precise pair (Pancam over Navcam) sees the "
                 "same ground");
+  run->add_flag("--no-leg-test", o->no_leg_test,
+                "Keep every leg's tie points as its fault detection accepted them, without testing "
+                "the legs' precision against each other");
+  run->add_option("--leg-test-alpha", o->run.leg_test_alpha,
+                  "False alarm rate of the legs' F test against each other")
+      ->check(CLI::Range(1e-9, 0.5))
+      ->capture_default_str();
   run->add_flag("--no-craters", o->no_craters, "Skip crater detection on the orbital image");
   run->add_flag("--no-products", o->no_products,
                 "Skip the whole-traverse DTM and orthomosaic (products/)");
@@ -172,6 +185,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     if (o->no_craters) o->run.detect_craters = false;
     if (o->no_products) o->run.traverse_products = false;
     if (o->keep_coarse_points) o->run.prefer_precise_pairs = false;
+    if (o->no_leg_test) o->run.leg_test = false;
     o->run.Check();  // Bad options fail before the mission is read.
     // Every file the manifest names is checked before any work starts.
     const MissionManifest mission = ReadMissionManifest(o->mission);

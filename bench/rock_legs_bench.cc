@@ -31,12 +31,23 @@ using bench::ReadTruthRocks;
 using bench::RockUnder;
 using bench::TruthRock;
 
+// The run's summary.json "legs": each leg's outcome, RE and tie points after the legs' test
+// (leg_consistency.h), which the leg's own unit.json predates.
+nlohmann::json RunLegs(const fs::path& run_dir) {
+  std::ifstream file(run_dir / "summary.json");
+  if (!file) throw Error((run_dir / "summary.json").string() + ": not found; run `areomap run`");
+  return nlohmann::json::parse(file).value("legs", nlohmann::json::array());
+}
+
 int Main(const fs::path& mission_dir, const fs::path& run_dir) {
   const MissionManifest mission = ReadMissionManifest(mission_dir);
   const std::vector<Rigid3d> world_from_site = bench::TrueWorldFromSites(mission);
   const std::vector<TruthRock> truth = ReadTruthRocks(*mission.truth_rocks_csv);
-  int all = 0, all_correct = 0;
-  std::printf("leg      prior                 matches correct  RE [%%]  outcome\n");
+  const nlohmann::json run_legs = RunLegs(run_dir);
+  int all = 0, all_correct = 0, accepted = 0, accepted_correct = 0, legs_accepted = 0;
+  std::printf(
+      "leg      prior                 matches correct  RE [%%]  outcome (after the legs' test: "
+      "dropped ties)\n");
   for (size_t k = 0; k + 1 < mission.sites.size(); ++k) {
     char name[64];
     std::snprintf(name, sizeof(name), "legs/leg_%03d_%03d", mission.sites[k].site,
@@ -46,8 +57,12 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
     if (!unit_file || !matches_file) {
       throw Error(leg.string() + ": no unit.json or matches.csv; run `areomap run` first");
     }
-    const nlohmann::json summary = nlohmann::json::parse(unit_file)["summary"];
-    std::string line;
+    const nlohmann::json summary =
+        k < run_legs.size() ? run_legs[k] : nlohmann::json::parse(unit_file)["summary"];
+    const nlohmann::json dropped = summary.value("leg_test", nlohmann::json::object())
+                                       .value("dropped_ids", nlohmann::json::array());
+    const bool leg_accepted = summary.value("outcome", std::string()) == "matched";
+    std::string line, dropped_text;
     std::getline(matches_file, line);
     int matches = 0, correct = 0;
     while (std::getline(matches_file, line)) {
@@ -57,19 +72,38 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
       const Eigen::Vector3d b(std::stod(f[5]), std::stod(f[6]), std::stod(f[7]));
       const int rock_a = RockUnder(truth, (world_from_site[k] * a).head<2>(), std::stod(f[8]));
       const int rock_b = RockUnder(truth, (world_from_site[k + 1] * b).head<2>(), std::stod(f[9]));
+      const bool right = rock_a >= 0 && rock_a == rock_b;
       ++matches;
-      correct += rock_a >= 0 && rock_a == rock_b ? 1 : 0;
+      correct += right ? 1 : 0;
+      // Tie ids end in "-r<rock_a>" (MatchSitePair).
+      bool was_dropped = false;
+      for (const auto& id : dropped) {
+        const std::string text = id.get<std::string>();
+        was_dropped |=
+            text.size() > f[0].size() + 2 &&
+            text.compare(text.size() - f[0].size() - 2, std::string::npos, "-r" + f[0]) == 0;
+      }
+      if (was_dropped) dropped_text += std::string(" r") + f[0] + (right ? " (right)" : " (wrong)");
+      if (leg_accepted && !was_dropped) {
+        ++accepted;
+        accepted_correct += right ? 1 : 0;
+      }
     }
     all += matches;
     all_correct += correct;
+    legs_accepted += leg_accepted ? 1 : 0;
     const nlohmann::json prior = summary.value("prior", nlohmann::json::object());
     const double re = summary.value("relative_error_percent", std::nan(""));
-    std::printf("%zu -> %zu  %-20s  %7d %7d  %6.2f  %s\n", k, k + 1,
+    std::printf("%zu -> %zu  %-20s  %7d %7d  %6.2f  %s%s\n", k, k + 1,
                 prior.value("source", std::string("?")).c_str(), matches, correct, re,
-                summary.value("outcome", std::string("?")).c_str());
+                summary.value("outcome", std::string("?")).c_str(),
+                dropped_text.empty() ? "" : (": dropped" + dropped_text).c_str());
   }
   std::printf("all legs: %d matches, %d correct (precision %.1f %%)\n", all, all_correct,
               all > 0 ? 100.0 * all_correct / all : 100.0);
+  std::printf("legs accepted: %d of %zu; their tie points: %d, %d correct (precision %.1f %%)\n",
+              legs_accepted, mission.sites.size() - 1, accepted, accepted_correct,
+              accepted > 0 ? 100.0 * accepted_correct / accepted : 100.0);
   return 0;
 }
 

@@ -148,6 +148,26 @@ void ReadHeader(const json& doc, const Where& w, BundleInputFile& out) {
   }
 }
 
+// The document's "tie_points" (none when absent), appended to `ties`; ids default to "tie<k>"
+// with k counted over `ties`.
+void ReadTiePointArray(const json& doc, const Where& w, std::vector<TiePoint>& ties) {
+  const json& array = Array(doc, "tie_points", w);
+  for (size_t i = 0; i < array.size(); ++i) {
+    const Where wt = (w / "tie_points")[i];
+    const json& t = array[i];
+    TiePoint tie;
+    tie.id = Text(t, "id", "tie" + std::to_string(ties.size()), wt);
+    tie.site_a = Integer(Field(t, "site_a", wt), wt / "site_a");
+    tie.site_b = Integer(Field(t, "site_b", wt), wt / "site_b");
+    tie.position_in_a = Vector<3>(Field(t, "position_in_a_m", wt), wt / "position_in_a_m");
+    tie.covariance_in_a = Matrix<3>(Field(t, "covariance_in_a_m2", wt), wt / "covariance_in_a_m2");
+    tie.position_in_b = Vector<3>(Field(t, "position_in_b_m", wt), wt / "position_in_b_m");
+    tie.covariance_in_b = Matrix<3>(Field(t, "covariance_in_b_m2", wt), wt / "covariance_in_b_m2");
+    tie.source = Text(t, "source", tie.source, wt);
+    ties.push_back(tie);
+  }
+}
+
 void ReadSections(const json& doc, const Where& w, BundleInputFile& out) {
   BundleInput& input = out.input;
   const json& priors = Array(doc, "priors", w);
@@ -163,21 +183,7 @@ void ReadSections(const json& doc, const Where& w, BundleInputFile& out) {
     prior.source = Text(p, "source", prior.source, wp);
     input.priors.push_back(prior);
   }
-  const json& ties = Array(doc, "tie_points", w);
-  for (size_t i = 0; i < ties.size(); ++i) {
-    const Where wt = (w / "tie_points")[i];
-    const json& t = ties[i];
-    TiePoint tie;
-    tie.id = Text(t, "id", "tie" + std::to_string(input.tie_points.size()), wt);
-    tie.site_a = Integer(Field(t, "site_a", wt), wt / "site_a");
-    tie.site_b = Integer(Field(t, "site_b", wt), wt / "site_b");
-    tie.position_in_a = Vector<3>(Field(t, "position_in_a_m", wt), wt / "position_in_a_m");
-    tie.covariance_in_a = Matrix<3>(Field(t, "covariance_in_a_m2", wt), wt / "covariance_in_a_m2");
-    tie.position_in_b = Vector<3>(Field(t, "position_in_b_m", wt), wt / "position_in_b_m");
-    tie.covariance_in_b = Matrix<3>(Field(t, "covariance_in_b_m2", wt), wt / "covariance_in_b_m2");
-    tie.source = Text(t, "source", tie.source, wt);
-    input.tie_points.push_back(tie);
-  }
+  ReadTiePointArray(doc, w, input.tie_points);
   const json& controls = Array(doc, "control_points", w);
   for (size_t i = 0; i < controls.size(); ++i) {
     const Where wc = (w / "control_points")[i];
@@ -332,6 +338,15 @@ BundleInputFile ReadBundleInput(const std::vector<std::filesystem::path>& paths)
     throw Error(paths.front().string() + ": " + e.what());
   }
   return out;
+}
+
+std::vector<TiePoint> ReadTiePoints(const std::filesystem::path& path) {
+  const json doc = ReadJson(path);
+  const Where where{path.string(), ""};
+  if (!doc.is_object()) throw Error(path.string() + ": expected a JSON object");
+  std::vector<TiePoint> ties;
+  ReadTiePointArray(doc, where, ties);
+  return ties;
 }
 
 json TiePointsToJson(const std::vector<TiePoint>& tie_points) {

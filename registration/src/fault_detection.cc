@@ -77,17 +77,19 @@ const FaultCheck* PairFaultReport::Find(std::string_view rule) const {
   return nullptr;
 }
 
+nlohmann::json ToJson(const FaultCheck& c) {
+  return {{"module", c.module},
+          {"rule", c.rule},
+          {"value", c.value},
+          {"threshold", c.threshold},
+          {"unit", c.unit},
+          {"verdict", ToString(c.verdict)},
+          {"excludes_pair", c.excludes_pair}};
+}
+
 nlohmann::json PairFaultReport::ToJson() const {
   nlohmann::json rules = nlohmann::json::array();
-  for (const FaultCheck& c : checks) {
-    rules.push_back({{"module", c.module},
-                     {"rule", c.rule},
-                     {"value", c.value},
-                     {"threshold", c.threshold},
-                     {"unit", c.unit},
-                     {"verdict", ToString(c.verdict)},
-                     {"excludes_pair", c.excludes_pair}});
-  }
+  for (const FaultCheck& c : checks) rules.push_back(areomap::ToJson(c));
   return {{"site_a", site_a},
           {"site_b", site_b},
           {"outcome", ToString(outcome)},

@@ -223,6 +223,8 @@ void MissionRunOptions::Check() const {
                 "a positive posting in metres");
   RequireOption(leg_heading_sigma_deg > 0.0, "MissionRunOptions.leg_heading_sigma_deg",
                 "a positive heading drift sigma in degrees");
+  RequireOption(leg_test_alpha > 0.0 && leg_test_alpha < 1.0, "MissionRunOptions.leg_test_alpha",
+                "a false alarm rate in (0, 1)");
   RequireOption(guided_passes >= 0, "MissionRunOptions.guided_passes", ">= 0");
   RequireOption(guided_sigma_floor_m > 0.0, "MissionRunOptions.guided_sigma_floor_m",
                 "a positive sigma in metres");
@@ -353,6 +355,10 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
     }
     leg_summaries[i] = done;
   }
+  // The legs tested against each other: a leg the test changed is read from rock_ties/.
+  const fs::path adjustment_dir = out_dir / "adjustment";
+  const std::vector<fs::path> leg_tie_files =
+      TestLegsAgainstEachOther(run, leg_summaries, adjustment_dir / "rock_ties");
   lap("legs");
 
   // How the whole-run units went: "computed", "reused" or "off".
@@ -372,7 +378,6 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
 
   // The adjustment reads everything the units wrote: the network, every site's control
   // points and every leg's tie points.
-  const fs::path adjustment_dir = out_dir / "adjustment";
   fs::create_directories(adjustment_dir);
   WriteFileAtomically(adjustment_dir / "network.json", NetworkJson(mission, options).dump(2));
   // Each site's control points: its own registration's, or a guided one's (below).
@@ -383,10 +388,7 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   const auto inputs = [&] {
     std::vector<fs::path> files = {adjustment_dir / "network.json"};
     files.insert(files.end(), site_controls.begin(), site_controls.end());
-    for (size_t i = 0; i < leg_count; ++i) {
-      files.push_back(LegDir(run, mission.sites[i].site, mission.sites[i + 1].site) /
-                      "tie_points.json");
-    }
+    files.insert(files.end(), leg_tie_files.begin(), leg_tie_files.end());
     return files;
   };
   TraverseAdjustmentOptions adjustment;

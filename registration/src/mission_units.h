@@ -51,6 +51,15 @@ nlohmann::json RunSiteUnit(const RunContext& run, size_t site_index,
 nlohmann::json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
                           const ProgressCallback& progress);
 
+// The legs' tie points tested against each other (MissionRunOptions::leg_test, leg_consistency.h)
+// once every leg unit has finished. Each leg's summary in `legs` (one per consecutive pair, as
+// RunLegUnit returned it) gains "leg_test" (the verdict; "dropped_ids") and the test's rule in
+// "faults"; a leg the test changed gets its remaining tie points in
+// `ties_dir`/leg_NNN_MMM.json, its RE re-evaluated (eq. 4.9, a rule too) and, if excluded, the
+// outcome "excluded by fault detection". Returns each leg's tie point file for the adjustment.
+std::vector<std::filesystem::path> TestLegsAgainstEachOther(const RunContext& run,
+                                                            std::vector<nlohmann::json>& legs,
+                                                            const std::filesystem::path& ties_dir);
 // Orbital registration of a site's orthophoto (`ortho`, read from or written to `ortho_path`, at
 // its telemetry georeference) around `prior` with `options`; writes registration.json,
 // correlation_surface.png and control_points.json (BA input format, ids "site<N>-...") into

@@ -79,6 +79,8 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   EXPECT_TRUE(source == "telemetry" || source == "orbital registration") << leg.dump();
   EXPECT_GT(leg.value("position_sigma_m", 0.0), 0.0) << leg.dump();
   EXPECT_GT(leg.value("heading_sigma_deg", 0.0), 0.0) << leg.dump();
+  // One leg: nothing to test it against (leg_consistency.h); the verdict says so.
+  EXPECT_EQ(first.json["legs"][0]["leg_test"], nlohmann::json({{"tested", false}}));
   // The legs' conformal-fit residuals pooled into the run's a-posteriori variance factor: with
   // redundancy, sum chi2 / sum redundancy; else null.
   const nlohmann::json& ties = first.json["rock_tie_variance"];

@@ -29,6 +29,10 @@ struct BundleInputFile {
 
 BundleInputFile ReadBundleInput(const std::vector<std::filesystem::path>& paths);
 
+// The "tie_points" of one such file alone (e.g. a leg's tie_points.json of `areomap run`), with
+// the same field checks and messages; none when the file has no "tie_points".
+std::vector<TiePoint> ReadTiePoints(const std::filesystem::path& path);
+
 // The "tie_points" / "control_points" arrays of that format alone, e.g. for a file that only adds
 // observations to a network (covariances written in full).
 nlohmann::json TiePointsToJson(const std::vector<TiePoint>& tie_points);

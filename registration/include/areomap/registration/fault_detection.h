@@ -59,6 +59,9 @@ struct FaultCheck {
   bool excludes_pair = false;  // A failed pair-level rule; per-rock rules never exclude the pair.
 };
 
+// One rule as PairFaultReport::ToJson lists it under "rules".
+nlohmann::json ToJson(const FaultCheck& check);
+
 // Optional stereo statistics of the two sites' point clouds (Module II), when known.
 struct StereoQuality {
   double min_correlation = 0.0;  // Smallest accepted correlation coefficient.

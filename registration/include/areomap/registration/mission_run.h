@@ -14,7 +14,9 @@
 //                     registration.json, correlation_surface.png, control_points.json; the
 //                     adjustment is then repeated with them (summary.json "guided_registration")
 //   adjustment/       network.json (sites, telemetry priors, truth), the bundle adjustment and
-//                     the anchored traverse: sites.csv, legs.csv, traverse.gpkg, traverse_map.png
+//                     the anchored traverse: sites.csv, legs.csv, traverse.gpkg, traverse_map.png;
+//                     rock_ties/leg_NNN_MMM.json: the tie points of a leg that the legs' test
+//                     (MissionRunOptions::leg_test) changed, read instead of the leg's own
 //   products/         DTM (traverse_dtm.tif) and orthomosaic (traverse_ortho.tif) of the whole
 //                     traverse with the adjusted poses, PNG thumbnails, and their differences
 //                     from the orbital DTM and image with adjusted and with telemetry poses
@@ -106,6 +108,13 @@ struct MissionRunOptions {
   double prior_sigma_per_m = 0.1;
   RockExtractionOptions rocks;
   RockMatchingOptions matching;
+  // The legs' tie points tested against each other before the adjustment (leg_consistency.h): a
+  // leg whose conformal fit is less precise than the other legs' by more than the F quantile at
+  // 1 - leg_test_alpha loses its worst tie points, or is excluded. Its min_tie_points and
+  // max_residual_chi2 are matching's; false skips the test. Applied when the legs are gathered,
+  // not in the options fingerprint: changing it keeps the leg units.
+  bool leg_test = true;
+  double leg_test_alpha = 0.001;
   BundleOptions bundle;
   // Telemetry pose priors per leg (DeadReckoningCovariance): relative length error and heading
   // drift per leg, 1 sigma. Defaults to the mission's telemetry model when it states one.

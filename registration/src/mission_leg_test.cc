@@ -1,0 +1,105 @@
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "areomap/map/atomic_file.h"
+#include "areomap/map/error.h"
+#include "areomap/registration/bundle_io.h"
+#include "areomap/registration/fault_detection.h"
+#include "areomap/registration/leg_consistency.h"
+#include "areomap/registration/localization_error.h"
+#include "mission_units.h"
+
+namespace areomap::mission_run {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+// Where the leg's prior put site b in site a's frame (RunLegUnit's "prior"), for RE.
+Eigen::Vector2d PriorTranslation(const json& leg) {
+  const json t = leg.value("prior", json::object()).value("a_from_b_translation_m", json());
+  if (!t.is_array() || t.size() < 2) {
+    throw Error("leg " + std::to_string(leg.value("site_a", -1)) + "-" +
+                std::to_string(leg.value("site_b", -1)) +
+                ": prior.a_from_b_translation_m: expected [x, y, z] (a unit of an older run?)");
+  }
+  return {t[0].get<double>(), t[1].get<double>()};
+}
+
+void Exclude(json& leg) {
+  leg["outcome"] = ToString(PairOutcome::kExcludedByFaultDetection);
+  leg["faults"]["outcome"] = ToString(PairOutcome::kExcludedByFaultDetection);
+  leg["faults"]["outcome_code"] = static_cast<int>(PairOutcome::kExcludedByFaultDetection);
+}
+
+}  // namespace
+
+std::vector<fs::path> TestLegsAgainstEachOther(const RunContext& run, std::vector<json>& legs,
+                                               const fs::path& ties_dir) {
+  const MissionManifest& mission = *run.mission;
+  const MissionRunOptions& options = *run.options;
+  std::vector<fs::path> files;
+  std::vector<std::vector<TiePoint>> ties(legs.size());
+  for (size_t i = 0; i < legs.size(); ++i) {
+    files.push_back(LegDir(run, mission.sites[i].site, mission.sites[i + 1].site) /
+                    "tie_points.json");
+    if (options.leg_test &&
+        legs[i].value("outcome", std::string()) == ToString(PairOutcome::kMatched)) {
+      ties[i] = ReadTiePoints(files[i]);
+    }
+  }
+  if (!options.leg_test) return files;
+  LegConsistencyOptions test;
+  test.alpha = options.leg_test_alpha;
+  test.max_residual_chi2 = options.matching.max_residual_chi2;
+  test.min_tie_points = options.matching.fault_detection.min_tie_points;
+  const std::vector<LegConsistency> verdicts = TestLegConsistency(ties, test);
+  for (size_t i = 0; i < legs.size(); ++i) {
+    const LegConsistency& v = verdicts[i];
+    json& leg = legs[i];
+    json record = v.ToJson();
+    if (!v.tested) {
+      leg["leg_test"] = record;
+      continue;
+    }
+    record["dropped_ids"] = json::array();
+    for (int k : v.dropped) record["dropped_ids"].push_back(ties[i][static_cast<size_t>(k)].id);
+    leg["leg_test"] = record;
+    leg["faults"]["rules"].push_back(
+        ToJson(MaxCheck("IV adjustment", "leg's variance factor / other legs' (F test)",
+                        v.f_statistic, v.f_threshold, "")));
+    if (v.dropped.empty() && !v.excluded) continue;
+    std::vector<TiePoint> kept;
+    for (size_t k = 0; k < ties[i].size() && !v.excluded; ++k) {
+      if (std::find(v.dropped.begin(), v.dropped.end(), static_cast<int>(k)) == v.dropped.end()) {
+        kept.push_back(ties[i][k]);
+      }
+    }
+    if (!kept.empty()) {
+      std::vector<PlanarTiePoint> planar;
+      for (const TiePoint& t : kept) planar.push_back(PlanarTie(t));
+      const std::optional<SitePairError> error = EvaluateSitePair(planar, PriorTranslation(leg));
+      const double re = error ? error->relative_error_percent : std::nan("");
+      if (error) {
+        leg["relative_error_percent"] = re;
+      } else {
+        leg.erase("relative_error_percent");
+      }
+      const FaultCheck check =
+          MaxCheck("IV adjustment", "relative error RE (eq. 4.9) after the legs' test", re,
+                   options.matching.fault_detection.max_relative_error_percent, "%");
+      leg["faults"]["rules"].push_back(ToJson(check));
+      if (check.verdict != FaultVerdict::kPass) kept.clear();
+    }
+    if (kept.empty()) Exclude(leg);
+    leg["tie_points"] = kept.size();
+    fs::create_directories(ties_dir);
+    files[i] = ties_dir / (files[i].parent_path().filename().string() + ".json");
+    WriteFileAtomically(files[i], json{{"tie_points", TiePointsToJson(kept)}}.dump(2));
+  }
+  return files;
+}
+
+}  // namespace areomap::mission_run
