@@ -146,6 +146,25 @@ TEST(LocalizationError, PooledVarianceFactorMeasuresHowPessimisticTheCovariances
   EXPECT_TRUE(std::isnan(none.upper_95));
 }
 
+TEST(LocalizationError, FitConvergesWithATiePointFarOff) {
+  // A tie point on the wrong rock metres away: errors in both sets make the Gauss-Helmert
+  // iteration converge linearly (steps shrinking by a constant factor), and the fit must still
+  // end, with the large chi-square the tests need to see.
+  std::mt19937 rng(17);
+  for (const double off_m : {1.0, 3.0, 6.0}) {
+    std::vector<PlanarTiePoint> ties = NoisyTies(&rng, 1.0);
+    ties[3].in_current += off_m * Eigen::Vector2d(0.6, 0.8);
+    const std::optional<ConformalTransform2d> fit = FitConformalTransform(ties);
+    ASSERT_TRUE(fit.has_value()) << off_m;
+    EXPECT_GT(fit->chi2, 30.0) << off_m;
+    EXPECT_TRUE(fit->covariance.allFinite()) << off_m;
+    ties.erase(ties.begin() + 3);
+    const std::optional<ConformalTransform2d> rest = FitConformalTransform(ties);
+    ASSERT_TRUE(rest.has_value()) << off_m;
+    EXPECT_LT(rest->chi2, 20.0) << off_m;  // chi-square with 4 dof
+  }
+}
+
 TEST(LocalizationError, FitNeedsTwoDistinctPoints) {
   PlanarTiePoint t;
   t.in_current = {1, 2};

@@ -51,7 +51,7 @@ struct PlanarTiePoint {
 struct ConformalTransform2d {
   Eigen::Vector4d parameters = Eigen::Vector4d(1, 0, 0, 0);  // (a, b, c, d).
   Eigen::Matrix4d covariance = Eigen::Matrix4d::Zero();      // Eq. 4.6 [m^2 for c, d].
-  int iterations = 0;
+  int iterations = 0;                                        // The solver's.
   double chi2 = 0.0;   // v^T Sigma^-1 v of the adjusted observations.
   int redundancy = 0;  // 2 n - 4.
 
@@ -60,8 +60,10 @@ struct ConformalTransform2d {
   Eigen::Matrix2d PointCovariance(const Eigen::Vector2d& in_adjacent) const;
 };
 
-// Gauss-Helmert adjustment of eq. 4.4 with errors in both coordinate sets (eq. 4.5). nullopt
-// when fewer than 2 tie points, a singular normal matrix or no convergence in 100 iterations.
+// Gauss-Helmert adjustment of eq. 4.4 with errors in both coordinate sets (eq. 4.5): the condition
+// is linear in the coordinates, so the least corrections are eliminated and the parameters found
+// by Levenberg-Marquardt (Ceres) on the remaining chi-square, from the unweighted solution.
+// nullopt when fewer than 2 tie points, a singular normal matrix or no convergence.
 std::optional<ConformalTransform2d> FitConformalTransform(const std::vector<PlanarTiePoint>& ties);
 
 // Data snooping with each tie point left out: the transformation fitted to all the other tie
