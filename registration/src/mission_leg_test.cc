@@ -50,6 +50,8 @@ std::vector<fs::path> TestLegsAgainstEachOther(const RunContext& run, std::vecto
       ties[i] = ReadTiePoints(files[i]);
     }
   }
+  // What an earlier run's test left there is not this run's: the adjustment reads only `files`.
+  fs::remove_all(ties_dir);
   if (!options.leg_test) return files;
   LegConsistencyOptions test;
   test.alpha = options.leg_test_alpha;

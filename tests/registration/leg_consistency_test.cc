@@ -250,6 +250,7 @@ TEST(LegConsistency, ARunReadsTheTiePointsTheLegsTestLeft) {
       mission_run::TestLegsAgainstEachOther(run_off, off.summaries, ties_dir);
   EXPECT_EQ(own[2], mission_run::LegDir(run_off, 2, 3) / "tie_points.json");
   EXPECT_EQ(off.summaries, before);
+  EXPECT_FALSE(std::filesystem::exists(ties_dir));  // the first call's files: not this run's
 }
 
 }  // namespace
