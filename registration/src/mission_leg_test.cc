@@ -69,9 +69,17 @@ std::vector<fs::path> TestLegsAgainstEachOther(const RunContext& run, std::vecto
     record["dropped_ids"] = json::array();
     for (int k : v.dropped) record["dropped_ids"].push_back(ties[i][static_cast<size_t>(k)].id);
     leg["leg_test"] = record;
-    leg["faults"]["rules"].push_back(
-        ToJson(MaxCheck("IV adjustment", "leg's variance factor / other legs' (F test)",
-                        v.f_statistic, v.f_threshold, "")));
+    // The rule as first tested; when tie points were dropped, again on those left (the one
+    // that decides whether the leg stays).
+    const char* rule = "leg's variance factor / other legs' (F test)";
+    leg["faults"]["rules"].push_back(ToJson(MaxCheck("IV adjustment", rule, v.first_f_statistic,
+                                                     v.f_threshold, "", v.dropped.empty())));
+    if (!v.dropped.empty()) {
+      leg["faults"]["rules"].push_back(ToJson(MaxCheck(
+          "IV adjustment",
+          std::string(rule) + " without " + std::to_string(v.dropped.size()) + " tie point(s)",
+          v.f_statistic, v.f_threshold, "")));
+    }
     if (v.dropped.empty() && !v.excluded) continue;
     std::vector<TiePoint> kept;
     for (size_t k = 0; k < ties[i].size() && !v.excluded; ++k) {
