@@ -15,6 +15,8 @@
 // When the leg's unit.json records its prior pose (prior.a_from_b_*), the leg is re-matched here
 // with that prior (MatchSitePair), which also tells what became of each eligible rock that was not
 // matched (RockMatchOutcome), and lets `NAME=VALUE` arguments try other matching options.
+// Then the legs' test of `areomap run` (TestLegConsistency) on the accepted legs' tie points:
+// what it drops, and the accepted tie points left, right or wrong by the same truth rule.
 //
 // Run: build/ci/bench/areomap_bench_rock_funnel MISSION_DIR RUN_DIR [ROCKS_CSV] [NAME=VALUE...]
 // ROCKS_CSV (optional): one row per truth rock past the ratio stage and site of the leg, with the
@@ -40,6 +42,8 @@
 #include "areomap/map/error.h"
 #include "areomap/map/mission_manifest.h"
 #include "areomap/map/point_cloud_io.h"
+#include "areomap/registration/bundle_io.h"
+#include "areomap/registration/leg_consistency.h"
 #include "areomap/registration/localization_error.h"
 #include "areomap/registration/mission_run.h"
 #include "areomap/registration/rock_matching.h"
@@ -189,6 +193,46 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options) {
   }
 }
 
+// What `areomap run` does next (TestLegConsistency): the legs it changes, and the accepted tie
+// points it leaves, by the truth of the matches behind them.
+void PrintLegTest(const std::vector<std::vector<TiePoint>>& leg_ties,
+                  const std::vector<std::map<int, bool>>& right_by_rock_a,
+                  const LegConsistencyOptions& test) {
+  const std::vector<LegConsistency> verdicts = TestLegConsistency(leg_ties, test);
+  const auto right = [&](size_t leg, const TiePoint& t) {
+    const size_t at = t.id.rfind("-r");
+    const auto it = at == std::string::npos
+                        ? right_by_rock_a[leg].end()
+                        : right_by_rock_a[leg].find(std::stoi(t.id.substr(at + 2)));
+    return it != right_by_rock_a[leg].end() && it->second;
+  };
+  int kept = 0, kept_right = 0, legs_kept = 0;
+  for (size_t k = 0; k < leg_ties.size(); ++k) {
+    const LegConsistency& v = verdicts[k];
+    if (!v.dropped.empty() || v.excluded) {
+      std::printf("  legs' test: leg %zu -> %zu F %.2f > %.2f:", k, k + 1, v.first_f_statistic,
+                  v.f_threshold);
+      for (int i : v.dropped) {
+        const TiePoint& t = leg_ties[k][static_cast<size_t>(i)];
+        std::printf(" dropped %s (%s)", t.id.c_str(), right(k, t) ? "right" : "wrong");
+      }
+      std::printf("%s\n", v.excluded ? " and excluded the leg" : "");
+    }
+    if (leg_ties[k].empty() || v.excluded) continue;
+    ++legs_kept;
+    for (size_t i = 0; i < leg_ties[k].size(); ++i) {
+      if (std::find(v.dropped.begin(), v.dropped.end(), static_cast<int>(i)) != v.dropped.end()) {
+        continue;
+      }
+      ++kept;
+      kept_right += right(k, leg_ties[k][i]) ? 1 : 0;
+    }
+  }
+  std::printf(
+      "after the legs' test: legs accepted %d; accepted tie points %d, %d right (%.1f %%)\n",
+      legs_kept, kept, kept_right, kept > 0 ? 100.0 * kept_right / kept : 100.0);
+}
+
 int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& rocks_csv,
          const MissionRunOptions& options) {
   std::ofstream rows;
@@ -213,6 +257,11 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
   Funnel total, short_legs;
   int legs_accepted = 0, short_count = 0, short_accepted = 0;
   std::vector<SitePairError> fits;  // The legs' conformal fits, chi2 at tie_variance_factor 1.
+  // For the legs' test after the loop: each accepted leg's tie points, and whether the match
+  // behind each (by the rock id of site a) joins one truth rock.
+  const size_t leg_count = mission.sites.size() - 1;
+  std::vector<std::vector<TiePoint>> leg_ties(leg_count);
+  std::vector<std::map<int, bool>> right_by_rock_a(leg_count);
   Site b = LoadSite(run_dir, mission.sites[0].site, world_from_site[0], truth, options);
   for (size_t k = 0; k + 1 < mission.sites.size(); ++k) {
     Site a = std::move(b);
@@ -246,6 +295,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
       rocks_b.rocks = b.rocks;
       const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, *prior, options.matching);
       outcome = ToString(match.report.outcome);
+      leg_ties[k] = match.tie_points;
       for (const RockMatch& m : match.matches) matched_pairs.insert({m.rock_a, m.rock_b});
       for (const RockMatchOutcome& o : match.outcomes) fate_of[o.rock_a] = o.fate;
       f.leg_matches = static_cast<int>(match.matches.size());
@@ -254,6 +304,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
         fits.back().chi2 *= options.matching.tie_variance_factor;
       }
     } else {
+      if (outcome == "matched") leg_ties[k] = ReadTiePoints(leg / "tie_points.json");
       std::string line;
       std::getline(matches_file, line);
       while (std::getline(matches_file, line)) {
@@ -355,6 +406,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
         return -1;
       };
       const int ta = on(a, ia), tb = on(b, ib);
+      right_by_rock_a[k][a.rocks[ia].id] = ta >= 0 && ta == tb;
       if (ta >= 0 && ta == tb) {
         ++correct_matches;
       } else {
@@ -422,6 +474,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
   print("legs <= 25 m", short_legs);
   std::printf("legs accepted: %d of %zu; legs <= 25 m accepted: %d of %d\n", legs_accepted,
               mission.sites.size() - 1, short_accepted, short_count);
+  if (options.leg_test) PrintLegTest(leg_ties, right_by_rock_a, options.LegTestOptions());
   const PooledVarianceFactor pooled = PoolVarianceFactor(fits);
   std::printf(
       "conformal fits of %d legs: chi2 %.1f at tie_variance_factor 1, redundancy %d, pooled "

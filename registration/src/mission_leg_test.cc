@@ -53,11 +53,7 @@ std::vector<fs::path> TestLegsAgainstEachOther(const RunContext& run, std::vecto
   // What an earlier run's test left there is not this run's: the adjustment reads only `files`.
   fs::remove_all(ties_dir);
   if (!options.leg_test) return files;
-  LegConsistencyOptions test;
-  test.alpha = options.leg_test_alpha;
-  test.max_residual_chi2 = options.matching.max_residual_chi2;
-  test.min_tie_points = options.matching.fault_detection.min_tie_points;
-  const std::vector<LegConsistency> verdicts = TestLegConsistency(ties, test);
+  const std::vector<LegConsistency> verdicts = TestLegConsistency(ties, options.LegTestOptions());
   for (size_t i = 0; i < legs.size(); ++i) {
     const LegConsistency& v = verdicts[i];
     json& leg = legs[i];

@@ -232,6 +232,14 @@ void MissionRunOptions::Check() const {
                 ">= 8 windows for a chance level");
 }
 
+LegConsistencyOptions MissionRunOptions::LegTestOptions() const {
+  LegConsistencyOptions test;
+  test.alpha = leg_test_alpha;
+  test.max_residual_chi2 = matching.max_residual_chi2;
+  test.min_tie_points = matching.fault_detection.min_tie_points;
+  return test;
+}
+
 nlohmann::json MissionRunOptions::ToJson() const {
   // The figures a user changes from the CLI; the fingerprint only needs to change with them.
   nlohmann::json figures = {

@@ -52,6 +52,7 @@
 #include "areomap/map/progress.h"
 #include "areomap/map/rigid3d.h"
 #include "areomap/registration/bundle_adjustment.h"
+#include "areomap/registration/leg_consistency.h"
 #include "areomap/registration/orbital_match.h"
 #include "areomap/registration/orbital_report.h"
 #include "areomap/registration/rock_extraction.h"
@@ -115,6 +116,7 @@ struct MissionRunOptions {
   // not in the options fingerprint: changing it keeps the leg units.
   bool leg_test = true;
   double leg_test_alpha = 0.001;
+  LegConsistencyOptions LegTestOptions() const;  // The alpha above, matching's other figures.
   BundleOptions bundle;
   // Telemetry pose priors per leg (DeadReckoningCovariance): relative length error and heading
   // drift per leg, 1 sigma. Defaults to the mission's telemetry model when it states one.
