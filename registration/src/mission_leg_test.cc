@@ -3,7 +3,6 @@
 #include <string>
 
 #include "areomap/map/atomic_file.h"
-#include "areomap/map/error.h"
 #include "areomap/registration/bundle_io.h"
 #include "areomap/registration/fault_detection.h"
 #include "areomap/registration/leg_consistency.h"
@@ -17,15 +16,18 @@ using nlohmann::json;
 
 namespace {
 
-// Where the leg's prior put site b in site a's frame (RunLegUnit's "prior"), for RE.
-Eigen::Vector2d PriorTranslation(const json& leg) {
+// Where site b lies in site a's frame, for RE: the leg's prior (RunLegUnit's "prior"), or, in a
+// leg unit of a run from before it recorded that, telemetry (the same up to the prior's sigma,
+// which moves RE's traverse length by a few per cent at most).
+Eigen::Vector2d AdjacentInCurrent(const RunContext& run, size_t leg_index, const json& leg) {
   const json t = leg.value("prior", json::object()).value("a_from_b_translation_m", json());
-  if (!t.is_array() || t.size() < 2) {
-    throw Error("leg " + std::to_string(leg.value("site_a", -1)) + "-" +
-                std::to_string(leg.value("site_b", -1)) +
-                ": prior.a_from_b_translation_m: expected [x, y, z] (a unit of an older run?)");
+  if (t.is_array() && t.size() >= 2 && t[0].is_number() && t[1].is_number()) {
+    return {t[0].get<double>(), t[1].get<double>()};
   }
-  return {t[0].get<double>(), t[1].get<double>()};
+  const MissionManifest& mission = *run.mission;
+  const Rigid3d a_from_b = TelemetryTraverseFromSite(mission.telemetry.at(leg_index)).Inverse() *
+                           TelemetryTraverseFromSite(mission.telemetry.at(leg_index + 1));
+  return a_from_b.translation.head<2>();
 }
 
 void Exclude(json& leg) {
@@ -86,7 +88,8 @@ std::vector<fs::path> TestLegsAgainstEachOther(const RunContext& run, std::vecto
     if (!kept.empty()) {
       std::vector<PlanarTiePoint> planar;
       for (const TiePoint& t : kept) planar.push_back(PlanarTie(t));
-      const std::optional<SitePairError> error = EvaluateSitePair(planar, PriorTranslation(leg));
+      const std::optional<SitePairError> error =
+          EvaluateSitePair(planar, AdjacentInCurrent(run, i, leg));
       const double re = error ? error->relative_error_percent : std::nan("");
       if (error) {
         leg["relative_error_percent"] = re;

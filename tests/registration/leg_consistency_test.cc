@@ -178,6 +178,8 @@ GatheredLegs Gather(const std::filesystem::path& out,
   g.mission.root = out;
   for (size_t i = 0; i <= traverse.size(); ++i) {
     g.mission.sites.push_back(MissionSite{static_cast<int>(i), {}});
+    const double k = static_cast<double>(i);  // each leg 12 m north, 1.5 m west, as Leg() has it
+    g.mission.telemetry.push_back({static_cast<int>(i), Eigen::Vector3d(12.0 * k, -1.5 * k, 0.0)});
   }
   const mission_run::RunContext run(g.mission, g.options, out);
   for (size_t i = 0; i < traverse.size(); ++i) {
@@ -207,6 +209,9 @@ TEST(LegConsistency, ARunReadsTheTiePointsTheLegsTestLeft) {
   traverse[5] = Leg(&rng, 3, 0.5);  // three, one 1.5 m off: excluded
   traverse[5][0].position_in_a.y() += 1.5;
   GatheredLegs g = Gather(dir.path(), traverse);
+  // A leg unit from before legs recorded their prior pose: RE falls back to telemetry.
+  GatheredLegs without_prior = Gather(dir.path() / "without_prior", traverse);
+  without_prior.summaries[2].erase("prior");
   const mission_run::RunContext run(g.mission, g.options, dir.path());
   const std::filesystem::path ties_dir = dir.path() / "adjustment" / "rock_ties";
   const std::vector<std::filesystem::path> files =
@@ -233,6 +238,12 @@ TEST(LegConsistency, ARunReadsTheTiePointsTheLegsTestLeft) {
   EXPECT_EQ(g.summaries[2]["outcome"], "matched");
   EXPECT_EQ(g.summaries[2]["tie_points"], 5);
   EXPECT_NE(g.summaries[2]["relative_error_percent"].get<double>(), 1.0);
+  const mission_run::RunContext run_without(without_prior.mission, without_prior.options,
+                                            dir.path() / "without_prior");
+  mission_run::TestLegsAgainstEachOther(run_without, without_prior.summaries,
+                                        dir.path() / "without_prior" / "rock_ties");
+  EXPECT_NEAR(without_prior.summaries[2]["relative_error_percent"].get<double>(),
+              g.summaries[2]["relative_error_percent"].get<double>(), 1e-9);
   // The rule failed as first tested, passes without the dropped one; RE after the test passes.
   const nlohmann::json& rules2 = g.summaries[2]["faults"]["rules"];
   ASSERT_EQ(rules2.size(), 3u);
