@@ -121,6 +121,7 @@ std::vector<LegConsistency> TestLegConsistency(const std::vector<std::vector<Tie
     std::vector<PlanarTiePoint> ties = planar[i];
     std::vector<int> index(ties.size());
     std::iota(index.begin(), index.end(), 0);
+    bool fit_lost = false;  // the tie points left could not be fitted
     while (v.Failed() && static_cast<int>(ties.size()) > options.min_tie_points) {
       const std::vector<double> chi2 = LeaveOneOutChi2(ties);
       size_t worst = 0;
@@ -137,10 +138,13 @@ std::vector<LegConsistency> TestLegConsistency(const std::vector<std::vector<Tie
       ties.erase(ties.begin() + static_cast<long>(worst));
       index.erase(index.begin() + static_cast<long>(worst));
       const std::optional<FitSum> fit = LegFit(ties);
-      if (!fit) break;
+      if (!fit) {
+        fit_lost = true;
+        break;
+      }
       Evaluate(*fit, *ref, options.alpha, &v);
     }
-    v.excluded = v.Failed() || !LegFit(ties);
+    v.excluded = v.Failed() || fit_lost;
   }
   return out;
 }
