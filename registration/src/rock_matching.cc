@@ -12,6 +12,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "areomap/map/error.h"
+#include "areomap/registration/leg_consistency.h"
 #include "rock_point_grid.h"
 
 namespace areomap {
@@ -530,14 +531,24 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
                                Eigen::Matrix2d::Identity();
     return Eigen::Matrix3d(options.tie_variance_factor * c);
   };
-  const auto planar_tie = [&](const RockMatch& m) {
-    PlanarTiePoint t;
-    t.in_current = a.rocks[m.rock_a].peak.head<2>();
-    t.covariance_current = tie_covariance(a.rocks[m.rock_a]).topLeftCorner<2, 2>();
-    t.in_adjacent = b.rocks[m.rock_b].peak.head<2>();
-    t.covariance_adjacent = tie_covariance(b.rocks[m.rock_b]).topLeftCorner<2, 2>();
+  // The match as a tie point: both peaks in their site frames with those covariances.
+  const auto tie_point = [&](const RockMatch& m) {
+    const ExtractedRock& p = a.rocks[m.rock_a];
+    const ExtractedRock& q = b.rocks[m.rock_b];
+    TiePoint t;
+    char id[64];
+    std::snprintf(id, sizeof(id), "s%03d-s%03d-r%d", a.site, b.site, p.id);
+    t.id = id;
+    t.site_a = a.site;
+    t.site_b = b.site;
+    t.position_in_a = p.peak;
+    t.covariance_in_a = tie_covariance(p);
+    t.position_in_b = q.peak;
+    t.covariance_in_b = tie_covariance(q);
+    t.source = "rock";
     return t;
   };
+  const auto planar_tie = [&](const RockMatch& m) { return PlanarTie(tie_point(m)); };
   // Outlier test in the site-to-site adjustment (data snooping): with redundancy left, the tie
   // point that disagrees most with the conformal fit (eq. 4.4) of the others, if its chi-square
   // exceeds `max_residual_chi2` (LeaveOneOutChi2), is dropped and the test repeated.
@@ -592,22 +603,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
                 fd.max_relative_error_percent, "%", FaultVerdict::kNotEvaluated, false});
   }
   if (report.outcome != PairOutcome::kMatched) return result;
-  for (const RockMatch& m : result.matches) {
-    const ExtractedRock& p = a.rocks[m.rock_a];
-    const ExtractedRock& q = b.rocks[m.rock_b];
-    TiePoint t;
-    char id[64];
-    std::snprintf(id, sizeof(id), "s%03d-s%03d-r%d", a.site, b.site, p.id);
-    t.id = id;
-    t.site_a = a.site;
-    t.site_b = b.site;
-    t.position_in_a = p.peak;
-    t.covariance_in_a = tie_covariance(p);
-    t.position_in_b = q.peak;
-    t.covariance_in_b = tie_covariance(q);
-    t.source = "rock";
-    result.tie_points.push_back(t);
-  }
+  for (const RockMatch& m : result.matches) result.tie_points.push_back(tie_point(m));
   return result;
 }
 
