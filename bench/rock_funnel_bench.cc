@@ -200,10 +200,7 @@ void PrintLegTest(const std::vector<std::vector<TiePoint>>& leg_ties,
                   const LegConsistencyOptions& test) {
   const std::vector<LegConsistency> verdicts = TestLegConsistency(leg_ties, test);
   const auto right = [&](size_t leg, const TiePoint& t) {
-    const size_t at = t.id.rfind("-r");
-    const auto it = at == std::string::npos
-                        ? right_by_rock_a[leg].end()
-                        : right_by_rock_a[leg].find(std::stoi(t.id.substr(at + 2)));
+    const auto it = right_by_rock_a[leg].find(bench::RockIdOfTie(t.id));
     return it != right_by_rock_a[leg].end() && it->second;
   };
   int kept = 0, kept_right = 0, legs_kept = 0;

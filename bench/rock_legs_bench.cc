@@ -75,13 +75,9 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
       const bool right = rock_a >= 0 && rock_a == rock_b;
       ++matches;
       correct += right ? 1 : 0;
-      // Tie ids end in "-r<rock_a>" (MatchSitePair).
       bool was_dropped = false;
       for (const auto& id : dropped) {
-        const std::string text = id.get<std::string>();
-        was_dropped |=
-            text.size() > f[0].size() + 2 &&
-            text.compare(text.size() - f[0].size() - 2, std::string::npos, "-r" + f[0]) == 0;
+        was_dropped |= bench::RockIdOfTie(id.get<std::string>()) == std::stoi(f[0]);
       }
       if (was_dropped) dropped_text += std::string(" r") + f[0] + (right ? " (right)" : " (wrong)");
       if (leg_accepted && !was_dropped) {

@@ -8,6 +8,7 @@
 // Failures: a missing or malformed truth file throws areomap::Error naming it.
 #pragma once
 
+#include <exception>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -72,6 +73,18 @@ inline std::vector<Rigid3d> TrueWorldFromSites(const MissionManifest& mission) {
         mission.truth_sites[k].position);
   }
   return world_from_site;
+}
+
+// The site-a rock id of a rock tie point, from its id "sAAA-sBBB-r<id>" (MatchSitePair); -1 for
+// an id of another form.
+inline int RockIdOfTie(const std::string& tie_id) {
+  const size_t at = tie_id.rfind("-r");
+  if (at == std::string::npos || at + 2 >= tie_id.size()) return -1;
+  try {
+    return std::stoi(tie_id.substr(at + 2));
+  } catch (const std::exception&) {
+    return -1;
+  }
 }
 
 }  // namespace areomap::bench
