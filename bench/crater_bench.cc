@@ -91,7 +91,7 @@ areomap::CraterDetectorOptions BenchOptions(int upsample, bool shading) {
   options.sun_azimuth_deg = 90.0;
   options.min_diameter_px = 10.0;
   options.upsample_small_craters = upsample != 0;
-  options.upsample_only_near_strong_edges = upsample != 2;
+  options.upsample_only_around_small_arcs = upsample != 2;
   options.shading_template.enabled = shading;
   return options;
 }

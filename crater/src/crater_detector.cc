@@ -38,6 +38,9 @@ constexpr double kCoarseMinRadius = 8.0;
 // The upsampled level (scale 0.5) searches up to this radius [its px]: 1 full-resolution px
 // beyond kCoarseMinRadius, where the full-resolution level's radii begin.
 constexpr double kUpsampledMaxRadius = 2.0 * kCoarseMinRadius + 2.0;
+// The largest full-resolution arc [px] around which the upsampled level is searched: that
+// level's largest radius, plus half a pixel for the arc's radius error.
+constexpr double kSmallArcMaxRadius = 0.5 * kUpsampledMaxRadius + 0.5;
 constexpr int kSectors = 12;   // 30 degree normal-direction sectors
 constexpr int kArcWindow = 3;  // sectors per arc window (90 degrees)
 constexpr int kMinArcPoints = 5;
@@ -90,6 +93,18 @@ int SectorOf(const RimEdgePoint& p, bool signed_normals) {
   return std::clamp(s, 0, kSectors - 1);
 }
 
+// The radii [level px] an arc may have when a level searches craters of radii [r_lo, r_hi]: an
+// arc's circle comes from a part of the rim only.
+bool InArcRadiusBand(double radius, double r_lo, double r_hi) {
+  return radius >= 0.7 * r_lo && radius <= 1.3 * r_hi;
+}
+
+// The arcs of `arcs` in the radius band of [r_lo, r_hi], in their order.
+std::vector<Arc> ArcsInRadiusBand(std::vector<Arc> arcs, double r_lo, double r_hi) {
+  std::erase_if(arcs, [&](const Arc& arc) { return !InArcRadiusBand(arc.radius, r_lo, r_hi); });
+  return arcs;
+}
+
 std::optional<Arc> FitArc(const std::vector<RimEdgePoint>& points, const std::vector<int>& members,
                           double r_lo, double r_hi, const std::optional<Eigen::Vector2d>& sun) {
   Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
@@ -118,7 +133,7 @@ std::optional<Arc> FitArc(const std::vector<RimEdgePoint>& points, const std::ve
   arc.radius = sum / count;
   const double spread = std::sqrt(std::max(0.0, sum2 / count - arc.radius * arc.radius));
   radial /= count;
-  if (arc.radius < 0.7 * r_lo || arc.radius > 1.3 * r_hi) return std::nullopt;
+  if (!InArcRadiusBand(arc.radius, r_lo, r_hi)) return std::nullopt;
   if (spread > 0.15 * arc.radius + 0.5 || std::abs(radial) < 0.8) return std::nullopt;
   arc.polarity = radial > 0.0 ? 1 : -1;
   if (sun) {
@@ -637,28 +652,38 @@ double DistanceOutside(const cv::Rect2d* core, const Eigen::Vector2d& p) {
   return std::hypot(dx, dy);
 }
 
-// Where the upsampled level (scale 0.5) is worth searching: the 4 px blocks of the
-// full-resolution level holding >= 2 edge points of at least `min_strength` (a rim crossing the
-// block has about 4 edge points, most of them that strong when its mean is), and the blocks next
-// to them (a small crater's rim lies within a few pixels of its strong points); as rectangles of
-// upsampled pixels inside `area`, one per run of such blocks along a block row. Against 8 px blocks
-// with >= 4 points (round 9): three fifths of the area, on the bench tile the same craters but one
-// false detection, on HRSC F1 within one crater (docs/benchmarks.md, round 10).
-std::vector<cv::Rect> UpsampledSearchRegions(const RimEdges& full_resolution, double min_strength,
+// Where the upsampled level (scale 0.5) is worth searching: around each full-resolution arc
+// whose circle is small enough for that level (radius <= kSmallArcMaxRadius) and whose edges are
+// on average `min_strength` strong (as a group of arcs must be, kGroupStrengthShare). Each marks
+// the 4 px blocks of a square of half-size 1.2 r + 2 px about the arc's centre (the rim, with room
+// for the centre's and radius's errors; the windows add their margin); the result is rectangles of
+// upsampled pixels inside `area`, one per run of marked blocks along a block row. Against round
+// 10's rule (every block with >= 2 strong edge points, and its neighbours) the area of the bench's
+// 10000^2 tile falls from 38 to 13 M upsampled px: the rims of larger craters and straight edges no
+// longer count (docs/benchmarks.md, round 12).
+std::vector<cv::Rect> UpsampledSearchRegions(const std::vector<Arc>& full_resolution_arcs,
+                                             const RimEdges& full_resolution, double min_strength,
                                              const cv::Rect& area) {
   constexpr int kBlock = 4;
-  constexpr int kMinStrongPoints = 2;
   const int block_rows = (full_resolution.rows + kBlock - 1) / kBlock;
   const int block_cols = (full_resolution.cols + kBlock - 1) / kBlock;
-  cv::Mat strong = cv::Mat::zeros(block_rows, block_cols, CV_32S);
-  for (const RimEdgePoint& p : full_resolution.points) {
-    if (p.strength < min_strength) continue;
-    const int r = std::clamp(static_cast<int>(p.y) / kBlock, 0, block_rows - 1);
-    const int c = std::clamp(static_cast<int>(p.x) / kBlock, 0, block_cols - 1);
-    ++strong.at<int>(r, c);
+  cv::Mat searched = cv::Mat::zeros(block_rows, block_cols, CV_8U);
+  const auto mark = [&](const Eigen::Vector2d& center, double radius) {
+    const double half = 1.2 * radius + 2.0;
+    const auto block = [&](double v, int count) {
+      return std::clamp(static_cast<int>(std::floor(v / kBlock)), 0, count - 1);
+    };
+    const int c0 = block(center.x() - half, block_cols), c1 = block(center.x() + half, block_cols);
+    const int r0 = block(center.y() - half, block_rows), r1 = block(center.y() + half, block_rows);
+    searched(cv::Range(r0, r1 + 1), cv::Range(c0, c1 + 1)).setTo(1);
+  };
+  for (const Arc& arc : full_resolution_arcs) {
+    if (arc.radius > kSmallArcMaxRadius) continue;
+    double strength = 0.0;
+    for (int i : arc.points) strength += full_resolution.points[static_cast<size_t>(i)].strength;
+    if (strength < min_strength * static_cast<double>(arc.points.size())) continue;
+    mark(arc.center, arc.radius);
   }
-  cv::Mat searched;
-  cv::dilate(strong >= kMinStrongPoints, searched, cv::Mat::ones(3, 3, CV_8U));
   std::vector<cv::Rect> regions;
   const int step = 2 * kBlock;  // a block in upsampled pixels
   for (int r = 0; r < block_rows; ++r) {
@@ -831,13 +856,30 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
     cv::resize(cropped, next.image, cv::Size(src.cols / 2, src.rows / 2), 0, 0, cv::INTER_AREA);
     levels.push_back(std::move(next));
   }
-  if (upsample && o.upsample_only_near_strong_edges && source == RimSource::kImage) {
-    // The full-resolution edges first (searched anyway), to choose where the upsampled level's
-    // edges are needed. After the pyramid is built: growing `levels` copies its Levels (cv::Mat's
-    // move is not noexcept), edges included.
+  const std::optional<Eigen::Vector2d> sun = SunVector(o, source);
+  // Radii [level px] searched on level `li`, as {r_lo, r_hi}; none when r_hi < 0.8 r_lo.
+  const auto radius_band = [&](size_t li) {
+    const double scale = levels[li].scale;
+    double r_lo = std::max(li == 0 ? 0.0 : kCoarseMinRadius, min_radius / scale);
+    double r_hi = std::min(kLevelMaxRadius, max_radius / scale * 1.1);
+    if (upsample && li == 0) r_hi = std::min(r_hi, kUpsampledMaxRadius);
+    if (upsample && li == base) r_lo = kCoarseMinRadius - 1.0;
+    return std::pair{r_lo, r_hi};
+  };
+  // The full-resolution level's arcs when they were found before the level's turn below.
+  std::optional<std::vector<Arc>> full_resolution_arcs;
+  if (upsample && o.upsample_only_around_small_arcs && source == RimSource::kImage) {
+    // The full-resolution edges and arcs first (searched anyway), to choose where the upsampled
+    // level's edges are needed. After the pyramid is built: growing `levels` copies its Levels
+    // (cv::Mat's move is not noexcept), edges included.
     Level& full_level = levels[base];
     full_level.edges = EdgesOf(full_level.image, source, o, full_level.scale);
     full_level.has_edges = true;
+    // Down to the smallest radius asked for: the level's own band is taken out of them below.
+    const auto [r_lo, r_hi] = radius_band(base);
+    full_resolution_arcs =
+        ExtractArcs(full_level.edges, std::min(r_lo, min_radius), r_hi, sun,
+                    kArcStrengthShare * o.min_edge_contrast * full_level.edges.high_threshold);
     Level& up = levels.front();
     const double strong =
         kGroupStrengthShare * o.min_edge_contrast * full_level.edges.high_threshold;
@@ -854,10 +896,10 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
                                  static_cast<int>(std::ceil(around.br().y / up.scale))));
     }
     up.edges = DetectImageEdgesInRegions(
-        up.image, UpsampledSearchRegions(full_level.edges, strong, area), o.edges);
+        up.image, UpsampledSearchRegions(*full_resolution_arcs, full_level.edges, strong, area),
+        o.edges);
     up.has_edges = true;
   }
-  const std::optional<Eigen::Vector2d> sun = SunVector(o, source);
   // Bowl-shading template hypotheses (shading_hypotheses.h), tried on their level below.
   std::vector<ShadingHypothesis> shading;
   if (sun && o.shading_template.enabled) {
@@ -869,18 +911,17 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
   std::vector<CraterDetection> candidates;
   for (size_t li = 0; li < levels.size(); ++li) {
     Level& level = levels[li];
-    double r_lo = std::max(li == 0 ? 0.0 : kCoarseMinRadius, min_radius / level.scale);
-    double r_hi = std::min(kLevelMaxRadius, max_radius / level.scale * 1.1);
-    if (upsample && li == 0) r_hi = std::min(r_hi, kUpsampledMaxRadius);
-    if (upsample && li == base) r_lo = kCoarseMinRadius - 1.0;
+    const auto [r_lo, r_hi] = radius_band(li);
     if (r_hi < r_lo * 0.8) continue;  // no crater of the asked sizes at this level
     if (!level.has_edges) {
       level.edges = EdgesOf(level.image, source, o, level.scale);
       level.has_edges = true;
     }
     const std::vector<Arc> arcs =
-        ExtractArcs(level.edges, r_lo, r_hi, sun,
-                    kArcStrengthShare * o.min_edge_contrast * level.edges.high_threshold);
+        li == base && full_resolution_arcs
+            ? ArcsInRadiusBand(std::move(*full_resolution_arcs), r_lo, r_hi)
+            : ExtractArcs(level.edges, r_lo, r_hi, sun,
+                          kArcStrengthShare * o.min_edge_contrast * level.edges.high_threshold);
     const std::vector<std::vector<int>> groups = GroupArcs(arcs, r_hi, sun);
     std::vector<std::optional<CraterDetection>> found(groups.size());
     tbb::parallel_for(size_t{0}, groups.size(), [&](size_t g) {

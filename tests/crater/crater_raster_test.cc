@@ -165,10 +165,10 @@ TEST(DetectCratersInRaster, SmallCratersOnTheUpsampledLevelOfEveryTile) {
   EXPECT_GE(score.all.recall, 0.95);
   EXPECT_GE(score.all.precision, 0.95);
   ExpectSameAsWithOneThread(dataset, options, found);
-  // The upsampled level searched everywhere, not only near strong full-resolution edges: as
+  // The upsampled level searched everywhere, not only around small full-resolution arcs: as
   // good, and the same fits but for one (the edges differ only by the thresholds' sampling and
   // float rounding, rim_edges.h).
-  options.upsample_only_near_strong_edges = false;
+  options.upsample_only_around_small_arcs = false;
   const std::vector<CraterDetection> everywhere =
       DetectCratersInRaster(dataset, RimSource::kImage, options);
   const CraterScore everywhere_score = ScoreCraters(truth, CirclesOf(everywhere), {8.0, 1e9});

@@ -103,12 +103,13 @@ struct CraterDetectorOptions {
   double max_axis_ratio = 1.6;  // a / b
   // Search craters below 16 px across on a 2x upsampled copy (about 2.5x the work).
   bool upsample_small_craters = true;
-  // Images: search the upsampled copy only around 4 px blocks of the full-resolution image
-  // holding at least 2 edge points as strong as a rim's mean must be (0.8 x min_edge_contrast x
-  // the high Canny threshold), and in a tile only within reach of its core; a small crater that
-  // can pass the edge contrast test has them. false: the whole copy (DTMs always), 1.7-2x the
-  // time on the bench's 10000^2 tile.
-  bool upsample_only_near_strong_edges = true;
+  // Images: search the upsampled copy only around the full-resolution arcs whose circles are
+  // under ~19 px across and whose edges are as strong on average as a rim's must be (0.8 x
+  // min_edge_contrast x the high Canny threshold), and in a tile only within reach of its core; a
+  // small crater that can pass the edge contrast test shows such an arc already at full
+  // resolution. false: the whole copy (DTMs always), about 2x
+  // the time on the bench's 10000^2 tile.
+  bool upsample_only_around_small_arcs = true;
   // false: each crater gets its geometric fit on the pyramid level where it was found, not
   // refined down to full resolution (for a caller that refines it itself, e.g. the overview of
   // DetectCratersInRaster).
