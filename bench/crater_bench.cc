@@ -2,7 +2,7 @@
 // the same image in the same run. Usage:
 //   areomap_bench_crater [SIZE_PX [UPSAMPLE [SHADING [SAMPLES]]]]
 // (default 4000 1 1 float32; UPSAMPLE 0 skips the 2x upsampled level for craters under 16 px,
-// 1 searches it near strong full-resolution edges (the default options) and also runs the
+// 1 searches it around small full-resolution arcs (the default options) and also runs the
 // whole-level search of 2 as a baseline in the same process, 2 searches all of it; SHADING 0 the
 // bowl-shading template hypotheses; SAMPLES float32 or uint16, the GeoTIFF's sample type: Float32
 // as areomap's own products, deflate with the floating-point predictor; UInt16 as HiRISE or CTX
@@ -14,7 +14,7 @@
 //                                                       PATH.csv
 //   areomap_bench_crater detect PATH [RUNS [UPSAMPLE]]   DetectCratersInRaster on PATH (templates
 //                                             off; the upsampled level off unless UPSAMPLE is 1
-//                                             (near strong edges) or 2 (all of it)),
+//                                             (around small arcs) or 2 (all of it)),
 //                                             scored against PATH.csv if present
 //
 // The tile holds bowls lit from the east (bright western wall, dark eastern wall, sharp rim,
@@ -179,7 +179,7 @@ int CompareWithHough(int argc, char** argv) {
   const auto ours_score = ScoreDetections(truth, found);
 
   // The upsampled level searched everywhere (the default options before it was searched only
-  // near strong edges), on the same file.
+  // around small arcs), on the same file.
   double whole_level_s = 0.0, whole_level_cpu = 0.0;
   std::vector<areomap::CraterDetection> whole_level_found;
   if (upsample == 1) {
@@ -230,7 +230,7 @@ int CompareWithHough(int argc, char** argv) {
   std::printf("time ratio areomap / HoughCircles: wall %.2f, cpu %.2f\n", ours_s / hough_s,
               ours_cpu / hough_cpu);
   if (upsample == 1) {
-    std::printf("time ratio upsampled near strong edges / everywhere: wall %.2f, cpu %.2f\n",
+    std::printf("time ratio upsampled around small arcs / everywhere: wall %.2f, cpu %.2f\n",
                 ours_s / whole_level_s, ours_cpu / whole_level_cpu);
   }
   std::printf("areomap throughput with %d threads fully busy (MP per cpu_s x %d): %.2f MP/s\n",
