@@ -68,11 +68,13 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
     prior.position = {RadFromDeg(*args.prior_lat_deg), RadFromDeg(*args.prior_lon_deg),
                       args.prior_height_m};
   } else {
-    // Without telemetry: the orthophoto's centre as its georeference has it.
+    // Without telemetry: the orthophoto's centre as its georeference has it, the point of that
+    // pixel's radial line at the given height.
     const auto centre =
         ortho_grid.PixelToGeographic({ortho.image.cols / 2.0, ortho.image.rows / 2.0});
     if (!centre) throw Error(args.ortho + ": its centre lies outside its CRS's domain");
-    prior.position = {centre->lat, centre->lon, args.prior_height_m};
+    prior.position = GeographicFromMbf(
+        prior.body, MbfOnRadialLine(prior.body, centre->lat, centre->lon, args.prior_height_m));
   }
   if (args.site) {
     ortho.site = *args.site;

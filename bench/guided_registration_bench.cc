@@ -76,7 +76,7 @@ int Run(const fs::path& mission_dir, const fs::path& run_dir) {
                                       Rigid3d(Eigen::Quaterniond::Identity(), telemetry.position));
       const OrthoImage ortho = OrthoImageFromOrthophoto(ReadOrthophoto(ortho_path),
                                                         ortho_path.string(), site, georef.Origin());
-      OrbitalPrior prior{georef.Origin(), p.at("sigma_m").get<double>()};
+      OrbitalPrior prior{georef.Origin(), georef.body, p.at("sigma_m").get<double>()};
       prior.expected_shift_en_m =
           Eigen::Vector2d(p.at("shift_east_m").get<double>(), p.at("shift_north_m").get<double>());
       prior.expected_rotation_rad = p.at("rotation_deg").get<double>() * std::numbers::pi / 180.0;

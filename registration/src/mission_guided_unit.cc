@@ -131,7 +131,7 @@ json RunGuidedRegistrationUnit(const RunContext& run, size_t site_index, int pas
   const SiteGeoreference georef =
       SiteGeoreference::InMission(run.mission->body, run.mission->origin,
                                   TelemetryTraverseFromSite(run.mission->telemetry[site_index]));
-  OrbitalPrior prior{georef.Origin(), guided.sigma_m};
+  OrbitalPrior prior{georef.Origin(), georef.body, guided.sigma_m};
   prior.expected_shift_en_m = guided.shift_en_m;
   prior.expected_rotation_rad = guided.rotation_rad;
   OrbitalMatchOptions options = run.options->match;

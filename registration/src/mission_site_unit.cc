@@ -181,7 +181,7 @@ json RunSiteUnit(const RunContext& run, size_t site_index, const ProgressCallbac
   const double prior_sigma =
       run.options->prior_sigma_floor_m +
       run.options->prior_sigma_per_m * DrivenDistance(*run.mission, site_index);
-  const OrbitalPrior prior{georef.Origin(), prior_sigma};
+  const OrbitalPrior prior{georef.Origin(), georef.body, prior_sigma};
   json registration =
       RegisterSiteOrtho(run, ortho, dir / "ortho.tif", site.site, prior, run.options->match, dir);
   seconds["registration"] = SecondsSince(clock);

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "areomap/map/crs.h"
+#include "areomap/map/geodesy.h"
 #include "areomap/map/raster.h"
 #include "orbital_trial.h"
 #include "test_support.h"
@@ -43,12 +44,15 @@ TEST(OrbitalMatch, RecoversTheTelemetryErrorAndRejectsADecoy) {
   EXPECT_GT(m.correlation, 0.5);
   EXPECT_GE(m.peak_ratio, 1.25);
   EXPECT_EQ(m.surface.empty(), false);
-  // The corrected rover position is where the truth is: the telemetry error undone.
+  // The corrected rover position is where the truth is: the telemetry error undone. Without a
+  // rotation the rover moves with the template centre.
   const PixelGrid grid(trial.orbital->geotransform(), trial.orbital->crs_wkt(), "orbital");
   const Eigen::Vector2d telemetry = grid.GeographicToPixel(trial.prior.position);
   const Eigen::Vector2d corrected = grid.GeographicToPixel(m.corrected_position);
+  EXPECT_FALSE(m.rotation_solved);
   EXPECT_NEAR((corrected - telemetry).x(), m.shift_px.x(), 1e-6);
   EXPECT_NEAR((corrected - telemetry).y(), m.shift_px.y(), 1e-6);
+  EXPECT_NEAR(m.corrected_position.h, trial.prior.position.h, 1e-6);
 
   const OrbitalMatch d = MatchOrthoToOrbital(trial.ortho, *trial.decoy, trial.prior);
   EXPECT_FALSE(d.matched) << d.BriefReport();
@@ -75,6 +79,57 @@ TEST(OrbitalMatch, SolvesAHeadingErrorWithTheRotationSearch) {
   // 0.5 px error at the template's edge (~60 px from its centre) is ~0.5 deg.
   EXPECT_NEAR(m.rotation_rad * 180.0 / std::numbers::pi, -3.0, 0.5) << m.BriefReport();
   EXPECT_LE(ErrorPx(m, trial), 0.5) << m.BriefReport();
+}
+
+TEST(OrbitalMatch, CorrectsTheRoverNotTheTemplateCentreUnderAHeadingError) {
+  // A 90 deg fan: the template's centre lies ~7 m from the rover, so a 3 deg turn about the
+  // rover moves the centre ~0.4 m (1.5 px) more than the rover. The reported correction is the
+  // rover's.
+  TrialOptions o = SmallTrial(3);
+  o.heading_error_deg = 3.0;
+  o.fan_fov_deg = 90.0;
+  o.decoy = false;
+  const Trial trial = MakeTrial(o);
+  OrbitalMatchOptions options;
+  options.max_rotation_deg = 5.0;
+  const OrbitalMatch m = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior, options);
+  ASSERT_TRUE(m.matched) << m.BriefReport();
+  ASSERT_TRUE(m.rotation_solved);
+  const PixelGrid grid(trial.orbital->geotransform(), trial.orbital->crs_wkt(), "orbital");
+  const Eigen::Vector2d rover = grid.GeographicToPixel(trial.prior.position);
+  ASSERT_GT((m.centre_px - rover).norm() * trial.gsd_m, 5.0);
+  EXPECT_LE(ErrorPx(m, trial), 0.5) << m.BriefReport();
+  const Eigen::Vector2d centre_shift_m = grid.EastNorthPerPixel(rover) * m.shift_px;
+  EXPECT_GT((centre_shift_m + trial.telemetry_error_en_m).norm() / trial.gsd_m, 1.0)
+      << "the template centre's shift is not the rover's here";
+}
+
+TEST(OrbitalMatch, ARoverBelowTheEllipsoidIsFoundOnItsOwnRadialLine) {
+  // The same rover given 1900 m below the ellipsoid (as a MER site origin is), on the radial
+  // line of its map pixel: its foot point on the ellipsoid lies 5.5 m north of that line, and
+  // the match must not move there.
+  const Trial trial = MakeTrial(SmallTrial(7));
+  const PixelGrid grid(trial.orbital->geotransform(), trial.orbital->crs_wkt(), "orbital");
+  const Body body = Body::Mars2000();
+  const Eigen::Vector2d pixel = grid.GeographicToPixel(trial.prior.position);
+  const Eigen::Vector3d below =
+      MbfOnRadialLine(body, trial.prior.position.lat, trial.prior.position.lon, -1900.0);
+  EXPECT_LT((grid.PointToPixel(below).head<2>() - pixel).norm(), 1e-6);
+  EXPECT_GT((grid.GeographicToPixel(GeographicFromMbf(body, below)) - pixel).norm() * trial.gsd_m,
+            5.0);
+
+  OrbitalPrior deep = trial.prior;
+  deep.position = GeographicFromMbf(body, below);
+  const OrbitalMatch at_surface = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);
+  const OrbitalMatch at_depth = MatchOrthoToOrbital(trial.ortho, *trial.orbital, deep);
+  ASSERT_TRUE(at_depth.matched) << at_depth.BriefReport();
+  EXPECT_LT((at_depth.shift_en_m - at_surface.shift_en_m).norm(), 1e-6);
+  EXPECT_LE(ErrorPx(at_depth, trial), 0.5);
+  EXPECT_NEAR(at_depth.corrected_position.h, -1900.0, 1e-6);
+  const auto corrected_pixel = [&](const OrbitalMatch& m) -> Eigen::Vector2d {
+    return grid.PointToPixel(MbfFromGeographic(body, m.corrected_position)).head<2>();
+  };
+  EXPECT_LT((corrected_pixel(at_depth) - corrected_pixel(at_surface)).norm(), 1e-4);
 }
 
 TEST(OrbitalMatch, ASearchWindowOffTheImageIsNoMatch) {

@@ -30,6 +30,7 @@ struct TrialOptions {
   int orbital_supersample = 1;     // 2 renders finer but costs 4x.
   double telemetry_sigma_m = 4.0;  // Telemetry error per axis, 1 sigma [m].
   double heading_error_deg = 0.0;  // Rotation of the ortho's georeference about the rover.
+  double fan_fov_deg = 0.0;        // The rover's view: 0 = a random 120-240 deg fan.
   bool decoy = true;
   // Resolution falls with range in a rover orthophoto: a Navcam pixel (0.76 mrad) seen from
   // the mast (1.5 m) covers r^2 IFOV / h metres of ground along the line of sight, 0.3 m at
@@ -154,8 +155,13 @@ inline Trial MakeTrial(const TrialOptions& o) {
   trial.ortho.source = "ortho";
   render.image.bands[0].convertTo(trial.ortho.image, CV_32F);
   if (o.range_blur) BlurWithRange(trial.ortho.image, o.ortho_gsd_m);
-  trial.ortho.mask = RoverFanMask(trial.ortho.image.size(), o.ortho_gsd_m, 360.0 * u(rng),
-                                  120.0 + 120.0 * u(rng), o.ortho_half_extent_m, rng);
+  // Drawn in the order GCC evaluated them as two arguments of one call (the last first), so the
+  // trials stay those the tests were written on.
+  const double random_fov_deg = 120.0 + 120.0 * u(rng);
+  const double fan_azimuth_deg = 360.0 * u(rng);
+  trial.ortho.mask = RoverFanMask(trial.ortho.image.size(), o.ortho_gsd_m, fan_azimuth_deg,
+                                  o.fan_fov_deg > 0.0 ? o.fan_fov_deg : random_fov_deg,
+                                  o.ortho_half_extent_m, rng);
   trial.ortho.crs_wkt = render.image.crs_wkt;
 
   // Telemetry error: the georeference is translated by the error and rotated by the heading

@@ -36,7 +36,11 @@ namespace areomap {
 
 // Where telemetry puts the rover, and how far off that may be.
 struct OrbitalPrior {
-  Geographic position;    // Planetocentric latitude, east longitude [rad] of the rover.
+  // The rover: planetocentric latitude and east longitude [rad] of its foot point on `body`'s
+  // ellipsoid and its height above it [m] (geodesy.h MbfFromGeographic), e.g.
+  // SiteGeoreference::Origin(). Its pixels are those of that point itself (PointToPixel).
+  Geographic position;
+  Body body = Body::Mars2000();
   double sigma_m = 10.0;  // Horizontal 1-sigma position uncertainty [m], > 0.
   // A guided prior (e.g. from a bundle adjustment) expects the telemetry georeference to be off:
   // the rover lies this far east/north of `position` [m] and the orthophoto is turned by this
@@ -106,10 +110,14 @@ struct OrbitalMatch {
   double scale = 1.0;
   bool rotation_solved = false;
   bool scale_solved = false;
-  // The same shift in metres, east and north at the rover, and its covariance [m^2].
+  // The correction of the rover itself, east and north [m]: shift_px + (A - I) (rover -
+  // centre) in metres. Its covariance [m^2] is shift_covariance_px's, in metres: the rotation's
+  // own error is not in it (at a lever of a few metres, 0.5 deg moves the rover by centimetres).
   Eigen::Vector2d shift_en_m = Eigen::Vector2d::Zero();
   Eigen::Matrix2d shift_covariance_en_m2 = Eigen::Matrix2d::Zero();
-  Geographic corrected_position;  // The rover's position after the correction [rad].
+  // The rover's position moved by shift_en_m, in OrbitalPrior::position's convention (same
+  // body, same height).
+  Geographic corrected_position;
 
   double correlation = 0.0;  // NCC at the full-resolution peak.
   double peak_ratio = 0.0;   // Best / best separated runner-up, both refined to full resolution.
