@@ -247,6 +247,22 @@ std::optional<Eigen::Vector3d> CrsTransform::ToMbf(const Eigen::Vector3d& xyz) c
   return MbfFromGeographic(description_.body, own, impl_->convention);
 }
 
+std::optional<Eigen::Vector3d> CrsTransform::ToMbfAtHeight(const Eigen::Vector2d& xy,
+                                                           const Body& body, double h) const {
+  // Walk the line, parametrised by the CRS's own height, to the point at height h above the
+  // body: heights along it change at ~1 m/m, so fixed-point steps converge.
+  const auto on_line = [&](double t) { return ToMbf({xy.x(), xy.y(), t}); };
+  double t = h;
+  std::optional<Eigen::Vector3d> p = on_line(t);
+  for (int i = 0; i < 4 && p; ++i) {
+    const double error = GeographicFromMbf(body, *p).h - h;
+    if (std::abs(error) < 1e-6) break;
+    t -= error;
+    p = on_line(t);
+  }
+  return p;
+}
+
 std::optional<Eigen::Vector3d> CrsTransform::FromMbf(const Eigen::Vector3d& p_in_mbf) const {
   if (!p_in_mbf.allFinite()) return std::nullopt;
   if (impl_->geocentric) return p_in_mbf;

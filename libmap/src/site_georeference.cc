@@ -87,18 +87,8 @@ Eigen::Vector3d MapFrame::MbfFromMap(const Eigen::Vector3d& p_in_map) const {
     const Geographic g = impl_->projection->Inverse(p_in_map.head<2>());
     return MbfOnRadialLine(impl_->body, g.lat, g.lon, p_in_map.z());
   }
-  // Walk the CRS's line of constant (x, y), parametrised by the CRS's own height, to the point
-  // at height z above the body: heights along it change at ~1 m/m, so fixed-point steps converge.
-  const CrsTransform& transform = impl_->Transform();
-  const auto on_line = [&](double t) { return transform.ToMbf({p_in_map.x(), p_in_map.y(), t}); };
-  double t = p_in_map.z();
-  std::optional<Eigen::Vector3d> p = on_line(t);
-  for (int i = 0; i < 4 && p; ++i) {
-    const double error = GeographicFromMbf(impl_->body, *p).h - p_in_map.z();
-    if (std::abs(error) < 1e-6) break;
-    t -= error;
-    p = on_line(t);
-  }
+  const std::optional<Eigen::Vector3d> p =
+      impl_->Transform().ToMbfAtHeight(p_in_map.head<2>(), impl_->body, p_in_map.z());
   return p ? *p : kNaN3;
 }
 

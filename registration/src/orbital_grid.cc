@@ -37,20 +37,18 @@ std::optional<Geographic> PixelGrid::PixelToGeographic(const Eigen::Vector2d& pi
 }
 
 Eigen::Vector2d PixelGrid::GeographicToPixel(const Geographic& g) const {
-  return PointToPixel(MbfFromGeographic(body(), {g.lat, g.lon, 0.0})).head<2>();
+  return PointToPixel(MbfFromGeographic(body(), {g.lat, g.lon, 0.0}));
 }
 
-Eigen::Vector3d PixelGrid::PointToPixel(const Eigen::Vector3d& p_in_mbf) const {
+Eigen::Vector2d PixelGrid::PointToPixel(const Eigen::Vector3d& p_in_mbf) const {
   const auto xyz = transform_->FromMbf(p_in_mbf);
-  if (!xyz) return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  const Eigen::Vector2d pixel = geotransform_.MapToPixel(xyz->x(), xyz->y());
-  return {pixel.x(), pixel.y(), xyz->z()};
+  if (!xyz) return kNaN2;
+  return geotransform_.MapToPixel(xyz->x(), xyz->y());
 }
 
-std::optional<Eigen::Vector3d> PixelGrid::PixelToPoint(
-    const Eigen::Vector3d& pixel_and_height) const {
-  const Eigen::Vector2d map = geotransform_.PixelToMap(pixel_and_height.x(), pixel_and_height.y());
-  return transform_->ToMbf({map.x(), map.y(), pixel_and_height.z()});
+std::optional<Eigen::Vector3d> PixelGrid::PixelToPoint(const Eigen::Vector2d& pixel,
+                                                       const Body& body, double h) const {
+  return transform_->ToMbfAtHeight(geotransform_.PixelToMap(pixel.x(), pixel.y()), body, h);
 }
 
 Eigen::Matrix2d PixelGrid::EastNorthPerPixel(const Eigen::Vector2d& pixel) const {

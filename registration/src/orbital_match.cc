@@ -461,9 +461,8 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   const PixelGrid ortho_grid(ortho.geotransform, ortho.crs_wkt, ortho.source);
   const PixelGrid orbital_grid(orbital.geotransform(), orbital.crs_wkt(), orbital.name());
   const Eigen::Vector3d rover_in_mbf = MbfFromGeographic(prior.body, prior.position);
-  const Eigen::Vector2d rover_in_ortho = ortho_grid.PointToPixel(rover_in_mbf).head<2>();
-  const Eigen::Vector3d rover_on_orbital = orbital_grid.PointToPixel(rover_in_mbf);
-  const Eigen::Vector2d rover_in_orbital = rover_on_orbital.head<2>();
+  const Eigen::Vector2d rover_in_ortho = ortho_grid.PointToPixel(rover_in_mbf);
+  const Eigen::Vector2d rover_in_orbital = orbital_grid.PointToPixel(rover_in_mbf);
   if (!rover_in_ortho.allFinite() || !rover_in_orbital.allFinite()) {
     throw Error("the prior position lies outside the domain of the CRS of " +
                 (rover_in_ortho.allFinite() ? orbital.name() : ortho.source));
@@ -664,17 +663,10 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
                             std::pow(options.subpixel_floor_px, 2) * Eigen::Matrix2d::Identity();
   out.shift_covariance_en_m2 = en_per_px * out.shift_covariance_px * en_per_px.transpose();
   // The rover moved to its corrected pixel, at the prior's height (the registration does not
-  // measure heights): the point of that pixel's line whose height over the prior's ellipsoid is
-  // the prior's, found by correcting the height over the orbital CRS's surface (the two differ
-  // by ~1.5 cm per 5 m of shift between a sphere and the ellipsoid).
-  const Eigen::Vector2d corrected_px = rover_in_orbital + rover_shift_px;
-  double height_over_crs = rover_on_orbital.z();
-  for (int iteration = 0; iteration < 3; ++iteration) {
-    const auto corrected =
-        orbital_grid.PixelToPoint({corrected_px.x(), corrected_px.y(), height_over_crs});
-    if (!corrected) break;
+  // measure heights).
+  if (const auto corrected = orbital_grid.PixelToPoint(rover_in_orbital + rover_shift_px,
+                                                       prior.body, prior.position.h)) {
     out.corrected_position = GeographicFromMbf(prior.body, *corrected);
-    height_over_crs += prior.position.h - out.corrected_position.h;
   }
 
   if (options.null_windows > 0) {

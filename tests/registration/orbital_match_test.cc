@@ -65,14 +65,25 @@ TEST(OrbitalMatch, RecoversTheTelemetryErrorAndRejectsADecoy) {
   EXPECT_EQ(multi.best, 1);
 }
 
-TEST(OrbitalMatch, SolvesAHeadingErrorWithTheRotationSearch) {
+// A trial whose georeference is turned 3 deg about the rover (a fan of `fan_fov_deg`, 0 =
+// random), and its match with a +-5 deg rotation search.
+Trial TurnedTrial(double fan_fov_deg) {
   TrialOptions o = SmallTrial(3);
   o.heading_error_deg = 3.0;
+  o.fan_fov_deg = fan_fov_deg;
   o.decoy = false;
-  const Trial trial = MakeTrial(o);
+  return MakeTrial(o);
+}
+
+OrbitalMatch MatchWithRotationSearch(const Trial& trial) {
   OrbitalMatchOptions options;
   options.max_rotation_deg = 5.0;
-  const OrbitalMatch m = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior, options);
+  return MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior, options);
+}
+
+TEST(OrbitalMatch, SolvesAHeadingErrorWithTheRotationSearch) {
+  const Trial trial = TurnedTrial(0.0);
+  const OrbitalMatch m = MatchWithRotationSearch(trial);
   ASSERT_TRUE(m.matched) << m.BriefReport();
   EXPECT_TRUE(m.rotation_solved);
   // The georeference was turned 3 deg counter-clockwise; the correction turns it back. A
@@ -85,14 +96,8 @@ TEST(OrbitalMatch, CorrectsTheRoverNotTheTemplateCentreUnderAHeadingError) {
   // A 90 deg fan: the template's centre lies ~7 m from the rover, so a 3 deg turn about the
   // rover moves the centre ~0.4 m (1.5 px) more than the rover. The reported correction is the
   // rover's.
-  TrialOptions o = SmallTrial(3);
-  o.heading_error_deg = 3.0;
-  o.fan_fov_deg = 90.0;
-  o.decoy = false;
-  const Trial trial = MakeTrial(o);
-  OrbitalMatchOptions options;
-  options.max_rotation_deg = 5.0;
-  const OrbitalMatch m = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior, options);
+  const Trial trial = TurnedTrial(90.0);
+  const OrbitalMatch m = MatchWithRotationSearch(trial);
   ASSERT_TRUE(m.matched) << m.BriefReport();
   ASSERT_TRUE(m.rotation_solved);
   const PixelGrid grid(trial.orbital->geotransform(), trial.orbital->crs_wkt(), "orbital");
@@ -114,7 +119,7 @@ TEST(OrbitalMatch, ARoverBelowTheEllipsoidIsFoundOnItsOwnRadialLine) {
   const Eigen::Vector2d pixel = grid.GeographicToPixel(trial.prior.position);
   const Eigen::Vector3d below =
       MbfOnRadialLine(body, trial.prior.position.lat, trial.prior.position.lon, -1900.0);
-  EXPECT_LT((grid.PointToPixel(below).head<2>() - pixel).norm(), 1e-6);
+  EXPECT_LT((grid.PointToPixel(below) - pixel).norm(), 1e-6);
   EXPECT_GT((grid.GeographicToPixel(GeographicFromMbf(body, below)) - pixel).norm() * trial.gsd_m,
             5.0);
 
@@ -127,7 +132,7 @@ TEST(OrbitalMatch, ARoverBelowTheEllipsoidIsFoundOnItsOwnRadialLine) {
   EXPECT_LE(ErrorPx(at_depth, trial), 0.5);
   EXPECT_NEAR(at_depth.corrected_position.h, -1900.0, 1e-6);
   const auto corrected_pixel = [&](const OrbitalMatch& m) -> Eigen::Vector2d {
-    return grid.PointToPixel(MbfFromGeographic(body, m.corrected_position)).head<2>();
+    return grid.PointToPixel(MbfFromGeographic(body, m.corrected_position));
   };
   EXPECT_LT((corrected_pixel(at_depth) - corrected_pixel(at_surface)).norm(), 1e-4);
 }

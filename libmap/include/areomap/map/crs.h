@@ -79,6 +79,11 @@ class CrsTransform {
 
   // (x, y, z) in the CRS (z: height above its ellipsoid [m]) -> MBF [m].
   std::optional<Eigen::Vector3d> ToMbf(const Eigen::Vector3d& xyz_in_crs) const;
+  // The point [MBF, m] of the CRS's line of constant map (x, y) whose height above `body`'s
+  // ellipsoid is `h` [m]; the CRS's own heights along that line differ from `body`'s by the
+  // separation of the two surfaces, which changes over the map. std::nullopt where undefined.
+  std::optional<Eigen::Vector3d> ToMbfAtHeight(const Eigen::Vector2d& xy, const Body& body,
+                                               double h) const;
   // MBF [m] -> (x, y, z) in the CRS.
   std::optional<Eigen::Vector3d> FromMbf(const Eigen::Vector3d& p_in_mbf) const;
   // Map (x, y) -> planetocentric latitude, east longitude [rad] on the CRS's ellipsoid.

@@ -30,16 +30,16 @@ class PixelGrid {
   std::optional<Geographic> PixelToGeographic(const Eigen::Vector2d& pixel) const;
   // Planetocentric lat, east lon [rad] -> pixel (col, row); NaN where undefined.
   Eigen::Vector2d GeographicToPixel(const Geographic& g) const;
-  // The pixel (col, row) where the CRS maps a point given in MBF [m], and the point's height
-  // above the CRS's own ellipsoid or sphere [m]; NaN where undefined. Off the ellipsoid the
-  // pixel is not GeographicToPixel of the point's latitude: the points of a map pixel lie on one
-  // line (a sphere-based CRS's: the radial line, as map-projected images, geodesy.h
-  // MbfOnRadialLine), and a point h below the ellipsoid lies h (lat_g - lat_c) away from its
-  // foot point's radial line (5.5 m at 14.6 deg latitude for h = -1900 m).
-  Eigen::Vector3d PointToPixel(const Eigen::Vector3d& p_in_mbf) const;
-  // Inverse of PointToPixel: the point [MBF, m] of pixel (col, row) at that height;
-  // std::nullopt where undefined.
-  std::optional<Eigen::Vector3d> PixelToPoint(const Eigen::Vector3d& pixel_and_height) const;
+  // The pixel (col, row) where the CRS maps a point given in MBF [m]; NaN where undefined. Off
+  // the ellipsoid this is not GeographicToPixel of the point's latitude: the points of a map
+  // pixel lie on one line (a sphere-based CRS's: the radial line, as map-projected images,
+  // geodesy.h MbfOnRadialLine), and a point h below the ellipsoid lies h (lat_g - lat_c) away
+  // from its foot point's radial line (5.5 m at 14.6 deg latitude for h = -1900 m).
+  Eigen::Vector2d PointToPixel(const Eigen::Vector3d& p_in_mbf) const;
+  // The point [MBF, m] of `pixel`'s line at height `h` above `body`'s ellipsoid [m]
+  // (CrsTransform::ToMbfAtHeight); std::nullopt where undefined.
+  std::optional<Eigen::Vector3d> PixelToPoint(const Eigen::Vector2d& pixel, const Body& body,
+                                              double h) const;
   // Local east and north [m] at `pixel` of a step of one pixel along the columns (first
   // column of the result) and along the rows (second column), from finite differences.
   Eigen::Matrix2d EastNorthPerPixel(const Eigen::Vector2d& pixel) const;
