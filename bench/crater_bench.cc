@@ -16,12 +16,17 @@
 //                                             off; the upsampled level off unless UPSAMPLE is 1
 //                                             (around small arcs) or 2 (all of it)),
 //                                             scored against PATH.csv if present
+//   areomap_bench_crater upsample [SIDE_PX [RUNS]]   the detector's 2x upsampling of one
+//                                             SIDE_PX^2 tile (default 2304, a padded tile) on
+//                                             one thread: UpsampleTwice against cv::resize
+//                                             INTER_LINEAR, the same values checked
 //
 // The tile holds bowls lit from the east (bright western wall, dark eastern wall, sharp rim,
 // 12-120 px across, log-uniform) on a textured plain with noise; truth is exact. areomap runs end
 // to end from a GeoTIFF on disk (tiled windowed reads, TBB over tiles); HoughCircles gets the
 // 8-bit image in memory (its time excludes reading). Both are scored with the same rule
 // (crater_score.h).
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -30,12 +35,15 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
+#include <tbb/global_control.h>
 #include <tbb/info.h>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/crater/crater_raster.h"
 #include "areomap/crater/crater_score.h"
+#include "areomap/crater/upsample.h"
 
 namespace {
 
@@ -239,6 +247,40 @@ int CompareWithHough(int argc, char** argv) {
   return 0;
 }
 
+// The upsampled level's resize of one tile, single-threaded as in a tile task (both
+// implementations otherwise split rows over threads), alternated `runs` times.
+int CompareUpsampling(int side, int runs) {
+  cv::Mat tile(side, side, CV_32F);
+  cv::randu(tile, 0.0, 4095.0);
+  cv::Mat ours(2 * side, 2 * side, CV_32F), opencv(2 * side, 2 * side, CV_32F);
+  ours.setTo(0.0);  // pages faulted in before timing, as the detector's scratch is
+  opencv.setTo(0.0);
+  const tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+  const int opencv_threads = cv::getNumThreads();
+  cv::setNumThreads(1);
+  std::vector<double> ours_s, opencv_s;
+  for (int run = 0; run < runs; ++run) {
+    auto start = std::chrono::steady_clock::now();
+    cv::resize(tile, opencv, opencv.size(), 0, 0, cv::INTER_LINEAR);
+    opencv_s.push_back(Seconds(start));
+    start = std::chrono::steady_clock::now();
+    areomap::UpsampleTwice(tile, &ours);
+    ours_s.push_back(Seconds(start));
+  }
+  cv::setNumThreads(opencv_threads);
+  const int differing = cv::countNonZero(ours != opencv);
+  std::sort(ours_s.begin(), ours_s.end());
+  std::sort(opencv_s.begin(), opencv_s.end());
+  const double ours_median = ours_s[ours_s.size() / 2],
+               opencv_median = opencv_s[opencv_s.size() / 2];
+  std::printf(
+      "upsample %d^2 -> %d^2 px, 1 thread, %d runs: UpsampleTwice median %.2f ms, "
+      "cv::resize median %.2f ms, ratio %.2f; pixels differing: %d\n",
+      side, 2 * side, runs, 1e3 * ours_median, 1e3 * opencv_median, opencv_median / ours_median,
+      differing);
+  return differing == 0 ? 0 : 1;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -251,9 +293,13 @@ int main(int argc, char** argv) {
       return DetectOnly(argv[2], argc >= 4 ? std::stoi(argv[3]) : 1,
                         argc == 5 ? std::stoi(argv[4]) : 0);
     }
+    if (mode == "upsample" && argc <= 4) {
+      return CompareUpsampling(argc >= 3 ? std::stoi(argv[2]) : 2304,
+                               argc == 4 ? std::stoi(argv[3]) : 9);
+    }
     return CompareWithHough(argc, argv);
   } catch (const std::exception& error) {
-    const bool named = mode == "write" || mode == "detect";
+    const bool named = mode == "write" || mode == "detect" || mode == "upsample";
     std::fprintf(stderr, "areomap_bench_crater%s%s: %s\n", named ? " " : "",
                  named ? mode.c_str() : "", error.what());
     return 1;

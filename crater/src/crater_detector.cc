@@ -16,6 +16,7 @@
 
 #include "areomap/crater/ellipse_fit.h"
 #include "areomap/crater/shading_hypotheses.h"
+#include "areomap/crater/upsample.h"
 #include "areomap/map/error.h"
 #include "bilinear_sample.h"
 #include "detect_in_core.h"
@@ -519,7 +520,7 @@ double RadialRms(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
     const Eigen::Vector2d d = p - e.center;
     const double u = (cs * d.x() + sn * d.y()) / e.semi_major;
     const double v = (-sn * d.x() + cs * d.y()) / e.semi_minor;
-    const double rho = std::max(std::hypot(u, v), 1e-12);
+    const double rho = std::max(std::sqrt(u * u + v * v), 1e-12);  // u, v ~ 1: no hypot
     const double r = d.norm() * (1.0 - 1.0 / rho);
     sum += r * r;
   }
@@ -821,7 +822,7 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
       up.image = scratch->Get(internal::EdgeScratch::kUpsampledImageSlot, full.rows * 2,
                               full.cols * 2, CV_32F);
     }
-    cv::resize(full, up.image, cv::Size(full.cols * 2, full.rows * 2), 0, 0, cv::INTER_LINEAR);
+    UpsampleTwice(full, &up.image);  // cv::resize's values, written faster (upsample.h)
     levels.push_back(std::move(up));
   }
   const size_t base = levels.size();  // index of the full-resolution level
