@@ -65,38 +65,68 @@ MaskedImage WarpTemplate(const OrbitalTemplate& templ, double rotation, double s
 int FloorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 int CeilDiv(int a, int b) { return -FloorDiv(-a, b); }
 
-// Shift covariance of a correlation match [px^2] after Forstner (1982): the residual noise
-// variance over the sum of squared template gradients. The residual variance follows from the
-// correlation coefficient rho of template T against the image, s_T^2 (1 - rho^2) / rho^2 (the
-// regression residual in template units), and the sum counts valid pixels whose neighbours
-// are valid. Residuals between a rover orthophoto and an orbital image (shading, resampling)
-// are correlated over about the low-pass footprint, which shrinks the number of independent
-// samples by `correlation_area` pixels.
-Eigen::Matrix2d ShiftCovariance(const MaskedImage& t, double rho, double correlation_area) {
-  Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
+// d SimilarityMatrix(rotation, 1) / d rotation at 0: how a turn moves a point about the centre.
+const Eigen::Matrix2d kTurn = (Eigen::Matrix2d() << 0.0, 1.0, -1.0, 0.0).finished();
+
+// Covariance of a correlation match after Forstner (1982): the residual noise variance times
+// the inverse of the normal matrix of the template's gradients. Its parameters are the shift
+// [px] and, with `with_rotation`, a turn about the template centre [rad], whose design column at
+// pixel p is the gradient along kTurn (p - centre): a 2 x 2 or 3 x 3 matrix (NaN where the
+// normal matrix is singular). The residual variance follows from the correlation coefficient
+// rho of template T against the image, s_T^2 (1 - rho^2) / rho^2 (the regression residual in
+// template units), and the sums count valid pixels whose neighbours are valid. Residuals
+// between a rover orthophoto and an orbital image (shading, resampling) are correlated over
+// about the low-pass footprint, which shrinks the number of independent samples by
+// `correlation_area` pixels.
+Eigen::MatrixXd MatchCovariance(const MaskedImage& t, double rho, double correlation_area,
+                                bool with_rotation) {
+  const int n_params = with_rotation ? 3 : 2;
+  Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
   double sum = 0.0, sum_sq = 0.0;
   int n = 0;
+  const Eigen::Vector2d centre(t.image.cols / 2.0, t.image.rows / 2.0);
   for (int r = 1; r + 1 < t.image.rows; ++r) {
     for (int c = 1; c + 1 < t.image.cols; ++c) {
       const auto ok = [&](int rr, int cc) { return t.mask.at<uchar>(rr, cc) != 0; };
       if (!ok(r, c) || !ok(r, c - 1) || !ok(r, c + 1) || !ok(r - 1, c) || !ok(r + 1, c)) continue;
       const double v = t.image.at<float>(r, c);
-      const double gx = 0.5 * (t.image.at<float>(r, c + 1) - t.image.at<float>(r, c - 1));
-      const double gy = 0.5 * (t.image.at<float>(r + 1, c) - t.image.at<float>(r - 1, c));
-      normal(0, 0) += gx * gx;
-      normal(0, 1) += gx * gy;
-      normal(1, 1) += gy * gy;
+      const Eigen::Vector2d g(0.5 * (t.image.at<float>(r, c + 1) - t.image.at<float>(r, c - 1)),
+                              0.5 * (t.image.at<float>(r + 1, c) - t.image.at<float>(r - 1, c)));
+      const Eigen::Vector2d p = Eigen::Vector2d(c + 0.5, r + 0.5) - centre;
+      const Eigen::Vector3d design(g.x(), g.y(), g.dot(kTurn * p));
+      normal.noalias() += design * design.transpose();
       sum += v;
       sum_sq += v * v;
       ++n;
     }
   }
-  normal(1, 0) = normal(0, 1);
+  const Eigen::MatrixXd used = normal.topLeftCorner(n_params, n_params);
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  if (n < 10 || rho <= 0.0 || normal.determinant() <= 0.0) return Eigen::Matrix2d::Constant(nan);
+  if (n < 10 || rho <= 0.0 || used.determinant() <= 0.0) {
+    return Eigen::MatrixXd::Constant(n_params, n_params, nan);
+  }
   const double variance = std::max(0.0, sum_sq / n - (sum / n) * (sum / n));
   const double residual = variance * (1.0 - rho * rho) / (rho * rho);
-  return residual * correlation_area * normal.inverse();
+  return residual * correlation_area * used.inverse();
+}
+
+// The rover's covariance from a match covariance (MatchCovariance, 2 x 2 or 3 x 3), the rover
+// `rover_from_centre_px` from the template centre: the shift's, and with the rotation its error
+// times the lever from where the template's texture pins the shift. With the rotation, the
+// shift's error is its error with the rotation held plus b x the rotation's error (b =
+// cov(shift, rotation) / var(rotation): a template textured off its centre keeps that texture in
+// place when it turns), so the rover's is that plus (kTurn l + b) x the rotation's error.
+// `rotation_floor` [rad] is added in quadrature to the rotation's own sigma only: b stays what
+// the data give.
+Eigen::Matrix2d RoverCovariance(const Eigen::MatrixXd& match,
+                                const Eigen::Vector2d& rover_from_centre_px,
+                                double rotation_floor) {
+  if (match.rows() == 2) return match;
+  const double rotation_variance = match(2, 2);
+  const Eigen::Vector2d b = match.topRightCorner<2, 1>() / rotation_variance;
+  const Eigen::Matrix2d held = match.topLeftCorner<2, 2>() - rotation_variance * b * b.transpose();
+  const Eigen::Vector2d lever = kTurn * rover_from_centre_px + b;
+  return held + (rotation_variance + rotation_floor * rotation_floor) * lever * lever.transpose();
 }
 
 // The `count` highest local maxima (3 x 3, finite neighbours only) of a surface, at least
@@ -302,6 +332,60 @@ CoarseResult CoarseGridSearch(const PyramidSearch& search, const std::vector<dou
   return best;
 }
 
+// One warp parameter (the rotation or the scale) refined at full resolution, the other held:
+// the peak NCC (shift re-searched around the current peak) sampled `delta` (half a grid step)
+// either side of `*value`; while a side is higher the samples walk there, at most
+// kMaxRefineWalk steps and within [lowest, highest] (the coarse level's choice can be off by
+// more than half a step where the correlation is low); then the vertex of the parabola through
+// the three samples, kept if its peak is at least as high. `*peak` and `*warped` follow
+// `*value`. Before the walk, the vertex came from samples half a step apart scaled as if they
+// were a step apart (twice the parabola's offset), and such overshoots failed the last test:
+// most rotations stayed on the half-step grid (docs/benchmarks.md, registration).
+template <class WarpAt>
+void RefineWarpAtFullResolution(const PyramidSearch& search, const WarpAt& warp_at, double delta,
+                                double lowest, double highest, double* value, NccPeak* peak,
+                                MaskedImage* warped) {
+  constexpr int kMaxRefineWalk = 4;
+  struct Sample {
+    NccPeak peak;
+    MaskedImage warped;
+    double Value() const { return peak.found ? peak.value : -1.0; }
+  };
+  const auto sample = [&](double v) {
+    Sample s{NccPeak{}, warp_at(v)};
+    s.peak = search.PeakAt(0, s.warped, peak->shift_x, peak->shift_y);
+    return s;
+  };
+  Sample below = sample(*value - delta), above = sample(*value + delta);
+  for (int k = 0; k < kMaxRefineWalk; ++k) {
+    const bool up = above.Value() > peak->value && above.Value() >= below.Value() &&
+                    !above.peak.on_border && *value + delta <= highest;
+    const bool down =
+        !up && below.Value() > peak->value && !below.peak.on_border && *value - delta >= lowest;
+    if (!up && !down) break;
+    Sample centre{*peak, std::move(*warped)};
+    *value += up ? delta : -delta;
+    Sample& next = up ? above : below;
+    *peak = next.peak;
+    *warped = std::move(next.warped);
+    if (up) {
+      below = std::move(centre);
+      above = sample(*value + delta);
+    } else {
+      above = std::move(centre);
+      below = sample(*value - delta);
+    }
+  }
+  const double offset = delta * ParabolaVertex(below.Value(), peak->value, above.Value());
+  if (offset == 0.0) return;
+  Sample vertex = sample(*value + offset);
+  if (vertex.peak.found && !vertex.peak.on_border && vertex.peak.value >= peak->value) {
+    *value += offset;
+    *peak = vertex.peak;
+    *warped = std::move(vertex.warped);
+  }
+}
+
 // The chance level of a search window (OrbitalMatchOptions::null_windows): the best CC of `t`
 // (template top-left on orbital pixel (x, y)) in each window of side 2 radius + 1 tiling a ring
 // around the window centred on (cx, cy), every shift of a tile farther than `exclusion_px` from
@@ -396,6 +480,8 @@ void OrbitalMatchOptions::Check() const {
   RequireOption(max_rotation_deg >= 0.0 && max_rotation_deg <= 45.0,
                 "OrbitalMatchOptions.max_rotation_deg", "in [0, 45] degrees");
   RequireOption(rotation_step_deg > 0.0, "OrbitalMatchOptions.rotation_step_deg", "> 0 degrees");
+  RequireOption(std::isfinite(rotation_floor_deg) && rotation_floor_deg >= 0.0,
+                "OrbitalMatchOptions.rotation_floor_deg", ">= 0 degrees");
   RequireOption(max_scale_change >= 0.0 && max_scale_change < 0.5,
                 "OrbitalMatchOptions.max_scale_change", "in [0, 0.5)");
   RequireOption(scale_step > 0.0, "OrbitalMatchOptions.scale_step", "> 0");
@@ -439,7 +525,10 @@ std::string OrbitalMatch::BriefReport() const {
       << " m, N " << shift_en_m.y() << " +- " << std::sqrt(shift_covariance_en_m2(1, 1))
       << " m, CC " << correlation << ", ratio " << peak_ratio << ", sharpness " << sharpness
       << " (relative " << relative_sharpness << ")";
-  if (rotation_solved) out << ", rotation " << rotation_rad * 180.0 / std::numbers::pi << " deg";
+  if (rotation_solved) {
+    out << ", rotation " << rotation_rad * 180.0 / std::numbers::pi << " +- "
+        << rotation_sigma_rad * 180.0 / std::numbers::pi << " deg";
+  }
   if (scale_solved) out << ", scale " << scale;
   return out.str();
 }
@@ -612,33 +701,19 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   }
   out.peak_ratio = second > 0.0 ? fine.value / second : std::numeric_limits<double>::infinity();
 
-  // Rotation and scale refined at full resolution: a parabola through the peak values half a
-  // grid step either side, then the shift again at the refined warp.
+  // Rotation and scale refined at full resolution (RefineWarpAtFullResolution).
   MaskedImage final_template = warped;
-  for (int pass = 0; pass < 2; ++pass) {
-    const bool is_rotation = pass == 0;
-    if (is_rotation ? !(rotations.size() > 1) : !(scales.size() > 1)) continue;
-    const double delta = 0.5 * (is_rotation ? step : options.scale_step);
-    double v[3];
-    for (int k = -1; k <= 1; k += 2) {
-      const double r = out.rotation_rad + (is_rotation ? k * delta : 0.0);
-      const double sc = out.scale + (is_rotation ? 0.0 : k * delta);
-      const NccPeak p = search.PeakAt(0, WarpTemplate(templ, r, sc), fine.shift_x, fine.shift_y);
-      v[k + 1] = p.found ? p.value : -1.0;
-    }
-    v[1] = fine.value;
-    const double offset = delta * 2.0 * ParabolaVertex(v[0], v[1], v[2]);
-    if (offset == 0.0) continue;
-    const double r = out.rotation_rad + (is_rotation ? offset : 0.0);
-    const double sc = out.scale + (is_rotation ? 0.0 : offset);
-    MaskedImage t = WarpTemplate(templ, r, sc);
-    const NccPeak p = search.PeakAt(0, t, fine.shift_x, fine.shift_y);
-    if (p.found && !p.on_border && p.value >= fine.value) {
-      fine = p;
-      out.rotation_rad = r;
-      out.scale = sc;
-      final_template = std::move(t);
-    }
+  for (const bool is_rotation : {true, false}) {
+    const std::vector<double>& grid = is_rotation ? rotations : scales;
+    if (grid.size() < 2) continue;
+    const double delta = 0.5 * (grid[1] - grid[0]);
+    double& value = is_rotation ? out.rotation_rad : out.scale;
+    const auto warp_at = [&](double v) {
+      return is_rotation ? WarpTemplate(templ, v, out.scale)
+                         : WarpTemplate(templ, out.rotation_rad, v);
+    };
+    RefineWarpAtFullResolution(search, warp_at, delta, grid.front() - delta, grid.back() + delta,
+                               &value, &fine, &final_template);
   }
   const bool coarse_on_border = [&] {
     const cv::Point c = candidates[best_index];
@@ -659,9 +734,23 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   out.shift_en_m = en_per_px * rover_shift_px;
   const double correlation_area =
       1.0 + 2.0 * std::numbers::pi * std::pow(options.template_options.lowpass_sigma_orbital_px, 2);
-  out.shift_covariance_px = ShiftCovariance(final_template, out.correlation, correlation_area) +
-                            std::pow(options.subpixel_floor_px, 2) * Eigen::Matrix2d::Identity();
-  out.shift_covariance_en_m2 = en_per_px * out.shift_covariance_px * en_per_px.transpose();
+  // The template's own shift error, the one its control points share, is the shift's with the
+  // rotation held: their turn about the centre is the adjustment's heading to take up.
+  const Eigen::MatrixXd match =
+      MatchCovariance(final_template, out.correlation, correlation_area, out.rotation_solved);
+  const double rotation_floor = RadFromDeg(options.rotation_floor_deg);
+  Eigen::Matrix2d held = match.topLeftCorner<2, 2>();
+  if (out.rotation_solved) {
+    held -= match.topRightCorner<2, 1>() * match.bottomLeftCorner<1, 2>() / match(2, 2);
+    out.rotation_sigma_rad = std::sqrt(match(2, 2) + rotation_floor * rotation_floor);
+  }
+  const Eigen::Matrix2d floor =
+      std::pow(options.subpixel_floor_px, 2) * Eigen::Matrix2d::Identity();
+  out.shift_covariance_px = held + floor;
+  out.template_shift_covariance_en_m2 = en_per_px * out.shift_covariance_px * en_per_px.transpose();
+  const Eigen::Matrix2d rover_px =
+      RoverCovariance(match, rover_in_orbital - out.centre_px, rotation_floor) + floor;
+  out.shift_covariance_en_m2 = en_per_px * rover_px * en_per_px.transpose();
   // The rover moved to its corrected pixel, at the prior's height (the registration does not
   // measure heights).
   if (const auto corrected = orbital_grid.PixelToPoint(rover_in_orbital + rover_shift_px,

@@ -78,8 +78,8 @@ std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
           p.height_from_dtm = true;
         }
       }
-      p.sigma_east_m = std::sqrt(match.shift_covariance_en_m2(0, 0));
-      p.sigma_north_m = std::sqrt(match.shift_covariance_en_m2(1, 1));
+      p.sigma_east_m = std::sqrt(match.template_shift_covariance_en_m2(0, 0));
+      p.sigma_north_m = std::sqrt(match.template_shift_covariance_en_m2(1, 1));
       ControlPoint& cp = p.point;
       cp.id = stem + "-cp" + std::to_string(out.size());
       cp.source = std::filesystem::path(orbital.name()).filename().string() + " ncc";
@@ -98,7 +98,7 @@ std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
   const double shared_by = static_cast<double>(out.size());
   for (OrbitalControlPoint& p : out) {
     Eigen::Matrix3d cov_enu = Eigen::Matrix3d::Zero();
-    cov_enu.topLeftCorner<2, 2>() = shared_by * match.shift_covariance_en_m2;
+    cov_enu.topLeftCorner<2, 2>() = shared_by * match.template_shift_covariance_en_m2;
     cov_enu(2, 2) = p.sigma_up_m * p.sigma_up_m;
     const Eigen::Matrix3d mbf_from_enu =
         EnuFromMbf(body, p.geographic).RotationMatrix().transpose();
@@ -181,7 +181,10 @@ nlohmann::json MatchJson(const OrbitalMatch& m) {
     j["sigma_north_m"] = Number(std::sqrt(m.shift_covariance_en_m2(1, 1)));
     j["corrected_lat_deg"] = Deg(m.corrected_position.lat);
     j["corrected_lon_deg"] = Deg(m.corrected_position.lon);
-    if (m.rotation_solved) j["rotation_deg"] = Deg(m.rotation_rad);
+    if (m.rotation_solved) {
+      j["rotation_deg"] = Deg(m.rotation_rad);
+      j["rotation_sigma_deg"] = Number(Deg(m.rotation_sigma_rad));
+    }
     if (m.scale_solved) j["scale"] = m.scale;
     j["relative_sharpness"] = Number(m.relative_sharpness);
   }

@@ -90,6 +90,10 @@ TEST(OrbitalMatch, SolvesAHeadingErrorWithTheRotationSearch) {
   // 0.5 px error at the template's edge (~60 px from its centre) is ~0.5 deg.
   EXPECT_NEAR(m.rotation_rad * 180.0 / std::numbers::pi, -3.0, 0.5) << m.BriefReport();
   EXPECT_LE(ErrorPx(m, trial), 0.5) << m.BriefReport();
+  // The turn's sigma is reported (at least the floor), and its error lies within 3 of it.
+  ASSERT_GE(m.rotation_sigma_rad, RadFromDeg(OrbitalMatchOptions().rotation_floor_deg));
+  EXPECT_LE(std::abs(m.rotation_rad - RadFromDeg(-3.0)), 3.0 * m.rotation_sigma_rad)
+      << m.BriefReport();
 }
 
 TEST(OrbitalMatch, CorrectsTheRoverNotTheTemplateCentreUnderAHeadingError) {
@@ -220,6 +224,10 @@ TEST(OrbitalMatchOptions, CheckNamesTheField) {
   options.template_options.min_coverage = 0.0;
   message = areomap::testing::ErrorMessageOf([&] { options.Check(); });
   EXPECT_NE(message.find("TemplateOptions.min_coverage"), std::string::npos) << message;
+  options = {};
+  options.rotation_floor_deg = -0.1;
+  message = areomap::testing::ErrorMessageOf([&] { options.Check(); });
+  EXPECT_NE(message.find("OrbitalMatchOptions.rotation_floor_deg"), std::string::npos) << message;
 }
 
 }  // namespace

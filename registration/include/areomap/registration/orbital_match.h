@@ -7,12 +7,14 @@
 // the best `candidates` coarse peaks each followed down the pyramid in 3 x 3 windows, a
 // quadratic subpixel fit at full resolution. An optional grid of small rotations (heading
 // error) and scale changes is tried at the coarsest level, the best refined by a parabola there
-// and again at full resolution. Like JPL's Mars Global Localization and VICAR marsautoloco, the
-// answer comes with its confidence: the peak CC, the ratio of the best to the best separated
-// runner-up (both at full resolution), and the peak's sharpness relative to the template's own
-// autocorrelation; a match that fails a threshold is reported as "no match" with the reason,
-// never as a position. The shift's covariance follows Forstner's correlation precision plus a
-// floor (OrbitalMatchOptions::subpixel_floor_px). Cost: ~0.05-0.3 s per site (docs/benchmarks.md).
+// and again at full resolution (walking half a grid step at a time to the maximum). Like JPL's Mars
+// Global Localization and VICAR marsautoloco, the answer comes with its confidence: the peak CC,
+// the ratio of the best to the best separated runner-up (both at full resolution), and the peak's
+// sharpness relative to the template's own autocorrelation; a match that fails a threshold is
+// reported as "no match" with the reason, never as a position. The shift's covariance follows
+// Forstner's correlation precision plus a floor (OrbitalMatchOptions::subpixel_floor_px); with a
+// solved rotation, the rover's also holds the rotation's error (Forstner's, plus
+// rotation_floor_deg) times its lever. Cost: ~0.05-0.3 s per site (docs/benchmarks.md).
 //
 // Frames and units: shifts are in orbital pixels (columns, rows; GDAL pixel convention) and in
 // metres east/north in the local level frame at the rover; rotations in radians, counter-
@@ -81,6 +83,12 @@ struct OrbitalMatchOptions {
   // is 0.097 px RMS per axis and the noise-driven part ~0.035 px, so the floor is 0.09 px; the
   // former 0.15 px left 88 % of the per-axis errors inside 1 sigma (68 % when honest).
   double subpixel_floor_px = 0.09;  // >= 0.
+  // The same for a solved rotation, added in quadrature to its noise-driven sigma [deg]: it
+  // moves the rover by this times its lever from where the template's texture pins the shift.
+  // Measured on 24 generated sites with heading errors (OrbitalMatchStatistics.
+  // HonestUnderHeadingErrors, seeds 2000-2023): the rotation's error is 0.11 deg RMS and its
+  // noise-driven sigma 0.02-0.07 deg.
+  double rotation_floor_deg = 0.1;  // >= 0.
   // Chance level of the window (for small, guided windows, where no separated runner-up fits
   // inside and any texture has some peak): the template at the match's rotation and scale is
   // also correlated in at least this many windows of the search window's size that tile a ring
@@ -104,15 +112,23 @@ struct OrbitalMatch {
   // The correction (orbital pixels): orbital pixel u, where the telemetry georeference puts a
   // ground point, shows that point at centre + shift + A (u - centre) with A = scale R(rotation).
   Eigen::Vector2d shift_px = Eigen::Vector2d::Zero();
-  Eigen::Matrix2d shift_covariance_px = Eigen::Matrix2d::Zero();  // [px^2]
+  // The shift's covariance [px^2] (Forstner's, plus OrbitalMatchOptions::subpixel_floor_px):
+  // the template's shared error, with the rotation held.
+  Eigen::Matrix2d shift_covariance_px = Eigen::Matrix2d::Zero();
+  Eigen::Matrix2d template_shift_covariance_en_m2 = Eigen::Matrix2d::Zero();  // Same, in [m^2].
   Eigen::Vector2d centre_px = Eigen::Vector2d::Zero();  // Template centre on the orbital image.
   double rotation_rad = 0.0;
   double scale = 1.0;
   bool rotation_solved = false;
   bool scale_solved = false;
+  // 1 sigma of the rotation [rad]: Forstner's (with the shift) and the floor
+  // (OrbitalMatchOptions::rotation_floor_deg) in quadrature; NaN unless rotation_solved.
+  double rotation_sigma_rad = std::numeric_limits<double>::quiet_NaN();
   // The correction of the rover itself, east and north [m]: shift_px + (A - I) (rover -
-  // centre) in metres. Its covariance [m^2] is shift_covariance_px's, in metres: the rotation's
-  // own error is not in it (at a lever of a few metres, 0.5 deg moves the rover by centimetres).
+  // centre) in metres. Its covariance [m^2]: with a solved rotation, the shift's and the
+  // rotation's jointly (their Forstner covariance and the rotation's floor, the rotation's
+  // error times the rover's lever from where the template's texture pins the shift) plus the
+  // shift's floor; else template_shift_covariance_en_m2.
   Eigen::Vector2d shift_en_m = Eigen::Vector2d::Zero();
   Eigen::Matrix2d shift_covariance_en_m2 = Eigen::Matrix2d::Zero();
   // The rover's position moved by shift_en_m, in OrbitalPrior::position's convention (same
