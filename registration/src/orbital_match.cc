@@ -110,6 +110,14 @@ Eigen::MatrixXd MatchCovariance(const MaskedImage& t, double rho, double correla
   return residual * correlation_area * used.inverse();
 }
 
+// The shift's covariance with the rotation held (the Schur complement of a 3 x 3 match
+// covariance, MatchCovariance; a 2 x 2 one as it is).
+Eigen::Matrix2d ShiftWithRotationHeld(const Eigen::MatrixXd& match) {
+  if (match.rows() == 2) return match;
+  return match.topLeftCorner<2, 2>() -
+         match.topRightCorner<2, 1>() * match.bottomLeftCorner<1, 2>() / match(2, 2);
+}
+
 // The rover's covariance from a match covariance (MatchCovariance, 2 x 2 or 3 x 3), the rover
 // `rover_from_centre_px` from the template centre: the shift's, and with the rotation its error
 // times the lever from where the template's texture pins the shift. With the rotation, the
@@ -124,9 +132,9 @@ Eigen::Matrix2d RoverCovariance(const Eigen::MatrixXd& match,
   if (match.rows() == 2) return match;
   const double rotation_variance = match(2, 2);
   const Eigen::Vector2d b = match.topRightCorner<2, 1>() / rotation_variance;
-  const Eigen::Matrix2d held = match.topLeftCorner<2, 2>() - rotation_variance * b * b.transpose();
   const Eigen::Vector2d lever = kTurn * rover_from_centre_px + b;
-  return held + (rotation_variance + rotation_floor * rotation_floor) * lever * lever.transpose();
+  return ShiftWithRotationHeld(match) +
+         (rotation_variance + rotation_floor * rotation_floor) * lever * lever.transpose();
 }
 
 // The `count` highest local maxima (3 x 3, finite neighbours only) of a surface, at least
@@ -739,14 +747,12 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   const Eigen::MatrixXd match =
       MatchCovariance(final_template, out.correlation, correlation_area, out.rotation_solved);
   const double rotation_floor = RadFromDeg(options.rotation_floor_deg);
-  Eigen::Matrix2d held = match.topLeftCorner<2, 2>();
   if (out.rotation_solved) {
-    held -= match.topRightCorner<2, 1>() * match.bottomLeftCorner<1, 2>() / match(2, 2);
     out.rotation_sigma_rad = std::sqrt(match(2, 2) + rotation_floor * rotation_floor);
   }
   const Eigen::Matrix2d floor =
       std::pow(options.subpixel_floor_px, 2) * Eigen::Matrix2d::Identity();
-  out.shift_covariance_px = held + floor;
+  out.shift_covariance_px = ShiftWithRotationHeld(match) + floor;
   out.template_shift_covariance_en_m2 = en_per_px * out.shift_covariance_px * en_per_px.transpose();
   const Eigen::Matrix2d rover_px =
       RoverCovariance(match, rover_in_orbital - out.centre_px, rotation_floor) + floor;
