@@ -520,7 +520,7 @@ double RadialRms(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
     const Eigen::Vector2d d = p - e.center;
     const double u = (cs * d.x() + sn * d.y()) / e.semi_major;
     const double v = (-sn * d.x() + cs * d.y()) / e.semi_minor;
-    const double rho = std::max(std::sqrt(u * u + v * v), 1e-12);  // u, v ~ 1: no hypot
+    const double rho = std::max(Eigen::Vector2d(u, v).norm(), 1e-12);  // not std::hypot: u, v ~ 1
     const double r = d.norm() * (1.0 - 1.0 / rho);
     sum += r * r;
   }

@@ -23,12 +23,11 @@ bool HasPositiveAxes(const Ellipse& e) {
          e.semi_minor > 0.0 && e.center.allFinite() && std::isfinite(e.angle);
 }
 
-// |(x, y)| without std::hypot's guard against overflow and underflow of the squares, which
-// costs several times the square root (glibc) and cannot matter here: the distance solves'
-// values are ratios near 1 and lengths of an image's or a map's scale, squared far inside
-// double's range. One call per edge point and fit iteration (the geometric fits, 1 % of the
-// crater detector's time with std::hypot).
-double Length(double x, double y) { return std::sqrt(x * x + y * y); }
+// |(x, y)| as Eigen's norm, sqrt(x^2 + y^2): std::hypot's guard against overflow and underflow
+// of the squares costs several times the square root (glibc) and cannot matter here (ratios near
+// 1, lengths of an image's or a map's scale). One call per edge point and fit iteration (the
+// crater detector's geometric fits: 1 % of its time with std::hypot).
+double Length(double x, double y) { return Eigen::Vector2d(x, y).norm(); }
 
 // Root u > 0 of G(u) = (r0 z0 / (u + r0 - 1))^2 + (z1 / u)^2 - 1, which is decreasing and
 // convex in u, bracketed by [z1, 1] (point inside) or [z1, |(r0 z0, z1)|] (outside). This is

@@ -534,8 +534,8 @@ std::string OrbitalMatch::BriefReport() const {
       << " m, CC " << correlation << ", ratio " << peak_ratio << ", sharpness " << sharpness
       << " (relative " << relative_sharpness << ")";
   if (rotation_solved) {
-    out << ", rotation " << rotation_rad * 180.0 / std::numbers::pi << " +- "
-        << rotation_sigma_rad * 180.0 / std::numbers::pi << " deg";
+    out << ", rotation " << DegFromRad(rotation_rad) << " +- " << DegFromRad(rotation_sigma_rad)
+        << " deg";
   }
   if (scale_solved) out << ", scale " << scale;
   return out.str();

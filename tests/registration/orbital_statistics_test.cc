@@ -3,7 +3,6 @@
 // About 30 s of CPU in Release: labelled "long", not run under the sanitizers.
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 #include <random>
 #include <vector>
 
@@ -114,12 +113,11 @@ TEST(OrbitalMatchStatistics, HonestUnderHeadingErrors) {
     const OrbitalMatch m = MatchOrthoToOrbital(t.ortho, *t.orbital, t.prior, options);
     if (!m.matched) continue;
     ++matched;
-    const double rotation_error_deg =
-        m.rotation_rad * 180.0 / std::numbers::pi + o.heading_error_deg;
+    const double rotation_error_deg = DegFromRad(m.rotation_rad) + o.heading_error_deg;
     const Eigen::Vector2d error_m = m.shift_en_m + t.telemetry_error_en_m;
     sum_sq_rotation_deg += rotation_error_deg * rotation_error_deg;
     sum_sq_rotation_normalized +=
-        std::pow(rotation_error_deg / (m.rotation_sigma_rad * 180.0 / std::numbers::pi), 2);
+        std::pow(rotation_error_deg / DegFromRad(m.rotation_sigma_rad), 2);
     sum_sq_error_px += error_m.squaredNorm() / (t.gsd_m * t.gsd_m);
     double z2 = 0.0;
     for (int axis = 0; axis < 2; ++axis) {
@@ -131,7 +129,7 @@ TEST(OrbitalMatchStatistics, HonestUnderHeadingErrors) {
         "sigma %.3f px, rotation sigma %.3f deg, lever %.1f px, cc %.2f\n",
         k, o.heading_error_deg, rotation_error_deg, error_m.norm() / t.gsd_m, 0.5 * z2,
         std::sqrt(0.5 * m.shift_covariance_en_m2.trace()) / t.gsd_m,
-        m.rotation_sigma_rad * 180.0 / std::numbers::pi,
+        DegFromRad(m.rotation_sigma_rad),
         (grid_of(t).GeographicToPixel(t.prior.position) - m.centre_px).norm(), m.correlation);
   }
   const double rms_rotation_deg = std::sqrt(sum_sq_rotation_deg / std::max(matched, 1));
