@@ -4,18 +4,16 @@
 #include <filesystem>
 #include <iomanip>
 #include <limits>
-#include <numbers>
 #include <sstream>
 
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "areomap/map/geodesy.h"
 #include "areomap/registration/orbital_grid.h"
 
 namespace areomap {
 namespace {
-
-double Deg(double rad) { return rad * 180.0 / std::numbers::pi; }
 
 nlohmann::json MatrixJson(const Eigen::Matrix3d& m) {
   nlohmann::json rows = nlohmann::json::array();
@@ -115,8 +113,8 @@ nlohmann::json ControlPointsJson(const std::vector<OrbitalControlPoint>& points)
         {"source", p.point.source},
         {"ortho_px", {p.ortho_px.x(), p.ortho_px.y()}},
         {"orbital_px", {p.orbital_px.x(), p.orbital_px.y()}},
-        {"lat_deg", Deg(p.geographic.lat)},
-        {"lon_deg", Deg(p.geographic.lon)},
+        {"lat_deg", DegFromRad(p.geographic.lat)},
+        {"lon_deg", DegFromRad(p.geographic.lon)},
         {"h_m", p.geographic.h},
         {"height_from_dtm", p.height_from_dtm},
         {"sigma_east_m", p.sigma_east_m},
@@ -146,9 +144,10 @@ std::string ControlPointsCsv(const std::vector<OrbitalControlPoint>& points) {
     const Eigen::Vector3d& m = p.point.position_mbf;
     const Eigen::Vector3d& s = p.point.position_in_site;
     out << p.point.id << "," << p.point.site << "," << p.ortho_px.x() << "," << p.ortho_px.y()
-        << "," << p.orbital_px.x() << "," << p.orbital_px.y() << "," << Deg(p.geographic.lat) << ","
-        << Deg(p.geographic.lon) << "," << p.geographic.h << "," << p.sigma_east_m << ","
-        << p.sigma_north_m << "," << p.sigma_up_m << "," << m.x() << "," << m.y() << "," << m.z();
+        << "," << p.orbital_px.x() << "," << p.orbital_px.y() << "," << DegFromRad(p.geographic.lat)
+        << "," << DegFromRad(p.geographic.lon) << "," << p.geographic.h << "," << p.sigma_east_m
+        << "," << p.sigma_north_m << "," << p.sigma_up_m << "," << m.x() << "," << m.y() << ","
+        << m.z();
     if (p.point.site >= 0) {
       out << "," << s.x() << "," << s.y() << "," << s.z() << "\n";
     } else {
@@ -179,11 +178,11 @@ nlohmann::json MatchJson(const OrbitalMatch& m) {
     j["shift_north_m"] = m.shift_en_m.y();
     j["sigma_east_m"] = Number(std::sqrt(m.shift_covariance_en_m2(0, 0)));
     j["sigma_north_m"] = Number(std::sqrt(m.shift_covariance_en_m2(1, 1)));
-    j["corrected_lat_deg"] = Deg(m.corrected_position.lat);
-    j["corrected_lon_deg"] = Deg(m.corrected_position.lon);
+    j["corrected_lat_deg"] = DegFromRad(m.corrected_position.lat);
+    j["corrected_lon_deg"] = DegFromRad(m.corrected_position.lon);
     if (m.rotation_solved) {
-      j["rotation_deg"] = Deg(m.rotation_rad);
-      j["rotation_sigma_deg"] = Number(Deg(m.rotation_sigma_rad));
+      j["rotation_deg"] = DegFromRad(m.rotation_rad);
+      j["rotation_sigma_deg"] = Number(DegFromRad(m.rotation_sigma_rad));
     }
     if (m.scale_solved) j["scale"] = m.scale;
     j["relative_sharpness"] = Number(m.relative_sharpness);
