@@ -6,9 +6,11 @@
 #include <iterator>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <utility>
 #include <vector>
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <opencv2/imgproc.hpp>
 
@@ -59,7 +61,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
   // on the order in which the tiles finish (SuppressDuplicateCraters keeps the first of equally
   // confident duplicates).
   std::vector<std::vector<CraterDetection>> per_tile(static_cast<size_t>(tile_count));
-  std::mutex progress_mutex, read_mutex;  // progress: the callback is called by one task at a time
+  std::mutex progress_mutex;  // the callback is called by one task at a time
   std::atomic<int> done{0};
   std::atomic<bool> cancelled{false};
   const double overview_share = need_overview ? 0.2 : 0.0;
@@ -77,6 +79,11 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
     const size_t level_side =
         static_cast<size_t>(padded) * (tile_options.SearchesUpsampledLevel() ? 2 : 1) + 2;
     internal::EdgeScratchPool scratch_pool(level_side * level_side);
+    // A GDAL handle is not thread-safe: each thread reads through its own, so that decoding (a
+    // fifth of the CPU time on compressed tiles) runs in parallel instead of one thread waiting
+    // for the other's read. TBB hands each thread a contiguous run of tiles, so most blocks
+    // shared by neighbouring tiles' overlaps are still decoded once, in that handle's cache.
+    tbb::enumerable_thread_specific<std::optional<RasterDataset>> readers;
     tbb::parallel_for(0, tile_count, [&](int t) {
       if (cancelled) return;
       const int tx = t % tiles_x, ty = t / tiles_x;
@@ -90,11 +97,9 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
       std::unique_ptr<internal::EdgeScratch> scratch = scratch_pool.Acquire();
       cv::Mat tile = scratch->Get(internal::EdgeScratch::kTileSlot, r1 - r0, c1 - c0, CV_32F,
                                   static_cast<size_t>(padded) * padded);
-      {
-        // A GDAL dataset is not thread-safe: reads are serialised, detection is parallel.
-        std::lock_guard<std::mutex> read_lock(read_mutex);
-        dataset.ReadWindowFloatInto(1, {c0, r0, c1 - c0, r1 - r0}, &tile);
-      }
+      std::optional<RasterDataset>& reader = readers.local();
+      if (!reader) reader = dataset.Reopen();
+      reader->ReadWindowFloatInto(1, {c0, r0, c1 - c0, r1 - r0}, &tile);
       if (overview_from_tiles) {
         const int out_c0 = core_c0 / factor, out_r0 = core_r0 / factor;
         const int out_w = std::min(overview.cols, core_c1 / factor) - out_c0;

@@ -2,6 +2,8 @@
 
 #include <fstream>
 #include <regex>
+#include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -78,6 +80,43 @@ TEST(Raster, WindowedReadMatchesTheFullRead) {
   });
   EXPECT_NE(message.find("outside the raster (200x300)"), std::string::npos) << message;
   EXPECT_THROW(dataset.ReadWindow(2, window), Error);
+}
+
+// Reopen gives a second handle with the same description and pixels; two threads reading at
+// once, each through its own handle, get exactly what one handle reads alone; a file gone since
+// the first Open is an error naming it.
+TEST(Raster, ReopenedHandlesReadTheSamePixelsFromTwoThreads) {
+  TempDir dir;
+  GeoRaster raster = MakeRaster();
+  cv::Mat big(1200, 900, CV_32F);
+  cv::randu(big, cv::Scalar(-100), cv::Scalar(100));
+  raster.bands = {big};
+  WriteGeoTiff(dir.path() / "a.tif", raster);
+  const RasterDataset dataset = RasterDataset::Open(dir.path() / "a.tif");
+  const RasterDataset other = dataset.Reopen();
+  EXPECT_EQ(other.info().width, 900);
+  EXPECT_EQ(other.info().crs_wkt, dataset.info().crs_wkt);
+  const std::vector<PixelWindow> windows = {
+      {0, 0, 300, 400}, {250, 380, 400, 500}, {600, 700, 300, 500}};
+  std::vector<cv::Mat> first(windows.size()), second(windows.size());
+  std::thread reader([&] {
+    for (int pass = 0; pass < 20; ++pass) {
+      for (size_t i = 0; i < windows.size(); ++i) first[i] = dataset.ReadWindowFloat(1, windows[i]);
+    }
+  });
+  for (int pass = 0; pass < 20; ++pass) {
+    for (size_t i = 0; i < windows.size(); ++i) second[i] = other.ReadWindowFloat(1, windows[i]);
+  }
+  reader.join();
+  for (size_t i = 0; i < windows.size(); ++i) {
+    const PixelWindow& w = windows[i];
+    const cv::Mat expected = big(cv::Rect(w.col0, w.row0, w.width, w.height));
+    EXPECT_EQ(cv::norm(first[i], expected, cv::NORM_INF), 0.0) << i;
+    EXPECT_EQ(cv::norm(second[i], expected, cv::NORM_INF), 0.0) << i;
+  }
+  std::filesystem::remove(dir.path() / "a.tif");
+  const std::string message = testing::ErrorMessageOf([&] { dataset.Reopen(); });
+  EXPECT_NE(message.find("a.tif: no such file"), std::string::npos) << message;
 }
 
 // Integer bands come back as the floats of their values, nodata as NaN, whether GDAL converts
