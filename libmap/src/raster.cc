@@ -72,6 +72,27 @@ struct GdalDatasetCloser {
 };
 using GdalDatasetPtr = std::unique_ptr<GDALDataset, GdalDatasetCloser>;
 
+// A read-only GDAL handle on `path`; throws areomap::Error naming the file where there is none.
+GdalDatasetPtr OpenHandle(const std::filesystem::path& path) {
+  internal::EnsureGdalInitialized();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    throw Error(path.string() + ": no such file");
+  }
+  if (std::filesystem::is_directory(path, ec)) {
+    throw Error(path.string() + ": is a folder: expected a raster file");
+  }
+  internal::QuietGdalErrors quiet;
+  GdalDatasetPtr dataset(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+  if (dataset == nullptr) {
+    throw Error(path.string() +
+                ": not a readable raster (expected GeoTIFF, PDS3/PDS4, ISIS3 "
+                "cube, VICAR, JPEG 2000, PNG or another GDAL format): " +
+                internal::LastGdalError());
+  }
+  return dataset;
+}
+
 }  // namespace
 
 GeoTransform GeoTransform::NorthUp(double x_left, double y_top, double pixel_size_x,
@@ -102,23 +123,18 @@ RasterDataset::~RasterDataset() = default;
 RasterDataset::RasterDataset(RasterDataset&&) noexcept = default;
 RasterDataset& RasterDataset::operator=(RasterDataset&&) noexcept = default;
 
+RasterDataset RasterDataset::Reopen() const {
+  // The file was checked and described by Open: only the handle is new.
+  auto impl = std::make_unique<Impl>();
+  impl->dataset = OpenHandle(info_.path);
+  RasterDataset out(std::move(impl));
+  out.info_ = info_;
+  return out;
+}
+
 RasterDataset RasterDataset::Open(const std::filesystem::path& path) {
-  internal::EnsureGdalInitialized();
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    throw Error(path.string() + ": no such file");
-  }
-  if (std::filesystem::is_directory(path, ec)) {
-    throw Error(path.string() + ": is a folder: expected a raster file");
-  }
+  GdalDatasetPtr dataset = OpenHandle(path);
   internal::QuietGdalErrors quiet;
-  GdalDatasetPtr dataset(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
-  if (dataset == nullptr) {
-    throw Error(path.string() +
-                ": not a readable raster (expected GeoTIFF, PDS3/PDS4, ISIS3 "
-                "cube, VICAR, JPEG 2000, PNG or another GDAL format): " +
-                internal::LastGdalError());
-  }
   if (dataset->GetRasterCount() < 1) {
     throw Error(path.string() + ": has no raster bands: expected an image");
   }

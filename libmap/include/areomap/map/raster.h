@@ -62,10 +62,10 @@ class RasterDataset {
   // Opens read-only. Throws areomap::Error("<path>: ...") for a missing file, an unreadable or
   // truncated one, or a file that is not a raster.
   static RasterDataset Open(const std::filesystem::path& path);
-  // A second, independent handle on the same file (Open(info().path)). A handle is not
-  // thread-safe: threads that read at once each use their own (each also keeps its own GDAL block
-  // cache). Throws as Open, e.g. when the file has gone since.
-  RasterDataset Reopen() const { return Open(info_.path); }
+  // A second, independent handle on the same file, with the same info() (not checked and
+  // described again). A handle is not thread-safe: threads that read at once each use their own
+  // (each also keeps its own GDAL block cache). Throws as Open, e.g. when the file has gone since.
+  RasterDataset Reopen() const;
   ~RasterDataset();
   RasterDataset(RasterDataset&&) noexcept;
   RasterDataset& operator=(RasterDataset&&) noexcept;
