@@ -14,7 +14,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -28,6 +27,7 @@
 #include "areomap/registration/mission_run.h"
 #include "areomap/registration/orbital_image.h"
 #include "areomap/registration/orbital_match.h"
+#include "mission_truth.h"
 
 namespace areomap {
 namespace {
@@ -35,20 +35,11 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path.string() + ": cannot open");
-  return json::parse(in);
-}
+using bench::ReadJson;
 
 int Run(const fs::path& mission_dir, const fs::path& run_dir) {
-  const MissionManifest mission = ReadMissionManifest(mission_dir);
-  if (mission.truth_sites.size() != mission.sites.size()) {
-    throw Error(mission_dir.string() + ": the mission has no truth/sites.csv");
-  }
-  const MissionOrbitalProduct* image = mission.FirstOrbital("image");
-  if (image == nullptr) throw Error(mission_dir.string() + ": no orbital image");
-  const OrbitalImage orbital = OrbitalImage::Open(image->path);
+  const MissionManifest mission = bench::ReadMissionWithTruth(mission_dir);
+  const OrbitalImage orbital = bench::OpenOrbitalImage(mission);
   const PixelGrid orbital_grid(orbital.geotransform(), orbital.crs_wkt(), orbital.name());
   const json summary = ReadJson(run_dir / "summary.json");
   const MissionRunOptions run_options;  // The defaults `areomap run` used.

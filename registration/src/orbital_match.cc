@@ -137,6 +137,16 @@ Eigen::Matrix2d RoverCovariance(const Eigen::MatrixXd& match,
          (rotation_variance + rotation_floor * rotation_floor) * lever * lever.transpose();
 }
 
+// How much the rotation's floor grows at peak correlation `rho` below `reference`
+// (OrbitalMatchOptions::rotation_floor_correlation): (g(rho) / g(reference))^2 with g(r) =
+// (1 - r^2) / r^2, the residual-to-signal variance ratio of Forstner's covariance; 1 at or
+// above the reference (and for rho <= 0, where nothing was matched).
+double LowCorrelationGrowth(double rho, double reference) {
+  if (!(rho > 0.0) || rho >= reference) return 1.0;
+  const auto g = [](double r) { return (1.0 - r * r) / (r * r); };
+  return std::pow(g(rho) / g(reference), 2);
+}
+
 // The `count` highest local maxima (3 x 3, finite neighbours only) of a surface, at least
 // `separation` [px] apart (greedy, highest first), as shifts.
 std::vector<cv::Point> TopLocalMaxima(const MaskedNccSurface& surface, int count,
@@ -490,6 +500,8 @@ void OrbitalMatchOptions::Check() const {
   RequireOption(rotation_step_deg > 0.0, "OrbitalMatchOptions.rotation_step_deg", "> 0 degrees");
   RequireOption(std::isfinite(rotation_floor_deg) && rotation_floor_deg >= 0.0,
                 "OrbitalMatchOptions.rotation_floor_deg", ">= 0 degrees");
+  RequireOption(rotation_floor_correlation > 0.0 && rotation_floor_correlation < 1.0,
+                "OrbitalMatchOptions.rotation_floor_correlation", "in (0, 1)");
   RequireOption(max_scale_change >= 0.0 && max_scale_change < 0.5,
                 "OrbitalMatchOptions.max_scale_change", "in [0, 0.5)");
   RequireOption(scale_step > 0.0, "OrbitalMatchOptions.scale_step", "> 0");
@@ -511,6 +523,10 @@ void OrbitalMatchOptions::Check() const {
 Eigen::Vector2d OrbitalMatch::TemplateToOrbital(const Eigen::Vector2d& p) const {
   const Eigen::Vector2d u = p + Eigen::Vector2d(templ.col0, templ.row0);
   return centre_px + shift_px + SimilarityMatrix(rotation_rad, scale) * (u - centre_px);
+}
+
+Eigen::Vector2d OrbitalMatch::TurnLeverPx(const Eigen::Vector2d& p) const {
+  return kTurn * (p + Eigen::Vector2d(templ.col0, templ.row0) - rotation_pivot_px);
 }
 
 Eigen::Vector2d OrbitalMatch::OrbitalToTemplate(const Eigen::Vector2d& v) const {
@@ -746,9 +762,17 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   // rotation held: their turn about the centre is the adjustment's heading to take up.
   const Eigen::MatrixXd match =
       MatchCovariance(final_template, out.correlation, correlation_area, out.rotation_solved);
-  const double rotation_floor = RadFromDeg(options.rotation_floor_deg);
+  const double base_floor = RadFromDeg(options.rotation_floor_deg);
+  const double rotation_floor =
+      base_floor * LowCorrelationGrowth(out.correlation, options.rotation_floor_correlation);
+  out.rotation_pivot_px = out.centre_px;
   if (out.rotation_solved) {
     out.rotation_sigma_rad = std::sqrt(match(2, 2) + rotation_floor * rotation_floor);
+    out.low_correlation_rotation_sigma_rad =
+        std::sqrt(rotation_floor * rotation_floor - base_floor * base_floor);
+    if (std::isfinite(match(2, 2)) && match(2, 2) > 0.0) {
+      out.rotation_pivot_px += kTurn * match.topRightCorner<2, 1>() / match(2, 2);
+    }
   }
   const Eigen::Matrix2d floor =
       std::pow(options.subpixel_floor_px, 2) * Eigen::Matrix2d::Identity();

@@ -93,10 +93,16 @@ std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
     }
   }
   // The shift is one error shared by every point (see the header): n times its covariance each.
+  // So is a low correlation's share of the rotation's error, which moves each point along its
+  // lever from the pivot.
   const double shared_by = static_cast<double>(out.size());
+  const double turn_variance = std::pow(match.low_correlation_rotation_sigma_rad, 2);
   for (OrbitalControlPoint& p : out) {
+    const Eigen::Vector2d lever_en = orbital_grid.EastNorthPerPixel(p.orbital_px) *
+                                     match.TurnLeverPx(match.OrbitalToTemplate(p.orbital_px));
     Eigen::Matrix3d cov_enu = Eigen::Matrix3d::Zero();
-    cov_enu.topLeftCorner<2, 2>() = shared_by * match.template_shift_covariance_en_m2;
+    cov_enu.topLeftCorner<2, 2>() = shared_by * (match.template_shift_covariance_en_m2 +
+                                                 turn_variance * lever_en * lever_en.transpose());
     cov_enu(2, 2) = p.sigma_up_m * p.sigma_up_m;
     const Eigen::Matrix3d mbf_from_enu =
         EnuFromMbf(body, p.geographic).RotationMatrix().transpose();

@@ -96,6 +96,41 @@ TEST(OrbitalMatch, SolvesAHeadingErrorWithTheRotationSearch) {
       << m.BriefReport();
 }
 
+// Below OrbitalMatchOptions::rotation_floor_correlation the rotation's floor grows as
+// (g(rho) / g(reference))^2, g(r) = (1 - r^2) / r^2; the same match, judged with the reference
+// below and above its correlation, differs in the sigmas alone.
+TEST(OrbitalMatch, RotationSigmaGrowsBelowTheReferenceCorrelation) {
+  const Trial trial = TurnedTrial(0.0);
+  OrbitalMatchOptions options;
+  options.max_rotation_deg = 5.0;
+  options.rotation_floor_correlation = 0.05;
+  const OrbitalMatch high = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior, options);
+  ASSERT_TRUE(high.rotation_solved) << high.BriefReport();
+  const double rho = high.correlation;
+  ASSERT_GT(rho, 0.3);
+  ASSERT_LT(rho, 0.95);
+  EXPECT_EQ(high.low_correlation_rotation_sigma_rad, 0.0);
+
+  options.rotation_floor_correlation = rho + 0.04;
+  const OrbitalMatch low = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior, options);
+  ASSERT_TRUE(low.rotation_solved);
+  EXPECT_EQ(low.rotation_rad, high.rotation_rad);
+  EXPECT_EQ(low.shift_px, high.shift_px);
+  EXPECT_EQ(low.rotation_pivot_px, high.rotation_pivot_px);
+  const auto g = [](double r) { return (1.0 - r * r) / (r * r); };
+  const double floor = RadFromDeg(options.rotation_floor_deg);
+  const double grown = floor * std::pow(g(rho) / g(rho + 0.04), 2);
+  EXPECT_GT(grown, 1.2 * floor);
+  EXPECT_NEAR(low.low_correlation_rotation_sigma_rad, std::sqrt(grown * grown - floor * floor),
+              1e-12);
+  EXPECT_NEAR(low.rotation_sigma_rad * low.rotation_sigma_rad,
+              high.rotation_sigma_rad * high.rotation_sigma_rad + grown * grown - floor * floor,
+              1e-15);
+  // The rover's covariance holds the larger rotation error; the template's shift does not.
+  EXPECT_GT(low.shift_covariance_en_m2.trace(), high.shift_covariance_en_m2.trace());
+  EXPECT_EQ(low.template_shift_covariance_en_m2, high.template_shift_covariance_en_m2);
+}
+
 TEST(OrbitalMatch, CorrectsTheRoverNotTheTemplateCentreUnderAHeadingError) {
   // A 90 deg fan: the template's centre lies ~7 m from the rover, so a 3 deg turn about the
   // rover moves the centre ~0.4 m (1.5 px) more than the rover. The reported correction is the
@@ -228,6 +263,11 @@ TEST(OrbitalMatchOptions, CheckNamesTheField) {
   options.rotation_floor_deg = -0.1;
   message = areomap::testing::ErrorMessageOf([&] { options.Check(); });
   EXPECT_NE(message.find("OrbitalMatchOptions.rotation_floor_deg"), std::string::npos) << message;
+  options = {};
+  options.rotation_floor_correlation = 1.0;
+  message = areomap::testing::ErrorMessageOf([&] { options.Check(); });
+  EXPECT_NE(message.find("OrbitalMatchOptions.rotation_floor_correlation"), std::string::npos)
+      << message;
 }
 
 }  // namespace

@@ -71,6 +71,47 @@ TEST_F(OrbitalReportTest, ControlPointsLieWhereTheTruthIs) {
   EXPECT_EQ(static_cast<size_t>(std::count(csv.begin(), csv.end(), '\n')), points.size() + 1);
 }
 
+// A low correlation's share of the rotation's error moves each control point across its lever
+// from the pivot: the points' covariance grows there, by n x sigma^2 x lever^2, and not along it.
+TEST_F(OrbitalReportTest, ControlPointsCarryALowCorrelationsTurnAcrossTheirLever) {
+  ASSERT_TRUE(match_->matched) << match_->BriefReport();
+  const testing::Trial& t = *trial_;
+  OrbitalMatch turned = *match_;
+  turned.low_correlation_rotation_sigma_rad = RadFromDeg(0.5);
+  turned.rotation_pivot_px = match_->centre_px + Eigen::Vector2d(7.0, -4.0);
+  const std::vector<OrbitalControlPoint> plain =
+      MakeControlPoints(*match_, t.ortho, *t.orbital, t.prior, t.dtm);
+  const std::vector<OrbitalControlPoint> points =
+      MakeControlPoints(turned, t.ortho, *t.orbital, t.prior, t.dtm);
+  ASSERT_EQ(points.size(), plain.size());
+  ASSERT_GE(points.size(), 3u);
+  const double n = static_cast<double>(points.size());
+  const PixelGrid grid(t.orbital->geotransform(), t.orbital->crs_wkt(), "orbital");
+  const Body body = Body::Mars2000();
+  double longest_m = 0.0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    SCOPED_TRACE(points[i].point.id);
+    EXPECT_EQ(points[i].point.position_mbf, plain[i].point.position_mbf);
+    const Eigen::Matrix3d enu_from_mbf = EnuFromMbf(body, points[i].geographic).RotationMatrix();
+    const Eigen::Matrix2d extra =
+        (enu_from_mbf * (points[i].point.covariance_mbf - plain[i].point.covariance_mbf) *
+         enu_from_mbf.transpose())
+            .topLeftCorner<2, 2>();
+    // The point's offset from the pivot, east and north [m], where telemetry put both.
+    const Eigen::Vector2d at_telemetry = turned.OrbitalToTemplate(points[i].orbital_px) +
+                                         Eigen::Vector2d(turned.templ.col0, turned.templ.row0);
+    const Eigen::Vector2d offset_m =
+        grid.EastNorthPerPixel(points[i].orbital_px) * (at_telemetry - turned.rotation_pivot_px);
+    longest_m = std::max(longest_m, offset_m.norm());
+    const double expected =
+        n * std::pow(turned.low_correlation_rotation_sigma_rad, 2) * offset_m.squaredNorm();
+    EXPECT_NEAR(extra.trace(), expected, 1e-6 * expected + 1e-12);
+    const Eigen::Vector2d along = offset_m.normalized();
+    EXPECT_NEAR(along.dot(extra * along), 0.0, 1e-6 * expected + 1e-12);
+  }
+  EXPECT_GT(longest_m, 5.0);  // Some points have a lever worth the name.
+}
+
 TEST_F(OrbitalReportTest, CorrectedGeoTransformPutsTheOrthoOnTheTruth) {
   ASSERT_TRUE(match_->matched);
   const testing::Trial& t = *trial_;

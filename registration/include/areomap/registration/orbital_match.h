@@ -13,8 +13,9 @@
 // sharpness relative to the template's own autocorrelation; a match that fails a threshold is
 // reported as "no match" with the reason, never as a position. The shift's covariance follows
 // Forstner's correlation precision plus a floor (OrbitalMatchOptions::subpixel_floor_px); with a
-// solved rotation, the rover's also holds the rotation's error (Forstner's, plus
-// rotation_floor_deg) times its lever. Cost: ~0.05-0.3 s per site (docs/benchmarks.md).
+// solved rotation, the rover's also holds the rotation's error (Forstner's, plus a floor that
+// grows at low correlation: rotation_floor_deg, rotation_floor_correlation) times its lever. Cost:
+// ~0.05-0.3 s per site (docs/benchmarks.md).
 //
 // Frames and units: shifts are in orbital pixels (columns, rows; GDAL pixel convention) and in
 // metres east/north in the local level frame at the rover; rotations in radians, counter-
@@ -89,6 +90,15 @@ struct OrbitalMatchOptions {
   // HonestUnderHeadingErrors, seeds 2000-2023): the rotation's error is 0.11 deg RMS and its
   // noise-driven sigma 0.02-0.07 deg.
   double rotation_floor_deg = 0.1;  // >= 0.
+  // Below this peak correlation the rotation's floor grows as the square of the residual-to-
+  // signal variance ratio g(rho) = (1 - rho^2) / rho^2: rotation_floor_deg x (g(rho) /
+  // g(rotation_floor_correlation))^2 (0.28 deg at CC 0.5, 0.87 deg at 0.4). The trials above
+  // had CC 0.6-0.98; rover orthophotos of generated traverses match at 0.30-0.69, and below
+  // 0.5 their rotations err by up to 1.4 deg. The square was chosen on two traverses (67
+  // matches; areomap_bench_registration_truth, docs/benchmarks.md "Registration"): mean
+  // (rotation error / sigma)^2 4.2 with the constant floor, 0.72 with this one. Checked on two
+  // others (37 and 16 matches): 11.2 -> 1.69 and 11.0 -> 0.97.
+  double rotation_floor_correlation = 0.6;  // In (0, 1).
   // Chance level of the window (for small, guided windows, where no separated runner-up fits
   // inside and any texture has some peak): the template at the match's rotation and scale is
   // also correlated in at least this many windows of the search window's size that tile a ring
@@ -124,6 +134,17 @@ struct OrbitalMatch {
   // 1 sigma of the rotation [rad]: Forstner's (with the shift) and the floor
   // (OrbitalMatchOptions::rotation_floor_deg) in quadrature; NaN unless rotation_solved.
   double rotation_sigma_rad = std::numeric_limits<double>::quiet_NaN();
+  // The part of that sigma a low correlation adds: the floor's growth below
+  // OrbitalMatchOptions::rotation_floor_correlation, sqrt(floor(rho)^2 - rotation_floor^2)
+  // [rad]; 0 at or above it and unless rotation_solved. The control points carry it
+  // (MakeControlPoints); the rest of the rotation's error their spread conveys.
+  double low_correlation_rotation_sigma_rad = 0.0;
+  // The orbital pixel about which a rotation error turns the template: where its texture pins
+  // the shift (the template centre moved by kTurn b, b = cov(shift, rotation) / var(rotation)).
+  // On the orbital image, where the telemetry georeference puts it (as centre_px). A rotation
+  // error delta [rad] moves template pixel p by delta x TurnLeverPx(p). The template centre
+  // unless rotation_solved.
+  Eigen::Vector2d rotation_pivot_px = Eigen::Vector2d::Zero();
   // The correction of the rover itself, east and north [m]: shift_px + (A - I) (rover -
   // centre) in metres. Its covariance [m^2]: with a solved rotation, the shift's and the
   // rotation's jointly (their Forstner covariance and the rotation's floor, the rotation's
@@ -166,6 +187,10 @@ struct OrbitalMatch {
   // correction, and the inverse.
   Eigen::Vector2d TemplateToOrbital(const Eigen::Vector2d& p) const;
   Eigen::Vector2d OrbitalToTemplate(const Eigen::Vector2d& u) const;
+  // How far a rotation error of 1 rad moves template pixel coordinate `p` (as in
+  // TemplateToOrbital) on the orbital image [px per rad]: its offset from rotation_pivot_px
+  // turned a quarter counter-clockwise on the map.
+  Eigen::Vector2d TurnLeverPx(const Eigen::Vector2d& p) const;
   // One line: image, verdict, shift [m] with sigma, CC, ratio.
   std::string BriefReport() const;
 };

@@ -54,7 +54,10 @@ struct OrbitalControlPoint {
 // where given and defined, else from the prior. All points share one shift estimate, so their
 // horizontal errors are one error, fully correlated: each point gets n times the match's shift
 // covariance (n points), so that together they carry the shift's information once, not n times
-// (sigma_east_m / sigma_north_m stay the match's own). Throws areomap::Error if the options fail
+// (sigma_east_m / sigma_north_m stay the match's own). The same holds for a low correlation's
+// share of the rotation's error (OrbitalMatch::low_correlation_rotation_sigma_rad), which moves
+// each point across its lever from OrbitalMatch::rotation_pivot_px; the rest of the rotation's
+// error the points' spread conveys to the adjustment. Throws areomap::Error if the options fail
 // Check() or a CRS is not on Mars.
 std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
                                                    const OrthoImage& ortho,
