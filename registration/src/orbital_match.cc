@@ -759,7 +759,8 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   const double correlation_area =
       1.0 + 2.0 * std::numbers::pi * std::pow(options.template_options.lowpass_sigma_orbital_px, 2);
   // The template's own shift error, the one its control points share, is the shift's with the
-  // rotation held: their turn about the centre is the adjustment's heading to take up.
+  // rotation held: their turn about the centre is the adjustment's heading to take up (with a
+  // low correlation's share of the rotation's error, which MakeControlPoints adds).
   const Eigen::MatrixXd match =
       MatchCovariance(final_template, out.correlation, correlation_area, out.rotation_solved);
   const double base_floor = RadFromDeg(options.rotation_floor_deg);

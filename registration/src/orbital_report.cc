@@ -93,8 +93,8 @@ std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
     }
   }
   // The shift is one error shared by every point (see the header): n times its covariance each.
-  // So is a low correlation's share of the rotation's error, which moves each point along its
-  // lever from the pivot.
+  // So is a low correlation's share of the rotation's error, which moves each point across its
+  // offset from the pivot (OrbitalMatch::TurnLeverPx).
   const double shared_by = static_cast<double>(out.size());
   const double turn_variance = std::pow(match.low_correlation_rotation_sigma_rad, 2);
   for (OrbitalControlPoint& p : out) {

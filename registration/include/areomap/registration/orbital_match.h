@@ -132,7 +132,8 @@ struct OrbitalMatch {
   bool rotation_solved = false;
   bool scale_solved = false;
   // 1 sigma of the rotation [rad]: Forstner's (with the shift) and the floor
-  // (OrbitalMatchOptions::rotation_floor_deg) in quadrature; NaN unless rotation_solved.
+  // (OrbitalMatchOptions::rotation_floor_deg, grown below rotation_floor_correlation) in
+  // quadrature; NaN unless rotation_solved.
   double rotation_sigma_rad = std::numeric_limits<double>::quiet_NaN();
   // The part of that sigma a low correlation adds: the floor's growth below
   // OrbitalMatchOptions::rotation_floor_correlation, sqrt(floor(rho)^2 - rotation_floor^2)

@@ -56,7 +56,7 @@ struct OrbitalControlPoint {
 // covariance (n points), so that together they carry the shift's information once, not n times
 // (sigma_east_m / sigma_north_m stay the match's own). The same holds for a low correlation's
 // share of the rotation's error (OrbitalMatch::low_correlation_rotation_sigma_rad), which moves
-// each point across its lever from OrbitalMatch::rotation_pivot_px; the rest of the rotation's
+// each point across its offset from OrbitalMatch::rotation_pivot_px; the rest of the rotation's
 // error the points' spread conveys to the adjustment. Throws areomap::Error if the options fail
 // Check() or a CRS is not on Mars.
 std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
