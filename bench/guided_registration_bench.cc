@@ -59,12 +59,9 @@ int Run(const fs::path& mission_dir, const fs::path& run_dir) {
       const MissionSitePose& telemetry = mission.telemetry[index];
       const MissionSitePose& truth = mission.truth_sites[index];
       const json& p = attempt.at("prior");
-      char folder[32];
-      std::snprintf(folder, sizeof(folder), "site_%03d", site);
+      const std::string folder = bench::SiteFolder(site);
       const fs::path ortho_path = run_dir / "sites" / folder / "ortho.tif";
-      const SiteGeoreference georef =
-          SiteGeoreference::InMission(mission.body, mission.origin,
-                                      Rigid3d(Eigen::Quaterniond::Identity(), telemetry.position));
+      const SiteGeoreference georef = bench::TelemetrySiteGeoreference(mission, index);
       const OrthoImage ortho = OrthoImageFromOrthophoto(ReadOrthophoto(ortho_path),
                                                         ortho_path.string(), site, georef.Origin());
       OrbitalPrior prior{georef.Origin(), georef.body, p.at("sigma_m").get<double>()};

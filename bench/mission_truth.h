@@ -2,13 +2,16 @@
 // read first: the mission (with its truth/sites.csv), its orbital image and the run's JSON.
 #pragma once
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <string>
 
 #include <nlohmann/json.hpp>
 
 #include "areomap/map/error.h"
 #include "areomap/map/mission_manifest.h"
+#include "areomap/map/site_georeference.h"
 #include "areomap/registration/orbital_image.h"
 
 namespace areomap::bench {
@@ -36,6 +39,20 @@ inline OrbitalImage OpenOrbitalImage(const MissionManifest& mission) {
   const MissionOrbitalProduct* image = mission.FirstOrbital("image");
   if (image == nullptr) throw Error(mission.root.string() + ": no orbital image");
   return OrbitalImage::Open(image->path);
+}
+
+// A site's folder name in a run (`areomap run` writes RUN/sites/site_NNN).
+inline std::string SiteFolder(int site) {
+  char folder[32];
+  std::snprintf(folder, sizeof(folder), "site_%03d", site);
+  return folder;
+}
+
+// Site `index`'s frame as the run placed it: level and north-up at its telemetry position.
+inline SiteGeoreference TelemetrySiteGeoreference(const MissionManifest& mission, size_t index) {
+  return SiteGeoreference::InMission(
+      mission.body, mission.origin,
+      Rigid3d(Eigen::Quaterniond::Identity(), mission.telemetry[index].position));
 }
 
 }  // namespace areomap::bench

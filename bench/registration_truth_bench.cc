@@ -114,17 +114,11 @@ void Run(const fs::path& mission_dir, const fs::path& run_dir,
     }
     throw Error((run_dir / "summary.json").string() + ": unknown site " + std::to_string(site));
   };
-  const auto telemetry_origin = [&](size_t index) {
-    return SiteGeoreference::InMission(
-        mission.body, mission.origin,
-        Rigid3d(Eigen::Quaterniond::Identity(), mission.telemetry[index].position));
-  };
   for (size_t i = 0; i < mission.sites.size(); ++i) {
-    char folder[32];
-    std::snprintf(folder, sizeof(folder), "site_%03d", mission.sites[i].site);
-    const json r = ReadJson(run_dir / "sites" / folder / "registration.json");
+    const json r = ReadJson(run_dir / "sites" / bench::SiteFolder(mission.sites[i].site) /
+                            "registration.json");
     if (!r.value("matched", false)) continue;
-    const SiteGeoreference georef = telemetry_origin(i);
+    const SiteGeoreference georef = bench::TelemetrySiteGeoreference(mission, i);
     attempts.push_back(
         {i, 0, OrbitalPrior{georef.Origin(), georef.body, r.at("prior_sigma_m").get<double>()}});
   }
@@ -133,7 +127,7 @@ void Run(const fs::path& mission_dir, const fs::path& run_dir,
       if (!attempt.value("matched", false)) continue;
       const size_t i = index_of(attempt.at("site").get<int>());
       const json& p = attempt.at("prior");
-      const SiteGeoreference georef = telemetry_origin(i);
+      const SiteGeoreference georef = bench::TelemetrySiteGeoreference(mission, i);
       OrbitalPrior prior{georef.Origin(), georef.body, p.at("sigma_m").get<double>()};
       prior.expected_shift_en_m =
           Eigen::Vector2d(p.at("shift_east_m").get<double>(), p.at("shift_north_m").get<double>());
@@ -147,9 +141,8 @@ void Run(const fs::path& mission_dir, const fs::path& run_dir,
       "template px, peak ratio, relative sharpness\n",
       run_dir.string().c_str());
   for (const Attempt& a : attempts) {
-    char folder[32];
-    std::snprintf(folder, sizeof(folder), "site_%03d", mission.sites[a.index].site);
-    const fs::path ortho_path = run_dir / "sites" / folder / "ortho.tif";
+    const fs::path ortho_path =
+        run_dir / "sites" / bench::SiteFolder(mission.sites[a.index].site) / "ortho.tif";
     const OrthoImage ortho =
         OrthoImageFromOrthophoto(ReadOrthophoto(ortho_path), ortho_path.string(),
                                  mission.sites[a.index].site, a.prior.position);

@@ -118,23 +118,26 @@ Eigen::Matrix2d ShiftWithRotationHeld(const Eigen::MatrixXd& match) {
          match.topRightCorner<2, 1>() * match.bottomLeftCorner<1, 2>() / match(2, 2);
 }
 
-// The rover's covariance from a match covariance (MatchCovariance, 2 x 2 or 3 x 3), the rover
-// `rover_from_centre_px` from the template centre: the shift's, and with the rotation its error
-// times the lever from where the template's texture pins the shift. With the rotation, the
-// shift's error is its error with the rotation held plus b x the rotation's error (b =
-// cov(shift, rotation) / var(rotation): a template textured off its centre keeps that texture in
-// place when it turns), so the rover's is that plus (kTurn l + b) x the rotation's error.
-// `rotation_floor` [rad] is added in quadrature to the rotation's own sigma only: b stays what
-// the data give.
-Eigen::Matrix2d RoverCovariance(const Eigen::MatrixXd& match,
-                                const Eigen::Vector2d& rover_from_centre_px,
+// Where the template's texture pins the shift (OrbitalMatch::rotation_pivot_px), from a match
+// covariance (MatchCovariance) of a template centred at `centre`: with the rotation, the shift's
+// error is its error with the rotation held plus b x the rotation's error (b = cov(shift,
+// rotation) / var(rotation): a template textured off its centre keeps that texture in place when
+// it turns), so a turn error moves pixel u by kTurn (u - centre) + b = kTurn (u - pivot), pivot =
+// centre + kTurn b. The centre itself for a 2 x 2 or singular covariance.
+Eigen::Vector2d RotationPivot(const Eigen::MatrixXd& match, const Eigen::Vector2d& centre) {
+  if (match.rows() == 2 || !std::isfinite(match(2, 2)) || match(2, 2) <= 0.0) return centre;
+  return centre + kTurn * match.topRightCorner<2, 1>() / match(2, 2);
+}
+
+// The rover's covariance from a match covariance (MatchCovariance, 2 x 2 or 3 x 3): the shift's,
+// and with the rotation its error times the rover's `lever_px` (kTurn (rover - pivot),
+// RotationPivot). `rotation_floor` [rad] is added in quadrature to the rotation's own sigma only:
+// the pivot stays what the data give.
+Eigen::Matrix2d RoverCovariance(const Eigen::MatrixXd& match, const Eigen::Vector2d& lever_px,
                                 double rotation_floor) {
   if (match.rows() == 2) return match;
-  const double rotation_variance = match(2, 2);
-  const Eigen::Vector2d b = match.topRightCorner<2, 1>() / rotation_variance;
-  const Eigen::Vector2d lever = kTurn * rover_from_centre_px + b;
   return ShiftWithRotationHeld(match) +
-         (rotation_variance + rotation_floor * rotation_floor) * lever * lever.transpose();
+         (match(2, 2) + rotation_floor * rotation_floor) * lever_px * lever_px.transpose();
 }
 
 // How much the rotation's floor grows at peak correlation `rho` below `reference`
@@ -766,21 +769,19 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   const double base_floor = RadFromDeg(options.rotation_floor_deg);
   const double rotation_floor =
       base_floor * LowCorrelationGrowth(out.correlation, options.rotation_floor_correlation);
-  out.rotation_pivot_px = out.centre_px;
+  out.rotation_pivot_px = RotationPivot(match, out.centre_px);
   if (out.rotation_solved) {
     out.rotation_sigma_rad = std::sqrt(match(2, 2) + rotation_floor * rotation_floor);
     out.low_correlation_rotation_sigma_rad =
         std::sqrt(rotation_floor * rotation_floor - base_floor * base_floor);
-    if (std::isfinite(match(2, 2)) && match(2, 2) > 0.0) {
-      out.rotation_pivot_px += kTurn * match.topRightCorner<2, 1>() / match(2, 2);
-    }
   }
   const Eigen::Matrix2d floor =
       std::pow(options.subpixel_floor_px, 2) * Eigen::Matrix2d::Identity();
   out.shift_covariance_px = ShiftWithRotationHeld(match) + floor;
   out.template_shift_covariance_en_m2 = en_per_px * out.shift_covariance_px * en_per_px.transpose();
   const Eigen::Matrix2d rover_px =
-      RoverCovariance(match, rover_in_orbital - out.centre_px, rotation_floor) + floor;
+      RoverCovariance(match, kTurn * (rover_in_orbital - out.rotation_pivot_px), rotation_floor) +
+      floor;
   out.shift_covariance_en_m2 = en_per_px * rover_px * en_per_px.transpose();
   // The rover moved to its corrected pixel, at the prior's height (the registration does not
   // measure heights).

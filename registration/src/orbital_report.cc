@@ -53,6 +53,7 @@ std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
   const std::string stem = std::filesystem::path(orbital.name()).stem().string();
   const int step = std::max(1, static_cast<int>(std::lround(options.spacing_m / match.gsd_m)));
   const OrbitalTemplate& t = match.templ;
+  std::vector<Eigen::Vector2d> turn_levers_en;  // Per point: OrbitalMatch::TurnLeverPx [m/rad].
   for (int r = step / 2; r < t.image.rows; r += step) {
     for (int c = step / 2; c < t.image.cols; c += step) {
       if (!t.mask.at<uchar>(r, c)) continue;
@@ -89,6 +90,8 @@ std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
         cp.covariance_in_site =
             options.site_sigma_m * options.site_sigma_m * Eigen::Matrix3d::Identity();
       }
+      turn_levers_en.push_back(orbital_grid.EastNorthPerPixel(p.orbital_px) *
+                               match.TurnLeverPx(template_px));
       out.push_back(std::move(p));
     }
   }
@@ -97,9 +100,9 @@ std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
   // offset from the pivot (OrbitalMatch::TurnLeverPx).
   const double shared_by = static_cast<double>(out.size());
   const double turn_variance = std::pow(match.low_correlation_rotation_sigma_rad, 2);
-  for (OrbitalControlPoint& p : out) {
-    const Eigen::Vector2d lever_en = orbital_grid.EastNorthPerPixel(p.orbital_px) *
-                                     match.TurnLeverPx(match.OrbitalToTemplate(p.orbital_px));
+  for (size_t i = 0; i < out.size(); ++i) {
+    OrbitalControlPoint& p = out[i];
+    const Eigen::Vector2d& lever_en = turn_levers_en[i];
     Eigen::Matrix3d cov_enu = Eigen::Matrix3d::Zero();
     cov_enu.topLeftCorner<2, 2>() = shared_by * (match.template_shift_covariance_en_m2 +
                                                  turn_variance * lever_en * lever_en.transpose());
