@@ -256,6 +256,10 @@ nlohmann::json MissionRunOptions::ToJson() const {
       {"match_min_correlation", match.min_correlation},
       {"match_max_rotation_deg", match.max_rotation_deg},
       {"match_subpixel_floor_px", match.subpixel_floor_px},
+      // Not on the CLI, but they set the sites' rotation sigmas; runs made before the floor grew
+      // at low correlation (2026-12-04) lack them and are recomputed rather than reused.
+      {"match_rotation_floor_deg", match.rotation_floor_deg},
+      {"match_rotation_floor_correlation", match.rotation_floor_correlation},
       {"control_spacing_m", control.spacing_m},
       {"control_site_sigma_m", control.site_sigma_m},
       {"prior_sigma_floor_m", prior_sigma_floor_m},

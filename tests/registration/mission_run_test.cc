@@ -265,6 +265,18 @@ TEST(MissionRunOptions, FinePairsKeepTheirPointsCloser) {
       << message;
 }
 
+TEST(MissionRunOptions, SiteRotationSigmasChangeTheFingerprint) {
+  // A finished site unit is reused only while these figures are unchanged: the orbital match's
+  // rotation floor sets the sigmas its registration hands to the adjustment.
+  const MissionRunOptions defaults;
+  MissionRunOptions floor = defaults, correlation = defaults;
+  floor.match.rotation_floor_deg = 0.2;
+  correlation.match.rotation_floor_correlation = 0.01;
+  EXPECT_NE(floor.ToJson(), defaults.ToJson());
+  EXPECT_NE(correlation.ToJson(), defaults.ToJson());
+  EXPECT_EQ(MissionRunOptions{}.ToJson(), defaults.ToJson());
+}
+
 TEST(MissionRun, GuidedPriorFollowsTheAdjustedPose) {
   // Telemetry: level, north-up at (10, 20) m; the adjustment moves the site 1 m north, 0.5 m
   // west and turns it 5 degrees from north towards east (about z, down): clockwise on the map.
