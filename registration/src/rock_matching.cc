@@ -41,6 +41,47 @@ double LargestHorizontalSigma(const ExtractedRock& r) {
   return std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
 }
 
+// The horizontal covariance of a rock's peak, turned by `rotation` (into another site's frame).
+Eigen::Matrix2d HorizontalCovariance(
+    const ExtractedRock& r, const Eigen::Matrix3d& rotation = Eigen::Matrix3d::Identity()) {
+  return (rotation * r.peak_covariance * rotation.transpose()).topLeftCorner<2, 2>();
+}
+
+// A horizontal gate about a peak, shaped by the covariance of the two peaks' difference: an
+// ellipse whose semi-axis along each principal direction of the covariance is a function of the
+// sigma there. A far stereo peak is uncertain along its line of sight only (eq. 4.3: range error
+// grows as r^2, the azimuth error as r), so a gate drawn with its largest sigma in every
+// direction takes in neighbours that its precise bearing already tells apart.
+class EllipticGate {
+ public:
+  // Semi-axes `tolerance` + `sigmas` x sigma (the ambiguity test).
+  static EllipticGate ToleranceAndSigmas(const Eigen::Matrix2d& covariance, double tolerance,
+                                         double sigmas) {
+    return EllipticGate(covariance, [&](double sigma) { return tolerance + sigmas * sigma; });
+  }
+  // Semi-axes max(`tolerance`, 2 sigma) (eq. 3.31's epsilon, widened where the peaks smear).
+  static EllipticGate AtLeast(const Eigen::Matrix2d& covariance, double tolerance) {
+    return EllipticGate(covariance, [&](double sigma) { return std::max(tolerance, 2.0 * sigma); });
+  }
+  bool Contains(const Eigen::Vector2d& offset) const {
+    return (axes_.transpose() * offset).cwiseQuotient(semi_).squaredNorm() <= 1.0;
+  }
+  double LargestSemiAxis() const { return semi_.maxCoeff(); }
+
+ private:
+  template <typename SemiAxis>
+  EllipticGate(const Eigen::Matrix2d& covariance, SemiAxis semi_axis) {
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen;
+    eigen.computeDirect(covariance);
+    axes_ = eigen.eigenvectors();
+    for (int k = 0; k < 2; ++k) {
+      semi_[k] = semi_axis(std::sqrt(std::max(0.0, eigen.eigenvalues()[k])));
+    }
+  }
+  Eigen::Matrix2d axes_;  // Principal directions (columns).
+  Eigen::Vector2d semi_;  // Semi-axes along them [m], > 0.
+};
+
 struct Eligibility {
   std::vector<int> rocks;  // Indices passing the per-rock rules.
   int beyond_range = 0, too_low = 0, few_points = 0, implausible = 0, low_ratio = 0, imprecise = 0;
@@ -78,8 +119,9 @@ Eligibility SelectEligible(const std::vector<ExtractedRock>& rocks, const Eigen:
   return e;
 }
 
-// A rock is ambiguous when another rock of its site lies within the pattern tolerance plus twice
-// the sigma of its peak (combined with its partner's): no translation vote can tell them apart.
+// A rock is ambiguous when another rock of its site lies within the pattern tolerance plus
+// `sigmas` sigmas of its peak's covariance combined with its partner's (EllipticGate: along each
+// principal direction): no translation vote can tell them apart.
 class AmbiguityTest {
  public:
   // `eligible`: the rocks that count as neighbours.
@@ -90,16 +132,16 @@ class AmbiguityTest {
         tolerance_(tolerance),
         sigmas_(sigmas),
         grid_(Peaks(rocks, eligible), 1.0) {}
-  // `partner_sigma`: largest horizontal sigma of the rock it would be matched with [m].
-  bool Ambiguous(int i, double partner_sigma = 0.0) const {
+  // `partner_covariance`: horizontal covariance of the peak it would be matched with, in this
+  // site's frame [m^2].
+  bool Ambiguous(int i, const Eigen::Matrix2d& partner_covariance = Eigen::Matrix2d::Zero()) const {
     const ExtractedRock& r = rocks_[i];
-    const double sigma = LargestHorizontalSigma(r);
-    const double radius =
-        tolerance_ + sigmas_ * std::sqrt(sigma * sigma + partner_sigma * partner_sigma);
+    const EllipticGate gate = EllipticGate::ToleranceAndSigmas(
+        HorizontalCovariance(r) + partner_covariance, tolerance_, sigmas_);
     bool ambiguous = false;
-    grid_.ForEachNear(r.peak.head<2>(), radius, [&](int k) {
+    grid_.ForEachNear(r.peak.head<2>(), gate.LargestSemiAxis(), [&](int k) {
       const int j = eligible_[k];
-      ambiguous = ambiguous || (j != i && (rocks_[j].peak - r.peak).head<2>().norm() < radius);
+      ambiguous = ambiguous || (j != i && gate.Contains((rocks_[j].peak - r.peak).head<2>()));
     });
     return ambiguous;
   }
@@ -294,27 +336,29 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     q_xy.push_back(q_in_a.back().head<2>());
   }
   const rock_internal::PointGrid q_grid(q_xy, options.pattern_tolerance_m);
-  // Eq. 3.31 with epsilon widened to twice the two peaks' combined horizontal sigma where the
-  // stereo range error (eq. 4.3) exceeds it: far rocks smear along their line of sight.
-  std::vector<double> sigma_b;
+  // Eq. 3.31 with epsilon widened to twice the two peaks' combined sigma, along each principal
+  // direction of their covariance, where the stereo range error (eq. 4.3) exceeds it: far rocks
+  // smear along their line of sight, not across it.
+  const Eigen::Matrix3d rotation_a_from_b = a_from_b_prior.RotationMatrix();
+  std::vector<Eigen::Matrix2d> covariance_b;  // b's peaks' horizontal covariances in a.
   double max_sigma_b = 0.0;
   for (int j : eb.rocks) {
-    sigma_b.push_back(LargestHorizontalSigma(b.rocks[j]));
-    max_sigma_b = std::max(max_sigma_b, sigma_b.back());
+    covariance_b.push_back(HorizontalCovariance(b.rocks[j], rotation_a_from_b));
+    max_sigma_b = std::max(max_sigma_b, LargestHorizontalSigma(b.rocks[j]));
   }
   const auto count_votes = [&](const Eigen::Vector3d& v) {
     int count = 0;
     for (int i : ea.rocks) {
       const Eigen::Vector3d target = a.rocks[i].peak - v;
-      const double sigma_p = LargestHorizontalSigma(a.rocks[i]);
+      const Eigen::Matrix2d covariance_p = HorizontalCovariance(a.rocks[i]);
       const double reach =
-          std::max(options.pattern_tolerance_m, 2.0 * std::hypot(sigma_p, max_sigma_b));
+          std::max(options.pattern_tolerance_m,
+                   2.0 * std::hypot(LargestHorizontalSigma(a.rocks[i]), max_sigma_b));
       bool hit = false;
       q_grid.ForEachNear(target.head<2>(), reach, [&](int j) {
-        const double tolerance =
-            std::max(options.pattern_tolerance_m, 2.0 * std::hypot(sigma_p, sigma_b[j]));
-        hit = hit || ((q_in_a[j] - target).head<2>().norm() <= tolerance &&
-                      std::abs(q_in_a[j].z() - target.z()) <= options.pattern_tolerance_m);
+        if (hit || std::abs(q_in_a[j].z() - target.z()) > options.pattern_tolerance_m) return;
+        hit = EllipticGate::AtLeast(covariance_p + covariance_b[j], options.pattern_tolerance_m)
+                  .Contains((q_in_a[j] - target).head<2>());
       });
       count += hit ? 1 : 0;
     }
@@ -386,7 +430,6 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   std::vector<Candidates> per_rock;
   std::vector<double> vx, vy, vz;
   int terrain_rejects = 0;
-  const Eigen::Matrix3d rotation_a_from_b = a_from_b_prior.RotationMatrix();
   for (int i : significant) {
     const ExtractedRock& p = a.rocks[i];
     Candidates c;
@@ -445,25 +488,38 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   report.Add(RockCount("III matching", "local terrain mismatch (plane normals)", terrain_rejects,
                        fd.max_normal_angle_deg, "deg"));
 
-  // Global pattern consistency, then the combination of both methods.
+  // Global pattern consistency, then the combination of both methods. A candidate's V deviates
+  // from the median V by the two peaks' errors plus the prior's heading error acting on the
+  // rock's distance from site a; the candidate nearer the median by that covariance wins.
+  const auto deviation_of = [&](const ExtractedRock& p, int candidate) {
+    return Eigen::Vector3d(p.peak - q_in_a[candidate] - result.median_translation);
+  };
+  const auto heading_lever = [&](const ExtractedRock& p) {
+    return prior.heading_sigma_deg / kRadToDeg * (p.peak - a.camera_center).head<2>().norm();
+  };
+  const auto deviation_chi2 = [&](const ExtractedRock& p, int candidate) {
+    const double lever = heading_lever(p);
+    const Eigen::Matrix3d cov = p.peak_covariance +
+                                rotation_a_from_b * b.rocks[eb.rocks[candidate]].peak_covariance *
+                                    rotation_a_from_b.transpose() +
+                                lever * lever * Eigen::Matrix3d::Identity();
+    const Eigen::Vector3d deviation = deviation_of(p, candidate);
+    return deviation.dot(cov.ldlt().solve(deviation));
+  };
   std::vector<RockMatch> combined;
   for (const Candidates& c : per_rock) {
     const ExtractedRock& p = a.rocks[c.rock_a];
     int winner = c.pattern[0];
+    double chi2 = deviation_chi2(p, winner);
     if (c.pattern[1] >= 0) {
-      const double d0 = (p.peak - q_in_a[c.pattern[0]] - result.median_translation).norm();
-      const double d1 = (p.peak - q_in_a[c.pattern[1]] - result.median_translation).norm();
-      if (d1 < d0) winner = c.pattern[1];
+      const double chi2_second = deviation_chi2(p, c.pattern[1]);
+      if (chi2_second < chi2) {
+        winner = c.pattern[1];
+        chi2 = chi2_second;
+      }
     }
-    const Eigen::Vector3d deviation = p.peak - q_in_a[winner] - result.median_translation;
-    const double lever =
-        prior.heading_sigma_deg / kRadToDeg * (p.peak - a.camera_center).head<2>().norm();
-    const Eigen::Matrix3d cov = p.peak_covariance +
-                                rotation_a_from_b * b.rocks[eb.rocks[winner]].peak_covariance *
-                                    rotation_a_from_b.transpose() +
-                                lever * lever * Eigen::Matrix3d::Identity();
-    if (deviation.norm() > options.max_vector_deviation_m ||
-        deviation.dot(cov.ldlt().solve(deviation)) > options.max_vector_chi2) {
+    if (deviation_of(p, winner).norm() > options.max_vector_deviation_m ||
+        chi2 > options.max_vector_chi2) {
       set_fate(c.rock_a, eb.rocks[winner], "inconsistent vector");
       continue;
     }
@@ -480,14 +536,19 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
       set_fate(c.rock_a, eb.rocks[winner], "terrain mismatch");
       continue;
     }
-    if (ambiguous_b.Ambiguous(eb.rocks[winner], LargestHorizontalSigma(p))) {
+    // The partner's covariance in the tested site's frame, with the prior's heading error: a
+    // neighbour that the heading can swap with the rock is no better than one the peaks can.
+    const double lever = heading_lever(p);
+    const Eigen::Matrix2d heading = lever * lever * Eigen::Matrix2d::Identity();
+    if (ambiguous_b.Ambiguous(eb.rocks[winner],
+                              HorizontalCovariance(p, rotation_a_from_b.transpose()) + heading)) {
       ++ambiguous;
       set_fate(c.rock_a, eb.rocks[winner], "ambiguous at b");
       continue;
     }
     // The same test at a with the partner's sigma: a far (imprecise) peak of b can as well be a
     // neighbour of p within its uncertainty.
-    if (ambiguous_a.Ambiguous(c.rock_a, LargestHorizontalSigma(b.rocks[eb.rocks[winner]]))) {
+    if (ambiguous_a.Ambiguous(c.rock_a, covariance_b[winner] + heading)) {
       ++ambiguous;
       set_fate(c.rock_a, eb.rocks[winner], "ambiguous at a");
       continue;

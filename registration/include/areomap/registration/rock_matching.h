@@ -7,27 +7,29 @@
 // radius must exceed it). Tie points carry each site's own peak position and its stereo covariance
 // plus `peak_definition_sigma_m` horizontally.
 //
-// Steps (ch. 3.2): (1) rocks failing a Table 4.5 per-rock rule are set aside (too far, too low,
-// too few surface points, implausible model, distance ratio); (2) significant rocks of site a:
-// the highest ones per grid cell in the overlap (within max_peak_range_m of both cameras);
-// (3) pattern matching: a translation vote V = P_k - Q_m (eq. 3.29) per candidate of b within
-// the search radius counts the rocks of a that b's rocks, shifted by V, bring within epsilon
-// (eqs. 3.30, 3.31; epsilon widened to twice the peaks' combined sigma); the two best candidates
-// per significant rock are kept (Fig. 3.3); (4) model matching among those two: the smallest
-// cost 1/2 f_h + 1/3 f_r + 1/6 f_S (eq. 3.28; f = relative differences of height, mean radius and
-// exact surface area of the best models), then the local terrain check (angle between the
-// background-plane normals); the pattern candidate whose V is nearer the median of all candidate
-// vectors wins (global consistency). Beyond the dissertation, a winner whose V lies farther than
-// `max_vector_deviation_m` from the median, or beyond its chi-square bound given the peaks'
-// covariances, is dropped (it contradicts the global pattern), and so is a rock of either site with
-// a neighbour (at least `ambiguity_min_height_m` high) closer than epsilon plus `ambiguity_sigmas`
-// of the two partners' combined horizontal sigma (no vote can tell them apart; tested at both
-// sites once the partner is known); rocks whose peak sigma exceeds `max_peak_sigma_m` are not used.
-// (5) A pair is matched only where both methods agree; when several rocks of a take the same rock
-// of b, only the lowest-cost one is kept. (6) Data snooping in the 2D conformal fit of the matches
-// (eq. 4.4), each tie point tested against the fit of the others, drops outliers while more than
-// min_tie_points remain. Pair-level rules (traverse, peaks, tie-point count, distance ratio, RE)
-// decide the outcome.
+// Steps (ch. 3.2): (1) rocks failing a Table 4.5 per-rock rule are set aside (too far, too low, too
+// few surface points, implausible model, distance ratio); (2) significant rocks of site a: the
+// highest ones per grid cell in the overlap (within max_peak_range_m of both cameras); (3) pattern
+// matching: a translation vote V = P_k - Q_m (eq. 3.29) per candidate of b within the search radius
+// counts the rocks of a that b's rocks, shifted by V, bring within epsilon (eqs. 3.30, 3.31;
+// epsilon widened to twice the peaks' combined sigma along each principal direction of their
+// horizontal covariance: a far peak smears along its line of sight, not across it); the two best
+// candidates per significant rock are kept (Fig. 3.3); (4) model matching among those two: the
+// smallest cost 1/2 f_h + 1/3 f_r + 1/6 f_S (eq. 3.28; f = relative differences of height, mean
+// radius and exact surface area of the best models), then the local terrain check (angle between
+// the background-plane normals); the pattern candidate whose V is nearer the median of all
+// candidate vectors, by the chi-square of the two peaks' covariances, wins (global consistency).
+// Beyond the dissertation, a winner whose V lies farther than `max_vector_deviation_m` from the
+// median, or beyond its chi-square bound given the peaks' covariances, is dropped (it contradicts
+// the global pattern), and so is a rock of either site with a neighbour (at least
+// `ambiguity_min_height_m` high) closer than epsilon plus `ambiguity_sigmas` sigmas of the two
+// partners' combined horizontal covariance, along each of its principal directions (no vote can
+// tell them apart; tested at both sites once the partner is known); rocks whose peak sigma exceeds
+// `max_peak_sigma_m` are not used. (5) A pair is matched only where both methods agree; when
+// several rocks of a take the same rock of b, only the lowest-cost one is kept. (6) Data snooping
+// in the 2D conformal fit of the matches (eq. 4.4), each tie point tested against the fit of the
+// others, drops outliers while more than min_tie_points remain. Pair-level rules (traverse, peaks,
+// tie-point count, distance ratio, RE) decide the outcome.
 //
 // Failures: invalid options throw areomap::Error; everything about the data (no overlap, no
 // rocks, too few tie points) is a verdict in the report, never an exception.
