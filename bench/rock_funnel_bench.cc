@@ -292,6 +292,13 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
       rocks_b.rocks = b.rocks;
       const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, *prior, options.matching);
       outcome = ToString(match.report.outcome);
+      // The pair-level rules that excluded the leg, with their values (e.g. RE 2.4 %).
+      for (const FaultCheck& check : match.report.checks) {
+        if (!check.excludes_pair || check.verdict != FaultVerdict::kFail) continue;
+        char because[160];
+        std::snprintf(because, sizeof(because), "; %s %.3g", check.rule.c_str(), check.value);
+        outcome += because;
+      }
       leg_ties[k] = match.tie_points;
       for (const RockMatch& m : match.matches) matched_pairs.insert({m.rock_a, m.rock_b});
       for (const RockMatchOutcome& o : match.outcomes) fate_of[o.rock_a] = o.fate;
