@@ -14,7 +14,8 @@
 //
 // When the leg's unit.json records its prior pose (prior.a_from_b_*), the leg is re-matched here
 // with that prior (MatchSitePair), which also tells what became of each eligible rock that was not
-// matched (RockMatchOutcome), and lets `NAME=VALUE` arguments try other matching options.
+// matched (RockMatchOutcome), and lets `NAME=VALUE` arguments try other matching options; the
+// outcome column then names the pair-level rules that excluded the leg, with their values.
 // Then the legs' test of `areomap run` (TestLegConsistency) on the accepted legs' tie points:
 // what it drops, and the accepted tie points left, right or wrong by the same truth rule.
 //
