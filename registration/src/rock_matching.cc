@@ -546,8 +546,8 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
       set_fate(c.rock_a, eb.rocks[winner], "ambiguous at b");
       continue;
     }
-    // The same test at a with the partner's sigma: a far (imprecise) peak of b can as well be a
-    // neighbour of p within its uncertainty.
+    // The same test at a with the partner's covariance: a far (imprecise) peak of b can as well be
+    // a neighbour of p within its uncertainty.
     if (ambiguous_a.Ambiguous(c.rock_a, covariance_b[winner] + heading)) {
       ++ambiguous;
       set_fate(c.rock_a, eb.rocks[winner], "ambiguous at a");
