@@ -295,7 +295,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
       outcome = ToString(match.report.outcome);
       // The pair-level rules that excluded the leg, with their values (e.g. RE 2.4 %).
       for (const FaultCheck& check : match.report.checks) {
-        if (!check.excludes_pair || check.verdict != FaultVerdict::kFail) continue;
+        if (!check.ExcludesPair()) continue;
         char because[160];
         std::snprintf(because, sizeof(because), "; %s %.3g", check.rule.c_str(), check.value);
         outcome += because;

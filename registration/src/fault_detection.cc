@@ -58,7 +58,7 @@ std::string ToString(PairOutcome outcome) {
 }
 
 void PairFaultReport::Add(FaultCheck check) {
-  if (check.excludes_pair && check.verdict == FaultVerdict::kFail) {
+  if (check.ExcludesPair()) {
     const bool pre_screening =
         check.module.rfind("I ", 0) == 0 || check.module.rfind("II ", 0) == 0;
     if (pre_screening) {
@@ -104,7 +104,7 @@ std::string PairFaultReport::ToText() const {
     char line[256];
     std::snprintf(line, sizeof(line), "  %-16s %-48s %10.3f %10.3f %-6s %s%s\n", c.module.c_str(),
                   c.rule.c_str(), c.value, c.threshold, c.unit.c_str(), ToString(c.verdict).c_str(),
-                  c.excludes_pair && c.verdict == FaultVerdict::kFail ? " (excludes pair)" : "");
+                  c.ExcludesPair() ? " (excludes pair)" : "");
     text += line;
   }
   return text;

@@ -47,6 +47,18 @@ Eigen::Matrix2d HorizontalCovariance(
   return (rotation * r.peak_covariance * rotation.transpose()).topLeftCorner<2, 2>();
 }
 
+// The horizontal covariance of a rock's peak and its largest sigma, computed once per pair.
+struct PeakSpread {
+  explicit PeakSpread(const Eigen::Matrix3d& covariance_in_frame)
+      : covariance(covariance_in_frame.topLeftCorner<2, 2>()) {
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen;
+    eigen.computeDirect(covariance, Eigen::EigenvaluesOnly);
+    largest_sigma = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
+  }
+  Eigen::Matrix2d covariance;  // [m^2].
+  double largest_sigma = 0.0;  // [m].
+};
+
 // A horizontal gate about a peak, shaped by the covariance of the two peaks' difference: an
 // ellipse whose semi-axis along each principal direction of the covariance is a function of the
 // sigma there. A far stereo peak is uncertain along its line of sight only (eq. 4.3: range error
@@ -340,24 +352,28 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   // direction of their covariance, where the stereo range error (eq. 4.3) exceeds it: far rocks
   // smear along their line of sight, not across it.
   const Eigen::Matrix3d rotation_a_from_b = a_from_b_prior.RotationMatrix();
-  std::vector<Eigen::Matrix2d> covariance_b;  // b's peaks' horizontal covariances in a.
+  std::vector<Eigen::Matrix3d> covariance_b_in_a;  // b's peaks' covariances turned into a.
+  std::vector<PeakSpread> spread_b;                // ... their horizontal part.
   double max_sigma_b = 0.0;
   for (int j : eb.rocks) {
-    covariance_b.push_back(HorizontalCovariance(b.rocks[j], rotation_a_from_b));
-    max_sigma_b = std::max(max_sigma_b, LargestHorizontalSigma(b.rocks[j]));
+    covariance_b_in_a.push_back(rotation_a_from_b * b.rocks[j].peak_covariance *
+                                rotation_a_from_b.transpose());
+    spread_b.emplace_back(covariance_b_in_a.back());
+    max_sigma_b = std::max(max_sigma_b, spread_b.back().largest_sigma);
   }
+  std::vector<PeakSpread> spread_a;  // Per eligible rock of a (ea.rocks order).
+  for (int i : ea.rocks) spread_a.emplace_back(a.rocks[i].peak_covariance);
   const auto count_votes = [&](const Eigen::Vector3d& v) {
     int count = 0;
-    for (int i : ea.rocks) {
-      const Eigen::Vector3d target = a.rocks[i].peak - v;
-      const Eigen::Matrix2d covariance_p = HorizontalCovariance(a.rocks[i]);
-      const double reach =
-          std::max(options.pattern_tolerance_m,
-                   2.0 * std::hypot(LargestHorizontalSigma(a.rocks[i]), max_sigma_b));
+    for (size_t k = 0; k < ea.rocks.size(); ++k) {
+      const Eigen::Vector3d target = a.rocks[ea.rocks[k]].peak - v;
+      const double reach = std::max(options.pattern_tolerance_m,
+                                    2.0 * std::hypot(spread_a[k].largest_sigma, max_sigma_b));
       bool hit = false;
       q_grid.ForEachNear(target.head<2>(), reach, [&](int j) {
         if (hit || std::abs(q_in_a[j].z() - target.z()) > options.pattern_tolerance_m) return;
-        hit = EllipticGate::AtLeast(covariance_p + covariance_b[j], options.pattern_tolerance_m)
+        hit = EllipticGate::AtLeast(spread_a[k].covariance + spread_b[j].covariance,
+                                    options.pattern_tolerance_m)
                   .Contains((q_in_a[j] - target).head<2>());
       });
       count += hit ? 1 : 0;
@@ -499,9 +515,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   };
   const auto deviation_chi2 = [&](const ExtractedRock& p, int candidate) {
     const double lever = heading_lever(p);
-    const Eigen::Matrix3d cov = p.peak_covariance +
-                                rotation_a_from_b * b.rocks[eb.rocks[candidate]].peak_covariance *
-                                    rotation_a_from_b.transpose() +
+    const Eigen::Matrix3d cov = p.peak_covariance + covariance_b_in_a[candidate] +
                                 lever * lever * Eigen::Matrix3d::Identity();
     const Eigen::Vector3d deviation = deviation_of(p, candidate);
     return deviation.dot(cov.ldlt().solve(deviation));
@@ -548,7 +562,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     }
     // The same test at a with the partner's covariance: a far (imprecise) peak of b can as well be
     // a neighbour of p within its uncertainty.
-    if (ambiguous_a.Ambiguous(c.rock_a, covariance_b[winner] + heading)) {
+    if (ambiguous_a.Ambiguous(c.rock_a, spread_b[winner].covariance + heading)) {
       ++ambiguous;
       set_fate(c.rock_a, eb.rocks[winner], "ambiguous at a");
       continue;

@@ -57,6 +57,8 @@ struct FaultCheck {
   std::string unit;
   FaultVerdict verdict = FaultVerdict::kNotEvaluated;
   bool excludes_pair = false;  // A failed pair-level rule; per-rock rules never exclude the pair.
+  // Failed, and a pair-level rule: the pair is excluded (PairFaultReport::Add sets its outcome).
+  bool ExcludesPair() const { return excludes_pair && verdict == FaultVerdict::kFail; }
 };
 
 // One rule as PairFaultReport::ToJson lists it under "rules".
