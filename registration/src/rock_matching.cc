@@ -35,12 +35,6 @@ double Median(std::vector<double> values) {
   return 0.5 * (upper + *std::max_element(values.begin(), values.begin() + mid));
 }
 
-double LargestHorizontalSigma(const ExtractedRock& r) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(
-      r.peak_covariance.topLeftCorner<2, 2>());
-  return std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
-}
-
 // The horizontal covariance of a rock's peak, turned by `rotation` (into another site's frame).
 Eigen::Matrix2d HorizontalCovariance(
     const ExtractedRock& r, const Eigen::Matrix3d& rotation = Eigen::Matrix3d::Identity()) {
@@ -58,6 +52,10 @@ struct PeakSpread {
   Eigen::Matrix2d covariance;  // [m^2].
   double largest_sigma = 0.0;  // [m].
 };
+
+double LargestHorizontalSigma(const ExtractedRock& r) {
+  return PeakSpread(r.peak_covariance).largest_sigma;
+}
 
 // A horizontal gate about a peak, shaped by the covariance of the two peaks' difference: an
 // ellipse whose semi-axis along each principal direction of the covariance is a function of the
