@@ -18,6 +18,7 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
     std::string landing_site = "gusev";
     bool second_sun = false, ctx = false;
     std::optional<double> fov;
+    std::optional<double> rock_abundance;
   };
   auto o = std::make_shared<Overrides>();
   auto* cmd = app.add_subcommand(
@@ -40,6 +41,10 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
   site->add_option("--min-leg", o->min_leg, "Shortest leg [m]")->check(PositiveNumber());
   site->add_option("--max-leg", o->max_leg, "Longest leg [m] (at least the shortest)")
       ->check(PositiveNumber());
+  site->add_option("--rock-abundance", o->rock_abundance,
+                   "Golombek-Rapp k: fraction of the ground covered by rocks (0.05, the Gusev "
+                   "plains; 0.1-0.2 rockier fields)")
+      ->check(NumberIn(0.0, 1.0, Bound::kOpen, Bound::kOpen));
   auto* rover = cmd->add_option_group("Rover cameras");
   rover->add_option("--navcam-pairs", o->pairs, "Navcam stereo pairs per site (0: no images)")
       ->check(IntegerIn(0, 64));
@@ -66,6 +71,7 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
     if (o->max_leg) options.traverse.max_leg_m = *o->max_leg;
     if (o->pairs) options.navcam_pairs = *o->pairs;
     if (o->fov) options.navcam.field_of_view_deg = *o->fov;
+    if (o->rock_abundance) options.scene.rock_abundance_k = *o->rock_abundance;
     options.Check();
     PrepareOutputFolder(o->out);
     const MissionSummary summary =
@@ -77,6 +83,7 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
                           {"sites", summary.site_count},
                           {"craters", summary.crater_count},
                           {"rocks", summary.rock_count},
+                          {"rock_abundance_k", options.scene.rock_abundance_k},
                           {"traverse_length_m", summary.traverse_length_m},
                           {"final_telemetry_error_m", summary.final_telemetry_error_m},
                           {"orbital_size_px", summary.orbital_size_px},

@@ -224,7 +224,7 @@ MissionOptions MissionOptions::Preset(std::string_view name) {
     o.scene.crater_max_diameter_m = 150.0;  // Up to Endurance size (Table 2.2).
     o.scene.roughness_wavelength_m = 120.0;
     o.scene.rock_corridor_m = 30.0;
-    o.scene.max_rocks = 60000;
+    o.scene.max_rocks = 250000;  // ~48 000 at k = 0.05; room for rockier fields.
     o.orbital.supersample = 1;
     o.traverse.site_count = 46;  // 45 legs of 20-30 m: ~1.1 km.
     o.traverse.min_leg_m = 20.0;

@@ -216,7 +216,14 @@ Scene::Scene(const SceneOptions& options) : options_(options) {
   const double box_area = (hi - lo).prod();
   const auto candidates = static_cast<long>(std::llround(rocks_per_m2 * box_area));
   const double tilt_max = options_.rock_max_tilt_deg * kPi / 180.0;
-  for (long i = 0; i < candidates && static_cast<int>(rocks_.size()) < options_.max_rocks; ++i) {
+  for (long i = 0; i < candidates; ++i) {
+    if (static_cast<int>(rocks_.size()) == options_.max_rocks) {
+      // Stopping here would thin the rocks below the requested k everywhere: refuse instead.
+      throw Error("SceneOptions.max_rocks: " + std::to_string(options_.max_rocks) +
+                  " rocks reached after " + std::to_string(i) + " of " +
+                  std::to_string(candidates) + " draws at rock_abundance_k " +
+                  std::to_string(k) + "; raise max_rocks or lower the abundance");
+    }
     const Eigen::Vector2d p(lo.x() + (hi.x() - lo.x()) * unit(rng),
                             lo.y() + (hi.y() - lo.y()) * unit(rng));
     const double u = unit(rng) * cdf.back();

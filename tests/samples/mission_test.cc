@@ -155,6 +155,25 @@ TEST(Scene, RockSizesFollowGolombekRapp) {
   EXPECT_NEAR(area / corridor, expected, 0.2 * expected);
 }
 
+TEST(Scene, RocksBeyondMaxRocksAreAnErrorNotAThinnedField) {
+  SceneOptions options;
+  options.half_extent_m = 60.0;
+  options.rock_path = {{-30.0, 0.0}, {30.0, 0.0}};
+  options.rock_corridor_m = 10.0;
+  options.crater_count = 0;
+  options.rock_abundance_k = 0.2;  // ~2.5 rocks per m^2 from 12 cm: ~3 800 in the corridor.
+  options.max_rocks = 500;
+  try {
+    const Scene scene(options);
+    FAIL() << "expected an error, got " << scene.rocks().size() << " rocks";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("SceneOptions.max_rocks"), std::string::npos) << e.what();
+  }
+  options.max_rocks = 100000;
+  const Scene scene(options);
+  EXPECT_GT(scene.rocks().size(), 2000u);
+}
+
 TEST(Mission, CraterRimsInTheOrbitalDtmLieOnTheTrueEllipses) {
   testing::TempDir dir;
   const MissionOptions options = SmallMission();

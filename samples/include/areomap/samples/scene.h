@@ -62,7 +62,8 @@ struct SceneOptions {
   double crater_max_diameter_m = 120.0;
   std::vector<Crater> explicit_craters;  // E.g. a Victoria-sized crater for a preset.
   // Rocks: Golombek & Rapp (1997) F(D) = k exp(-q D), q = 1.79 + 0.152 / k, placed within
-  // `rock_corridor_m` of the polyline `rock_path` (the traverse), up to `max_rocks`.
+  // `rock_corridor_m` of the polyline `rock_path` (the traverse). More than `max_rocks` at that
+  // density throws areomap::Error (a cap would thin them below k).
   double rock_abundance_k = 0.05;
   double rock_min_diameter_m = 0.12;
   double rock_max_diameter_m = 1.2;
