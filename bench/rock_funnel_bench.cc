@@ -174,6 +174,8 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options) {
       {"significant_cell_m", &m.significant_cell_m},
       {"ambiguity_sigmas", &m.ambiguity_sigmas},
       {"ambiguity_min_height_m", &m.ambiguity_min_height_m},
+      {"ambiguity_similar_min_height_m", &m.ambiguity_similar_min_height_m},
+      {"ambiguity_similar_height_difference", &m.ambiguity_similar_height_difference},
       {"peak_definition_sigma_m", &m.peak_definition_sigma_m},
       {"max_vector_deviation_m", &m.max_vector_deviation_m},
       {"max_vector_chi2", &m.max_vector_chi2},

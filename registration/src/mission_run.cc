@@ -265,6 +265,10 @@ nlohmann::json MissionRunOptions::ToJson() const {
       {"prior_sigma_floor_m", prior_sigma_floor_m},
       {"prior_sigma_per_m", prior_sigma_per_m},
       {"rocks_min_height_m", rocks.min_height_m},
+      // Not on the CLI, but they decide which legs' rocks are ambiguous; runs made before
+      // similar low neighbours counted (2026-12-04) lack them and are recomputed, not reused.
+      {"rock_ambiguity_similar_min_height_m", matching.ambiguity_similar_min_height_m},
+      {"rock_ambiguity_similar_height_difference", matching.ambiguity_similar_height_difference},
       {"leg_scale_sigma", leg_scale_sigma},
       {"leg_heading_sigma_deg", leg_heading_sigma_deg},
       {"bundle_huber_scale", bundle.huber_scale},

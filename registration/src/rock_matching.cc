@@ -131,42 +131,58 @@ Eligibility SelectEligible(const std::vector<ExtractedRock>& rocks, const Eigen:
 
 // A rock is ambiguous when another rock of its site lies within the pattern tolerance plus
 // `sigmas` sigmas of its peak's covariance combined with its partner's (EllipticGate: along each
-// principal direction): no translation vote can tell them apart.
+// principal direction): no translation vote can tell them apart. Neighbours count when at least
+// `min_height` high, or at least `similar_min_height` high with a height like the tested rock's
+// (a rock measured just under the 15 cm rule here may be over it at the other site, and the
+// partner's model cannot tell two rocks of one size apart).
 class AmbiguityTest {
  public:
-  // `eligible`: the rocks that count as neighbours.
-  AmbiguityTest(const std::vector<ExtractedRock>& rocks, const std::vector<int>& eligible,
-                double tolerance, double sigmas)
+  AmbiguityTest(const std::vector<ExtractedRock>& rocks, const RockMatchingOptions& options)
       : rocks_(rocks),
-        eligible_(eligible),
-        tolerance_(tolerance),
-        sigmas_(sigmas),
-        grid_(Peaks(rocks, eligible), 1.0) {}
+        neighbours_(Neighbours(rocks, options)),
+        options_(options),
+        grid_(Peaks(rocks, neighbours_), 1.0) {}
   // `partner_covariance`: horizontal covariance of the peak it would be matched with, in this
   // site's frame [m^2].
   bool Ambiguous(int i, const Eigen::Matrix2d& partner_covariance = Eigen::Matrix2d::Zero()) const {
     const ExtractedRock& r = rocks_[i];
-    const EllipticGate gate = EllipticGate::ToleranceAndSigmas(
-        HorizontalCovariance(r) + partner_covariance, tolerance_, sigmas_);
+    const EllipticGate gate =
+        EllipticGate::ToleranceAndSigmas(HorizontalCovariance(r) + partner_covariance,
+                                         options_.pattern_tolerance_m, options_.ambiguity_sigmas);
     bool ambiguous = false;
     grid_.ForEachNear(r.peak.head<2>(), gate.LargestSemiAxis(), [&](int k) {
-      const int j = eligible_[k];
-      ambiguous = ambiguous || (j != i && gate.Contains((rocks_[j].peak - r.peak).head<2>()));
+      const int j = neighbours_[k];
+      ambiguous = ambiguous || (j != i && Counts(rocks_[j], r) &&
+                                gate.Contains((rocks_[j].peak - r.peak).head<2>()));
     });
     return ambiguous;
   }
 
  private:
+  bool Counts(const ExtractedRock& neighbour, const ExtractedRock& tested) const {
+    return neighbour.height_m >= options_.ambiguity_min_height_m ||
+           RelativeDifference(neighbour.height_m, tested.height_m) <=
+               options_.ambiguity_similar_height_difference;
+  }
+  static std::vector<int> Neighbours(const std::vector<ExtractedRock>& rocks,
+                                     const RockMatchingOptions& options) {
+    const double lowest =
+        std::min(options.ambiguity_min_height_m, options.ambiguity_similar_min_height_m);
+    std::vector<int> indices;
+    for (size_t i = 0; i < rocks.size(); ++i) {
+      if (rocks[i].height_m >= lowest) indices.push_back(static_cast<int>(i));
+    }
+    return indices;
+  }
   static std::vector<Eigen::Vector2d> Peaks(const std::vector<ExtractedRock>& rocks,
-                                            const std::vector<int>& eligible) {
+                                            const std::vector<int>& indices) {
     std::vector<Eigen::Vector2d> xy;
-    for (int i : eligible) xy.push_back(rocks[i].peak.head<2>());
+    for (int i : indices) xy.push_back(rocks[i].peak.head<2>());
     return xy;
   }
   const std::vector<ExtractedRock>& rocks_;
-  const std::vector<int>& eligible_;
-  double tolerance_;
-  double sigmas_;
+  const std::vector<int> neighbours_;
+  const RockMatchingOptions& options_;
   rock_internal::PointGrid grid_;
 };
 
@@ -247,6 +263,10 @@ void RockMatchingOptions::Check() const {
   RequireOption(ambiguity_sigmas >= 0.0, "RockMatchingOptions.ambiguity_sigmas", ">= 0");
   RequireOption(ambiguity_min_height_m >= 0.0, "RockMatchingOptions.ambiguity_min_height_m",
                 ">= 0 m");
+  RequireOption(ambiguity_similar_min_height_m >= 0.0,
+                "RockMatchingOptions.ambiguity_similar_min_height_m", ">= 0 m");
+  RequireOption(ambiguity_similar_height_difference >= 0.0,
+                "RockMatchingOptions.ambiguity_similar_height_difference", ">= 0");
   RequireOption(max_peak_sigma_m > 0.0, "RockMatchingOptions.max_peak_sigma_m", "> 0 m");
   fault_detection.Check();
 }
@@ -380,22 +400,10 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   };
 
   // Significant rocks of a: the highest unambiguous one per grid cell, in the overlap.
-  // Neighbours that make a rock ambiguous: every rock as high as a tie-point rock may be
-  // (modeled or not: a rock too sparse to model can still be the true partner).
-  const auto tall = [&](const std::vector<ExtractedRock>& rocks) {
-    std::vector<int> indices;
-    for (size_t i = 0; i < rocks.size(); ++i) {
-      if (rocks[i].height_m >= options.ambiguity_min_height_m) {
-        indices.push_back(static_cast<int>(i));
-      }
-    }
-    return indices;
-  };
-  const std::vector<int> tall_a = tall(a.rocks), tall_b = tall(b.rocks);
-  const AmbiguityTest ambiguous_a(a.rocks, tall_a, options.pattern_tolerance_m,
-                                  options.ambiguity_sigmas);
-  const AmbiguityTest ambiguous_b(b.rocks, tall_b, options.pattern_tolerance_m,
-                                  options.ambiguity_sigmas);
+  // Neighbours that make a rock ambiguous are counted modeled or not (a rock too sparse to model
+  // can still be the true partner).
+  const AmbiguityTest ambiguous_a(a.rocks, options);
+  const AmbiguityTest ambiguous_b(b.rocks, options);
   int ambiguous = 0;
   std::map<int, size_t> outcome_of;  // Rock of a -> index into result.outcomes.
   const auto set_fate = [&](int rock_a, int rock_b, const char* fate) {

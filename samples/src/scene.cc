@@ -221,8 +221,8 @@ Scene::Scene(const SceneOptions& options) : options_(options) {
       // Stopping here would thin the rocks below the requested k everywhere: refuse instead.
       throw Error("SceneOptions.max_rocks: " + std::to_string(options_.max_rocks) +
                   " rocks reached after " + std::to_string(i) + " of " +
-                  std::to_string(candidates) + " draws at rock_abundance_k " +
-                  std::to_string(k) + "; raise max_rocks or lower the abundance");
+                  std::to_string(candidates) + " draws at rock_abundance_k " + std::to_string(k) +
+                  "; raise max_rocks or lower the abundance");
     }
     const Eigen::Vector2d p(lo.x() + (hi.x() - lo.x()) * unit(rng),
                             lo.y() + (hi.y() - lo.y()) * unit(rng));

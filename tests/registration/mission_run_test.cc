@@ -277,6 +277,16 @@ TEST(MissionRunOptions, SiteRotationSigmasChangeTheFingerprint) {
   EXPECT_EQ(MissionRunOptions{}.ToJson(), defaults.ToJson());
 }
 
+TEST(MissionRunOptions, RockAmbiguityRuleChangesTheFingerprint) {
+  // Legs matched before similar low neighbours counted in the ambiguity test are not reused.
+  const MissionRunOptions defaults;
+  MissionRunOptions lowest = defaults, difference = defaults;
+  lowest.matching.ambiguity_similar_min_height_m = 0.15;
+  difference.matching.ambiguity_similar_height_difference = 0.5;
+  EXPECT_NE(lowest.ToJson(), defaults.ToJson());
+  EXPECT_NE(difference.ToJson(), defaults.ToJson());
+}
+
 TEST(MissionRun, GuidedPriorFollowsTheAdjustedPose) {
   // Telemetry: level, north-up at (10, 20) m; the adjustment moves the site 1 m north, 0.5 m
   // west and turns it 5 degrees from north towards east (about z, down): clockwise on the map.

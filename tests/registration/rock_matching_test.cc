@@ -363,6 +363,43 @@ TEST(RockMatching, FarPeakIsAmbiguousAlongItsLineOfSightOnly) {
   EXPECT_TRUE(match_with_neighbour_at(0.9 * across, loose_heading).matches.empty());
 }
 
+// A rock measured just under the 15 cm rule at one site may be over it at the other, so a
+// neighbour of about the tested rock's height counts from 10 cm up; a low bump beside a taller
+// rock, or a neighbour lower than 10 cm, does not.
+TEST(RockMatching, LowNeighbourOfTheRocksOwnHeightMakesItAmbiguous) {
+  SiteRocks a, b;
+  a.site = 1;
+  b.site = 2;
+  b.camera_center = a.camera_center = Eigen::Vector3d(0, 0, -1.5);
+  const Eigen::Vector3d rock_in_a(6.0, 1.0, 0.0), camera_b_in_a(12.0, 0.0, 0.0);
+  const Rigid3d a_from_b(Eigen::Quaterniond::Identity(), camera_b_in_a);
+  const auto fillers = [](SiteRocks& site) {  // Pre-screening fillers beyond the peak range.
+    for (int k = 0; k < 9; ++k) {
+      site.rocks.push_back(ModeledRock(10 + k, {0.0, -31.0 - k, 0}, 0.2, 0.05));
+    }
+  };
+  const auto fate_with_neighbour = [&](double rock_height, double neighbour_height,
+                                       const RockMatchingOptions& options = {}) {
+    b.rocks = {ModeledRock(1, rock_in_a - camera_b_in_a, rock_height, 0.05)};
+    fillers(b);
+    a.rocks = {ModeledRock(1, rock_in_a, rock_height, 0.05),
+               ModeledRock(2, rock_in_a + Eigen::Vector3d(0.4, 0.2, 0), neighbour_height, 0.05)};
+    fillers(a);
+    const SitePairMatch match = MatchSitePair(a, b, a_from_b, options);
+    for (const RockMatchOutcome& o : match.outcomes) {
+      if (o.rock_a == 0) return o.fate;
+    }
+    return std::string("not eligible");
+  };
+  EXPECT_EQ(fate_with_neighbour(0.17, 0.13), "ambiguous at a");  // |dh| / mean 0.27.
+  EXPECT_EQ(fate_with_neighbour(0.17, 0.09), "matched");         // Under 10 cm.
+  EXPECT_EQ(fate_with_neighbour(0.30, 0.12), "matched");         // |dh| / mean 0.86.
+  EXPECT_EQ(fate_with_neighbour(0.17, 0.16), "ambiguous at a");  // Over 15 cm: always.
+  RockMatchingOptions tall_only;  // The rule before 2026-12-04: neighbours from 15 cm only.
+  tall_only.ambiguity_similar_min_height_m = tall_only.ambiguity_min_height_m;
+  EXPECT_EQ(fate_with_neighbour(0.17, 0.13, tall_only), "matched");
+}
+
 TEST(RockMatching, OutcomesAccountForEveryMatch) {
   const SimulatedSite& a = SiteA();
   const SimulatedSite& b = SiteB();

@@ -22,7 +22,8 @@
 // Beyond the dissertation, a winner whose V lies farther than `max_vector_deviation_m` from the
 // median, or beyond its chi-square bound given the peaks' covariances, is dropped (it contradicts
 // the global pattern), and so is a rock of either site with a neighbour (at least
-// `ambiguity_min_height_m` high) closer than epsilon plus `ambiguity_sigmas` sigmas of the two
+// `ambiguity_min_height_m` high, or at least `ambiguity_similar_min_height_m` high and of about
+// the rock's own height) closer than epsilon plus `ambiguity_sigmas` sigmas of the two
 // partners' combined horizontal covariance, along each of its principal directions (no vote can
 // tell them apart; tested at both sites once the partner is known); rocks whose peak sigma exceeds
 // `max_peak_sigma_m` are not used. (5) A pair is matched only where both methods agree; when
@@ -101,6 +102,13 @@ struct RockMatchingOptions {
   // (lower values guard against a neighbour measured just under the 15 cm rule here and over it
   // at the other site, at a cost in matches: docs/rocks.md).
   double ambiguity_min_height_m = 0.15;
+  // ... and lower neighbours from this height up whose height differs from the tested rock's by
+  // at most this relative difference (|h1 - h2| / mean): a rock measured under 15 cm at one site
+  // and over it at the other is ambiguous with a neighbour of its own size, which the model
+  // matching cannot tell apart either [m], [-]. Setting the first to ambiguity_min_height_m
+  // turns it off (docs/rocks.md, "Neighbours of the rock's own height").
+  double ambiguity_similar_min_height_m = 0.10;
+  double ambiguity_similar_height_difference = 0.3;
   // Rocks whose peak's largest horizontal sigma exceeds this are not used as tie points (eq. 4.3
   // range error grows as r^2: 0.6 m at ~17 m for the Navcam with sigma_p = 0.5 px; on the demo
   // mission's dense stereo the peaks of such rocks lie within 0.3 m of the true rock tops) [m].
