@@ -63,6 +63,7 @@ struct Site {
   std::vector<ExtractedRock> rocks;
   std::map<int, int> points_on_rock;         // Truth id -> cloud points within 80 % footprint.
   std::map<int, std::vector<int>> rocks_on;  // Truth id -> indices of extracted rocks on it.
+  std::vector<std::vector<int>> could_make;  // Per extracted rock: bench::RocksThatCouldMake.
   std::map<int, int> id_to_index;            // ExtractedRock::id -> index.
   std::vector<Eigen::Vector2d> peaks_world;
   std::vector<double> peak_z_world,
@@ -111,6 +112,10 @@ Site LoadSite(const fs::path& run_dir, int site, const Rigid3d& world_from_site,
     const double sigma = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
     const int id = bench::RockUnder(truth, (world_from_site * r.peak).head<2>(), sigma);
     if (id >= 0) s.rocks_on[id].push_back(static_cast<int>(k));
+    const Eigen::Matrix2d turn = world_from_site.RotationMatrix().topLeftCorner<2, 2>();
+    s.could_make.push_back(bench::RocksThatCouldMake(
+        truth, (world_from_site * r.peak).head<2>(),
+        turn * r.peak_covariance.topLeftCorner<2, 2>() * turn.transpose(), r.height_m));
     s.peaks_world.push_back((world_from_site * r.peak).head<2>());
     s.peak_z_world.push_back((world_from_site * r.peak).z());
     s.foot_z_world.push_back((world_from_site * r.peak_foot).z());
@@ -142,6 +147,8 @@ struct Funnel {
   int overlap = 0, ratio = 0, seen = 0, peaks = 0, eligible = 0, matched = 0, accepted = 0;
   std::array<int, kRules> failed{};
   int wrong_matches = 0, wrong_accepted = 0, leg_matches = 0;
+  // Matches whose peaks no single truth rock could have made (bench::RocksThatCouldMake).
+  int no_common_rock = 0, no_common_rock_accepted = 0;
   std::map<std::string, int> lost_in_matching;  // Eligible at both, not matched: why.
 };
 
@@ -414,6 +421,16 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
       };
       const int ta = on(a, ia), tb = on(b, ib);
       right_by_rock_a[k][a.rocks[ia].id] = ta >= 0 && ta == tb;
+      // The covariance rule's verdict: wrong only where no truth rock could have made both peaks.
+      const std::vector<int>& ca = a.could_make[ia];
+      const std::vector<int>& cb = b.could_make[ib];
+      const bool shared = std::any_of(ca.begin(), ca.end(), [&](int id) {
+        return std::find(cb.begin(), cb.end(), id) != cb.end();
+      });
+      if (!shared) {
+        ++f.no_common_rock;
+        f.no_common_rock_accepted += accepted ? 1 : 0;
+      }
       if (ta >= 0 && ta == tb) {
         ++correct_matches;
       } else {
@@ -424,10 +441,11 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
         const double apart = (a.peaks_world[ia] - b.peaks_world[ib]).norm();
         std::printf(
             "  wrong match%s: rocks %d / %d on truth %d / %d, peaks %.2f m apart (true "
-            "frames), ranges %.1f / %.1f m, heights %.2f / %.2f m, sigma %.2f / %.2f m\n",
+            "frames), ranges %.1f / %.1f m, heights %.2f / %.2f m, sigma %.2f / %.2f m%s\n",
             accepted ? " (accepted)" : "", ra.id, rb.id, ta, tb, apart, ra.range_m, rb.range_m,
             ra.height_m, rb.height_m, std::sqrt(ra.peak_covariance.topLeftCorner<2, 2>().trace()),
-            std::sqrt(rb.peak_covariance.topLeftCorner<2, 2>().trace()));
+            std::sqrt(rb.peak_covariance.topLeftCorner<2, 2>().trace()),
+            shared ? "; one truth rock could have made both peaks (covariance rule)" : "");
       }
     }
     (void)correct_matches;
@@ -450,6 +468,8 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
       t->accepted += x.accepted;
       t->wrong_matches += x.wrong_matches;
       t->wrong_accepted += x.wrong_accepted;
+      t->no_common_rock += x.no_common_rock;
+      t->no_common_rock_accepted += x.no_common_rock_accepted;
       t->leg_matches += x.leg_matches;
       for (int i = 0; i < kRules; ++i) t->failed[i] += x.failed[i];
       for (const auto& [fate, n] : x.lost_in_matching) t->lost_in_matching[fate] += n;
@@ -466,13 +486,15 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
     std::printf(
         "%s: overlap %d, ratio %d, seen %d, peaks %d; failing: too low %d, few points %d, "
         "implausible %d, ratio %d, peak sigma %d; eligible %d, matched %d, accepted %d; "
-        "wrong matches %d (accepted %d) of %d\n",
+        "wrong matches %d (accepted %d) of %d; no truth rock could have made both peaks: %d "
+        "(accepted %d)\n",
         label, f.overlap, f.ratio, f.seen, f.peaks, f.failed[static_cast<int>(RockRule::kTooLow)],
         f.failed[static_cast<int>(RockRule::kFewPoints)],
         f.failed[static_cast<int>(RockRule::kImplausible)],
         f.failed[static_cast<int>(RockRule::kLowRatio)],
         f.failed[static_cast<int>(RockRule::kImprecise)], f.eligible, f.matched, f.accepted,
-        f.wrong_matches, f.wrong_accepted, f.leg_matches);
+        f.wrong_matches, f.wrong_accepted, f.leg_matches, f.no_common_rock,
+        f.no_common_rock_accepted);
     std::printf("  eligible at both but not matched:");
     for (const auto& [fate, n] : f.lost_in_matching) std::printf(" %s %d;", fate.c_str(), n);
     std::printf("\n");

@@ -60,6 +60,32 @@ inline int RockUnder(const std::vector<TruthRock>& truth, const Eigen::Vector2d&
   return best;
 }
 
+// The truth rocks that could have made a peak, by its covariance rather than a disk: the peak's
+// offset beyond the rock's footprint (base radius + 15 cm) has a Mahalanobis distance squared
+// within 9.21 (2 dof, 99 %) under the peak's horizontal covariance `covariance` (plus (5 cm)^2),
+// and the rock is at most 10 cm lower than the peak's measured height (heights are measured low;
+// a noisy top rises a few cm at most). A far stereo peak is ~10x less certain along its line of
+// sight than across it: the disk rule (RockUnder) calls a peak 1.4 sigma in front of its rock
+// "not on it" and gives it to any low rock nearby. Ids, in no particular order.
+inline std::vector<int> RocksThatCouldMake(const std::vector<TruthRock>& truth,
+                                           const Eigen::Vector2d& north_east,
+                                           const Eigen::Matrix2d& covariance,
+                                           double measured_height) {
+  const Eigen::Matrix2d inverse =
+      (covariance + 0.05 * 0.05 * Eigen::Matrix2d::Identity()).inverse();
+  std::vector<int> ids;
+  for (const TruthRock& r : truth) {
+    if (r.height < measured_height - 0.10) continue;
+    const Eigen::Vector2d offset = r.north_east - north_east;
+    const double norm = offset.norm();
+    const double beyond = std::max(0.0, norm - r.radius - 0.15);
+    if (beyond > 5.0) continue;
+    const Eigen::Vector2d e = norm > 0.0 ? Eigen::Vector2d(offset * (beyond / norm)) : offset;
+    if (e.dot(inverse * e) <= 9.21) ids.push_back(r.id);
+  }
+  return ids;
+}
+
 // Site 0's frame from each site frame (true pose, believed axes); throws without truth.
 inline std::vector<Rigid3d> TrueWorldFromSites(const MissionManifest& mission) {
   if (mission.truth_sites.size() != mission.sites.size() || !mission.truth_rocks_csv) {
