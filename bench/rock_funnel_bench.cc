@@ -105,19 +105,20 @@ Site LoadSite(const fs::path& run_dir, int site, const Rigid3d& world_from_site,
         ++s.points_on_rock[truth[i].id];
     }
   }
+  const Eigen::Matrix2d turn = world_from_site.RotationMatrix().topLeftCorner<2, 2>();
   for (size_t k = 0; k < s.rocks.size(); ++k) {
     const ExtractedRock& r = s.rocks[k];
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(
         r.peak_covariance.topLeftCorner<2, 2>());
     const double sigma = std::sqrt(std::max(0.0, eigen.eigenvalues().maxCoeff()));
-    const int id = bench::RockUnder(truth, (world_from_site * r.peak).head<2>(), sigma);
+    const Eigen::Vector3d peak_world = world_from_site * r.peak;
+    const int id = bench::RockUnder(truth, peak_world.head<2>(), sigma);
     if (id >= 0) s.rocks_on[id].push_back(static_cast<int>(k));
-    const Eigen::Matrix2d turn = world_from_site.RotationMatrix().topLeftCorner<2, 2>();
     s.could_make.push_back(bench::RocksThatCouldMake(
-        truth, (world_from_site * r.peak).head<2>(),
+        truth, peak_world.head<2>(),
         turn * r.peak_covariance.topLeftCorner<2, 2>() * turn.transpose(), r.height_m));
-    s.peaks_world.push_back((world_from_site * r.peak).head<2>());
-    s.peak_z_world.push_back((world_from_site * r.peak).z());
+    s.peaks_world.push_back(peak_world.head<2>());
+    s.peak_z_world.push_back(peak_world.z());
     s.foot_z_world.push_back((world_from_site * r.peak_foot).z());
     s.id_to_index[r.id] = static_cast<int>(k);
   }

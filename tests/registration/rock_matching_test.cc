@@ -264,6 +264,13 @@ ExtractedRock ModeledRock(int id, const Eigen::Vector3d& peak, double height, do
   return r;
 }
 
+// Nine rocks beyond the peak range, so that a site passes pre-screening (>= 10 peaks).
+void AddPrescreeningFillers(SiteRocks* site) {
+  for (int k = 0; k < 9; ++k) {
+    site->rocks.push_back(ModeledRock(10 + k, {0.0, -31.0 - k, 0}, 0.2, 0.05));
+  }
+}
+
 TEST(RockMatching, CheckRockRulesNamesTheFirstFailingRule) {
   const Eigen::Vector3d own = Eigen::Vector3d::Zero(), other(20.0, 0.0, 0.0);
   const RockMatchingOptions options;
@@ -297,11 +304,8 @@ TEST(RockMatching, FarPeakNearTwoRocksOfTheOtherSiteIsAmbiguous) {
   b.camera_center = a.camera_center = Eigen::Vector3d(0, 0, -1.5);
   a.rocks = {ModeledRock(1, {6.0, 1.0, 0}, 0.30, 0.05), ModeledRock(2, {6.9, 1.0, 0}, 0.25, 0.05)};
   b.rocks = {ModeledRock(1, {-6.0, 1.0, 0}, 0.30, 0.5)};
-  // Pre-screening wants 10 peaks per site: fillers beyond the peak range of their camera.
-  for (int k = 0; k < 9; ++k) {
-    a.rocks.push_back(ModeledRock(10 + k, {0.0, -31.0 - k, 0}, 0.2, 0.05));
-    b.rocks.push_back(ModeledRock(10 + k, {0.0, -31.0 - k, 0}, 0.2, 0.05));
-  }
+  AddPrescreeningFillers(&a);
+  AddPrescreeningFillers(&b);
   const Rigid3d a_from_b(Eigen::Quaterniond::Identity(), Eigen::Vector3d(12.0, 0.0, 0.0));
   const SitePairMatch match = MatchSitePair(a, b, a_from_b, {});
   EXPECT_TRUE(match.matches.empty());
@@ -334,17 +338,13 @@ TEST(RockMatching, FarPeakIsAmbiguousAlongItsLineOfSightOnly) {
   far.peak_covariance.topLeftCorner<2, 2>() =
       0.5 * 0.5 * sight * sight.transpose() + 0.02 * 0.02 * across * across.transpose();
   b.rocks = {far};
-  for (int k = 0; k < 9; ++k) {  // Pre-screening fillers beyond the peak range.
-    b.rocks.push_back(ModeledRock(10 + k, {0.0, -31.0 - k, 0}, 0.2, 0.05));
-  }
+  AddPrescreeningFillers(&b);
   const Rigid3d a_from_b(Eigen::Quaterniond::Identity(), camera_b_in_a);
   const auto match_with_neighbour_at = [&](const Eigen::Vector2d& offset,
                                            const RockMatchingOptions& options = {}) {
     a.rocks = {ModeledRock(1, rock_in_a, 0.30, 0.05),
                ModeledRock(2, rock_in_a + Eigen::Vector3d(offset.x(), offset.y(), 0), 0.25, 0.05)};
-    for (int k = 0; k < 9; ++k) {
-      a.rocks.push_back(ModeledRock(10 + k, {0.0, -31.0 - k, 0}, 0.2, 0.05));
-    }
+    AddPrescreeningFillers(&a);
     return MatchSitePair(a, b, a_from_b, options);
   };
   const SitePairMatch beside = match_with_neighbour_at(0.9 * across);
@@ -373,18 +373,13 @@ TEST(RockMatching, LowNeighbourOfTheRocksOwnHeightMakesItAmbiguous) {
   b.camera_center = a.camera_center = Eigen::Vector3d(0, 0, -1.5);
   const Eigen::Vector3d rock_in_a(6.0, 1.0, 0.0), camera_b_in_a(12.0, 0.0, 0.0);
   const Rigid3d a_from_b(Eigen::Quaterniond::Identity(), camera_b_in_a);
-  const auto fillers = [](SiteRocks& site) {  // Pre-screening fillers beyond the peak range.
-    for (int k = 0; k < 9; ++k) {
-      site.rocks.push_back(ModeledRock(10 + k, {0.0, -31.0 - k, 0}, 0.2, 0.05));
-    }
-  };
   const auto fate_with_neighbour = [&](double rock_height, double neighbour_height,
                                        const RockMatchingOptions& options = {}) {
     b.rocks = {ModeledRock(1, rock_in_a - camera_b_in_a, rock_height, 0.05)};
-    fillers(b);
+    AddPrescreeningFillers(&b);
     a.rocks = {ModeledRock(1, rock_in_a, rock_height, 0.05),
                ModeledRock(2, rock_in_a + Eigen::Vector3d(0.4, 0.2, 0), neighbour_height, 0.05)};
-    fillers(a);
+    AddPrescreeningFillers(&a);
     const SitePairMatch match = MatchSitePair(a, b, a_from_b, options);
     for (const RockMatchOutcome& o : match.outcomes) {
       if (o.rock_a == 0) return o.fate;
