@@ -110,6 +110,7 @@ void RunExtract(const RocksArgs& a, const GlobalOptions& global) {
 void RunMatch(const RocksArgs& a, const GlobalOptions& global) {
   a.extraction.Check();
   a.matching.Check();
+  CheckModelsCoverHeightRule(a.extraction, a.matching);
   const RockMatchingPrior prior = ParsePrior(a);
   RockExtractionSummary summary_a, summary_b;
   SiteRocks rocks_a = ExtractFrom(a.cloud, a, 0, &summary_a, global);
@@ -233,9 +234,21 @@ void AddRocksCommand(CLI::App& app, const GlobalOptions& global) {
                    "sigma0^2, summary.json rock_tie_variance) for the fit, RE and the output")
       ->check(PositiveNumber())
       ->capture_default_str();
+  auto* rule = match->add_option(
+      "--min-peak-to-plane", match_args->matching.fault_detection.min_peak_to_plane_m,
+      "Table 4.5's height rule: lower rocks are not tie points [m] (measured heights "
+      "run 2-6 cm under the true ones, docs/rocks.md; --model-min-height follows "
+      "it unless given)");
+  rule->check(NonNegativeNumber())->capture_default_str();
   match->add_option("--out", match_args->out_dir, "Output folder")->required();
   AddExtractionOptions(match, match_args->extraction);
-  match->callback([match_args, &global] { RunMatch(*match_args, global); });
+  match->callback([match_args, match, rule, &global] {
+    if (rule->count() > 0 && match->get_option("--model-min-height")->count() == 0) {
+      match_args->extraction.model_min_height_m =
+          match_args->matching.fault_detection.min_peak_to_plane_m;
+    }
+    RunMatch(*match_args, global);
+  });
 }
 
 }  // namespace areomap::cli

@@ -168,6 +168,12 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
                   "Smallest crater rim diameter on the orbital image [m]")
       ->check(PositiveNumber())
       ->capture_default_str();
+  run->add_option("--rock-min-height", o->run.matching.fault_detection.min_peak_to_plane_m,
+                  "Table 4.5's height rule: rocks whose measured peak-to-plane distance is lower "
+                  "are neither modeled nor tie points [m] (measured heights run 2-6 cm under the "
+                  "true ones: 0.12 accepts more legs at a cost in precision, docs/rocks.md)")
+      ->check(NonNegativeNumber())
+      ->capture_default_str();
   run->add_flag("--keep-coarse-points", o->keep_coarse_points,
                 "Keep every pair's points where a more precise pair (Pancam over Navcam) sees the "
                 "same ground");
@@ -186,6 +192,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     if (o->no_products) o->run.traverse_products = false;
     if (o->keep_coarse_points) o->run.prefer_precise_pairs = false;
     if (o->no_leg_test) o->run.leg_test = false;
+    o->run.rocks.model_min_height_m = o->run.matching.fault_detection.min_peak_to_plane_m;
     o->run.Check();  // Bad options fail before the mission is read.
     // Every file the manifest names is checked before any work starts.
     const MissionManifest mission = ReadMissionManifest(o->mission);

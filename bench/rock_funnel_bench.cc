@@ -192,7 +192,8 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options) {
       {"max_relative_error_percent", &fd.max_relative_error_percent},
       {"max_normal_angle_deg", &fd.max_normal_angle_deg},
       {"model_min_height_m", &options->rocks.model_min_height_m},
-      {"plane_exclusion_k", &options->rocks.plane_exclusion_k}};
+      {"plane_exclusion_k", &options->rocks.plane_exclusion_k},
+      {"min_height_m", &options->rocks.min_height_m}};
   if (name == "significant_per_cell") {
     m.significant_per_cell = static_cast<int>(value);
   } else if (name == "min_surface_points") {

@@ -213,6 +213,7 @@ void MissionRunOptions::Check() const {
                 "a positive sigma in metres");
   RequireOption(prior_sigma_per_m >= 0.0, "MissionRunOptions.prior_sigma_per_m",
                 "a non-negative fraction of the distance driven");
+  CheckModelsCoverHeightRule(rocks, matching);
   RequireOption(leg_scale_sigma > 0.0, "MissionRunOptions.leg_scale_sigma",
                 "a positive relative leg-length sigma");
   craters.Check();
@@ -278,6 +279,15 @@ nlohmann::json MissionRunOptions::ToJson() const {
       {"traverse_products", traverse_products},
       {"traverse_posting_m", traverse_posting_m},
       {"mosaic_feather_m", mosaic.feather_m}};
+  // The height rule (run --rock-min-height) decides which rocks are modeled and eligible. Left
+  // out at Table 4.5's 15 cm, so that earlier runs keep their fingerprint.
+  const MissionRunOptions defaults;
+  if (rocks.model_min_height_m != defaults.rocks.model_min_height_m ||
+      matching.fault_detection.min_peak_to_plane_m !=
+          defaults.matching.fault_detection.min_peak_to_plane_m) {
+    figures["rocks_model_min_height_m"] = rocks.model_min_height_m;
+    figures["rock_min_peak_to_plane_m"] = matching.fault_detection.min_peak_to_plane_m;
+  }
   // Library callers may change the rock ties' variance factor: legs made with another are not
   // reused. Left out at its default, so that earlier runs keep their fingerprint.
   if (matching.tie_variance_factor != 1.0) {

@@ -133,7 +133,7 @@ Eligibility SelectEligible(const std::vector<ExtractedRock>& rocks, const Eigen:
 // `sigmas` sigmas of its peak's covariance combined with its partner's (EllipticGate: along each
 // principal direction): no translation vote can tell them apart. Neighbours count when at least
 // `min_height` high, or at least `similar_min_height` high with a height like the tested rock's
-// (a rock measured just under the 15 cm rule here may be over it at the other site, and the
+// (a rock measured just under the height rule here may be over it at the other site, and the
 // partner's model cannot tell two rocks of one size apart).
 class AmbiguityTest {
  public:
@@ -222,6 +222,15 @@ std::string ToString(RockRule rule) {
       return "peak sigma";
   }
   return "?";
+}
+
+void CheckModelsCoverHeightRule(const RockExtractionOptions& extraction,
+                                const RockMatchingOptions& matching) {
+  RequireOption(
+      extraction.model_min_height_m <= matching.fault_detection.min_peak_to_plane_m,
+      "RockExtractionOptions.model_min_height_m",
+      "at most FaultDetectionOptions.min_peak_to_plane_m (rocks that pass the height rule "
+      "need a model)");
 }
 
 RockRule CheckRockRules(const ExtractedRock& r, const Eigen::Vector3d& own,

@@ -287,6 +287,29 @@ TEST(MissionRunOptions, RockAmbiguityRuleChangesTheFingerprint) {
   EXPECT_NE(difference.ToJson(), defaults.ToJson());
 }
 
+TEST(MissionRunOptions, RockHeightRuleChangesTheFingerprint) {
+  // Legs and sites made with Table 4.5's 15 cm are not reused with 12 cm (run --rock-min-height),
+  // and runs made at the default keep their fingerprint.
+  const MissionRunOptions defaults;
+  MissionRunOptions rule = defaults, models = defaults;
+  rule.matching.fault_detection.min_peak_to_plane_m = 0.12;
+  rule.rocks.model_min_height_m = 0.12;
+  models.rocks.model_min_height_m = 0.10;
+  EXPECT_NE(rule.ToJson(), defaults.ToJson());
+  EXPECT_NE(models.ToJson(), defaults.ToJson());
+  EXPECT_FALSE(defaults.ToJson().contains("rock_min_peak_to_plane_m"));
+}
+
+TEST(MissionRunOptions, RocksThatPassTheHeightRuleMustBeModeled) {
+  // With the height rule under the model height, rocks between the two would pass the rule and
+  // then fail for want of a model: the options are refused, naming the field.
+  MissionRunOptions options;
+  EXPECT_LE(options.rocks.model_min_height_m, options.matching.fault_detection.min_peak_to_plane_m);
+  options.matching.fault_detection.min_peak_to_plane_m = 0.10;
+  const std::string message = testing::ErrorMessageOf([&] { options.Check(); });
+  EXPECT_NE(message.find("RockExtractionOptions.model_min_height_m"), std::string::npos) << message;
+}
+
 TEST(MissionRun, GuidedPriorFollowsTheAdjustedPose) {
   // Telemetry: level, north-up at (10, 20) m; the adjustment moves the site 1 m north, 0.5 m
   // west and turns it 5 degrees from north towards east (about z, down): clockwise on the map.

@@ -278,7 +278,8 @@ TEST(RockMatching, CheckRockRulesNamesTheFirstFailingRule) {
             RockRule::kEligible);
   EXPECT_EQ(CheckRockRules(ModeledRock(1, {31, 0, 0}, 0.2, 0.1), own, other, options),
             RockRule::kBeyondRange);
-  EXPECT_EQ(CheckRockRules(ModeledRock(1, {10, 2, 0}, 0.12, 0.1), own, other, options),
+  const double just_under = options.fault_detection.min_peak_to_plane_m - 0.01;
+  EXPECT_EQ(CheckRockRules(ModeledRock(1, {10, 2, 0}, just_under, 0.1), own, other, options),
             RockRule::kTooLow);
   ExtractedRock unmodeled = ModeledRock(1, {10, 2, 0}, 0.2, 0.1);
   unmodeled.models.clear();

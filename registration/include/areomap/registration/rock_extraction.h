@@ -57,7 +57,8 @@ struct RockExtractionOptions {
   double above_plane_sigmas = 2.0;  // ... or this many of the ground's robust residual sigmas.
   int max_model_points = 80;        // Surface points passed to the model fits (evenly thinned).
   bool fit_models = true;
-  double model_min_height_m = 0.15;  // Lower rocks are not modeled (Table 4.5 drops them) [m].
+  // Lower rocks are not modeled: FaultDetectionOptions::min_peak_to_plane_m drops them [m].
+  double model_min_height_m = 0.15;
   RockModelFitOptions model;
   void Check() const;  // Throws areomap::Error naming the field.
 };

@@ -99,13 +99,14 @@ struct RockMatchingOptions {
   double max_model_cost = 0.6;    // Model matching accepts costs up to this.
   double ambiguity_sigmas = 1.0;  // Neighbour within epsilon + this many sigmas: ambiguous.
   // Neighbours that count for the ambiguity test: rocks at least this high at their site [m]
-  // (lower values guard against a neighbour measured just under the 15 cm rule here and over it
-  // at the other site, at a cost in matches: docs/rocks.md).
+  // (lower values guard against a neighbour measured just under the height rule,
+  // FaultDetectionOptions::min_peak_to_plane_m, here and over it at the other site, at a cost in
+  // matches: docs/rocks.md).
   double ambiguity_min_height_m = 0.15;
   // ... and lower neighbours from this height up whose height differs from the tested rock's by
-  // at most this relative difference (|h1 - h2| / mean): a rock measured under 15 cm at one site
-  // and over it at the other is ambiguous with a neighbour of its own size, which the model
-  // matching cannot tell apart either [m], [-]. Setting the first to ambiguity_min_height_m
+  // at most this relative difference (|h1 - h2| / mean): a rock measured under the height rule at
+  // one site and over it at the other is ambiguous with a neighbour of its own size, which the
+  // model matching cannot tell apart either [m], [-]. Setting the first to ambiguity_min_height_m
   // turns it off (docs/rocks.md, "Neighbours of the rock's own height").
   double ambiguity_similar_min_height_m = 0.10;
   double ambiguity_similar_height_difference = 0.3;
@@ -172,6 +173,12 @@ enum class RockRule {
 std::string ToString(RockRule rule);
 RockRule CheckRockRules(const ExtractedRock& rock, const Eigen::Vector3d& own,
                         const Eigen::Vector3d& other, const RockMatchingOptions& options);
+
+// Rocks that pass the height rule (min_peak_to_plane_m) need a model, so the extraction must model
+// every rock at least that high: throws areomap::Error naming
+// RockExtractionOptions.model_min_height_m otherwise.
+void CheckModelsCoverHeightRule(const RockExtractionOptions& extraction,
+                                const RockMatchingOptions& matching);
 
 // Eq. 3.28 between two fitted models (relative differences against their mean).
 double ModelMatchCost(const RockModelParameters& p, const RockModelParameters& q,
