@@ -277,6 +277,8 @@ void RockMatchingOptions::Check() const {
   RequireOption(ambiguity_similar_height_difference >= 0.0,
                 "RockMatchingOptions.ambiguity_similar_height_difference", ">= 0");
   RequireOption(max_peak_sigma_m > 0.0, "RockMatchingOptions.max_peak_sigma_m", "> 0 m");
+  RequireOption(low_rock_max_peak_sigma_m > 0.0, "RockMatchingOptions.low_rock_max_peak_sigma_m",
+                "> 0 m");
   fault_detection.Check();
 }
 
@@ -563,6 +565,13 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     }
     if (!c.terrain_ok) {
       set_fate(c.rock_a, eb.rocks[winner], "terrain mismatch");
+      continue;
+    }
+    const ExtractedRock& q = b.rocks[eb.rocks[winner]];
+    if (std::min(p.height_m, q.height_m) < options.ambiguity_min_height_m &&
+        std::max(LargestHorizontalSigma(p), LargestHorizontalSigma(q)) >
+            options.low_rock_max_peak_sigma_m) {
+      set_fate(c.rock_a, eb.rocks[winner], "low rock seen from afar");
       continue;
     }
     // The partner's covariance in the tested site's frame, with the prior's heading error: a

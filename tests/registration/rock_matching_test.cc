@@ -396,6 +396,39 @@ TEST(RockMatching, LowNeighbourOfTheRocksOwnHeightMakesItAmbiguous) {
   EXPECT_EQ(fate_with_neighbour(0.17, 0.13, tall_only), "matched");
 }
 
+// With a height rule under 15 cm, a low rock is matched only while both peaks are precise: a far
+// peak of a low rock has look-alike neighbours too low to be extracted, which the ambiguity test
+// cannot see.
+TEST(RockMatching, LowRockIsMatchedOnlyBetweenPrecisePeaks) {
+  SiteRocks a, b;
+  a.site = 1;
+  b.site = 2;
+  b.camera_center = a.camera_center = Eigen::Vector3d(0, 0, -1.5);
+  const Eigen::Vector3d rock_in_a(6.0, 1.0, 0.0), camera_b_in_a(12.0, 0.0, 0.0);
+  const Rigid3d a_from_b(Eigen::Quaterniond::Identity(), camera_b_in_a);
+  RockMatchingOptions twelve_cm;
+  twelve_cm.fault_detection.min_peak_to_plane_m = 0.12;
+  const auto fate = [&](double height, double sigma_b, const RockMatchingOptions& options) {
+    b.rocks = {ModeledRock(1, rock_in_a - camera_b_in_a, height, sigma_b)};
+    AddPrescreeningFillers(&b);
+    a.rocks = {ModeledRock(1, rock_in_a, height, 0.05)};
+    AddPrescreeningFillers(&a);
+    const SitePairMatch match = MatchSitePair(a, b, a_from_b, options);
+    for (const RockMatchOutcome& o : match.outcomes) {
+      if (o.rock_a == 0) return o.fate;
+    }
+    return std::string("not eligible");
+  };
+  EXPECT_EQ(fate(0.13, 0.05, twelve_cm), "matched");
+  EXPECT_EQ(fate(0.13, 0.25, twelve_cm), "matched");
+  EXPECT_EQ(fate(0.13, 0.40, twelve_cm), "low rock seen from afar");
+  EXPECT_EQ(fate(0.17, 0.40, twelve_cm), "matched");  // Not low.
+  RockMatchingOptions loose = twelve_cm;
+  loose.low_rock_max_peak_sigma_m = 0.5;
+  EXPECT_EQ(fate(0.13, 0.40, loose), "matched");
+  EXPECT_EQ(fate(0.13, 0.40, RockMatchingOptions{}), "not eligible");  // Table 4.5's 15 cm.
+}
+
 TEST(RockMatching, OutcomesAccountForEveryMatch) {
   const SimulatedSite& a = SiteA();
   const SimulatedSite& b = SiteB();

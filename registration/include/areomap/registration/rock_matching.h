@@ -26,7 +26,8 @@
 // the rock's own height) closer than epsilon plus `ambiguity_sigmas` sigmas of the two
 // partners' combined horizontal covariance, along each of its principal directions (no vote can
 // tell them apart; tested at both sites once the partner is known); rocks whose peak sigma exceeds
-// `max_peak_sigma_m` are not used. (5) A pair is matched only where both methods agree; when
+// `max_peak_sigma_m` are not used, nor pairs with a rock lower than `ambiguity_min_height_m` and
+// a peak sigma above `low_rock_max_peak_sigma_m`. (5) A pair is matched only where both methods agree; when
 // several rocks of a take the same rock of b, only the lowest-cost one is kept. (6) Data snooping
 // in the 2D conformal fit of the matches (eq. 4.4), each tie point tested against the fit of the
 // others, drops outliers while more than min_tie_points remain. Pair-level rules (traverse, peaks,
@@ -114,6 +115,12 @@ struct RockMatchingOptions {
   // range error grows as r^2: 0.6 m at ~17 m for the Navcam with sigma_p = 0.5 px; on the demo
   // mission's dense stereo the peaks of such rocks lie within 0.3 m of the true rock tops) [m].
   double max_peak_sigma_m = 0.6;
+  // A pair in which either rock is lower than `ambiguity_min_height_m` is matched only while both
+  // peaks' largest horizontal sigma is at most this [m]. Low rocks are the commonest (the
+  // size-frequency law), and many of a far peak's look-alike neighbours are measured too low to be
+  // extracted at all, so the ambiguity test cannot see them (docs/rocks.md, "The height rule at
+  // 12 cm"). Only pairs below 15 cm meet it, i.e. with a height rule under 15 cm.
+  double low_rock_max_peak_sigma_m = 0.3;
   FaultDetectionOptions fault_detection;
   void Check() const;  // Throws areomap::Error naming the field.
 };
@@ -130,7 +137,7 @@ struct RockMatch {
 // What became of one eligible rock of site a in the overlap (diagnostics): `fate` is "matched" or
 // the step that dropped it: "ambiguous at a", "not highest in cell", "no candidate",
 // "inconsistent vector", "model cost", "terrain mismatch", "methods disagree",
-// "ambiguous at b", "multiple match", "residual outlier".
+// "low rock seen from afar", "ambiguous at b", "multiple match", "residual outlier".
 struct RockMatchOutcome {
   int rock_a = -1;  // Index into SiteRocks::rocks of site a.
   int rock_b = -1;  // The winning candidate of site b, when the rock got that far; else -1.
