@@ -171,7 +171,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
   run->add_option("--rock-min-height", o->run.matching.fault_detection.min_peak_to_plane_m,
                   "Table 4.5's height rule: rocks whose measured peak-to-plane distance is lower "
                   "are neither modeled nor tie points [m] (measured heights run 2-6 cm under the "
-                  "true ones: 0.12 accepts more legs at a cost in precision, docs/rocks.md)")
+                  "true ones: 0.12 keeps Table 4.5's 15 cm rocks, docs/rocks.md)")
       ->check(NonNegativeNumber())
       ->capture_default_str();
   run->add_flag("--keep-coarse-points", o->keep_coarse_points,

@@ -279,15 +279,12 @@ nlohmann::json MissionRunOptions::ToJson() const {
       {"traverse_products", traverse_products},
       {"traverse_posting_m", traverse_posting_m},
       {"mosaic_feather_m", mosaic.feather_m}};
-  // The height rule (run --rock-min-height) decides which rocks are modeled and eligible. Left
-  // out at Table 4.5's 15 cm, so that earlier runs keep their fingerprint.
-  const MissionRunOptions defaults;
-  if (rocks.model_min_height_m != defaults.rocks.model_min_height_m ||
-      matching.fault_detection.min_peak_to_plane_m !=
-          defaults.matching.fault_detection.min_peak_to_plane_m) {
-    figures["rocks_model_min_height_m"] = rocks.model_min_height_m;
-    figures["rock_min_peak_to_plane_m"] = matching.fault_detection.min_peak_to_plane_m;
-  }
+  // The height rule (run --rock-min-height) decides which rocks are modeled and eligible, the
+  // low rocks' sigma limit which of them are matched; runs made before the rule became 12 cm
+  // (2026-12-04) lack them and are recomputed rather than reused with 15 cm.
+  figures["rocks_model_min_height_m"] = rocks.model_min_height_m;
+  figures["rock_min_peak_to_plane_m"] = matching.fault_detection.min_peak_to_plane_m;
+  figures["rock_low_rock_max_peak_sigma_m"] = matching.low_rock_max_peak_sigma_m;
   // Library callers may change the rock ties' variance factor: legs made with another are not
   // reused. Left out at its default, so that earlier runs keep their fingerprint.
   if (matching.tie_variance_factor != 1.0) {

@@ -288,16 +288,17 @@ TEST(MissionRunOptions, RockAmbiguityRuleChangesTheFingerprint) {
 }
 
 TEST(MissionRunOptions, RockHeightRuleChangesTheFingerprint) {
-  // Legs and sites made with Table 4.5's 15 cm are not reused with 12 cm (run --rock-min-height),
-  // and runs made at the default keep their fingerprint.
+  // Legs and sites made with a 15 cm rule (before 2026-12-04, or run --rock-min-height 0.15) are
+  // not reused with the 12 cm one, nor with another limit for low rocks.
   const MissionRunOptions defaults;
-  MissionRunOptions rule = defaults, models = defaults;
-  rule.matching.fault_detection.min_peak_to_plane_m = 0.12;
-  rule.rocks.model_min_height_m = 0.12;
+  MissionRunOptions rule = defaults, models = defaults, low = defaults;
+  rule.matching.fault_detection.min_peak_to_plane_m = 0.15;
+  rule.rocks.model_min_height_m = 0.15;
+  low.matching.low_rock_max_peak_sigma_m = 0.6;
   models.rocks.model_min_height_m = 0.10;
   EXPECT_NE(rule.ToJson(), defaults.ToJson());
   EXPECT_NE(models.ToJson(), defaults.ToJson());
-  EXPECT_FALSE(defaults.ToJson().contains("rock_min_peak_to_plane_m"));
+  EXPECT_NE(low.ToJson(), defaults.ToJson());
 }
 
 TEST(MissionRunOptions, RocksThatPassTheHeightRuleMustBeModeled) {

@@ -396,9 +396,9 @@ TEST(RockMatching, LowNeighbourOfTheRocksOwnHeightMakesItAmbiguous) {
   EXPECT_EQ(fate_with_neighbour(0.17, 0.13, tall_only), "matched");
 }
 
-// With a height rule under 15 cm, a low rock is matched only while both peaks are precise: a far
-// peak of a low rock has look-alike neighbours too low to be extracted, which the ambiguity test
-// cannot see.
+// A rock under 15 cm (the 12 cm rule admits it) is matched only while both peaks are precise: a
+// far peak of a low rock has look-alike neighbours too low to be extracted, which the ambiguity
+// test cannot see.
 TEST(RockMatching, LowRockIsMatchedOnlyBetweenPrecisePeaks) {
   SiteRocks a, b;
   a.site = 1;
@@ -406,8 +406,8 @@ TEST(RockMatching, LowRockIsMatchedOnlyBetweenPrecisePeaks) {
   b.camera_center = a.camera_center = Eigen::Vector3d(0, 0, -1.5);
   const Eigen::Vector3d rock_in_a(6.0, 1.0, 0.0), camera_b_in_a(12.0, 0.0, 0.0);
   const Rigid3d a_from_b(Eigen::Quaterniond::Identity(), camera_b_in_a);
-  RockMatchingOptions twelve_cm;
-  twelve_cm.fault_detection.min_peak_to_plane_m = 0.12;
+  const RockMatchingOptions twelve_cm;  // The default.
+  ASSERT_EQ(twelve_cm.fault_detection.min_peak_to_plane_m, 0.12);
   const auto fate = [&](double height, double sigma_b, const RockMatchingOptions& options) {
     b.rocks = {ModeledRock(1, rock_in_a - camera_b_in_a, height, sigma_b)};
     AddPrescreeningFillers(&b);
@@ -426,7 +426,9 @@ TEST(RockMatching, LowRockIsMatchedOnlyBetweenPrecisePeaks) {
   RockMatchingOptions loose = twelve_cm;
   loose.low_rock_max_peak_sigma_m = 0.5;
   EXPECT_EQ(fate(0.13, 0.40, loose), "matched");
-  EXPECT_EQ(fate(0.13, 0.40, RockMatchingOptions{}), "not eligible");  // Table 4.5's 15 cm.
+  RockMatchingOptions fifteen_cm;
+  fifteen_cm.fault_detection.min_peak_to_plane_m = 0.15;
+  EXPECT_EQ(fate(0.13, 0.40, fifteen_cm), "not eligible");
 }
 
 TEST(RockMatching, OutcomesAccountForEveryMatch) {

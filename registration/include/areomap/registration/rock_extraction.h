@@ -58,7 +58,7 @@ struct RockExtractionOptions {
   int max_model_points = 80;        // Surface points passed to the model fits (evenly thinned).
   bool fit_models = true;
   // Lower rocks are not modeled: FaultDetectionOptions::min_peak_to_plane_m drops them [m].
-  double model_min_height_m = 0.15;
+  double model_min_height_m = 0.12;
   RockModelFitOptions model;
   void Check() const;  // Throws areomap::Error naming the field.
 };

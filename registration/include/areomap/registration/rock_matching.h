@@ -27,11 +27,11 @@
 // partners' combined horizontal covariance, along each of its principal directions (no vote can
 // tell them apart; tested at both sites once the partner is known); rocks whose peak sigma exceeds
 // `max_peak_sigma_m` are not used, nor pairs with a rock lower than `ambiguity_min_height_m` and
-// a peak sigma above `low_rock_max_peak_sigma_m`. (5) A pair is matched only where both methods agree; when
-// several rocks of a take the same rock of b, only the lowest-cost one is kept. (6) Data snooping
-// in the 2D conformal fit of the matches (eq. 4.4), each tie point tested against the fit of the
-// others, drops outliers while more than min_tie_points remain. Pair-level rules (traverse, peaks,
-// tie-point count, distance ratio, RE) decide the outcome.
+// a peak sigma above `low_rock_max_peak_sigma_m`. (5) A pair is matched only where both methods
+// agree; when several rocks of a take the same rock of b, only the lowest-cost one is kept. (6)
+// Data snooping in the 2D conformal fit of the matches (eq. 4.4), each tie point tested against the
+// fit of the others, drops outliers while more than min_tie_points remain. Pair-level rules
+// (traverse, peaks, tie-point count, distance ratio, RE) decide the outcome.
 //
 // Failures: invalid options throw areomap::Error; everything about the data (no overlap, no
 // rocks, too few tie points) is a verdict in the report, never an exception.
@@ -119,7 +119,7 @@ struct RockMatchingOptions {
   // peaks' largest horizontal sigma is at most this [m]. Low rocks are the commonest (the
   // size-frequency law), and many of a far peak's look-alike neighbours are measured too low to be
   // extracted at all, so the ambiguity test cannot see them (docs/rocks.md, "The height rule at
-  // 12 cm"). Only pairs below 15 cm meet it, i.e. with a height rule under 15 cm.
+  // 12 cm"); 0.3 m is the peak-sigma limit before 2026-12-01 (~12 m from a Navcam).
   double low_rock_max_peak_sigma_m = 0.3;
   FaultDetectionOptions fault_detection;
   void Check() const;  // Throws areomap::Error naming the field.
