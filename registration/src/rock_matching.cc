@@ -569,7 +569,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     }
     const ExtractedRock& q = b.rocks[eb.rocks[winner]];
     if (std::min(p.height_m, q.height_m) < options.ambiguity_min_height_m &&
-        std::max(LargestHorizontalSigma(p), LargestHorizontalSigma(q)) >
+        std::max(LargestHorizontalSigma(p), spread_b[winner].largest_sigma) >
             options.low_rock_max_peak_sigma_m) {
       set_fate(c.rock_a, eb.rocks[winner], "low rock seen from afar");
       continue;

@@ -295,28 +295,51 @@ TEST(RockMatching, CheckRockRulesNamesTheFirstFailingRule) {
   EXPECT_EQ(ToString(RockRule::kImprecise), "peak sigma");
 }
 
-// Site a sees two rocks 0.9 m apart sharply (5 cm); site b sees only one of them, from far
-// (0.5 m sigma). Its peak could be either rock of a: the match is ambiguous at a and dropped,
-// whatever the pattern says.
-TEST(RockMatching, FarPeakNearTwoRocksOfTheOtherSiteIsAmbiguous) {
+// Two sites 12 m apart along north, each camera 1.5 m above its origin, matched with the true pose
+// as prior. `rocks_a` and `rocks_b` are in their own site's frame; the pre-screening fillers are
+// added to both. A rock 6 m north of a is at kRockInA in a and kRockInA - kCameraBInA in b.
+const Eigen::Vector3d kCameraBInA(12.0, 0.0, 0.0), kRockInA(6.0, 1.0, 0.0);
+
+SitePairMatch MatchTwelveMetrePair(std::vector<ExtractedRock> rocks_a,
+                                   std::vector<ExtractedRock> rocks_b,
+                                   const RockMatchingOptions& options = {}) {
   SiteRocks a, b;
   a.site = 1;
   b.site = 2;
   b.camera_center = a.camera_center = Eigen::Vector3d(0, 0, -1.5);
-  a.rocks = {ModeledRock(1, {6.0, 1.0, 0}, 0.30, 0.05), ModeledRock(2, {6.9, 1.0, 0}, 0.25, 0.05)};
-  b.rocks = {ModeledRock(1, {-6.0, 1.0, 0}, 0.30, 0.5)};
+  a.rocks = std::move(rocks_a);
+  b.rocks = std::move(rocks_b);
   AddPrescreeningFillers(&a);
   AddPrescreeningFillers(&b);
-  const Rigid3d a_from_b(Eigen::Quaterniond::Identity(), Eigen::Vector3d(12.0, 0.0, 0.0));
-  const SitePairMatch match = MatchSitePair(a, b, a_from_b, {});
+  return MatchSitePair(a, b, Rigid3d(Eigen::Quaterniond::Identity(), kCameraBInA), options);
+}
+
+// What became of site a's first rock ("not eligible" when it never reached the matching).
+std::string FateOfFirstRockOfA(const SitePairMatch& match) {
+  for (const RockMatchOutcome& o : match.outcomes) {
+    if (o.rock_a == 0) return o.fate;
+  }
+  return "not eligible";
+}
+
+bool AnyAmbiguousAtA(const SitePairMatch& match) {
+  return std::any_of(match.outcomes.begin(), match.outcomes.end(),
+                     [](const RockMatchOutcome& o) { return o.fate == "ambiguous at a"; });
+}
+
+// Site a sees two rocks 0.9 m apart sharply (5 cm); site b sees only one of them, from far
+// (0.5 m sigma). Its peak could be either rock of a: the match is ambiguous at a and dropped,
+// whatever the pattern says.
+TEST(RockMatching, FarPeakNearTwoRocksOfTheOtherSiteIsAmbiguous) {
+  const ExtractedRock rock = ModeledRock(1, kRockInA, 0.30, 0.05);
+  const ExtractedRock far = ModeledRock(1, kRockInA - kCameraBInA, 0.30, 0.5);
+  const SitePairMatch match = MatchTwelveMetrePair(
+      {rock, ModeledRock(2, kRockInA + Eigen::Vector3d(0.9, 0, 0), 0.25, 0.05)}, {far});
   EXPECT_TRUE(match.matches.empty());
   ASSERT_FALSE(match.outcomes.empty());
-  bool ambiguous = false;
-  for (const RockMatchOutcome& o : match.outcomes) ambiguous |= o.fate == "ambiguous at a";
-  EXPECT_TRUE(ambiguous);
+  EXPECT_TRUE(AnyAmbiguousAtA(match));
   // The same far peak next to a single rock of a is matched.
-  a.rocks.erase(a.rocks.begin() + 1);
-  const SitePairMatch single = MatchSitePair(a, b, a_from_b, {});
+  const SitePairMatch single = MatchTwelveMetrePair({rock}, {far});
   ASSERT_EQ(single.matches.size(), 1u);
   ASSERT_EQ(single.outcomes.size(), 1u);
   EXPECT_EQ(single.outcomes.front().fate, "matched");
@@ -328,25 +351,17 @@ TEST(RockMatching, FarPeakNearTwoRocksOfTheOtherSiteIsAmbiguous) {
 // rock of a 0.9 m beside the first, across b's line of sight, is told apart by the bearing; the
 // same rock 0.9 m behind the first, along it, is not.
 TEST(RockMatching, FarPeakIsAmbiguousAlongItsLineOfSightOnly) {
-  SiteRocks a, b;
-  a.site = 1;
-  b.site = 2;
-  b.camera_center = a.camera_center = Eigen::Vector3d(0, 0, -1.5);
-  const Eigen::Vector3d rock_in_a(6.0, 1.0, 0.0), camera_b_in_a(12.0, 0.0, 0.0);
-  const Eigen::Vector2d sight = (rock_in_a - camera_b_in_a).head<2>().normalized();
+  const Eigen::Vector2d sight = (kRockInA - kCameraBInA).head<2>().normalized();
   const Eigen::Vector2d across(-sight.y(), sight.x());
-  ExtractedRock far = ModeledRock(1, rock_in_a - camera_b_in_a, 0.30, 0.0);
+  ExtractedRock far = ModeledRock(1, kRockInA - kCameraBInA, 0.30, 0.0);
   far.peak_covariance.topLeftCorner<2, 2>() =
       0.5 * 0.5 * sight * sight.transpose() + 0.02 * 0.02 * across * across.transpose();
-  b.rocks = {far};
-  AddPrescreeningFillers(&b);
-  const Rigid3d a_from_b(Eigen::Quaterniond::Identity(), camera_b_in_a);
   const auto match_with_neighbour_at = [&](const Eigen::Vector2d& offset,
                                            const RockMatchingOptions& options = {}) {
-    a.rocks = {ModeledRock(1, rock_in_a, 0.30, 0.05),
-               ModeledRock(2, rock_in_a + Eigen::Vector3d(offset.x(), offset.y(), 0), 0.25, 0.05)};
-    AddPrescreeningFillers(&a);
-    return MatchSitePair(a, b, a_from_b, options);
+    return MatchTwelveMetrePair(
+        {ModeledRock(1, kRockInA, 0.30, 0.05),
+         ModeledRock(2, kRockInA + Eigen::Vector3d(offset.x(), offset.y(), 0), 0.25, 0.05)},
+        {far}, options);
   };
   const SitePairMatch beside = match_with_neighbour_at(0.9 * across);
   ASSERT_EQ(beside.matches.size(), 1u);
@@ -354,9 +369,7 @@ TEST(RockMatching, FarPeakIsAmbiguousAlongItsLineOfSightOnly) {
   EXPECT_EQ(beside.matches.front().rock_b, 0);
   const SitePairMatch behind = match_with_neighbour_at(0.9 * sight);
   EXPECT_TRUE(behind.matches.empty());
-  bool ambiguous = false;
-  for (const RockMatchOutcome& o : behind.outcomes) ambiguous |= o.fate == "ambiguous at a";
-  EXPECT_TRUE(ambiguous);
+  EXPECT_TRUE(AnyAmbiguousAtA(behind));
   // A prior whose heading is known to 10 degrees only can swap the rock with its neighbour beside
   // it (10 degrees at 6 m: 1 m): ambiguous as well.
   RockMatchingOptions loose_heading;
@@ -368,24 +381,12 @@ TEST(RockMatching, FarPeakIsAmbiguousAlongItsLineOfSightOnly) {
 // neighbour of about the tested rock's height counts from 10 cm up; a low bump beside a taller
 // rock, or a neighbour lower than 10 cm, does not.
 TEST(RockMatching, LowNeighbourOfTheRocksOwnHeightMakesItAmbiguous) {
-  SiteRocks a, b;
-  a.site = 1;
-  b.site = 2;
-  b.camera_center = a.camera_center = Eigen::Vector3d(0, 0, -1.5);
-  const Eigen::Vector3d rock_in_a(6.0, 1.0, 0.0), camera_b_in_a(12.0, 0.0, 0.0);
-  const Rigid3d a_from_b(Eigen::Quaterniond::Identity(), camera_b_in_a);
-  const auto fate_with_neighbour = [&](double rock_height, double neighbour_height,
-                                       const RockMatchingOptions& options = {}) {
-    b.rocks = {ModeledRock(1, rock_in_a - camera_b_in_a, rock_height, 0.05)};
-    AddPrescreeningFillers(&b);
-    a.rocks = {ModeledRock(1, rock_in_a, rock_height, 0.05),
-               ModeledRock(2, rock_in_a + Eigen::Vector3d(0.4, 0.2, 0), neighbour_height, 0.05)};
-    AddPrescreeningFillers(&a);
-    const SitePairMatch match = MatchSitePair(a, b, a_from_b, options);
-    for (const RockMatchOutcome& o : match.outcomes) {
-      if (o.rock_a == 0) return o.fate;
-    }
-    return std::string("not eligible");
+  const auto fate_with_neighbour = [](double rock_height, double neighbour_height,
+                                      const RockMatchingOptions& options = {}) {
+    return FateOfFirstRockOfA(MatchTwelveMetrePair(
+        {ModeledRock(1, kRockInA, rock_height, 0.05),
+         ModeledRock(2, kRockInA + Eigen::Vector3d(0.4, 0.2, 0), neighbour_height, 0.05)},
+        {ModeledRock(1, kRockInA - kCameraBInA, rock_height, 0.05)}, options));
   };
   EXPECT_EQ(fate_with_neighbour(0.17, 0.13), "ambiguous at a");  // |dh| / mean 0.27.
   EXPECT_EQ(fate_with_neighbour(0.17, 0.09), "matched");         // Under 10 cm.
@@ -400,24 +401,12 @@ TEST(RockMatching, LowNeighbourOfTheRocksOwnHeightMakesItAmbiguous) {
 // far peak of a low rock has look-alike neighbours too low to be extracted, which the ambiguity
 // test cannot see.
 TEST(RockMatching, LowRockIsMatchedOnlyBetweenPrecisePeaks) {
-  SiteRocks a, b;
-  a.site = 1;
-  b.site = 2;
-  b.camera_center = a.camera_center = Eigen::Vector3d(0, 0, -1.5);
-  const Eigen::Vector3d rock_in_a(6.0, 1.0, 0.0), camera_b_in_a(12.0, 0.0, 0.0);
-  const Rigid3d a_from_b(Eigen::Quaterniond::Identity(), camera_b_in_a);
   const RockMatchingOptions twelve_cm;  // The default.
   ASSERT_EQ(twelve_cm.fault_detection.min_peak_to_plane_m, 0.12);
-  const auto fate = [&](double height, double sigma_b, const RockMatchingOptions& options) {
-    b.rocks = {ModeledRock(1, rock_in_a - camera_b_in_a, height, sigma_b)};
-    AddPrescreeningFillers(&b);
-    a.rocks = {ModeledRock(1, rock_in_a, height, 0.05)};
-    AddPrescreeningFillers(&a);
-    const SitePairMatch match = MatchSitePair(a, b, a_from_b, options);
-    for (const RockMatchOutcome& o : match.outcomes) {
-      if (o.rock_a == 0) return o.fate;
-    }
-    return std::string("not eligible");
+  const auto fate = [](double height, double sigma_b, const RockMatchingOptions& options) {
+    return FateOfFirstRockOfA(
+        MatchTwelveMetrePair({ModeledRock(1, kRockInA, height, 0.05)},
+                             {ModeledRock(1, kRockInA - kCameraBInA, height, sigma_b)}, options));
   };
   EXPECT_EQ(fate(0.13, 0.05, twelve_cm), "matched");
   EXPECT_EQ(fate(0.13, 0.25, twelve_cm), "matched");
