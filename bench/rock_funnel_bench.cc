@@ -18,6 +18,10 @@
 // outcome column then names the pair-level rules that excluded the leg, with their values.
 // Then the legs' test of `areomap run` (TestLegConsistency) on the accepted legs' tie points:
 // what it drops, and the accepted tie points left, right or wrong by the same truth rule.
+// Every match is also judged by the sight ray (bench::SightRayTruth: the truth rock the camera's
+// ray through each peak meets), which follows a far peak along its line of sight where the disk
+// rule gives it to the tallest rock nearby; both verdicts are printed, with how often each calls a
+// decoy right (the match's site-a peak with the site-b peak nearest its partner).
 //
 // Run: build/ci/bench/areomap_bench_rock_funnel MISSION_DIR RUN_DIR [ROCKS_CSV] [NAME=VALUE...]
 // ROCKS_CSV (optional): one row per truth rock past the ratio stage and site of the leg, with the
@@ -64,14 +68,23 @@ struct Site {
   std::map<int, int> points_on_rock;         // Truth id -> cloud points within 80 % footprint.
   std::map<int, std::vector<int>> rocks_on;  // Truth id -> indices of extracted rocks on it.
   std::vector<std::vector<int>> could_make;  // Per extracted rock: bench::RocksThatCouldMake.
+  std::vector<int> seen_on;                  // Per extracted rock: bench::SightRayTruth, or -1.
   std::map<int, int> id_to_index;            // ExtractedRock::id -> index.
   std::vector<Eigen::Vector2d> peaks_world;
   std::vector<double> peak_z_world,
       foot_z_world;  // Down, in site 0's frame [m].  // Extracted peaks in site 0's frame.
 };
 
+// How often the disk rule (bench::RockUnder) and the sight ray (bench::SightRayTruth) name the
+// same truth rock (or none) for an extracted peak, for peaks with a largest horizontal sigma below
+// and above 0.1 m.
+struct VerdictAgreement {
+  std::array<int, 2> peaks{}, agree{};
+};
+
 Site LoadSite(const fs::path& run_dir, int site, const Rigid3d& world_from_site,
-              const std::vector<TruthRock>& truth, const MissionRunOptions& options) {
+              const std::vector<TruthRock>& truth, const bench::SightRayTruth& sight,
+              const MissionRunOptions& options, VerdictAgreement* agreement) {
   char name[32];
   std::snprintf(name, sizeof(name), "sites/site_%03d", site);
   const PointCloud cloud = ReadPointCloudPly(run_dir / name / "points.ply");
@@ -114,9 +127,14 @@ Site LoadSite(const fs::path& run_dir, int site, const Rigid3d& world_from_site,
     const Eigen::Vector3d peak_world = world_from_site * r.peak;
     const int id = bench::RockUnder(truth, peak_world.head<2>(), sigma);
     if (id >= 0) s.rocks_on[id].push_back(static_cast<int>(k));
-    s.could_make.push_back(bench::RocksThatCouldMake(
-        truth, peak_world.head<2>(),
-        turn * r.peak_covariance.topLeftCorner<2, 2>() * turn.transpose(), r.height_m));
+    const Eigen::Matrix2d covariance_world =
+        turn * r.peak_covariance.topLeftCorner<2, 2>() * turn.transpose();
+    s.could_make.push_back(
+        bench::RocksThatCouldMake(truth, peak_world.head<2>(), covariance_world, r.height_m));
+    s.seen_on.push_back(sight.RockSeen(s.camera_world, peak_world, covariance_world));
+    const int precision = sigma < 0.1 ? 0 : 1;
+    ++agreement->peaks[precision];
+    agreement->agree[precision] += s.seen_on.back() == id ? 1 : 0;
     s.peaks_world.push_back(peak_world.head<2>());
     s.peak_z_world.push_back(peak_world.z());
     s.foot_z_world.push_back((world_from_site * r.peak_foot).z());
@@ -148,6 +166,12 @@ struct Funnel {
   int overlap = 0, ratio = 0, seen = 0, peaks = 0, eligible = 0, matched = 0, accepted = 0;
   std::array<int, kRules> failed{};
   int wrong_matches = 0, wrong_accepted = 0, leg_matches = 0;
+  // Matches whose peaks the sight ray (bench::SightRayTruth) puts on two rocks or on none.
+  int wrong_by_sight = 0, wrong_by_sight_accepted = 0;
+  // A check of both verdicts: each match's site-a peak paired instead with the site-b peak
+  // nearest to its partner (within 1.5 m), a plausible wrong match; how often each verdict
+  // calls that pair right (it can be: two peaks on one large rock).
+  int decoys = 0, decoys_right_by_disk = 0, decoys_right_by_sight = 0;
   // Matches whose peaks no single truth rock could have made (bench::RocksThatCouldMake).
   int no_common_rock = 0, no_common_rock_accepted = 0;
   std::map<std::string, int> lost_in_matching;  // Eligible at both, not matched: why.
@@ -208,15 +232,21 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options) {
 
 // What `areomap run` does next (TestLegConsistency): the legs it changes, and the accepted tie
 // points it leaves, by the truth of the matches behind them.
+// Whether a match joins one truth rock, by the disk rule and by the sight ray.
+struct MatchTruth {
+  bool disk = false, sight = false;
+};
+
 void PrintLegTest(const std::vector<std::vector<TiePoint>>& leg_ties,
-                  const std::vector<std::map<int, bool>>& right_by_rock_a,
+                  const std::vector<std::map<int, MatchTruth>>& truth_by_rock_a,
                   const LegConsistencyOptions& test) {
   const std::vector<LegConsistency> verdicts = TestLegConsistency(leg_ties, test);
-  const auto right = [&](size_t leg, const TiePoint& t) {
-    const auto it = right_by_rock_a[leg].find(bench::RockIdOfTie(t.id));
-    return it != right_by_rock_a[leg].end() && it->second;
+  const auto truth = [&](size_t leg, const TiePoint& t) {
+    const auto it = truth_by_rock_a[leg].find(bench::RockIdOfTie(t.id));
+    return it != truth_by_rock_a[leg].end() ? it->second : MatchTruth{};
   };
-  int kept = 0, kept_right = 0, legs_kept = 0;
+  const auto right = [&](size_t leg, const TiePoint& t) { return truth(leg, t).disk; };
+  int kept = 0, kept_right = 0, kept_seen_right = 0, legs_kept = 0;
   for (size_t k = 0; k < leg_ties.size(); ++k) {
     const LegConsistency& v = verdicts[k];
     if (!v.dropped.empty() || v.excluded) {
@@ -236,11 +266,14 @@ void PrintLegTest(const std::vector<std::vector<TiePoint>>& leg_ties,
       }
       ++kept;
       kept_right += right(k, leg_ties[k][i]) ? 1 : 0;
+      kept_seen_right += truth(k, leg_ties[k][i]).sight ? 1 : 0;
     }
   }
+  const auto percent = [&](int n) { return kept > 0 ? 100.0 * n / kept : 100.0; };
   std::printf(
-      "after the legs' test: legs accepted %d; accepted tie points %d, %d right (%.1f %%)\n",
-      legs_kept, kept, kept_right, kept > 0 ? 100.0 * kept_right / kept : 100.0);
+      "after the legs' test: legs accepted %d; accepted tie points %d, %d right (%.1f %%); by "
+      "the sight ray %d right (%.1f %%)\n",
+      legs_kept, kept, kept_right, percent(kept_right), kept_seen_right, percent(kept_seen_right));
 }
 
 int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& rocks_csv,
@@ -271,11 +304,15 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
   // behind each (by the rock id of site a) joins one truth rock.
   const size_t leg_count = mission.sites.size() - 1;
   std::vector<std::vector<TiePoint>> leg_ties(leg_count);
-  std::vector<std::map<int, bool>> right_by_rock_a(leg_count);
-  Site b = LoadSite(run_dir, mission.sites[0].site, world_from_site[0], truth, options);
+  std::vector<std::map<int, MatchTruth>> truth_by_rock_a(leg_count);
+  const bench::SightRayTruth sight_rays(truth, mission.origin.h);
+  VerdictAgreement agreement;
+  Site b = LoadSite(run_dir, mission.sites[0].site, world_from_site[0], truth, sight_rays, options,
+                    &agreement);
   for (size_t k = 0; k + 1 < mission.sites.size(); ++k) {
     Site a = std::move(b);
-    b = LoadSite(run_dir, mission.sites[k + 1].site, world_from_site[k + 1], truth, options);
+    b = LoadSite(run_dir, mission.sites[k + 1].site, world_from_site[k + 1], truth, sight_rays,
+                 options, &agreement);
     const Rigid3d site_a_from_world = world_from_site[k].Inverse();
     const Rigid3d site_b_from_world = world_from_site[k + 1].Inverse();
     const Eigen::Vector3d cam_a_in_a = site_a_from_world * a.camera_world;
@@ -423,7 +460,9 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
         return -1;
       };
       const int ta = on(a, ia), tb = on(b, ib);
-      right_by_rock_a[k][a.rocks[ia].id] = ta >= 0 && ta == tb;
+      const int sa = a.seen_on[ia], sb = b.seen_on[ib];
+      const MatchTruth verdict{ta >= 0 && ta == tb, sa >= 0 && sa == sb};
+      truth_by_rock_a[k][a.rocks[ia].id] = verdict;
       // The covariance rule's verdict: wrong only where no truth rock could have made both peaks.
       const std::vector<int>& ca = a.could_make[ia];
       const std::vector<int>& cb = b.could_make[ib];
@@ -434,21 +473,47 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
         ++f.no_common_rock;
         f.no_common_rock_accepted += accepted ? 1 : 0;
       }
-      if (ta >= 0 && ta == tb) {
+      int decoy = -1;
+      double decoy_distance = 1.5;
+      for (size_t q = 0; q < b.peaks_world.size(); ++q) {
+        const double d = (b.peaks_world[q] - b.peaks_world[ib]).norm();
+        if (static_cast<int>(q) != ib && d < decoy_distance) {
+          decoy_distance = d;
+          decoy = static_cast<int>(q);
+        }
+      }
+      if (decoy >= 0) {
+        ++f.decoys;
+        const int td = on(b, decoy);
+        f.decoys_right_by_disk += ta >= 0 && ta == td ? 1 : 0;
+        f.decoys_right_by_sight += sa >= 0 && sa == b.seen_on[decoy] ? 1 : 0;
+      }
+      if (!verdict.sight) {
+        ++f.wrong_by_sight;
+        f.wrong_by_sight_accepted += accepted ? 1 : 0;
+      }
+      if (verdict.disk) {
         ++correct_matches;
       } else {
         ++f.wrong_matches;
         f.wrong_accepted += accepted ? 1 : 0;
+      }
+      if (!verdict.disk || !verdict.sight) {
         const ExtractedRock& ra = a.rocks[ia];
         const ExtractedRock& rb = b.rocks[ib];
         const double apart = (a.peaks_world[ia] - b.peaks_world[ib]).norm();
         std::printf(
-            "  wrong match%s: rocks %d / %d on truth %d / %d, peaks %.2f m apart (true "
-            "frames), ranges %.1f / %.1f m, heights %.2f / %.2f m, sigma %.2f / %.2f m%s\n",
-            accepted ? " (accepted)" : "", ra.id, rb.id, ta, tb, apart, ra.range_m, rb.range_m,
-            ra.height_m, rb.height_m, std::sqrt(ra.peak_covariance.topLeftCorner<2, 2>().trace()),
+            "  wrong match%s: rocks %d / %d on truth %d / %d, sight ray %d / %d, peaks %.2f m "
+            "apart (true frames), ranges %.1f / %.1f m, heights %.2f / %.2f m, sigma %.2f / %.2f "
+            "m%s%s\n",
+            accepted ? " (accepted)" : "", ra.id, rb.id, ta, tb, sa, sb, apart, ra.range_m,
+            rb.range_m, ra.height_m, rb.height_m,
+            std::sqrt(ra.peak_covariance.topLeftCorner<2, 2>().trace()),
             std::sqrt(rb.peak_covariance.topLeftCorner<2, 2>().trace()),
-            shared ? "; one truth rock could have made both peaks (covariance rule)" : "");
+            shared ? "; one truth rock could have made both peaks (covariance rule)" : "",
+            verdict.disk    ? "; right by the disk rule"
+            : verdict.sight ? "; right by the sight ray"
+                            : "");
       }
     }
     (void)correct_matches;
@@ -471,6 +536,11 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
       t->accepted += x.accepted;
       t->wrong_matches += x.wrong_matches;
       t->wrong_accepted += x.wrong_accepted;
+      t->wrong_by_sight += x.wrong_by_sight;
+      t->wrong_by_sight_accepted += x.wrong_by_sight_accepted;
+      t->decoys += x.decoys;
+      t->decoys_right_by_disk += x.decoys_right_by_disk;
+      t->decoys_right_by_sight += x.decoys_right_by_sight;
       t->no_common_rock += x.no_common_rock;
       t->no_common_rock_accepted += x.no_common_rock_accepted;
       t->leg_matches += x.leg_matches;
@@ -490,14 +560,18 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
         "%s: overlap %d, ratio %d, seen %d, peaks %d; failing: too low %d, few points %d, "
         "implausible %d, ratio %d, peak sigma %d; eligible %d, matched %d, accepted %d; "
         "wrong matches %d (accepted %d) of %d; no truth rock could have made both peaks: %d "
-        "(accepted %d)\n",
+        "(accepted %d); wrong by the sight ray %d (accepted %d)\n",
         label, f.overlap, f.ratio, f.seen, f.peaks, f.failed[static_cast<int>(RockRule::kTooLow)],
         f.failed[static_cast<int>(RockRule::kFewPoints)],
         f.failed[static_cast<int>(RockRule::kImplausible)],
         f.failed[static_cast<int>(RockRule::kLowRatio)],
         f.failed[static_cast<int>(RockRule::kImprecise)], f.eligible, f.matched, f.accepted,
         f.wrong_matches, f.wrong_accepted, f.leg_matches, f.no_common_rock,
-        f.no_common_rock_accepted);
+        f.no_common_rock_accepted, f.wrong_by_sight, f.wrong_by_sight_accepted);
+    std::printf(
+        "  decoys (site b's peak nearest to the match's, within 1.5 m) %d: called right by the "
+        "disk rule %d, by the sight ray %d\n",
+        f.decoys, f.decoys_right_by_disk, f.decoys_right_by_sight);
     std::printf("  eligible at both but not matched:");
     for (const auto& [fate, n] : f.lost_in_matching) std::printf(" %s %d;", fate.c_str(), n);
     std::printf("\n");
@@ -506,7 +580,11 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
   print("legs <= 25 m", short_legs);
   std::printf("legs accepted: %d of %zu; legs <= 25 m accepted: %d of %d\n", legs_accepted,
               mission.sites.size() - 1, short_accepted, short_count);
-  if (options.leg_test) PrintLegTest(leg_ties, right_by_rock_a, options.LegTestOptions());
+  std::printf(
+      "peaks on the same truth rock (or none) by the disk rule and the sight ray: %d of %d with "
+      "sigma < 0.1 m, %d of %d with more\n",
+      agreement.agree[0], agreement.peaks[0], agreement.agree[1], agreement.peaks[1]);
+  if (options.leg_test) PrintLegTest(leg_ties, truth_by_rock_a, options.LegTestOptions());
   const PooledVarianceFactor pooled = PoolVarianceFactor(fits);
   std::printf(
       "conformal fits of %d legs: chi2 %.1f at tie_variance_factor 1, redundancy %d, pooled "

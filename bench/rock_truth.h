@@ -4,21 +4,29 @@
 // Frames: each site frame is the rover's believed (level, north-up) frame (x north, y east,
 // z down [m]), so a point of site k lies in site 0's frame at Rz(h_true - h_telemetry) p + T_true
 // (truth/sites.csv, telemetry/). A peak belongs to the tallest truth rock whose footprint (base
-// radius + 15 cm + half the peak's largest horizontal sigma, for the stereo range error) holds it.
+// radius + 15 cm + half the peak's largest horizontal sigma, for the stereo range error) holds it;
+// or, decisively, the truth rock whose surface the camera's sight ray through the peak meets
+// (SightRayTruth).
 // Failures: a missing or malformed truth file throws areomap::Error naming it.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <exception>
 #include <fstream>
+#include <numbers>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include "areomap/map/csv.h"
 #include "areomap/map/error.h"
 #include "areomap/map/mission_manifest.h"
 #include "areomap/map/rigid3d.h"
+#include "areomap/samples/scene.h"
 
 namespace areomap::bench {
 
@@ -28,9 +36,11 @@ struct TruthRock {
   double height = 0.0;                                   // [m]
   double radius = 0.0;                                   // Semi-axis a [m].
   double ground_z = 0.0;  // Ground elevation under the centre [m above the ellipsoid].
+  Rock shape;             // The generator's rock (ENU: x east, y north), for its surface.
 };
 
-// truth/rocks.csv: id, shape, east_m, north_m, ground_z_m, height_m, a_m, ...
+// truth/rocks.csv: id, shape, east_m, north_m, ground_z_m, height_m, a_m, b_m, azimuth_deg,
+// tilt_x_deg, tilt_y_deg.
 inline std::vector<TruthRock> ReadTruthRocks(const std::filesystem::path& csv) {
   std::ifstream in(csv);
   if (!in) throw Error(csv.string() + ": cannot open the truth rocks");
@@ -39,9 +49,21 @@ inline std::vector<TruthRock> ReadTruthRocks(const std::filesystem::path& csv) {
   std::vector<TruthRock> rocks;
   while (std::getline(in, line)) {
     const std::vector<std::string> f = SplitCsvLine(line);
-    if (f.size() < 7) throw Error(csv.string() + ": expected 7+ fields in '" + line + "'");
-    rocks.push_back({std::stoi(f[0]), Eigen::Vector2d(std::stod(f[3]), std::stod(f[2])),
-                     std::stod(f[5]), std::stod(f[6]), std::stod(f[4])});
+    if (f.size() < 11) throw Error(csv.string() + ": expected 11 fields in '" + line + "'");
+    const double radian = std::numbers::pi / 180.0;
+    Rock shape;
+    shape.id = std::stoi(f[0]);
+    shape.shape = RockShapeFromString(f[1]);
+    shape.center = Eigen::Vector2d(std::stod(f[2]), std::stod(f[3]));
+    shape.ground_z = std::stod(f[4]);
+    shape.height = std::stod(f[5]);
+    shape.a = std::stod(f[6]);
+    shape.b = std::stod(f[7]);
+    shape.azimuth = std::stod(f[8]) * radian;
+    shape.tilt_x = std::stod(f[9]) * radian;
+    shape.tilt_y = std::stod(f[10]) * radian;
+    rocks.push_back({shape.id, Eigen::Vector2d(shape.center.y(), shape.center.x()), shape.height,
+                     shape.a, shape.ground_z, shape});
   }
   return rocks;
 }
@@ -85,6 +107,90 @@ inline std::vector<int> RocksThatCouldMake(const std::vector<TruthRock>& truth,
   }
   return ids;
 }
+
+// The truth rock a stereo peak was seen on, by its sight ray. Stereo displaces a point along its
+// ray (range error, eq. 4.3) and barely across it, so the ray from the camera through a peak
+// passes through or just over the rock that made it, wherever along the ray the peak landed.
+// "Just over": the block matcher gives the background just above a rock's top the rock's
+// disparity (foreground fattening, about half a block and more), so the highest point of a far
+// rock lies a few pixels above it. The ray is marched in 1 cm steps from 4 sigma (the peak's
+// largest horizontal sigma, which is along its line of sight, plus 30 cm) before the peak to as
+// far beyond; at each step inside a rock's footprint the miss is
+//   chi2 = (height of the ray above the rock's surface / s_v)^2 + (step - peak's range)^2 / sigma^2
+// with s_v = 2 cm + 2 px x ifov x range. The rock with the least chi2 wins, when it is <= 9.21
+// (99 %, 2 dof); otherwise -1 (a peak on the ground or on a rock the ray misses). The rock's
+// base is its centre's ground, flat. Occlusion is not modelled: the peak was seen, so its ray
+// passed over any nearer rock. Frames: world points are site 0's frame (x north, y east, z
+// down [m]); `origin_height` is that frame's origin height above the ellipsoid [m].
+class SightRayTruth {
+ public:
+  // `ifov_rad`: the camera's angle per pixel (Navcam's 12 um / 14.67 mm by default, the widest
+  // of the generator's cameras).
+  SightRayTruth(const std::vector<TruthRock>& truth, double origin_height,
+                double ifov_rad = 12.0e-6 / 14.67e-3)
+      : truth_(truth), origin_height_(origin_height), ifov_rad_(ifov_rad) {
+    for (size_t i = 0; i < truth_.size(); ++i) {
+      const Rock& r = truth_[i].shape;
+      const double reach = r.FootprintRadius();
+      for (long long x = Cell(r.center.x() - reach); x <= Cell(r.center.x() + reach); ++x) {
+        for (long long y = Cell(r.center.y() - reach); y <= Cell(r.center.y() + reach); ++y) {
+          cells_[Key(x, y)].push_back(static_cast<int>(i));
+        }
+      }
+    }
+  }
+
+  // Id of the truth rock seen at `peak_world` from `camera_world`, -1 when none is within the
+  // chi2 limit. `covariance` is the peak's horizontal covariance in the same frame [m^2].
+  int RockSeen(const Eigen::Vector3d& camera_world, const Eigen::Vector3d& peak_world,
+               const Eigen::Matrix2d& covariance) const {
+    const Eigen::Vector3d camera = Enu(camera_world), peak = Enu(peak_world);
+    const double range = (peak - camera).norm();
+    if (range <= 0.0) return -1;
+    const Eigen::Vector3d direction = (peak - camera) / range;
+    const double sigma = std::max(
+        0.01,
+        std::sqrt(std::max(
+            0.0,
+            Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(covariance).eigenvalues().maxCoeff())));
+    const double vertical_sigma = 0.02 + 2.0 * ifov_rad_ * range;
+    const double reach = 4.0 * sigma + 0.3;
+    int best = -1;
+    double best_chi2 = 9.21;
+    for (double t = std::max(0.0, range - reach); t <= range + reach; t += 0.01) {
+      const Eigen::Vector3d x = camera + t * direction;
+      const auto it = cells_.find(Key(Cell(x.x()), Cell(x.y())));
+      if (it == cells_.end()) continue;
+      const double along = (t - range) / sigma;
+      if (along * along >= best_chi2) continue;
+      for (int i : it->second) {
+        const Rock& r = truth_[static_cast<size_t>(i)].shape;
+        const double above = r.HeightAbove(x.head<2>());
+        if (above <= 0.0) continue;
+        const double miss = std::max(0.0, x.z() - r.ground_z - above) / vertical_sigma;
+        const double chi2 = miss * miss + along * along;
+        if (chi2 < best_chi2) {
+          best_chi2 = chi2;
+          best = r.id;
+        }
+      }
+    }
+    return best;
+  }
+
+ private:
+  static long long Cell(double metres) { return static_cast<long long>(std::floor(metres)); }
+  static long long Key(long long x, long long y) { return (x << 32) ^ (y & 0xffffffffLL); }
+  // ENU (x east, y north, z up above the ellipsoid) from site 0's frame.
+  Eigen::Vector3d Enu(const Eigen::Vector3d& world) const {
+    return Eigen::Vector3d(world.y(), world.x(), origin_height_ - world.z());
+  }
+
+  const std::vector<TruthRock>& truth_;
+  double origin_height_;
+  double ifov_rad_;
+  std::unordered_map<long long, std::vector<int>> cells_;
+};
 
 // Site 0's frame from each site frame (true pose, believed axes); throws without truth.
 inline std::vector<Rigid3d> TrueWorldFromSites(const MissionManifest& mission) {
