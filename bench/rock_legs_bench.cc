@@ -5,12 +5,14 @@
 // lies in site 0's frame at Rz(h_true - h_telemetry) p + T_true (truth/sites.csv, telemetry/).
 // A peak belongs to the tallest truth rock whose footprint (base radius + 15 cm + half the peak's
 // largest horizontal sigma, for the stereo range error) holds it; a match is correct when both
-// peaks belong to the same truth rock.
+// peaks belong to the same truth rock. The sight-ray verdict (bench::SightRayTruth: the truth rock
+// the camera's ray through the peak meets, cameras from each site's points.ply) is printed beside.
 //
 // Run: build/release/bench/areomap_bench_rock_legs MISSION_DIR RUN_DIR
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,7 +21,9 @@
 #include "areomap/map/csv.h"
 #include "areomap/map/error.h"
 #include "areomap/map/mission_manifest.h"
+#include "areomap/map/point_cloud_io.h"
 #include "areomap/map/rigid3d.h"
+#include "mission_truth.h"
 #include "rock_truth.h"
 
 namespace areomap {
@@ -44,10 +48,22 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
   const std::vector<Rigid3d> world_from_site = bench::TrueWorldFromSites(mission);
   const std::vector<TruthRock> truth = ReadTruthRocks(*mission.truth_rocks_csv);
   const nlohmann::json run_legs = RunLegs(run_dir);
+  const bench::SightRayTruth sight(truth, mission.origin.h);
+  // Site k's left camera in site 0's frame, read from its cloud when first needed.
+  std::vector<std::optional<Eigen::Vector3d>> cameras(mission.sites.size());
+  const auto camera = [&](size_t k) {
+    if (!cameras[k]) {
+      const fs::path ply =
+          run_dir / "sites" / bench::SiteFolder(mission.sites[k].site) / "points.ply";
+      cameras[k] = world_from_site[k] * ReadPointCloudPly(ply).camera_center;
+    }
+    return *cameras[k];
+  };
   int all = 0, all_correct = 0, accepted = 0, accepted_correct = 0, legs_accepted = 0;
+  int all_seen_right = 0, accepted_seen_right = 0;
   std::printf(
-      "leg      prior                 matches correct  RE [%%]  outcome (after the legs' test: "
-      "dropped ties)\n");
+      "leg      prior                 matches correct sight  RE [%%]  outcome (after the legs' "
+      "test: dropped ties)\n");
   for (size_t k = 0; k + 1 < mission.sites.size(); ++k) {
     char name[64];
     std::snprintf(name, sizeof(name), "legs/leg_%03d_%03d", mission.sites[k].site,
@@ -64,7 +80,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
     const bool leg_accepted = summary.value("outcome", std::string()) == "matched";
     std::string line, dropped_text;
     std::getline(matches_file, line);
-    int matches = 0, correct = 0;
+    int matches = 0, correct = 0, seen_right = 0;
     while (std::getline(matches_file, line)) {
       const std::vector<std::string> f = SplitCsvLine(line);
       if (f.size() < 10) throw Error(leg.string() + "/matches.csv: short row '" + line + "'");
@@ -73,8 +89,15 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
       const int rock_a = RockUnder(truth, (world_from_site[k] * a).head<2>(), std::stod(f[8]));
       const int rock_b = RockUnder(truth, (world_from_site[k + 1] * b).head<2>(), std::stod(f[9]));
       const bool right = rock_a >= 0 && rock_a == rock_b;
+      const auto seen = [&](size_t site, const Eigen::Vector3d& peak, double sigma) {
+        return sight.RockSeen(camera(site), world_from_site[site] * peak,
+                              Eigen::Matrix2d::Identity() * sigma * sigma);
+      };
+      const int seen_a = seen(k, a, std::stod(f[8]));
+      const bool seen_same = seen_a >= 0 && seen_a == seen(k + 1, b, std::stod(f[9]));
       ++matches;
       correct += right ? 1 : 0;
+      seen_right += seen_same ? 1 : 0;
       bool was_dropped = false;
       for (const auto& id : dropped) {
         was_dropped |= bench::RockIdOfTie(id.get<std::string>()) == std::stoi(f[0]);
@@ -83,23 +106,30 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
       if (leg_accepted && !was_dropped) {
         ++accepted;
         accepted_correct += right ? 1 : 0;
+        accepted_seen_right += seen_same ? 1 : 0;
       }
     }
     all += matches;
     all_correct += correct;
+    all_seen_right += seen_right;
     legs_accepted += leg_accepted ? 1 : 0;
     const nlohmann::json prior = summary.value("prior", nlohmann::json::object());
     const double re = summary.value("relative_error_percent", std::nan(""));
-    std::printf("%zu -> %zu  %-20s  %7d %7d  %6.2f  %s%s\n", k, k + 1,
-                prior.value("source", std::string("?")).c_str(), matches, correct, re,
+    std::printf("%zu -> %zu  %-20s  %7d %7d %5d  %6.2f  %s%s\n", k, k + 1,
+                prior.value("source", std::string("?")).c_str(), matches, correct, seen_right, re,
                 summary.value("outcome", std::string("?")).c_str(),
                 dropped_text.empty() ? "" : (": dropped" + dropped_text).c_str());
   }
-  std::printf("all legs: %d matches, %d correct (precision %.1f %%)\n", all, all_correct,
-              all > 0 ? 100.0 * all_correct / all : 100.0);
-  std::printf("legs accepted: %d of %zu; their tie points: %d, %d correct (precision %.1f %%)\n",
-              legs_accepted, mission.sites.size() - 1, accepted, accepted_correct,
-              accepted > 0 ? 100.0 * accepted_correct / accepted : 100.0);
+  const auto percent = [](int n, int of) { return of > 0 ? 100.0 * n / of : 100.0; };
+  std::printf(
+      "all legs: %d matches, %d correct (precision %.1f %%); by the sight ray %d (%.1f %%)\n", all,
+      all_correct, percent(all_correct, all), all_seen_right, percent(all_seen_right, all));
+  std::printf(
+      "legs accepted: %d of %zu; their tie points: %d, %d correct (precision %.1f %%); by the "
+      "sight ray %d (%.1f %%)\n",
+      legs_accepted, mission.sites.size() - 1, accepted, accepted_correct,
+      percent(accepted_correct, accepted), accepted_seen_right,
+      percent(accepted_seen_right, accepted));
   return 0;
 }
 
