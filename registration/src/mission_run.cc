@@ -285,6 +285,9 @@ nlohmann::json MissionRunOptions::ToJson() const {
   figures["rocks_model_min_height_m"] = rocks.model_min_height_m;
   figures["rock_min_peak_to_plane_m"] = matching.fault_detection.min_peak_to_plane_m;
   figures["rock_low_rock_max_peak_sigma_m"] = matching.low_rock_max_peak_sigma_m;
+  // Three significant rocks per cell since 2026-12-04 (one before): legs made with one are
+  // recomputed.
+  figures["rock_significant_per_cell"] = matching.significant_per_cell;
   // Library callers may change the rock ties' variance factor: legs made with another are not
   // reused. Left out at its default, so that earlier runs keep their fingerprint.
   if (matching.tie_variance_factor != 1.0) {

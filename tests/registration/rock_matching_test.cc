@@ -400,6 +400,45 @@ TEST(RockMatching, LowNeighbourOfTheRocksOwnHeightMakesItAmbiguous) {
 // A rock under 15 cm (the 12 cm rule admits it) is matched only while both peaks are precise: a
 // far peak of a low rock has look-alike neighbours too low to be extracted, which the ambiguity
 // test cannot see.
+TEST(RockMatching, SignificantRocksAreTheThreeHighestOfTheirCell) {
+  // Ch. 3.2 keeps the highest rock of each grid cell; three per 3 m cell keep more rocks of a
+  // in play, and each rock left out is lower than three rocks of its cell that are in play.
+  const SimulatedSite& a = SiteA();
+  const SimulatedSite& b = SiteB();
+  RockMatchingOptions one;
+  one.significant_per_cell = 1;
+  const SitePairMatch single = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), one);
+  const SitePairMatch three = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), {});
+  EXPECT_GT(three.significant, single.significant);
+  EXPECT_GE(three.matches.size(), single.matches.size());
+  const double cell = RockMatchingOptions{}.significant_cell_m;
+  const auto cell_of = [&](int rock) {
+    const Eigen::Vector3d& p = a.rocks.rocks[static_cast<size_t>(rock)].peak;
+    return std::make_pair(std::floor(p.x() / cell), std::floor(p.y() / cell));
+  };
+  int left_out = 0;
+  for (const RockMatchOutcome& o : three.outcomes) {
+    if (o.fate != "not highest in cell") continue;
+    ++left_out;
+    const double height = a.rocks.rocks[static_cast<size_t>(o.rock_a)].height_m;
+    int higher_in_play = 0;
+    for (const RockMatchOutcome& other : three.outcomes) {
+      if (other.rock_a == o.rock_a || other.fate == "not highest in cell" ||
+          other.fate == "ambiguous at a" || cell_of(other.rock_a) != cell_of(o.rock_a)) {
+        continue;
+      }
+      higher_in_play += a.rocks.rocks[static_cast<size_t>(other.rock_a)].height_m >= height;
+    }
+    EXPECT_EQ(higher_in_play, 3) << "rock " << o.rock_a;
+  }
+  int left_out_single = 0;
+  for (const RockMatchOutcome& o : single.outcomes) {
+    left_out_single += o.fate == "not highest in cell" ? 1 : 0;
+  }
+  EXPECT_GE(left_out, 1);  // The scene has a cell with four rocks in play.
+  EXPECT_LT(left_out, left_out_single);
+}
+
 TEST(RockMatching, LowRockIsMatchedOnlyBetweenPrecisePeaks) {
   const RockMatchingOptions twelve_cm;  // The default.
   ASSERT_EQ(twelve_cm.fault_detection.min_peak_to_plane_m, 0.12);
