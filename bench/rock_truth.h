@@ -113,9 +113,9 @@ inline std::vector<int> RocksThatCouldMake(const std::vector<TruthRock>& truth,
 // passes through or just over the rock that made it, wherever along the ray the peak landed.
 // "Just over": the block matcher gives the background just above a rock's top the rock's
 // disparity (foreground fattening, about half a block and more), so the highest point of a far
-// rock lies a few pixels above it. The ray is marched in 1 cm steps from 4 sigma (the peak's
-// largest horizontal sigma, which is along its line of sight, plus 30 cm) before the peak to as
-// far beyond; at each step inside a rock's footprint the miss is
+// rock lies a few pixels above it. The ray is marched in 1 cm steps over the peak's range +-
+// (4 sigma + 30 cm), sigma being the peak's largest horizontal sigma (along its line of sight, at
+// least 1 cm); at each step inside a rock's footprint the miss is
 //   chi2 = (height of the ray above the rock's surface / s_v)^2 + (step - peak's range)^2 / sigma^2
 // with s_v = 2 cm + 2 px x ifov x range. The rock with the least chi2 wins, when it is <= 9.21
 // (99 %, 2 dof); otherwise -1 (a peak on the ground or on a rock the ray misses). The rock's
