@@ -131,7 +131,7 @@ Site LoadSite(const fs::path& run_dir, int site, const Rigid3d& world_from_site,
         turn * r.peak_covariance.topLeftCorner<2, 2>() * turn.transpose();
     s.could_make.push_back(
         bench::RocksThatCouldMake(truth, peak_world.head<2>(), covariance_world, r.height_m));
-    s.seen_on.push_back(sight.RockSeen(s.camera_world, peak_world, covariance_world));
+    s.seen_on.push_back(sight.RockSeen(s.camera_world, peak_world, sigma));
     const int precision = sigma < 0.1 ? 0 : 1;
     ++agreement->peaks[precision];
     agreement->agree[precision] += s.seen_on.back() == id ? 1 : 0;

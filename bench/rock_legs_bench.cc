@@ -90,8 +90,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir) {
       const int rock_b = RockUnder(truth, (world_from_site[k + 1] * b).head<2>(), std::stod(f[9]));
       const bool right = rock_a >= 0 && rock_a == rock_b;
       const auto seen = [&](size_t site, const Eigen::Vector3d& peak, double sigma) {
-        return sight.RockSeen(camera(site), world_from_site[site] * peak,
-                              Eigen::Matrix2d::Identity() * sigma * sigma);
+        return sight.RockSeen(camera(site), world_from_site[site] * peak, sigma);
       };
       const int seen_a = seen(k, a, std::stod(f[8]));
       const bool seen_same = seen_a >= 0 && seen_a == seen(k + 1, b, std::stod(f[9]));

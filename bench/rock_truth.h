@@ -19,7 +19,6 @@
 #include <unordered_map>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include "areomap/map/csv.h"
@@ -141,18 +140,14 @@ class SightRayTruth {
   }
 
   // Id of the truth rock seen at `peak_world` from `camera_world`, -1 when none is within the
-  // chi2 limit. `covariance` is the peak's horizontal covariance in the same frame [m^2].
+  // chi2 limit. `sigma_m` is the peak's largest horizontal sigma [m].
   int RockSeen(const Eigen::Vector3d& camera_world, const Eigen::Vector3d& peak_world,
-               const Eigen::Matrix2d& covariance) const {
+               double sigma_m) const {
     const Eigen::Vector3d camera = Enu(camera_world), peak = Enu(peak_world);
     const double range = (peak - camera).norm();
     if (range <= 0.0) return -1;
     const Eigen::Vector3d direction = (peak - camera) / range;
-    const double sigma = std::max(
-        0.01,
-        std::sqrt(std::max(
-            0.0,
-            Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(covariance).eigenvalues().maxCoeff())));
+    const double sigma = std::max(0.01, sigma_m);
     const double vertical_sigma = 0.02 + 2.0 * ifov_rad_ * range;
     const double reach = 4.0 * sigma + 0.3;
     int best = -1;

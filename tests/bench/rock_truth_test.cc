@@ -34,8 +34,8 @@ Eigen::Vector3d AlongRay(const Eigen::Vector3d& point, double metres) {
   return point + metres * (point - kCamera).normalized();
 }
 
-// A far Navcam peak: 0.5 m sigma along its line of sight (north here), 2 cm across.
-Eigen::Matrix2d FarPeakCovariance() { return Eigen::Vector2d(0.5 * 0.5, 0.02 * 0.02).asDiagonal(); }
+// A far Navcam peak: 0.5 m sigma along its line of sight [m].
+constexpr double kFarPeakSigma = 0.5;
 
 TEST(SightRayTruth, FarPeakBelongsToTheRockItsRayMeetsWhereverAlongTheRayItLies) {
   // A: 20 cm high, 40 cm wide, 15 m out. B: taller, 40 cm east of A (their footprints 5 cm apart).
@@ -43,10 +43,8 @@ TEST(SightRayTruth, FarPeakBelongsToTheRockItsRayMeetsWhereverAlongTheRayItLies)
                                         Hemispheroid(2, 15.0, 0.40, 0.15, 0.25)};
   const SightRayTruth sight(truth, /*origin_height=*/0.0);
   for (double along : {-1.0, -0.5, 0.0, 0.3, 1.0}) {
-    EXPECT_EQ(sight.RockSeen(kCamera, AlongRay(Top(truth[0]), along), FarPeakCovariance()), 1)
-        << along;
-    EXPECT_EQ(sight.RockSeen(kCamera, AlongRay(Top(truth[1]), along), FarPeakCovariance()), 2)
-        << along;
+    EXPECT_EQ(sight.RockSeen(kCamera, AlongRay(Top(truth[0]), along), kFarPeakSigma), 1) << along;
+    EXPECT_EQ(sight.RockSeen(kCamera, AlongRay(Top(truth[1]), along), kFarPeakSigma), 2) << along;
   }
   // The disk rule gives A's peak measured 30 cm beyond A to the taller B.
   const Eigen::Vector3d beyond = AlongRay(Top(truth[0]), 0.3);
@@ -57,17 +55,17 @@ TEST(SightRayTruth, PeakOnTheGroundOrFarAboveARockIsOnNone) {
   const std::vector<TruthRock> truth = {Hemispheroid(1, 15.0, 0.0, 0.20, 0.20)};
   const SightRayTruth sight(truth, 0.0);
   // On the ground 1 m west of the rock.
-  EXPECT_EQ(sight.RockSeen(kCamera, Eigen::Vector3d(15.0, -1.0, 0.0), FarPeakCovariance()), -1);
+  EXPECT_EQ(sight.RockSeen(kCamera, Eigen::Vector3d(15.0, -1.0, 0.0), kFarPeakSigma), -1);
   // Beyond 4 sigma along the ray (the ray meets the rock 2.5 m before the peak).
-  EXPECT_EQ(sight.RockSeen(kCamera, AlongRay(Top(truth[0]), 2.5), FarPeakCovariance()), -1);
+  EXPECT_EQ(sight.RockSeen(kCamera, AlongRay(Top(truth[0]), 2.5), kFarPeakSigma), -1);
   // The block matcher's foreground fattening: the background 2 px above the top is given the
   // rock's range; 15 px above is another thing.
   const double ifov = 12.0e-6 / 14.67e-3;
   const double range = (Top(truth[0]) - kCamera).norm();
   const Eigen::Vector3d two_px_above = Top(truth[0]) - Eigen::Vector3d(0, 0, 2 * ifov * range);
   const Eigen::Vector3d fifteen_px_above = Top(truth[0]) - Eigen::Vector3d(0, 0, 15 * ifov * range);
-  EXPECT_EQ(sight.RockSeen(kCamera, two_px_above, FarPeakCovariance()), 1);
-  EXPECT_EQ(sight.RockSeen(kCamera, fifteen_px_above, FarPeakCovariance()), -1);
+  EXPECT_EQ(sight.RockSeen(kCamera, two_px_above, kFarPeakSigma), 1);
+  EXPECT_EQ(sight.RockSeen(kCamera, fifteen_px_above, kFarPeakSigma), -1);
 }
 
 TEST(ReadTruthRocks, ReadsTheGeneratorsShapesAndNamesAMalformedFile) {

@@ -88,11 +88,16 @@ const SimulatedSite& SiteLookingAway() {
   return site;
 }
 
+// Sites a and b matched under the telemetry-like prior.
+SitePairMatch MatchSitesAAndB(const RockMatchingOptions& options = {}) {
+  return MatchSitePair(SiteA().rocks, SiteB().rocks, TelemetryPrior(SiteA(), SiteB()), options);
+}
+
 TEST(RockMatching, TwoSitesTwelveMetresApartGiveCorrectTiePoints) {
   const Scene& scene = SharedScene();
   const SimulatedSite& a = SiteA();
   const SimulatedSite& b = SiteB();
-  const SitePairMatch match = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), {});
+  const SitePairMatch match = MatchSitesAAndB();
   EXPECT_EQ(match.report.outcome, PairOutcome::kMatched) << match.report.ToText();
   ASSERT_GE(match.tie_points.size(), 3u) << match.report.ToText();
   ASSERT_EQ(match.tie_points.size(), match.matches.size());
@@ -125,16 +130,14 @@ TEST(RockMatching, TwoSitesTwelveMetresApartGiveCorrectTiePoints) {
 }
 
 TEST(RockMatching, TieVarianceFactorScalesTheTieCovariancesAndRe) {
-  const SimulatedSite& a = SiteA();
-  const SimulatedSite& b = SiteB();
   // The outlier test is off: the factor would change its verdicts, not only the covariances.
   RockMatchingOptions options;
   options.max_residual_chi2 = 1e9;
-  const SitePairMatch base = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), options);
+  const SitePairMatch base = MatchSitesAAndB(options);
   ASSERT_TRUE(base.error.has_value());
   ASSERT_GE(base.tie_points.size(), 3u);
   options.tie_variance_factor = 0.5;
-  const SitePairMatch scaled = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), options);
+  const SitePairMatch scaled = MatchSitesAAndB(options);
   ASSERT_TRUE(scaled.error.has_value());
   ASSERT_EQ(scaled.tie_points.size(), base.tie_points.size());
   for (size_t k = 0; k < base.tie_points.size(); ++k) {
@@ -151,7 +154,7 @@ TEST(RockMatching, TieVarianceFactorScalesTheTieCovariancesAndRe) {
   EXPECT_NEAR(scaled.error->chi2, 2.0 * base.error->chi2, 1e-6 * base.error->chi2 + 1e-12);
   EXPECT_EQ(scaled.error->redundancy, base.error->redundancy);
   options.tie_variance_factor = 0.0;
-  EXPECT_THROW(MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), options), Error);
+  EXPECT_THROW(MatchSitesAAndB(options), Error);
 }
 
 TEST(RockMatching, PairsWithoutOverlapOrRocksAreExcludedWithAReport) {
@@ -397,18 +400,14 @@ TEST(RockMatching, LowNeighbourOfTheRocksOwnHeightMakesItAmbiguous) {
   EXPECT_EQ(fate_with_neighbour(0.17, 0.13, tall_only), "matched");
 }
 
-// A rock under 15 cm (the 12 cm rule admits it) is matched only while both peaks are precise: a
-// far peak of a low rock has look-alike neighbours too low to be extracted, which the ambiguity
-// test cannot see.
 TEST(RockMatching, SignificantRocksAreTheThreeHighestOfTheirCell) {
   // Ch. 3.2 keeps the highest rock of each grid cell; three per 3 m cell keep more rocks of a
   // in play, and each rock left out is lower than three rocks of its cell that are in play.
   const SimulatedSite& a = SiteA();
-  const SimulatedSite& b = SiteB();
   RockMatchingOptions one;
   one.significant_per_cell = 1;
-  const SitePairMatch single = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), one);
-  const SitePairMatch three = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), {});
+  const SitePairMatch single = MatchSitesAAndB(one);
+  const SitePairMatch three = MatchSitesAAndB();
   EXPECT_GT(three.significant, single.significant);
   EXPECT_GE(three.matches.size(), single.matches.size());
   const double cell = RockMatchingOptions{}.significant_cell_m;
@@ -439,6 +438,9 @@ TEST(RockMatching, SignificantRocksAreTheThreeHighestOfTheirCell) {
   EXPECT_LT(left_out, left_out_single);
 }
 
+// A rock under 15 cm (the 12 cm rule admits it) is matched only while both peaks are precise: a
+// far peak of a low rock has look-alike neighbours too low to be extracted, which the ambiguity
+// test cannot see.
 TEST(RockMatching, LowRockIsMatchedOnlyBetweenPrecisePeaks) {
   const RockMatchingOptions twelve_cm;  // The default.
   ASSERT_EQ(twelve_cm.fault_detection.min_peak_to_plane_m, 0.12);
@@ -460,9 +462,7 @@ TEST(RockMatching, LowRockIsMatchedOnlyBetweenPrecisePeaks) {
 }
 
 TEST(RockMatching, OutcomesAccountForEveryMatch) {
-  const SimulatedSite& a = SiteA();
-  const SimulatedSite& b = SiteB();
-  const SitePairMatch match = MatchSitePair(a.rocks, b.rocks, TelemetryPrior(a, b), {});
+  const SitePairMatch match = MatchSitesAAndB();
   int matched = 0;
   std::vector<int> seen;
   for (const RockMatchOutcome& o : match.outcomes) {
