@@ -23,10 +23,11 @@ double Number(const nlohmann::json& object, const char* key) {
 
 // The lines a person reads after a run: per-leg outcome and RE, and the final errors.
 void PrintRunSummary(const nlohmann::json& s) {
-  std::printf("sites: %d computed, %d reused; legs: %d computed, %d reused (%.0f s)\n",
-              s["units"]["sites_computed"].get<int>(), s["units"]["sites_reused"].get<int>(),
-              s["units"]["legs_computed"].get<int>(), s["units"]["legs_reused"].get<int>(),
-              Number(s, "seconds"));
+  std::printf(
+      "sites: %d computed, %d reused; legs: %d computed, %d reused, %d matched again (%.0f s)\n",
+      s["units"]["sites_computed"].get<int>(), s["units"]["sites_reused"].get<int>(),
+      s["units"]["legs_computed"].get<int>(), s["units"]["legs_reused"].get<int>(),
+      s["units"].value("legs_rematched", 0), Number(s, "seconds"));
   for (const nlohmann::json& site : s["sites"]) {
     const nlohmann::json& r = site["registration"];
     char verdict[96];
@@ -43,6 +44,10 @@ void PrintRunSummary(const nlohmann::json& s) {
     std::printf("leg %3d -> %3d: %-30s %3d tie points", leg["site_a"].get<int>(),
                 leg["site_b"].get<int>(), leg["outcome"].get<std::string>().c_str(),
                 leg["tie_points"].get<int>());
+    const nlohmann::json& first = leg.value("first_pass", nlohmann::json::object());
+    if (first.contains("outcome") && first["outcome"] != leg["outcome"]) {
+      std::printf(" (first pass: %s)", first["outcome"].get<std::string>().c_str());
+    }
     if (leg.contains("relative_error_percent")) {
       std::printf(", RE %.2f %%", Number(leg, "relative_error_percent"));
     }
@@ -59,6 +64,10 @@ void PrintRunSummary(const nlohmann::json& s) {
         "rock tie fits of %d legs: pooled sigma0^2 %.3f (95 %% upper bound %.3f, redundancy %d)\n",
         ties.value("legs", 0), Number(ties, "sigma0_squared"),
         Number(ties, "sigma0_squared_upper_95"), ties.value("redundancy", 0));
+  }
+  if (ties.value("applied_factor", nlohmann::json()).is_number()) {
+    std::printf("legs matched again with the rock ties' variance factor %.3f (second pass)\n",
+                Number(ties, "applied_factor"));
   }
   const nlohmann::json& guided = s.value("guided_registration", nlohmann::json::object());
   for (const nlohmann::json& pass : guided.value("passes", nlohmann::json::array())) {
@@ -125,6 +134,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     bool no_products = false;
     bool keep_coarse_points = false;
     bool no_leg_test = false;
+    bool no_rock_variance_pass = false;
   };
   auto o = std::make_shared<Options>();
   auto* run = app.add_subcommand(
@@ -177,6 +187,10 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
   run->add_flag("--keep-coarse-points", o->keep_coarse_points,
                 "Keep every pair's points where a more precise pair (Pancam over Navcam) sees the "
                 "same ground");
+  run->add_flag("--no-rock-variance-pass", o->no_rock_variance_pass,
+                "Accept legs by the rock ties' a-priori covariances only, without matching them "
+                "again with the variance factor their first pass shows (the adjustment always "
+                "uses the a-priori covariances)");
   run->add_flag("--no-leg-test", o->no_leg_test,
                 "Keep every leg's tie points as its fault detection accepted them, without testing "
                 "the legs' precision against each other");
@@ -192,6 +206,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     if (o->no_products) o->run.traverse_products = false;
     if (o->keep_coarse_points) o->run.prefer_precise_pairs = false;
     if (o->no_leg_test) o->run.leg_test = false;
+    if (o->no_rock_variance_pass) o->run.rock_variance_pass = false;
     o->run.rocks.model_min_height_m = o->run.matching.fault_detection.min_peak_to_plane_m;
     o->run.Check();  // Bad options fail before the mission is read.
     // Every file the manifest names is checked before any work starts.

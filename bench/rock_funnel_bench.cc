@@ -23,6 +23,10 @@
 // rule gives it to the tallest rock nearby; both verdicts are printed, with how often each calls a
 // decoy right (the match's site-a peak with the site-b peak nearest its partner).
 //
+// Like `areomap run`, the legs are then matched again at the variance factor the first pass's
+// conformal fits show (MissionRunOptions::rock_variance_pass; `rock_variance_pass=0` turns it
+// off): the second pass's table follows the first's.
+//
 // Run: build/ci/bench/areomap_bench_rock_funnel MISSION_DIR RUN_DIR [ROCKS_CSV] [NAME=VALUE...]
 // ROCKS_CSV (optional): one row per truth rock past the ratio stage and site of the leg, with the
 // nearest extracted peak, its height and rule, its elevation error and its horizontal offset from
@@ -219,7 +223,9 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options) {
       {"model_min_height_m", &options->rocks.model_min_height_m},
       {"plane_exclusion_k", &options->rocks.plane_exclusion_k},
       {"min_height_m", &options->rocks.min_height_m}};
-  if (name == "significant_per_cell") {
+  if (name == "rock_variance_pass") {
+    options->rock_variance_pass = value != 0.0;
+  } else if (name == "significant_per_cell") {
     m.significant_per_cell = static_cast<int>(value);
   } else if (name == "min_surface_points") {
     fd.min_surface_points = static_cast<int>(value);
@@ -276,8 +282,9 @@ void PrintLegTest(const std::vector<std::vector<TiePoint>>& leg_ties,
       legs_kept, kept, kept_right, percent(kept_right), kept_seen_right, percent(kept_seen_right));
 }
 
-int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& rocks_csv,
-         const MissionRunOptions& options) {
+// One pass over the legs; returns the legs' conformal fits pooled at the a-priori covariances.
+PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run_dir,
+                                const fs::path& rocks_csv, const MissionRunOptions& options) {
   std::ofstream rows;
   if (!rocks_csv.empty()) {
     rows.open(rocks_csv);
@@ -590,6 +597,23 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
       "conformal fits of %d legs: chi2 %.1f at tie_variance_factor 1, redundancy %d, pooled "
       "sigma0^2 %.3f (95 %% upper bound %.3f)\n",
       pooled.fits, pooled.chi2, pooled.redundancy, pooled.estimate, pooled.upper_95);
+  return pooled;
+}
+
+// The funnel as `areomap run` gathers its legs: the first pass, then, when the run would make
+// one (MissionRunOptions::RockVariancePassFactor), the second at the first pass's factor.
+int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& rocks_csv,
+         MissionRunOptions options) {
+  const PooledVarianceFactor first_pass = FunnelPass(mission_dir, run_dir, rocks_csv, options);
+  const std::optional<double> factor = options.RockVariancePassFactor(first_pass);
+  if (!factor) {
+    std::printf("no second pass (off, or pooled redundancy %d < %d)\n", first_pass.redundancy,
+                options.rock_variance_pass_min_redundancy);
+    return 0;
+  }
+  std::printf("\nsecond pass: the legs matched again at tie_variance_factor %.3f\n", *factor);
+  options.matching.tie_variance_factor = *factor;
+  FunnelPass(mission_dir, run_dir, "", options);
   return 0;
 }
 

@@ -21,15 +21,6 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-SiteRocks ExtractSiteRocks(const RunContext& run, int site, RockExtractionSummary* summary) {
-  const PointCloud cloud = ReadPointCloudPly(SiteDir(run, site) / "points.ply");
-  SiteRocks rocks;
-  rocks.site = site;
-  rocks.camera_center = cloud.camera_center;
-  rocks.rocks = ExtractRocks(cloud, run.options->rocks, summary);
-  return rocks;
-}
-
 // A site's pose in the mission frame as corrected by its orbital registration (registration.json
 // of the site unit): position shifted by the match, heading turned by the solved rotation (a
 // counter-clockwise rotation on the map is a heading decrease). Null when the registration was not
@@ -133,23 +124,42 @@ RockMatchingPrior LegPrior(const RunContext& run, size_t index_a, size_t index_b
 
 }  // namespace
 
-json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
-                const ProgressCallback& progress) {
+const SiteRocksCache::Entry& SiteRocksCache::Get(size_t site_index) {
+  const auto found = entries_.find(site_index);
+  if (found != entries_.end()) return found->second;
+  const int site = run_->mission->sites.at(site_index).site;
+  const PointCloud cloud = ReadPointCloudPly(SiteDir(*run_, site) / "points.ply");
+  Entry entry;
+  entry.rocks.site = site;
+  entry.rocks.camera_center = cloud.camera_center;
+  entry.rocks.rocks = ExtractRocks(cloud, run_->options->rocks, &entry.summary);
+  return entries_.emplace(site_index, std::move(entry)).first->second;
+}
+
+json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b, SiteRocksCache& rocks,
+                const RockMatchingOptions& matching, const ProgressCallback& progress) {
   const MissionManifest& mission = *run.mission;
   const int site_a = mission.sites.at(index_a).site;
   const int site_b = mission.sites.at(index_b).site;
   const fs::path dir = LegDir(run, site_a, site_b);
   fs::create_directories(dir);
 
-  RockExtractionSummary summary_a, summary_b;
-  const SiteRocks rocks_a = ExtractSiteRocks(run, site_a, &summary_a);
-  if (progress && !progress(0.4, "rocks")) throw Error("cancelled during rock extraction");
-  const SiteRocks rocks_b = ExtractSiteRocks(run, site_b, &summary_b);
-  if (progress && !progress(0.8, "rocks")) throw Error("cancelled during rock extraction");
+  const bool extract_a = !rocks.Has(index_a);
+  const SiteRocksCache::Entry& a = rocks.Get(index_a);
+  if (extract_a && progress && !progress(0.4, "rocks")) {
+    throw Error("cancelled during rock extraction");
+  }
+  const bool extract_b = !rocks.Has(index_b);
+  const SiteRocksCache::Entry& b = rocks.Get(index_b);
+  if (extract_b && progress && !progress(0.8, "rocks")) {
+    throw Error("cancelled during rock extraction");
+  }
+  const SiteRocks& rocks_a = a.rocks;
+  const SiteRocks& rocks_b = b.rocks;
 
   json prior_info;
   const RockMatchingPrior prior = LegPrior(run, index_a, index_b, &prior_info);
-  const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, prior, run.options->matching);
+  const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, prior, matching);
   WriteFileAtomically(dir / "faults.json", match.report.ToJson().dump(2));
   WriteFileAtomically(dir / "faults.txt", match.report.ToText());
   WriteRockMatchesCsv(dir / "matches.csv", rocks_a, rocks_b, match);
@@ -168,17 +178,17 @@ json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
                   {"outcome", ToString(match.report.outcome)},
                   {"tie_points", match.tie_points.size()},
                   {"rock_matches", match.matches.size()},
-                  {"rocks_a", RockExtractionSummaryToJson(summary_a)},
-                  {"rocks_b", RockExtractionSummaryToJson(summary_b)},
+                  {"rocks_a", RockExtractionSummaryToJson(a.summary)},
+                  {"rocks_b", RockExtractionSummaryToJson(b.summary)},
                   {"faults", match.report.ToJson()}};
   if (match.error) {
     summary["relative_error_percent"] = match.error->relative_error_percent;
     // The conformal fit's residuals, pooled over the legs into the run's a-posteriori variance
-    // factor of the rock tie points (mission_run.cc, RockTieVariance).
+    // factor of the rock tie points (mission_run.cc, FirstPassTieVariance).
     summary["conformal_chi2"] = match.error->chi2;
     summary["conformal_redundancy"] = match.error->redundancy;
   }
-  summary["tie_variance_factor"] = run.options->matching.tie_variance_factor;
+  summary["tie_variance_factor"] = matching.tie_variance_factor;
   return summary;
 }
 

@@ -164,26 +164,51 @@ std::vector<Rigid3d> AdjustedPoses(const fs::path& adjustment_json, size_t site_
   return poses;
 }
 
-// The rock tie points' a-posteriori variance factor over the run's legs: their conformal fits'
-// chi2 (recorded at the run's tie_variance_factor, scaled back to the a-priori covariances) and
-// redundancy, pooled (PoolVarianceFactor). Null figures when no leg had redundancy.
-json RockTieVariance(const std::vector<json>& legs) {
+// A leg's first-pass figures: "first_pass" after the second pass matched it again, else the leg.
+const json& FirstPass(const json& leg) {
+  const auto found = leg.find("first_pass");
+  return found != leg.end() && found->is_object() ? *found : leg;
+}
+
+// The rock tie points' a-posteriori variance factor over the run's legs: their first-pass
+// conformal fits' chi2 (recorded at the pass's tie_variance_factor, scaled back to the a-priori
+// covariances) and redundancy, pooled (PoolVarianceFactor).
+PooledVarianceFactor FirstPassTieVariance(const std::vector<json>& legs) {
   std::vector<SitePairError> fits;
   for (const json& leg : legs) {
-    const json chi2 = leg.value("conformal_chi2", json());
+    const json& first = FirstPass(leg);
+    const json chi2 = first.value("conformal_chi2", json());
     if (!chi2.is_number() || !std::isfinite(chi2.get<double>())) continue;  // null when resumed
     SitePairError fit;
-    fit.chi2 = chi2.get<double>() * leg.value("tie_variance_factor", 1.0);
-    fit.redundancy = leg.value("conformal_redundancy", 0);
+    fit.chi2 = chi2.get<double>() * first.value("tie_variance_factor", 1.0);
+    fit.redundancy = first.value("conformal_redundancy", 0);
     fits.push_back(fit);
   }
-  const PooledVarianceFactor pooled = PoolVarianceFactor(fits);
+  return PoolVarianceFactor(fits);
+}
+
+// summary.json's "rock_tie_variance": the pooled figures (null when no leg had redundancy) and
+// the factor the second pass applied (null when it did not run).
+json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional<double> applied) {
   const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(); };
   return {{"legs", pooled.fits},
           {"chi2", pooled.chi2},
           {"redundancy", pooled.redundancy},
           {"sigma0_squared", number(pooled.estimate)},
-          {"sigma0_squared_upper_95", number(pooled.upper_95)}};
+          {"sigma0_squared_upper_95", number(pooled.upper_95)},
+          {"applied_factor", applied ? json(*applied) : json()}};
+}
+
+// The first-pass figures a leg keeps when the second pass matches it again.
+json FirstPassRecord(const json& leg) {
+  const json& first = FirstPass(leg);
+  json record = json::object();
+  for (const char* key :
+       {"outcome", "tie_points", "rock_matches", "relative_error_percent", "conformal_chi2",
+        "conformal_redundancy", "tie_variance_factor", "seconds"}) {
+    if (first.contains(key)) record[key] = first[key];
+  }
+  return record;
 }
 
 double SecondsSince(std::chrono::steady_clock::time_point start) {
@@ -192,6 +217,15 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 }  // namespace mission_run
+
+std::optional<double> MissionRunOptions::RockVariancePassFactor(
+    const PooledVarianceFactor& first_pass) const {
+  if (!rock_variance_pass || first_pass.redundancy < rock_variance_pass_min_redundancy ||
+      !std::isfinite(first_pass.upper_95) || first_pass.upper_95 <= 0.0) {
+    return std::nullopt;
+  }
+  return first_pass.upper_95;
+}
 
 void MissionRunOptions::Check() const {
   stereo.Check();
@@ -226,6 +260,8 @@ void MissionRunOptions::Check() const {
                 "a positive heading drift sigma in degrees");
   RequireOption(leg_test_alpha > 0.0 && leg_test_alpha < 1.0, "MissionRunOptions.leg_test_alpha",
                 "a false alarm rate in (0, 1)");
+  RequireOption(rock_variance_pass_min_redundancy >= 1,
+                "MissionRunOptions.rock_variance_pass_min_redundancy", ">= 1");
   RequireOption(guided_passes >= 0, "MissionRunOptions.guided_passes", ">= 0");
   RequireOption(guided_sigma_floor_m > 0.0, "MissionRunOptions.guided_sigma_floor_m",
                 "a positive sigma in metres");
@@ -362,24 +398,51 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   if (cancelled) throw Error("cancelled during the site units");
   for (bool r : reused) (r ? summary.sites_reused : summary.sites_computed)++;
   lap("sites");
+  // The legs: the first pass with the run's matching options, then the second with the first
+  // pass's pooled variance factor (MissionRunOptions::rock_variance_pass). A leg is matched
+  // again only when the factor it was matched with is not the one wanted.
+  constexpr double kFirstPass = kSites + 0.8 * (kLegs - kSites);
+  SiteRocksCache site_rocks(run);
+  const auto match_leg = [&](size_t i, const RockMatchingOptions& matching, double from,
+                             double to) {
+    const auto leg_start = std::chrono::steady_clock::now();
+    json done = RunLegUnit(run, i, i + 1, site_rocks, matching, [&](double f, std::string_view s) {
+      const double n = static_cast<double>(leg_count);
+      return report(from + (to - from) * (static_cast<double>(i) + f) / n, s);
+    });
+    done["seconds"] = SecondsSince(leg_start);
+    return done;
+  };
   std::vector<json> leg_summaries(leg_count);
   for (size_t i = 0; i < leg_count; ++i) {
     const fs::path dir = LegDir(run, mission.sites[i].site, mission.sites[i + 1].site);
     json done = FinishedUnit(run, dir);
     if (done.is_null()) {
-      const auto leg_start = std::chrono::steady_clock::now();
-      done = RunLegUnit(run, i, i + 1, [&](double f, std::string_view stage) {
-        return report(kSites + (kLegs - kSites) * (static_cast<double>(i) + f) /
-                                   static_cast<double>(leg_count),
-                      stage);
-      });
-      done["seconds"] = SecondsSince(leg_start);
+      done = match_leg(i, options.matching, kSites, kFirstPass);
       FinishUnit(run, dir, done);
       ++summary.legs_computed;
     } else {
       ++summary.legs_reused;
     }
     leg_summaries[i] = done;
+  }
+  const PooledVarianceFactor first_pass = FirstPassTieVariance(leg_summaries);
+  const std::optional<double> variance_pass = options.RockVariancePassFactor(first_pass);
+  RockMatchingOptions final_matching = options.matching;
+  if (variance_pass) final_matching.tie_variance_factor = *variance_pass;
+  for (size_t i = 0; i < leg_count; ++i) {
+    const double recorded = leg_summaries[i].value("tie_variance_factor", 1.0);
+    const double wanted = final_matching.tie_variance_factor;
+    if (std::abs(recorded - wanted) <= 1e-12 * wanted) continue;
+    const json first = FirstPassRecord(leg_summaries[i]);
+    json done = match_leg(i, final_matching, kFirstPass, kLegs);
+    if (variance_pass) {
+      done["first_pass"] = first;
+      done["seconds"] = done["seconds"].get<double>() + first.value("seconds", 0.0);
+    }
+    FinishUnit(run, LegDir(run, mission.sites[i].site, mission.sites[i + 1].site), done);
+    leg_summaries[i] = done;
+    ++summary.legs_rematched;
   }
   // The legs tested against each other: a leg the test changed is read from rock_ties/.
   const fs::path adjustment_dir = out_dir / "adjustment";
@@ -419,10 +482,12 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   };
   TraverseAdjustmentOptions adjustment;
   adjustment.bundle = options.bundle;
-  // The legs' pooled a-posteriori variance factor is reported, not applied: scaling the rock
-  // ties by it in the adjustment left the site errors as they were and made their sigmas less
-  // honest on three generated traverses (docs/rocks.md).
-  const json tie_variance = RockTieVariance(leg_summaries);
+  // The second pass's variance factor decides which legs fault detection accepts; the
+  // adjustment weighs their tie points by the a-priori covariances: scaling the rock ties there
+  // left the site errors as they were and made their sigmas less honest on three generated
+  // traverses (docs/rocks.md).
+  if (variance_pass) adjustment.rock_tie_variance_factor = 1.0 / *variance_pass;
+  const json tie_variance = TieVarianceJson(first_pass, variance_pass);
   if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
     adjustment.orbital_image = image->path;
   }
@@ -553,6 +618,7 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
                     {"sites_reused", summary.sites_reused},
                     {"legs_computed", summary.legs_computed},
                     {"legs_reused", summary.legs_reused},
+                    {"legs_rematched", summary.legs_rematched},
                     {"craters", craters_unit},
                     {"products", products_unit}}},
                   {"stage_seconds", stage_seconds},

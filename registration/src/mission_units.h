@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,8 @@
 #include "areomap/map/rigid3d.h"
 #include "areomap/map/site_georeference.h"
 #include "areomap/registration/mission_run.h"
+#include "areomap/registration/rock_extraction.h"
+#include "areomap/registration/rock_matching.h"
 
 namespace areomap::mission_run {
 
@@ -47,8 +50,31 @@ double DrivenDistance(const MissionManifest& mission, size_t site_index);
 // Stage of one site (index into mission.sites): stereo, DTM, orthophoto, orbital registration.
 nlohmann::json RunSiteUnit(const RunContext& run, size_t site_index,
                            const ProgressCallback& progress);
-// Stage of one leg (consecutive site indices): rocks, matching, fault detection, tie points.
+// Each site's rocks (ExtractRocks on its points.ply with the run's options), extracted on first
+// use and kept for the rest of the run: a site is shared by two legs, and a second pass over the
+// legs (MissionRunOptions::rock_variance_pass) matches them again. A site's rocks are a few
+// hundred peaks with their models, small beside its cloud, which is not kept. Not thread-safe.
+class SiteRocksCache {
+ public:
+  struct Entry {
+    SiteRocks rocks;
+    RockExtractionSummary summary;
+  };
+  explicit SiteRocksCache(const RunContext& run) : run_(&run) {}
+  bool Has(size_t site_index) const { return entries_.count(site_index) > 0; }
+  // Throws areomap::Error (from the PLY reader) naming the file when it cannot be read.
+  const Entry& Get(size_t site_index);
+
+ private:
+  const RunContext* run_;
+  std::map<size_t, Entry> entries_;
+};
+
+// Stage of one leg (consecutive site indices): rocks, matching with `matching` (the run's
+// options, or the second pass's with its variance factor), fault detection, tie points. Writes
+// the leg's folder (LegDir) except unit.json.
 nlohmann::json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
+                          SiteRocksCache& rocks, const RockMatchingOptions& matching,
                           const ProgressCallback& progress);
 
 // The legs' tie points tested against each other (MissionRunOptions::leg_test, leg_consistency.h)

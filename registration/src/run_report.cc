@@ -106,6 +106,10 @@ std::string KeyFigures(const json& summary) {
           Number(ties.value("sigma0_squared_upper_95", json()), "%.3f") + "; " +
           Number(ties.value("legs", json()), "%.0f") + ", " +
           Number(ties.value("redundancy", json()), "%.0f") + ")");
+  row("rock tie variance factor applied by the legs' second pass",
+      ties.value("applied_factor", json()).is_number()
+          ? Number(ties["applied_factor"], "%.3f")
+          : std::string("none (too little redundancy, or off)"));
   row("end-point error, telemetry (truth)",
       Number(adjustment.value("initial_end_error_m", json()), "%.3f m"));
   row("end-point error, adjusted (truth)",
@@ -310,7 +314,17 @@ std::string LegSection(const json& leg) {
                      Number(leg.value("tie_points", json()), "%.0f") + " tie points, RE " +
                      Number(leg.value("relative_error_percent", json()), "%.2f %%") +
                      ", telemetry distance " +
-                     Number(leg.value("telemetry_distance_m", json()), "%.1f m") + ".</p>";
+                     Number(leg.value("telemetry_distance_m", json()), "%.1f m") + ".";
+  const json& first = leg.value("first_pass", json::object());
+  if (first.contains("outcome")) {
+    html += " First pass (a-priori tie covariances): " +
+            Escape(first.value("outcome", std::string("?"))) + ", " +
+            Number(first.value("tie_points", json()), "%.0f") + " tie points, RE " +
+            Number(first.value("relative_error_percent", json()), "%.2f %%") +
+            "; this pass scaled them by " +
+            Number(leg.value("tie_variance_factor", json()), "%.3f") + ".";
+  }
+  html += "</p>";
   const json& checks = leg.value("faults", json::object()).value("rules", json::array());
   html +=
       "<table><tr><th>module</th><th>rule</th><th>value</th><th>threshold</th>"

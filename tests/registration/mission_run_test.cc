@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -176,6 +177,125 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   const MissionRunSummary fifth = RunMission(mission, out, options);
   EXPECT_EQ(fifth.sites_computed, 2);
   EXPECT_EQ(fifth.legs_reused, 0);
+}
+
+// A tiny mission whose one leg has rock tie points to spare: a full Navcam panorama at both
+// sites 6 m apart on a rocky field.
+MissionOptions TinyRockyMission() {
+  MissionOptions o = TinyMission();
+  o.scene.rock_abundance_k = 0.4;
+  o.scene.rock_min_diameter_m = 0.5;
+  o.render.near_radius_m = 8.0;
+  o.render.mid_radius_m = 12.0;
+  o.traverse.min_leg_m = 3.0;
+  o.traverse.max_leg_m = 3.5;
+  o.navcam_pairs = 10;
+  o.navcam.width = 512;
+  o.navcam.height = 512;
+  return o;
+}
+
+TEST(MissionRun, SecondPassMatchesTheLegsAgainAtTheirOwnVarianceFactor) {
+  testing::TempDir dir;
+  GenerateMission(TinyRockyMission(), dir.path() / "mission");
+  const MissionManifest mission = ReadMissionManifest(dir.path() / "mission");
+  const fs::path out = dir.path() / "run";
+  MissionRunOptions options;
+  options.stereo.min_range_m = 2.0;
+  options.detect_craters = false;
+  options.traverse_products = false;
+  options.guided_passes = 0;
+  // The leg's 4 tie points fail RE (2.5 %) at 2 %; accepted here, so that the adjustment shows
+  // which covariances it weighs them by.
+  options.matching.fault_detection.max_relative_error_percent = 5.0;
+  options.rock_variance_pass = false;
+  const MissionRunSummary off = RunMission(mission, out, options);
+  const nlohmann::json first_ties = off.json["rock_tie_variance"];
+  const nlohmann::json first_leg = off.json["legs"][0];
+  const int redundancy = first_ties.value("redundancy", 0);
+  ASSERT_GT(redundancy, 0) << "the tiny leg needs tie points with redundancy: "
+                           << first_ties.dump();
+  ASSERT_EQ(first_leg["outcome"], "matched") << first_leg["faults"].dump();
+  EXPECT_TRUE(first_ties["applied_factor"].is_null());
+  EXPECT_EQ(off.legs_rematched, 0);
+
+  // Less pooled redundancy than asked for: no second pass, nothing matched again.
+  options.rock_variance_pass = true;
+  options.rock_variance_pass_min_redundancy = redundancy + 1;
+  const MissionRunSummary few = RunMission(mission, out, options);
+  EXPECT_EQ(few.legs_reused, 1);
+  EXPECT_EQ(few.legs_rematched, 0);
+  EXPECT_TRUE(few.json["rock_tie_variance"]["applied_factor"].is_null());
+
+  // Enough: the leg is matched again at the first pass's pooled 95 % bound, which stays the
+  // first pass's (its figures kept in "first_pass"), and the adjustment weighs the ties as
+  // before: by their a-priori covariances.
+  options.rock_variance_pass_min_redundancy = redundancy;
+  const MissionRunSummary on = RunMission(mission, out, options);
+  EXPECT_EQ(on.sites_reused, 2);
+  EXPECT_EQ(on.legs_reused, 1);
+  EXPECT_EQ(on.legs_rematched, 1);
+  const double factor = first_ties["sigma0_squared_upper_95"].get<double>();
+  const nlohmann::json& ties = on.json["rock_tie_variance"];
+  EXPECT_DOUBLE_EQ(ties["applied_factor"].get<double>(), factor);
+  EXPECT_EQ(ties["chi2"], first_ties["chi2"]);
+  const nlohmann::json& leg = on.json["legs"][0];
+  EXPECT_DOUBLE_EQ(leg["tie_variance_factor"].get<double>(), factor);
+  EXPECT_EQ(leg["first_pass"]["outcome"], first_leg["outcome"]);
+  EXPECT_EQ(leg["first_pass"]["conformal_chi2"], first_leg["conformal_chi2"]);
+  EXPECT_DOUBLE_EQ(leg["first_pass"]["tie_variance_factor"].get<double>(), 1.0);
+  const nlohmann::json unit =
+      nlohmann::json::parse(ReadText(out / "legs" / "leg_000_001" / "unit.json"));
+  EXPECT_EQ(unit["summary"]["first_pass"], leg["first_pass"]);
+  // The same tie points (the factor, 1.6 from a redundancy of 4, only widens the outlier test)
+  // with their covariances scaled by it: the fit's chi2 shrinks by 1 / factor, the adjustment
+  // is the first pass's.
+  ASSERT_EQ(leg["outcome"], "matched") << leg["faults"].dump();
+  ASSERT_EQ(leg["tie_points"], first_leg["tie_points"]);
+  EXPECT_NEAR(leg["conformal_chi2"].get<double>(),
+              first_leg["conformal_chi2"].get<double>() / factor,
+              1e-9 * first_leg["conformal_chi2"].get<double>());
+  EXPECT_NEAR(on.json["adjustment"]["sigma0"].get<double>(),
+              off.json["adjustment"]["sigma0"].get<double>(), 1e-9);
+  EXPECT_EQ(on.json["adjustment"]["tie_points"], off.json["adjustment"]["tie_points"]);
+
+  // Resumed: the factor comes out the same, so nothing is matched again.
+  const MissionRunSummary again = RunMission(mission, out, options);
+  EXPECT_EQ(again.legs_rematched, 0);
+  EXPECT_EQ(again.json["rock_tie_variance"], ties);
+  EXPECT_EQ(again.json["legs"][0]["first_pass"], leg["first_pass"]);
+
+  // Off again: the leg is matched with the a-priori covariances, as first.
+  options.rock_variance_pass = false;
+  const MissionRunSummary back = RunMission(mission, out, options);
+  EXPECT_EQ(back.legs_rematched, 1);
+  EXPECT_FALSE(back.json["legs"][0].contains("first_pass"));
+  EXPECT_EQ(back.json["legs"][0]["conformal_chi2"], first_leg["conformal_chi2"]);
+  EXPECT_EQ(back.json["rock_tie_variance"], first_ties);
+}
+
+TEST(MissionRunOptions, SecondPassFactorIsThePooledUpperBoundWithEnoughRedundancy) {
+  MissionRunOptions options;
+  PooledVarianceFactor pooled;
+  pooled.fits = 3;
+  pooled.chi2 = 12.0;
+  pooled.redundancy = 40;
+  pooled.estimate = 0.3;
+  pooled.upper_95 = 0.42;
+  ASSERT_TRUE(options.RockVariancePassFactor(pooled).has_value());
+  EXPECT_DOUBLE_EQ(*options.RockVariancePassFactor(pooled), 0.42);
+  pooled.redundancy = options.rock_variance_pass_min_redundancy - 1;
+  EXPECT_FALSE(options.RockVariancePassFactor(pooled).has_value());
+  pooled.redundancy = 40;
+  pooled.upper_95 = std::nan("");  // Nothing pooled.
+  EXPECT_FALSE(options.RockVariancePassFactor(pooled).has_value());
+  pooled.upper_95 = 1.6;  // Optimistic covariances (as on the real K10 pair): widened.
+  EXPECT_DOUBLE_EQ(*options.RockVariancePassFactor(pooled), 1.6);
+  options.rock_variance_pass = false;
+  EXPECT_FALSE(options.RockVariancePassFactor(pooled).has_value());
+  options.rock_variance_pass = true;
+  options.rock_variance_pass_min_redundancy = 0;
+  EXPECT_THROW(options.Check(), Error);
 }
 
 TEST(MissionRun, PancamPointsReplaceNavcamPointsWhereBothSeeTheGround) {

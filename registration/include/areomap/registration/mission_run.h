@@ -7,7 +7,9 @@
 //                     orbital registration of the orthophoto -> registration.json, the
 //                     correlation surface PNG and control_points.json (BA input format)
 //   legs/leg_NNN_MMM/ one per consecutive pair of sites: rock extraction at both sites, cross-site
-//                     matching with fault detection -> tie_points.json, faults.json
+//                     matching with fault detection -> tie_points.json, faults.json; after the
+//                     second pass (MissionRunOptions::rock_variance_pass) its matching, the
+//                     first pass's figures in unit.json's "first_pass"
 //   craters/          crater detection on the first orbital image (CSV, JSON, overlay PNG)
 //   guided/pass_P/site_NNN/  guided re-registration of a site that did not register, around
 //                     its pose from the previous adjustment (MissionRunOptions::guided_passes):
@@ -22,7 +24,8 @@
 //                     from the orbital DTM and image with adjusted and with telemetry poses
 //   summary.json      key figures, wall time per stage ("stage_seconds"), the rock tie
 //                     points' a-posteriori variance factor pooled over the legs' conformal fits
-//                     ("rock_tie_variance", PoolVarianceFactor); report.html is written from the
+//                     ("rock_tie_variance", PoolVarianceFactor, and the factor the second pass
+//                     applied, "applied_factor"); report.html is written from the
 //                     folder by WriteRunReport.
 // A unit is finished when its `unit.json` exists (written last, atomically) and records the
 // same fingerprint as this run: the mission folder, the options, and the path, size and
@@ -38,6 +41,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -53,6 +57,7 @@
 #include "areomap/map/rigid3d.h"
 #include "areomap/registration/bundle_adjustment.h"
 #include "areomap/registration/leg_consistency.h"
+#include "areomap/registration/localization_error.h"
 #include "areomap/registration/orbital_match.h"
 #include "areomap/registration/orbital_report.h"
 #include "areomap/registration/rock_extraction.h"
@@ -117,6 +122,24 @@ struct MissionRunOptions {
   bool leg_test = true;
   double leg_test_alpha = 0.001;
   LegConsistencyOptions LegTestOptions() const;  // The alpha above, matching's other figures.
+  // A second pass over the legs with the rock tie points' own precision. Eq. 4.3 (sigma_p
+  // 0.5 px) makes the tie covariances ~2x too wide in sigma on generated stereo and 1.3x too
+  // narrow along the pavement normal on the real K10 pair (docs/rocks.md), and RE (eq. 4.9)
+  // follows them. The first pass's conformal fits, pooled (PoolVarianceFactor, at the a-priori
+  // covariances), estimate the factor; when their pooled redundancy is at least
+  // rock_variance_pass_min_redundancy, every leg is matched again with
+  // RockMatchingOptions::tie_variance_factor at its one-sided 95 % upper bound (the conformal
+  // fit, its outlier test, RE and the written tie points use it) in place of matching's own.
+  // The adjustment still weighs the rock ties by their a-priori covariances: scaled there, they
+  // left the site errors as they were and made the sigmas less honest (docs/rocks.md). Applied
+  // when the legs are gathered, not in the options fingerprint; a leg unit records the factor it
+  // was matched with and its first pass ("first_pass"), and is matched again only when the
+  // factor changes.
+  bool rock_variance_pass = true;
+  int rock_variance_pass_min_redundancy = 20;
+  // The factor the second pass applies given the first pass's pooled fits; nullopt when the
+  // pass is off or the pooled redundancy is too small (or the pooled bound not finite).
+  std::optional<double> RockVariancePassFactor(const PooledVarianceFactor& first_pass) const;
   BundleOptions bundle;
   // Telemetry pose priors per leg (DeadReckoningCovariance): relative length error and heading
   // drift per leg, 1 sigma. Defaults to the mission's telemetry model when it states one.
@@ -143,6 +166,7 @@ struct MissionRunSummary {
   int sites_reused = 0;
   int legs_computed = 0;
   int legs_reused = 0;
+  int legs_rematched = 0;  // Matched again by the second pass (rock_variance_pass).
 };
 
 // Guided re-registration of a site after an adjustment (MissionRunOptions::guided_passes): where
