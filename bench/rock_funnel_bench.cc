@@ -282,6 +282,23 @@ void PrintLegTest(const std::vector<std::vector<TiePoint>>& leg_ties,
       legs_kept, kept, kept_right, percent(kept_right), kept_seen_right, percent(kept_seen_right));
 }
 
+// How far apart the two sites' measured heights of a match lie, relative to their mean: the
+// quantiles over the matches right by the sight ray, and each wrong one.
+void PrintHeightDifferences(std::vector<double> right, std::vector<double> wrong) {
+  std::sort(right.begin(), right.end());
+  std::sort(wrong.begin(), wrong.end());
+  const auto quantile = [&](double q) {
+    return right.empty() ? std::nan("")
+                         : right[static_cast<size_t>(q * static_cast<double>(right.size() - 1))];
+  };
+  std::printf(
+      "relative height difference of the matches right by the sight ray (%zu): median %.2f, "
+      "90 %% %.2f, 99 %% %.2f, max %.2f; wrong (%zu):",
+      right.size(), quantile(0.5), quantile(0.9), quantile(0.99), quantile(1.0), wrong.size());
+  for (double d : wrong) std::printf(" %.2f", d);
+  std::printf("\n");
+}
+
 // One pass over the legs; returns the legs' conformal fits pooled at the a-priori covariances.
 PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run_dir,
                                 const fs::path& rocks_csv, const MissionRunOptions& options) {
@@ -313,6 +330,8 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
   std::vector<std::vector<TiePoint>> leg_ties(leg_count);
   std::vector<std::map<int, MatchTruth>> truth_by_rock_a(leg_count);
   const bench::SightRayTruth sight_rays(truth, mission.origin.h);
+  // Every match's relative height difference |H_a - H_b| / mean, by the sight ray's verdict.
+  std::vector<double> height_difference_right, height_difference_wrong;
   VerdictAgreement agreement;
   Site b = LoadSite(run_dir, mission.sites[0].site, world_from_site[0], truth, sight_rays, options,
                     &agreement);
@@ -495,6 +514,9 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
         f.decoys_right_by_disk += ta >= 0 && ta == td ? 1 : 0;
         f.decoys_right_by_sight += sa >= 0 && sa == b.seen_on[decoy] ? 1 : 0;
       }
+      const double mean_height = 0.5 * (a.rocks[ia].height_m + b.rocks[ib].height_m);
+      (verdict.sight ? height_difference_right : height_difference_wrong)
+          .push_back(std::abs(a.rocks[ia].height_m - b.rocks[ib].height_m) / mean_height);
       if (!verdict.sight) {
         ++f.wrong_by_sight;
         f.wrong_by_sight_accepted += accepted ? 1 : 0;
@@ -591,6 +613,7 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
       "peaks on the same truth rock (or none) by the disk rule and the sight ray: %d of %d with "
       "sigma < 0.1 m, %d of %d with more\n",
       agreement.agree[0], agreement.peaks[0], agreement.agree[1], agreement.peaks[1]);
+  PrintHeightDifferences(height_difference_right, height_difference_wrong);
   if (options.leg_test) PrintLegTest(leg_ties, truth_by_rock_a, options.LegTestOptions());
   const PooledVarianceFactor pooled = PoolVarianceFactor(fits);
   std::printf(

@@ -93,9 +93,9 @@ struct RockMatchingOptions {
   double max_residual_chi2 = 13.8;
   // Variance factor (a-posteriori sigma_0^2) applied to the tie points' covariances (the peaks'
   // eq. 4.3 covariance plus the peak definition) in the conformal fit, its outlier test, RE and
-  // the output tie points. 1 keeps the a-priori covariances; a run reports the factor its legs'
-  // conformal fits imply (PoolVarianceFactor, summary.json rock_tie_variance) without applying
-  // it. Check() throws unless finite and > 0.
+  // the output tie points. 1 keeps the a-priori covariances; a run's second pass over its legs
+  // sets it to the factor its first pass's conformal fits imply (PoolVarianceFactor's 95 % bound,
+  // MissionRunOptions::rock_variance_pass). Check() throws unless finite and > 0.
   double tie_variance_factor = 1.0;
   double cost_height_weight = 0.5;  // c1 of eq. 3.28.
   double cost_radius_weight = 1.0 / 3.0;
