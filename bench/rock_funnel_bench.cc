@@ -223,7 +223,9 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options) {
       {"model_min_height_m", &options->rocks.model_min_height_m},
       {"plane_exclusion_k", &options->rocks.plane_exclusion_k},
       {"min_height_m", &options->rocks.min_height_m}};
-  if (name == "rock_variance_pass") {
+  if (name == "pattern_settles_disagreement") {
+    options->matching.pattern_settles_disagreement = value != 0.0;
+  } else if (name == "rock_variance_pass") {
     options->rock_variance_pass = value != 0.0;
   } else if (name == "significant_per_cell") {
     m.significant_per_cell = static_cast<int>(value);

@@ -324,6 +324,9 @@ nlohmann::json MissionRunOptions::ToJson() const {
   // Three significant rocks per cell since 2026-12-04 (one before): legs made with one are
   // recomputed.
   figures["rock_significant_per_cell"] = matching.significant_per_cell;
+  // The pattern settles the methods' disagreements since 2026-12-04: legs matched before are
+  // recomputed.
+  figures["rock_pattern_settles_disagreement"] = matching.pattern_settles_disagreement;
   // Library callers may change the rock ties' variance factor: legs made with another are not
   // reused. Left out at its default, so that earlier runs keep their fingerprint.
   if (matching.tie_variance_factor != 1.0) {

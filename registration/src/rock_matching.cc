@@ -459,6 +459,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     bool terrain_ok = false;
     int pattern[2] = {-1, -1};
     int votes[2] = {0, 0};
+    double cost[2] = {0.0, 0.0};  // Eq. 3.28 of each pattern candidate.
   };
   std::vector<Candidates> per_rock;
   std::vector<double> vx, vy, vz;
@@ -493,6 +494,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
       const ExtractedRock& q = b.rocks[eb.rocks[c.pattern[k]]];
       const double cost =
           ModelMatchCost(p.best_model()->parameters, q.best_model()->parameters, options);
+      c.cost[k] = cost;
       if (cost < best_cost) {
         best_cost = cost;
         c.model_best = c.pattern[k];
@@ -549,8 +551,11 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
         chi2 = chi2_second;
       }
     }
-    if (deviation_of(p, winner).norm() > options.max_vector_deviation_m ||
-        chi2 > options.max_vector_chi2) {
+    const auto inconsistent = [&](int candidate, double candidate_chi2) {
+      return deviation_of(p, candidate).norm() > options.max_vector_deviation_m ||
+             candidate_chi2 > options.max_vector_chi2;
+    };
+    if (inconsistent(winner, chi2)) {
       set_fate(c.rock_a, eb.rocks[winner], "inconsistent vector");
       continue;
     }
@@ -559,15 +564,29 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
       set_fate(c.rock_a, eb.rocks[winner], "model cost");
       continue;
     }
+    const ExtractedRock& q = b.rocks[eb.rocks[winner]];
+    double model_cost = c.model_cost;
+    bool terrain_ok = c.terrain_ok;
     if (winner != c.model_best) {
-      set_fate(c.rock_a, eb.rocks[winner], "methods disagree");
-      continue;
+      // The model prefers the other pattern candidate. Where the global pattern excludes that one
+      // (the bounds that would have excluded it as the winner), it is no alternative, and the
+      // winner is judged as a lone candidate is: by its own model cost and terrain.
+      const int k = winner == c.pattern[0] ? 0 : 1;
+      const bool settled = options.pattern_settles_disagreement &&
+                           inconsistent(c.model_best, deviation_chi2(p, c.model_best)) &&
+                           c.cost[k] <= options.max_model_cost;
+      if (!settled) {
+        set_fate(c.rock_a, eb.rocks[winner], "methods disagree");
+        continue;
+      }
+      model_cost = c.cost[k];
+      terrain_ok = NormalAngleDeg(p.plane_normal, rotation_a_from_b * q.plane_normal) <=
+                   fd.max_normal_angle_deg;
     }
-    if (!c.terrain_ok) {
+    if (!terrain_ok) {
       set_fate(c.rock_a, eb.rocks[winner], "terrain mismatch");
       continue;
     }
-    const ExtractedRock& q = b.rocks[eb.rocks[winner]];
     if (std::min(p.height_m, q.height_m) < options.ambiguity_min_height_m &&
         std::max(LargestHorizontalSigma(p), spread_b[winner].largest_sigma) >
             options.low_rock_max_peak_sigma_m) {
@@ -594,7 +613,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     RockMatch m;
     m.rock_a = c.rock_a;
     m.rock_b = eb.rocks[winner];
-    m.model_cost = c.model_cost;
+    m.model_cost = model_cost;
     m.pattern_count = winner == c.pattern[0] ? c.votes[0] : c.votes[1];
     m.normal_angle_deg =
         NormalAngleDeg(p.plane_normal, rotation_a_from_b * b.rocks[m.rock_b].plane_normal);

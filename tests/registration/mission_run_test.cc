@@ -405,6 +405,10 @@ TEST(MissionRunOptions, RockAmbiguityRuleChangesTheFingerprint) {
   difference.matching.ambiguity_similar_height_difference = 0.5;
   EXPECT_NE(lowest.ToJson(), defaults.ToJson());
   EXPECT_NE(difference.ToJson(), defaults.ToJson());
+  // Nor legs matched before the pattern settled disagreements (2026-12-04).
+  MissionRunOptions agree = defaults;
+  agree.matching.pattern_settles_disagreement = false;
+  EXPECT_NE(agree.ToJson(), defaults.ToJson());
 }
 
 TEST(MissionRunOptions, RockHeightRuleChangesTheFingerprint) {

@@ -461,6 +461,47 @@ TEST(RockMatching, LowRockIsMatchedOnlyBetweenPrecisePeaks) {
   EXPECT_EQ(fate(0.13, 0.40, fifteen_cm), "not eligible");
 }
 
+// Model matching prefers a look-alike of site b 1.5 m from where the pattern puts the rock's
+// partner (eq. 3.28 cost 0 against the partner's ~0.2): the global pattern excludes that
+// look-alike as it would exclude it as the winner, so it is no alternative, and the partner is
+// matched as a lone candidate would be. Not when the option is off (ch. 3.2: both methods must
+// agree), nor when the partner's own cost is above the limit.
+TEST(RockMatching, PatternSettlesADisagreementWhenTheModelsChoiceIsOffThePattern) {
+  // Four rocks seen alike at both sites set the pattern (the median V).
+  std::vector<ExtractedRock> a_rocks, b_rocks;
+  const std::vector<Eigen::Vector3d> others = {{3, 3, 0}, {-3, 3, 0}, {3, -3, 0}, {-2.5, -3, 0}};
+  for (size_t k = 0; k < others.size(); ++k) {
+    const int id = 2 + static_cast<int>(k);
+    const double height = 0.25 + 0.03 * static_cast<double>(k);
+    a_rocks.push_back(ModeledRock(id, kRockInA + others[k], height, 0.05));
+    b_rocks.push_back(ModeledRock(id, kRockInA + others[k] - kCameraBInA, height, 0.05));
+  }
+  const auto fate = [&](double partner_height, double partner_radius,
+                        const RockMatchingOptions& options) {
+    std::vector<ExtractedRock> at_a = a_rocks, at_b = b_rocks;
+    at_a.insert(at_a.begin(), ModeledRock(1, kRockInA, 0.30, 0.05));
+    ExtractedRock partner = ModeledRock(1, kRockInA - kCameraBInA, partner_height, 0.05);
+    partner.models.front().parameters.a = partner.models.front().parameters.b = partner_radius;
+    at_b.push_back(partner);
+    at_b.push_back(ModeledRock(9, kRockInA - kCameraBInA + Eigen::Vector3d(0, 1.5, 0), 0.30, 0.05));
+    const SitePairMatch match = MatchTwelveMetrePair(at_a, at_b, options);
+    for (const RockMatchOutcome& o : match.outcomes) {
+      if (o.rock_a == 0) {
+        return o.fate + (o.rock_b >= 0 ? " " + std::to_string(at_b[o.rock_b].id) : "");
+      }
+    }
+    return std::string("not eligible");
+  };
+  const RockMatchingOptions settles;
+  ASSERT_TRUE(settles.pattern_settles_disagreement);
+  EXPECT_EQ(fate(0.22, 0.25, settles), "matched 1");
+  RockMatchingOptions off;
+  off.pattern_settles_disagreement = false;
+  EXPECT_EQ(fate(0.22, 0.25, off), "methods disagree 1");
+  // Height 0.16 against 0.30 and radius 0.7 against 0.25: cost above 0.6.
+  EXPECT_EQ(fate(0.16, 0.7, settles), "methods disagree 1");
+}
+
 TEST(RockMatching, OutcomesAccountForEveryMatch) {
   const SitePairMatch match = MatchSitesAAndB();
   int matched = 0;

@@ -28,7 +28,9 @@
 // tell them apart; tested at both sites once the partner is known); rocks whose peak sigma exceeds
 // `max_peak_sigma_m` are not used, nor pairs with a rock lower than `ambiguity_min_height_m` and
 // a peak sigma above `low_rock_max_peak_sigma_m`. (5) A pair is matched only where both methods
-// agree; when several rocks of a take the same rock of b, only the lowest-cost one is kept. (6)
+// agree, or (`pattern_settles_disagreement`) where the model's choice fails the global pattern
+// test and the pattern's winner has an acceptable cost of its own; when several rocks of a take
+// the same rock of b, only the lowest-cost one is kept. (6)
 // Data snooping in the 2D conformal fit of the matches (eq. 4.4), each tie point tested against the
 // fit of the others, drops outliers while more than min_tie_points remain. Pair-level rules
 // (traverse, peaks, tie-point count, distance ratio, RE) decide the outcome.
@@ -100,7 +102,12 @@ struct RockMatchingOptions {
   double cost_height_weight = 0.5;  // c1 of eq. 3.28.
   double cost_radius_weight = 1.0 / 3.0;
   double cost_area_weight = 1.0 / 6.0;
-  double max_model_cost = 0.6;    // Model matching accepts costs up to this.
+  double max_model_cost = 0.6;  // Model matching accepts costs up to this.
+  // When model matching prefers the other pattern candidate ("methods disagree"), but that
+  // candidate's V fails the global pattern test (max_vector_deviation_m, max_vector_chi2), the
+  // pattern's winner is matched if its own cost is acceptable: as if it were the only candidate,
+  // which would be matched. False: every disagreement drops the rock (ch. 3.2).
+  bool pattern_settles_disagreement = true;
   double ambiguity_sigmas = 1.0;  // Neighbour within epsilon + this many sigmas: ambiguous.
   // Neighbours that count for the ambiguity test: rocks at least this high at their site [m]
   // (lower values guard against a neighbour measured just under the height rule,
