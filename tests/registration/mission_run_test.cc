@@ -259,6 +259,13 @@ TEST(MissionRun, SecondPassMatchesTheLegsAgainAtTheirOwnVarianceFactor) {
               off.json["adjustment"]["sigma0"].get<double>(), 1e-9);
   EXPECT_EQ(on.json["adjustment"]["tie_points"], off.json["adjustment"]["tie_points"]);
 
+  // The report shows the factor and the leg's first pass.
+  std::ofstream(out / "summary.json") << on.json.dump();
+  WriteRunReport(out);
+  const std::string html = ReadText(out / "report.html");
+  EXPECT_NE(html.find("First pass (a-priori tie covariances): matched"), std::string::npos);
+  EXPECT_NE(html.find("variance factor applied by the legs' second pass"), std::string::npos);
+
   // Resumed: the factor comes out the same, so nothing is matched again.
   const MissionRunSummary again = RunMission(mission, out, options);
   EXPECT_EQ(again.legs_rematched, 0);
