@@ -86,6 +86,13 @@ struct VerdictAgreement {
   std::array<int, 2> peaks{}, agree{};
 };
 
+// The sites as LoadSite made them, kept for the second pass (loaded on first use), and the
+// verdicts' agreement over them.
+struct LoadedSites {
+  std::vector<std::optional<Site>> sites;  // One per mission site.
+  VerdictAgreement agreement;
+};
+
 Site LoadSite(const fs::path& run_dir, int site, const Rigid3d& world_from_site,
               const std::vector<TruthRock>& truth, const bench::SightRayTruth& sight,
               const MissionRunOptions& options, VerdictAgreement* agreement) {
@@ -303,7 +310,8 @@ void PrintHeightDifferences(std::vector<double> right, std::vector<double> wrong
 
 // One pass over the legs; returns the legs' conformal fits pooled at the a-priori covariances.
 PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run_dir,
-                                const fs::path& rocks_csv, const MissionRunOptions& options) {
+                                const fs::path& rocks_csv, const MissionRunOptions& options,
+                                LoadedSites* loaded) {
   std::ofstream rows;
   if (!rocks_csv.empty()) {
     rows.open(rocks_csv);
@@ -334,13 +342,17 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
   const bench::SightRayTruth sight_rays(truth, mission.origin.h);
   // Every match's relative height difference |H_a - H_b| / mean, by the sight ray's verdict.
   std::vector<double> height_difference_right, height_difference_wrong;
-  VerdictAgreement agreement;
-  Site b = LoadSite(run_dir, mission.sites[0].site, world_from_site[0], truth, sight_rays, options,
-                    &agreement);
+  loaded->sites.resize(mission.sites.size());
+  const auto site_at = [&](size_t k) -> const Site& {
+    if (!loaded->sites[k]) {
+      loaded->sites[k] = LoadSite(run_dir, mission.sites[k].site, world_from_site[k], truth,
+                                  sight_rays, options, &loaded->agreement);
+    }
+    return *loaded->sites[k];
+  };
   for (size_t k = 0; k + 1 < mission.sites.size(); ++k) {
-    Site a = std::move(b);
-    b = LoadSite(run_dir, mission.sites[k + 1].site, world_from_site[k + 1], truth, sight_rays,
-                 options, &agreement);
+    const Site& a = site_at(k);
+    const Site& b = site_at(k + 1);
     const Rigid3d site_a_from_world = world_from_site[k].Inverse();
     const Rigid3d site_b_from_world = world_from_site[k + 1].Inverse();
     const Eigen::Vector3d cam_a_in_a = site_a_from_world * a.camera_world;
@@ -410,7 +422,11 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
       ++f.overlap;
       if (DistanceRatio(top, a.camera_world, b.camera_world) < fd.min_rock_distance_ratio) continue;
       ++f.ratio;
-      if (a.points_on_rock[r.id] < 5 || b.points_on_rock[r.id] < 5) continue;
+      const auto points_on = [&](const Site& s) {
+        const auto found = s.points_on_rock.find(r.id);
+        return found == s.points_on_rock.end() ? 0 : found->second;
+      };
+      if (points_on(a) < 5 || points_on(b) < 5) continue;
       ++f.seen;
       if (rows.is_open()) {
         for (int side = 0; side < 2; ++side) {
@@ -614,7 +630,8 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
   std::printf(
       "peaks on the same truth rock (or none) by the disk rule and the sight ray: %d of %d with "
       "sigma < 0.1 m, %d of %d with more\n",
-      agreement.agree[0], agreement.peaks[0], agreement.agree[1], agreement.peaks[1]);
+      loaded->agreement.agree[0], loaded->agreement.peaks[0], loaded->agreement.agree[1],
+      loaded->agreement.peaks[1]);
   PrintHeightDifferences(height_difference_right, height_difference_wrong);
   if (options.leg_test) PrintLegTest(leg_ties, truth_by_rock_a, options.LegTestOptions());
   const PooledVarianceFactor pooled = PoolVarianceFactor(fits);
@@ -629,7 +646,9 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
 // one (MissionRunOptions::RockVariancePassFactor), the second at the first pass's factor.
 int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& rocks_csv,
          MissionRunOptions options) {
-  const PooledVarianceFactor first_pass = FunnelPass(mission_dir, run_dir, rocks_csv, options);
+  LoadedSites loaded;
+  const PooledVarianceFactor first_pass =
+      FunnelPass(mission_dir, run_dir, rocks_csv, options, &loaded);
   const std::optional<double> factor = options.RockVariancePassFactor(first_pass);
   if (!factor) {
     std::printf("no second pass (off, or pooled redundancy %d < %d)\n", first_pass.redundancy,
@@ -638,7 +657,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
   }
   std::printf("\nsecond pass: the legs matched again at tie_variance_factor %.3f\n", *factor);
   options.matching.tie_variance_factor = *factor;
-  FunnelPass(mission_dir, run_dir, "", options);
+  FunnelPass(mission_dir, run_dir, "", options, &loaded);
   return 0;
 }
 

@@ -144,16 +144,10 @@ json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b, SiteRocks
   const fs::path dir = LegDir(run, site_a, site_b);
   fs::create_directories(dir);
 
-  const bool extract_a = !rocks.Has(index_a);
   const SiteRocksCache::Entry& a = rocks.Get(index_a);
-  if (extract_a && progress && !progress(0.4, "rocks")) {
-    throw Error("cancelled during rock extraction");
-  }
-  const bool extract_b = !rocks.Has(index_b);
+  if (progress && !progress(0.4, "rocks")) throw Error("cancelled during rock extraction");
   const SiteRocksCache::Entry& b = rocks.Get(index_b);
-  if (extract_b && progress && !progress(0.8, "rocks")) {
-    throw Error("cancelled during rock extraction");
-  }
+  if (progress && !progress(0.8, "rocks")) throw Error("cancelled during rock extraction");
   const SiteRocks& rocks_a = a.rocks;
   const SiteRocks& rocks_b = b.rocks;
 

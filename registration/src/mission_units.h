@@ -61,7 +61,6 @@ class SiteRocksCache {
     RockExtractionSummary summary;
   };
   explicit SiteRocksCache(const RunContext& run) : run_(&run) {}
-  bool Has(size_t site_index) const { return entries_.count(site_index) > 0; }
   // Throws areomap::Error (from the PLY reader) naming the file when it cannot be read.
   const Entry& Get(size_t site_index);
 

@@ -455,8 +455,6 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   struct Candidates {
     int rock_a = -1;
     int model_best = -1;  // Index into eb.rocks / q_in_a.
-    double model_cost = 0.0;
-    bool terrain_ok = false;
     int pattern[2] = {-1, -1};
     int votes[2] = {0, 0};
     double cost[2] = {0.0, 0.0};  // Eq. 3.28 of each pattern candidate.
@@ -500,13 +498,12 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
         c.model_best = c.pattern[k];
       }
     }
-    c.model_cost = best_cost;
     if (best_cost <= options.max_model_cost) {
       const ExtractedRock& q = b.rocks[eb.rocks[c.model_best]];
       const double angle = NormalAngleDeg(p.plane_normal, rotation_a_from_b * q.plane_normal);
-      c.terrain_ok = angle <= fd.max_normal_angle_deg;
-      terrain_rejects += c.terrain_ok ? 0 : 1;
-      result.model_matches += c.terrain_ok ? 1 : 0;
+      const bool terrain_ok = angle <= fd.max_normal_angle_deg;
+      terrain_rejects += terrain_ok ? 0 : 1;
+      result.model_matches += terrain_ok ? 1 : 0;
     } else {
       c.model_best = -1;
     }
@@ -564,14 +561,11 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
       set_fate(c.rock_a, eb.rocks[winner], "model cost");
       continue;
     }
-    const ExtractedRock& q = b.rocks[eb.rocks[winner]];
-    double model_cost = c.model_cost;
-    bool terrain_ok = c.terrain_ok;
+    const int k = winner == c.pattern[0] ? 0 : 1;  // The winner's pattern slot.
     if (winner != c.model_best) {
       // The model prefers the other pattern candidate. Where the global pattern excludes that one
       // (the bounds that would have excluded it as the winner), it is no alternative, and the
       // winner is judged as a lone candidate is: by its own model cost and terrain.
-      const int k = winner == c.pattern[0] ? 0 : 1;
       const bool settled = options.pattern_settles_disagreement &&
                            inconsistent(c.model_best, deviation_chi2(p, c.model_best)) &&
                            c.cost[k] <= options.max_model_cost;
@@ -579,11 +573,10 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
         set_fate(c.rock_a, eb.rocks[winner], "methods disagree");
         continue;
       }
-      model_cost = c.cost[k];
-      terrain_ok = NormalAngleDeg(p.plane_normal, rotation_a_from_b * q.plane_normal) <=
-                   fd.max_normal_angle_deg;
     }
-    if (!terrain_ok) {
+    const ExtractedRock& q = b.rocks[eb.rocks[winner]];
+    const double normal_angle = NormalAngleDeg(p.plane_normal, rotation_a_from_b * q.plane_normal);
+    if (normal_angle > fd.max_normal_angle_deg) {
       set_fate(c.rock_a, eb.rocks[winner], "terrain mismatch");
       continue;
     }
@@ -613,10 +606,9 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     RockMatch m;
     m.rock_a = c.rock_a;
     m.rock_b = eb.rocks[winner];
-    m.model_cost = model_cost;
-    m.pattern_count = winner == c.pattern[0] ? c.votes[0] : c.votes[1];
-    m.normal_angle_deg =
-        NormalAngleDeg(p.plane_normal, rotation_a_from_b * b.rocks[m.rock_b].plane_normal);
+    m.model_cost = c.cost[k];
+    m.pattern_count = c.votes[k];
+    m.normal_angle_deg = normal_angle;
     m.distance_ratio = DistanceRatio(p.peak, a.camera_center, camera_b_in_a);
     combined.push_back(m);
   }
