@@ -186,6 +186,8 @@ struct Funnel {
   // Matches whose peaks no single truth rock could have made (bench::RocksThatCouldMake).
   int no_common_rock = 0, no_common_rock_accepted = 0;
   std::map<std::string, int> lost_in_matching;  // Eligible at both, not matched: why.
+  // ... of which the candidate the matching judged (RockMatchOutcome::rock_b) was the true partner.
+  std::map<std::string, int> lost_with_true_candidate;
 };
 
 // The prior the run's leg unit used (unit.json "prior"), when it recorded the pose.
@@ -202,8 +204,16 @@ std::optional<RockMatchingPrior> RecordedPrior(const nlohmann::json& prior) {
   return out;
 }
 
+// What-if of the prior: each leg searched around the true pose of site b in site a, with these
+// sigmas, in place of the prior its run recorded (an upper bound on what a better prior, e.g. the
+// adjusted poses, could give). Off while truth_prior_position_sigma_m < 0.
+struct TruthPrior {
+  double position_sigma_m = -1.0;
+  double heading_sigma_deg = 0.0;
+};
+
 // NAME=VALUE overrides of the run's default options (what-if experiments).
-void ApplyOverride(const std::string& text, MissionRunOptions* options) {
+void ApplyOverride(const std::string& text, MissionRunOptions* options, TruthPrior* truth_prior) {
   const size_t eq = text.find('=');
   if (eq == std::string::npos) throw Error("'" + text + "': expected NAME=VALUE");
   const std::string name = text.substr(0, eq);
@@ -230,8 +240,14 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options) {
       {"model_min_height_m", &options->rocks.model_min_height_m},
       {"plane_exclusion_k", &options->rocks.plane_exclusion_k},
       {"min_height_m", &options->rocks.min_height_m}};
-  if (name == "pattern_settles_disagreement") {
+  if (name == "truth_prior_position_sigma_m") {
+    truth_prior->position_sigma_m = value;
+  } else if (name == "truth_prior_heading_sigma_deg") {
+    truth_prior->heading_sigma_deg = value;
+  } else if (name == "pattern_settles_disagreement") {
     options->matching.pattern_settles_disagreement = value != 0.0;
+  } else if (name == "consensus_translation") {
+    options->matching.consensus_translation = value != 0.0;
   } else if (name == "rock_variance_pass") {
     options->rock_variance_pass = value != 0.0;
   } else if (name == "significant_per_cell") {
@@ -311,7 +327,7 @@ void PrintHeightDifferences(std::vector<double> right, std::vector<double> wrong
 // One pass over the legs; returns the legs' conformal fits pooled at the a-priori covariances.
 PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run_dir,
                                 const fs::path& rocks_csv, const MissionRunOptions& options,
-                                LoadedSites* loaded) {
+                                const TruthPrior& truth_prior, LoadedSites* loaded) {
   std::ofstream rows;
   if (!rocks_csv.empty()) {
     rows.open(rocks_csv);
@@ -369,9 +385,17 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
     std::string outcome = summary.value("outcome", std::string("?"));
     std::set<std::pair<int, int>> matched_pairs;  // Extracted rock indices (a, b).
     std::map<int, std::string> fate_of;           // Rock of a -> RockMatchOutcome::fate.
+    std::map<int, int> candidate_of;              // Rock of a -> RockMatchOutcome::rock_b.
+    Eigen::Vector3d median_v = Eigen::Vector3d::Zero();
     Funnel f;
-    const std::optional<RockMatchingPrior> prior =
+    std::optional<RockMatchingPrior> prior =
         RecordedPrior(summary.value("prior", nlohmann::json::object()));
+    if (prior && truth_prior.position_sigma_m >= 0.0) {
+      prior->a_from_b = site_a_from_world * world_from_site[k + 1];
+      prior->position_sigma_m = truth_prior.position_sigma_m;
+      prior->heading_sigma_deg = truth_prior.heading_sigma_deg;
+      prior->source = "truth (bench)";
+    }
     if (prior) {
       SiteRocks rocks_a, rocks_b;
       rocks_a.site = mission.sites[k].site;
@@ -390,8 +414,12 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
         outcome += because;
       }
       leg_ties[k] = match.tie_points;
+      median_v = match.median_translation;
       for (const RockMatch& m : match.matches) matched_pairs.insert({m.rock_a, m.rock_b});
-      for (const RockMatchOutcome& o : match.outcomes) fate_of[o.rock_a] = o.fate;
+      for (const RockMatchOutcome& o : match.outcomes) {
+        fate_of[o.rock_a] = o.fate;
+        candidate_of[o.rock_a] = o.rock_b;
+      }
       f.leg_matches = static_cast<int>(match.matches.size());
       if (match.error) {
         fits.push_back(*match.error);
@@ -489,7 +517,21 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
       }
       if (!joined) {
         const auto it = fate_of.find(ka);
-        ++f.lost_in_matching[it == fate_of.end() ? "outside the prior's overlap" : it->second];
+        const std::string fate = it == fate_of.end() ? "outside the prior's overlap" : it->second;
+        ++f.lost_in_matching[fate];
+        const std::vector<int>& partners = b.rocks_on.at(r.id);
+        const auto candidate = candidate_of.find(ka);
+        if (candidate != candidate_of.end() &&
+            std::find(partners.begin(), partners.end(), candidate->second) != partners.end()) {
+          ++f.lost_with_true_candidate[fate];
+          if (fate == "inconsistent vector" && prior && getenv("FUNNEL_DEBUG")) {
+            const Eigen::Vector3d v =
+                a.rocks[ka].peak - prior->a_from_b * b.rocks[candidate->second].peak;
+            std::printf("    inconsistent: V %.2f %.2f median %.2f %.2f ranges %.1f %.1f\n", v.x(),
+                        v.y(), median_v.x(), median_v.y(), a.rocks[ka].range_m,
+                        b.rocks[candidate->second].range_m);
+          }
+        }
         continue;
       }
       ++f.matched;
@@ -573,6 +615,15 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
         f.failed[static_cast<int>(RockRule::kLowRatio)],
         f.failed[static_cast<int>(RockRule::kImprecise)], f.eligible, f.matched, f.wrong_matches,
         f.accepted, outcome.c_str(), f.leg_matches > 0 && accepted ? "" : "");
+    if (!accepted && !f.lost_in_matching.empty()) {
+      std::printf("           lost (true candidate):");
+      for (const auto& [fate, n] : f.lost_in_matching) {
+        const auto t = f.lost_with_true_candidate.find(fate);
+        std::printf(" %s %d (%d);", fate.c_str(), n,
+                    t == f.lost_with_true_candidate.end() ? 0 : t->second);
+      }
+      std::printf("\n");
+    }
     const auto add = [](Funnel* t, const Funnel& x) {
       t->overlap += x.overlap;
       t->ratio += x.ratio;
@@ -593,6 +644,9 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
       t->leg_matches += x.leg_matches;
       for (int i = 0; i < kRules; ++i) t->failed[i] += x.failed[i];
       for (const auto& [fate, n] : x.lost_in_matching) t->lost_in_matching[fate] += n;
+      for (const auto& [fate, n] : x.lost_with_true_candidate) {
+        t->lost_with_true_candidate[fate] += n;
+      }
     };
     add(&total, f);
     legs_accepted += accepted ? 1 : 0;
@@ -621,6 +675,10 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
         f.decoys, f.decoys_right_by_disk, f.decoys_right_by_sight);
     std::printf("  eligible at both but not matched:");
     for (const auto& [fate, n] : f.lost_in_matching) std::printf(" %s %d;", fate.c_str(), n);
+    std::printf("\n  ... of which the judged candidate was the true partner:");
+    for (const auto& [fate, n] : f.lost_with_true_candidate) {
+      std::printf(" %s %d;", fate.c_str(), n);
+    }
     std::printf("\n");
   };
   print("all legs", total);
@@ -645,10 +703,10 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
 // The funnel as `areomap run` gathers its legs: the first pass, then, when the run would make
 // one (MissionRunOptions::RockVariancePassFactor), the second at the first pass's factor.
 int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& rocks_csv,
-         MissionRunOptions options) {
+         MissionRunOptions options, const TruthPrior& truth_prior) {
   LoadedSites loaded;
   const PooledVarianceFactor first_pass =
-      FunnelPass(mission_dir, run_dir, rocks_csv, options, &loaded);
+      FunnelPass(mission_dir, run_dir, rocks_csv, options, truth_prior, &loaded);
   const std::optional<double> factor = options.RockVariancePassFactor(first_pass);
   if (!factor) {
     std::printf("no second pass (off, or pooled redundancy %d < %d)\n", first_pass.redundancy,
@@ -657,7 +715,7 @@ int Main(const fs::path& mission_dir, const fs::path& run_dir, const fs::path& r
   }
   std::printf("\nsecond pass: the legs matched again at tie_variance_factor %.3f\n", *factor);
   options.matching.tie_variance_factor = *factor;
-  FunnelPass(mission_dir, run_dir, "", options, &loaded);
+  FunnelPass(mission_dir, run_dir, "", options, truth_prior, &loaded);
   return 0;
 }
 
@@ -671,16 +729,17 @@ int main(int argc, char** argv) {
   }
   try {
     areomap::MissionRunOptions options;
+    areomap::TruthPrior truth_prior;
     std::string rocks_csv;
     for (int i = 3; i < argc; ++i) {
       const std::string arg = argv[i];
       if (arg.find('=') == std::string::npos) {
         rocks_csv = arg;
       } else {
-        areomap::ApplyOverride(arg, &options);
+        areomap::ApplyOverride(arg, &options, &truth_prior);
       }
     }
-    return areomap::Main(argv[1], argv[2], rocks_csv, options);
+    return areomap::Main(argv[1], argv[2], rocks_csv, options, truth_prior);
   } catch (const areomap::Error& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;

@@ -35,6 +35,63 @@ double Median(std::vector<double> values) {
   return 0.5 * (upper + *std::max_element(values.begin(), values.begin() + mid));
 }
 
+// A pattern candidate's translation V = P - Q (eq. 3.29) and the rock of site a it was found for.
+struct CandidateVector {
+  int rock = -1;  // Index of the rock of a among those with candidates.
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+};
+
+Eigen::Vector3d ComponentMedian(const std::vector<CandidateVector>& vectors) {
+  std::vector<double> x, y, z;
+  for (const CandidateVector& c : vectors) {
+    x.push_back(c.v.x());
+    y.push_back(c.v.y());
+    z.push_back(c.v.z());
+  }
+  return {Median(x), Median(y), Median(z)};
+}
+
+// The global pattern's translation from the candidate vectors of all rocks. Ch. 3.2 takes their
+// median. With `consensus`, it is the median of the largest group of rocks that agree: the
+// candidate vector that the most rocks have a vector within `agreement_m` of (horizontally; ties:
+// the smaller summed distance of those vectors, then the first), and of each such rock its vector
+// nearest it. Where no two rocks agree, the median of all. (Few rocks with a prior off by 2 m: the
+// wrong candidates scatter about the prior and pull the median halfway, so the true pattern's
+// vectors all fail the deviation test; docs/rocks.md, "The pattern's consensus".)
+Eigen::Vector3d GlobalTranslation(const std::vector<CandidateVector>& vectors, bool consensus,
+                                  double agreement_m) {
+  if (!consensus) return ComponentMedian(vectors);
+  // Of each rock, its vector nearest `centre` within agreement_m (distance, index into vectors).
+  const auto nearest_per_rock = [&](const Eigen::Vector3d& centre) {
+    std::map<int, std::pair<double, size_t>> nearest;
+    for (size_t j = 0; j < vectors.size(); ++j) {
+      const double d = (vectors[j].v - centre).head<2>().norm();
+      if (d > agreement_m) continue;
+      const auto [it, inserted] = nearest.try_emplace(vectors[j].rock, d, j);
+      if (!inserted && d < it->second.first) it->second = {d, j};
+    }
+    return nearest;
+  };
+  size_t best = 0, best_support = 0;
+  double best_spread = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < vectors.size(); ++i) {
+    const auto nearest = nearest_per_rock(vectors[i].v);
+    double spread = 0.0;
+    for (const auto& [rock, entry] : nearest) spread += entry.first;
+    if (nearest.size() > best_support || (nearest.size() == best_support && spread < best_spread)) {
+      best = i;
+      best_support = nearest.size();
+      best_spread = spread;
+    }
+  }
+  if (best_support < 2) return ComponentMedian(vectors);
+  std::vector<CandidateVector> group;
+  for (const auto& [rock, entry] : nearest_per_rock(vectors[best].v)) {
+    group.push_back(vectors[entry.second]);
+  }
+  return ComponentMedian(group);
+}
+
 // The horizontal covariance of a rock's peak, turned by `rotation` (into another site's frame).
 Eigen::Matrix2d HorizontalCovariance(
     const ExtractedRock& r, const Eigen::Matrix3d& rotation = Eigen::Matrix3d::Identity()) {
@@ -460,7 +517,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     double cost[2] = {0.0, 0.0};  // Eq. 3.28 of each pattern candidate.
   };
   std::vector<Candidates> per_rock;
-  std::vector<double> vx, vy, vz;
+  std::vector<CandidateVector> vectors;
   int terrain_rejects = 0;
   for (int i : significant) {
     const ExtractedRock& p = a.rocks[i];
@@ -509,14 +566,12 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     }
     for (int k = 0; k < 2; ++k) {
       if (c.pattern[k] < 0) continue;
-      const Eigen::Vector3d v = p.peak - q_in_a[c.pattern[k]];
-      vx.push_back(v.x());
-      vy.push_back(v.y());
-      vz.push_back(v.z());
+      vectors.push_back({static_cast<int>(per_rock.size()), p.peak - q_in_a[c.pattern[k]]});
     }
     per_rock.push_back(c);
   }
-  result.median_translation = Eigen::Vector3d(Median(vx), Median(vy), Median(vz));
+  result.median_translation =
+      GlobalTranslation(vectors, options.consensus_translation, options.max_vector_deviation_m);
   report.Add(RockCount("III matching", "local terrain mismatch (plane normals)", terrain_rejects,
                        fd.max_normal_angle_deg, "deg"));
 

@@ -502,6 +502,46 @@ TEST(RockMatching, PatternSettlesADisagreementWhenTheModelsChoiceIsOffThePattern
   EXPECT_EQ(fate(0.16, 0.7, settles), "methods disagree 1");
 }
 
+// Three rocks whose partners lie 1.8 m from where the prior puts them, each with a decoy of site b
+// near the prior's place: the median of the six candidate vectors falls half-way, 1.1 m from the
+// true pattern, and the deviation test drops every true partner (ch. 3.2's median). The consensus
+// of the three rocks is the true translation, and all three are matched.
+TEST(RockMatching, ConsensusTranslationFindsThePatternThatFewRocksAgreeOn) {
+  const Eigen::Vector3d prior_error(0.3, 1.8, 0.0);  // V of the true partners.
+  const std::vector<Eigen::Vector3d> in_a = {kRockInA, kRockInA + Eigen::Vector3d(-2, 3.5, 0),
+                                             kRockInA + Eigen::Vector3d(2, -3.5, 0)};
+  const std::vector<Eigen::Vector3d> decoy_v = {{0.8, -0.4, 0}, {-0.8, -0.4, 0}, {0, -1.3, 0}};
+  std::vector<ExtractedRock> a_rocks, b_rocks;
+  for (size_t k = 0; k < in_a.size(); ++k) {
+    const int id = 1 + static_cast<int>(k);
+    a_rocks.push_back(ModeledRock(id, in_a[k], 0.25, 0.05));
+    b_rocks.push_back(ModeledRock(id, in_a[k] - kCameraBInA - prior_error, 0.25, 0.05));
+    b_rocks.push_back(ModeledRock(20 + id, in_a[k] - kCameraBInA - decoy_v[k], 0.25, 0.05));
+  }
+  const auto fates = [&](const RockMatchingOptions& options, Eigen::Vector3d* translation) {
+    const SitePairMatch match = MatchTwelveMetrePair(a_rocks, b_rocks, options);
+    *translation = match.median_translation;
+    std::vector<std::string> out(in_a.size(), "not eligible");
+    for (const RockMatchOutcome& o : match.outcomes) {
+      if (o.rock_a >= static_cast<int>(in_a.size())) continue;
+      out[o.rock_a] = o.fate;
+      // Every fate names the true partner as the judged candidate.
+      EXPECT_EQ(o.rock_b, 2 * o.rock_a) << o.fate;
+    }
+    return out;
+  };
+  const RockMatchingOptions consensus;
+  ASSERT_TRUE(consensus.consensus_translation);
+  Eigen::Vector3d translation;
+  EXPECT_EQ(fates(consensus, &translation), std::vector<std::string>(3, "matched"));
+  EXPECT_LT((translation - prior_error).norm(), 1e-9);
+  RockMatchingOptions median = consensus;
+  median.consensus_translation = false;
+  EXPECT_EQ(fates(median, &translation), std::vector<std::string>(3, "inconsistent vector"));
+  EXPECT_NEAR(translation.x(), 0.3, 1e-9);
+  EXPECT_NEAR(translation.y(), 0.7, 1e-9);
+}
+
 TEST(RockMatching, OutcomesAccountForEveryMatch) {
   const SitePairMatch match = MatchSitesAAndB();
   int matched = 0;

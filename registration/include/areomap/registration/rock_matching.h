@@ -80,7 +80,7 @@ struct RockMatchingOptions {
   int significant_per_cell = 3;
   double search_radius_m = 2.5;         // Largest search radius around a rock of a (prior) [m].
   double pattern_tolerance_m = 0.6;     // epsilon of eq. 3.31 [m].
-  double max_vector_deviation_m = 1.0;  // Winner's V from the median V [m], and ...
+  double max_vector_deviation_m = 1.0;  // Winner's V from the global V [m], and ...
   // ... its chi-square against the two peaks' covariances plus the prior's heading error acting
   // on the rock's distance from site a (chi-square 3 dof, 99 %: 11.34). The heading sigma is the
   // one of a prior given as a bare pose (the first MatchSitePair overload).
@@ -108,6 +108,11 @@ struct RockMatchingOptions {
   // pattern's winner is matched if its own cost is acceptable: as if it were the only candidate,
   // which would be matched. False: every disagreement drops the rock (ch. 3.2).
   bool pattern_settles_disagreement = true;
+  // The global pattern's translation (the "median V" of the deviation test): true, the median of
+  // the largest group of rocks whose candidate vectors agree within max_vector_deviation_m (the
+  // median of all where no two agree); false, the median of all candidate vectors (ch. 3.2), which
+  // the wrong candidates pull towards the prior when few rocks and a prior off by metres meet.
+  bool consensus_translation = true;
   double ambiguity_sigmas = 1.0;  // Neighbour within epsilon + this many sigmas: ambiguous.
   // Neighbours that count for the ambiguity test: rocks at least this high at their site [m]
   // (lower values guard against a neighbour measured just under the height rule,
@@ -159,7 +164,8 @@ struct SitePairMatch {
   std::vector<TiePoint> tie_points;  // Only when the pair's outcome is "matched".
   PairFaultReport report;
   std::optional<SitePairError> error;  // RE (eq. 4.9) and geometry of the matches.
-  Eigen::Vector3d median_translation = Eigen::Vector3d::Zero();  // V_median (in a) [m].
+  // The global pattern's V (in a) [m]: RockMatchingOptions::consensus_translation.
+  Eigen::Vector3d median_translation = Eigen::Vector3d::Zero();
   int eligible_a = 0, eligible_b = 0;  // Rocks passing the per-rock rules.
   int significant = 0;
   int model_matches = 0, pattern_matches = 0;
