@@ -27,6 +27,12 @@
 // conformal fits show (MissionRunOptions::rock_variance_pass; `rock_variance_pass=0` turns it
 // off): the second pass's table follows the first's.
 //
+// Each table ends with the eligible rocks lost in the matching, by fate, and how many of them the
+// matching judged with their true partner as the candidate (what a looser rule at that step could
+// gain); an excluded leg lists its own. `truth_prior_position_sigma_m=S
+// truth_prior_heading_sigma_deg=D` searches each leg around the true pose with those sigmas instead
+// of the run's prior: an upper bound on what a better prior (the adjusted poses, say) could give.
+//
 // Run: build/ci/bench/areomap_bench_rock_funnel MISSION_DIR RUN_DIR [ROCKS_CSV] [NAME=VALUE...]
 // ROCKS_CSV (optional): one row per truth rock past the ratio stage and site of the leg, with the
 // nearest extracted peak, its height and rule, its elevation error and its horizontal offset from
@@ -250,6 +256,8 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options, TruthPri
     options->matching.consensus_translation = value != 0.0;
   } else if (name == "rock_variance_pass") {
     options->rock_variance_pass = value != 0.0;
+  } else if (name == "min_shape_points") {
+    m.min_shape_points = static_cast<int>(value);
   } else if (name == "significant_per_cell") {
     m.significant_per_cell = static_cast<int>(value);
   } else if (name == "min_surface_points") {
@@ -386,7 +394,6 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
     std::set<std::pair<int, int>> matched_pairs;  // Extracted rock indices (a, b).
     std::map<int, std::string> fate_of;           // Rock of a -> RockMatchOutcome::fate.
     std::map<int, int> candidate_of;              // Rock of a -> RockMatchOutcome::rock_b.
-    Eigen::Vector3d median_v = Eigen::Vector3d::Zero();
     Funnel f;
     std::optional<RockMatchingPrior> prior =
         RecordedPrior(summary.value("prior", nlohmann::json::object()));
@@ -414,7 +421,6 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
         outcome += because;
       }
       leg_ties[k] = match.tie_points;
-      median_v = match.median_translation;
       for (const RockMatch& m : match.matches) matched_pairs.insert({m.rock_a, m.rock_b});
       for (const RockMatchOutcome& o : match.outcomes) {
         fate_of[o.rock_a] = o.fate;
@@ -524,13 +530,6 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
         if (candidate != candidate_of.end() &&
             std::find(partners.begin(), partners.end(), candidate->second) != partners.end()) {
           ++f.lost_with_true_candidate[fate];
-          if (fate == "inconsistent vector" && prior && getenv("FUNNEL_DEBUG")) {
-            const Eigen::Vector3d v =
-                a.rocks[ka].peak - prior->a_from_b * b.rocks[candidate->second].peak;
-            std::printf("    inconsistent: V %.2f %.2f median %.2f %.2f ranges %.1f %.1f\n", v.x(),
-                        v.y(), median_v.x(), median_v.y(), a.rocks[ka].range_m,
-                        b.rocks[candidate->second].range_m);
-          }
         }
         continue;
       }

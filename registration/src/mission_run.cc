@@ -327,7 +327,9 @@ nlohmann::json MissionRunOptions::ToJson() const {
   // The pattern settles the methods' disagreements since 2026-12-04: legs matched before are
   // recomputed.
   figures["rock_pattern_settles_disagreement"] = matching.pattern_settles_disagreement;
+  // Since 2026-12-04 (the consensus translation, models compared from min_shape_points up).
   figures["rock_consensus_translation"] = matching.consensus_translation;
+  figures["rock_min_shape_points"] = matching.min_shape_points;
   // Library callers may change the rock ties' variance factor: legs made with another are not
   // reused. Left out at its default, so that earlier runs keep their fingerprint.
   if (matching.tie_variance_factor != 1.0) {

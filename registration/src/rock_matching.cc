@@ -326,6 +326,7 @@ void RockMatchingOptions::Check() const {
                     cost_height_weight + cost_radius_weight + cost_area_weight > 0.0,
                 "RockMatchingOptions.cost_height_weight", "non-negative weights, not all zero");
   RequireOption(max_model_cost > 0.0, "RockMatchingOptions.max_model_cost", "> 0");
+  RequireOption(min_shape_points >= 0, "RockMatchingOptions.min_shape_points", ">= 0");
   RequireOption(ambiguity_sigmas >= 0.0, "RockMatchingOptions.ambiguity_sigmas", ">= 0");
   RequireOption(ambiguity_min_height_m >= 0.0, "RockMatchingOptions.ambiguity_min_height_m",
                 ">= 0 m");
@@ -344,6 +345,18 @@ double ModelMatchCost(const RockModelParameters& p, const RockModelParameters& q
   return options.cost_height_weight * RelativeDifference(p.height, q.height) +
          options.cost_radius_weight * RelativeDifference(p.MeanRadius(), q.MeanRadius()) +
          options.cost_area_weight * RelativeDifference(p.SurfaceAreaExact(), q.SurfaceAreaExact());
+}
+
+double PairCost(const ExtractedRock& p, const ExtractedRock& q,
+                const RockMatchingOptions& options) {
+  const size_t fewest = std::min(p.surface_indices.size(), q.surface_indices.size());
+  if (fewest >= static_cast<size_t>(options.min_shape_points)) {
+    return ModelMatchCost(p.best_model()->parameters, q.best_model()->parameters, options);
+  }
+  const double difference = RelativeDifference(p.height_m, q.height_m);
+  const double alike = options.ambiguity_similar_height_difference;
+  if (alike <= 0.0) return difference > 0.0 ? std::numeric_limits<double>::infinity() : 0.0;
+  return options.max_model_cost * difference / alike;
 }
 
 void RockMatchingPrior::Check() const {
@@ -547,8 +560,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     for (int k = 0; k < 2; ++k) {
       if (c.pattern[k] < 0) continue;
       const ExtractedRock& q = b.rocks[eb.rocks[c.pattern[k]]];
-      const double cost =
-          ModelMatchCost(p.best_model()->parameters, q.best_model()->parameters, options);
+      const double cost = PairCost(p, q, options);
       c.cost[k] = cost;
       if (cost < best_cost) {
         best_cost = cost;

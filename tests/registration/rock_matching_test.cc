@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <numeric>
 
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
@@ -249,8 +250,10 @@ TEST(RockMatching, ModelCostIsEq328) {
   EXPECT_THROW(MatchSitePair({}, {}, Rigid3d(), bad), Error);
 }
 
-// A modeled rock at `peak` (site frame) with an isotropic horizontal peak sigma [m].
-ExtractedRock ModeledRock(int id, const Eigen::Vector3d& peak, double height, double sigma) {
+// A modeled rock at `peak` (site frame) with an isotropic horizontal peak sigma [m], its model
+// fitted to `points` surface points (the default: enough for eq. 3.28).
+ExtractedRock ModeledRock(int id, const Eigen::Vector3d& peak, double height, double sigma,
+                          int points = 80) {
   ExtractedRock r;
   r.id = id;
   r.peak = peak;
@@ -258,7 +261,8 @@ ExtractedRock ModeledRock(int id, const Eigen::Vector3d& peak, double height, do
   r.range_m = peak.head<2>().norm();
   r.height_m = height;
   r.peak_foot = peak + Eigen::Vector3d(0, 0, height);
-  r.surface_indices = {0, 1, 2, 3, 4, 5};
+  r.surface_indices.resize(static_cast<size_t>(points));
+  std::iota(r.surface_indices.begin(), r.surface_indices.end(), 0);
   RockModelFit fit;
   fit.converged = true;
   fit.parameters.height = height;
@@ -540,6 +544,34 @@ TEST(RockMatching, ConsensusTranslationFindsThePatternThatFewRocksAgreeOn) {
   EXPECT_EQ(fates(median, &translation), std::vector<std::string>(3, "inconsistent vector"));
   EXPECT_NEAR(translation.x(), 0.3, 1e-9);
   EXPECT_NEAR(translation.y(), 0.7, 1e-9);
+}
+
+// A far peak whose model rests on 12 surface points has a mean radius of 0.06 m where the near
+// site's model has 0.35 m: eq. 3.28 costs more than 0.6 and drops the true partner. Below
+// min_shape_points the pair is compared by its measured heights (0.20 and 0.18 m): matched. A
+// look-alike of 0.13 m (42 % lower) is still refused, and with min_shape_points 0 the models
+// decide as in ch. 3.2.
+TEST(RockMatching, ModelsFromFewPointsAreComparedByTheirMeasuredHeights) {
+  const auto fate = [](double far_height, int far_points, const RockMatchingOptions& options) {
+    ExtractedRock near = ModeledRock(1, kRockInA, 0.20, 0.05);
+    near.models.front().parameters.a = near.models.front().parameters.b = 0.35;
+    ExtractedRock far = ModeledRock(1, kRockInA - kCameraBInA, far_height, 0.25, far_points);
+    far.models.front().parameters.a = far.models.front().parameters.b = 0.06;
+    return FateOfFirstRockOfA(MatchTwelveMetrePair({near}, {far}, options));
+  };
+  const RockMatchingOptions options;
+  ASSERT_EQ(options.min_shape_points, 40);
+  EXPECT_EQ(fate(0.18, 12, options), "matched");
+  EXPECT_EQ(fate(0.18, 80, options), "model cost");  // Both models determined: eq. 3.28.
+  EXPECT_EQ(fate(0.13, 12, options), "model cost");
+  RockMatchingOptions models_always = options;
+  models_always.min_shape_points = 0;
+  EXPECT_EQ(fate(0.18, 12, models_always), "model cost");
+  // The cost itself: max_model_cost at the "same size" limit of the ambiguity test (30 %).
+  const ExtractedRock a = ModeledRock(1, kRockInA, 0.20, 0.05, 10);
+  const ExtractedRock b = ModeledRock(2, kRockInA, 0.20 * 1.15 / 0.85, 0.05, 10);
+  EXPECT_NEAR(PairCost(a, b, options), options.max_model_cost, 1e-12);
+  EXPECT_NEAR(PairCost(a, a, options), 0.0, 1e-12);
 }
 
 TEST(RockMatching, OutcomesAccountForEveryMatch) {

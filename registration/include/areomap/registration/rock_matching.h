@@ -16,11 +16,13 @@
 // horizontal covariance: a far peak smears along its line of sight, not across it); the two best
 // candidates per significant rock are kept (Fig. 3.3); (4) model matching among those two: the
 // smallest cost 1/2 f_h + 1/3 f_r + 1/6 f_S (eq. 3.28; f = relative differences of height, mean
-// radius and exact surface area of the best models), then the local terrain check (angle between
-// the background-plane normals); the pattern candidate whose V is nearer the median of all
-// candidate vectors, by the chi-square of the two peaks' covariances, wins (global consistency).
+// radius and exact surface area of the best models; of the measured heights where either model
+// rests on fewer than `min_shape_points` points), then the local terrain check (angle between
+// the background-plane normals); the pattern candidate whose V is nearer the global V (the
+// median of the largest group of rocks whose candidate vectors agree, `consensus_translation`),
+// by the chi-square of the two peaks' covariances, wins (global consistency).
 // Beyond the dissertation, a winner whose V lies farther than `max_vector_deviation_m` from the
-// median, or beyond its chi-square bound given the peaks' covariances, is dropped (it contradicts
+// global V, or beyond its chi-square bound given the peaks' covariances, is dropped (it contradicts
 // the global pattern), and so is a rock of either site with a neighbour (at least
 // `ambiguity_min_height_m` high, or at least `ambiguity_similar_min_height_m` high and of about
 // the rock's own height) closer than epsilon plus `ambiguity_sigmas` sigmas of the two
@@ -103,6 +105,15 @@ struct RockMatchingOptions {
   double cost_radius_weight = 1.0 / 3.0;
   double cost_area_weight = 1.0 / 6.0;
   double max_model_cost = 0.6;  // Model matching accepts costs up to this.
+  // Eq. 3.28 compares two models only when both rest on at least this many surface points (half
+  // of RockExtractionOptions::max_model_points, the most a fit uses). A model fitted to fewer is
+  // not determined: on a generated traverse, true partners lost to the cost had mean radii of
+  // 0.03-0.12 m from 5-25 points against 0.3-0.5 m at the other site, while their measured
+  // heights agreed (docs/rocks.md, "Models from few points"). Such a pair is compared by its
+  // measured peak-to-plane heights instead, as the ambiguity test compares a rock with its
+  // neighbours: a relative difference up to ambiguity_similar_height_difference is a cost up to
+  // max_model_cost (PairCost). 0 compares every pair's models (ch. 3.2).
+  int min_shape_points = 40;
   // When model matching prefers the other pattern candidate ("methods disagree"), but that
   // candidate's V fails the global pattern test (max_vector_deviation_m, max_vector_chi2), the
   // pattern's winner is matched if its own cost is acceptable: as if it were the only candidate,
@@ -206,5 +217,9 @@ void CheckModelsCoverHeightRule(const RockExtractionOptions& extraction,
 // Eq. 3.28 between two fitted models (relative differences against their mean).
 double ModelMatchCost(const RockModelParameters& p, const RockModelParameters& q,
                       const RockMatchingOptions& options);
+// The model matching cost of two modeled rocks: eq. 3.28 of their best models when both rest on
+// at least options.min_shape_points surface points, else their measured heights' relative
+// difference scaled so that ambiguity_similar_height_difference costs max_model_cost.
+double PairCost(const ExtractedRock& p, const ExtractedRock& q, const RockMatchingOptions& options);
 
 }  // namespace areomap
