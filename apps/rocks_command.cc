@@ -234,6 +234,14 @@ void AddRocksCommand(CLI::App& app, const GlobalOptions& global) {
                    "sigma0^2, summary.json rock_tie_variance) for the fit, RE and the output")
       ->check(PositiveNumber())
       ->capture_default_str();
+  match
+      ->add_option(
+          "--min-shape-points", match_args->matching.min_shape_points,
+          "Eq. 3.28 compares two rock models only when both rest on at least this many surface "
+          "points; a pair with a model from fewer is compared by its measured heights "
+          "(0: eq. 3.28 for every pair, docs/rocks.md)")
+      ->check(IntegerAtLeast(0))
+      ->capture_default_str();
   auto* rule = match->add_option(
       "--min-peak-to-plane", match_args->matching.fault_detection.min_peak_to_plane_m,
       "Table 4.5's height rule: lower rocks are not tie points [m] (measured heights "
