@@ -416,6 +416,12 @@ TEST(MissionRunOptions, RockAmbiguityRuleChangesTheFingerprint) {
   MissionRunOptions agree = defaults;
   agree.matching.pattern_settles_disagreement = false;
   EXPECT_NE(agree.ToJson(), defaults.ToJson());
+  // Nor legs matched before the consensus translation and the few-point models (2026-12-04).
+  MissionRunOptions median = defaults, shapes = defaults;
+  median.matching.consensus_translation = false;
+  shapes.matching.min_shape_points = 0;
+  EXPECT_NE(median.ToJson(), defaults.ToJson());
+  EXPECT_NE(shapes.ToJson(), defaults.ToJson());
 }
 
 TEST(MissionRunOptions, RockHeightRuleChangesTheFingerprint) {
