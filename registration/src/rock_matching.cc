@@ -527,7 +527,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     int model_best = -1;  // Index into eb.rocks / q_in_a.
     int pattern[2] = {-1, -1};
     int votes[2] = {0, 0};
-    double cost[2] = {0.0, 0.0};  // Eq. 3.28 of each pattern candidate.
+    double cost[2] = {0.0, 0.0};  // PairCost (eq. 3.28) of each pattern candidate.
   };
   std::vector<Candidates> per_rock;
   std::vector<CandidateVector> vectors;

@@ -154,7 +154,7 @@ struct RockMatchingOptions {
 struct RockMatch {
   int rock_a = -1;                // Index into SiteRocks::rocks of site a.
   int rock_b = -1;                // Index into SiteRocks::rocks of site b.
-  double model_cost = 0.0;        // Eq. 3.28.
+  double model_cost = 0.0;        // PairCost: eq. 3.28, or the heights of few-point models.
   int pattern_count = 0;          // Eq. 3.31 for the winning translation.
   double normal_angle_deg = 0.0;  // Between the background-plane normals.
   double distance_ratio = 0.0;    // Fig. 4.19.
