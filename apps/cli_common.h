@@ -47,6 +47,12 @@ void WriteSummary(const std::filesystem::path& out_dir, const nlohmann::json& su
 // value at CLI::Validator::application_index. --help shows the accepted values after the type
 // as an interval of finite numbers, e.g. "FLOAT:(0, inf)", "INT:[0, 65535]".
 
+// Help of --min-shape-points (`run` and `rocks match`: RockMatchingOptions::min_shape_points).
+inline constexpr const char* kMinShapePointsHelp =
+    "Eq. 3.28 compares two rock models only when both rest on at least this many surface points; "
+    "a pair with a model from fewer is compared by its measured heights (0: eq. 3.28 for every "
+    "pair, docs/rocks.md)";
+
 // Whether a bound of NumberIn belongs to the interval.
 enum class Bound { kClosed, kOpen };
 

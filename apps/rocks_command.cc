@@ -235,11 +235,7 @@ void AddRocksCommand(CLI::App& app, const GlobalOptions& global) {
       ->check(PositiveNumber())
       ->capture_default_str();
   match
-      ->add_option(
-          "--min-shape-points", match_args->matching.min_shape_points,
-          "Eq. 3.28 compares two rock models only when both rest on at least this many surface "
-          "points; a pair with a model from fewer is compared by its measured heights "
-          "(0: eq. 3.28 for every pair, docs/rocks.md)")
+      ->add_option("--min-shape-points", match_args->matching.min_shape_points, kMinShapePointsHelp)
       ->check(IntegerAtLeast(0))
       ->capture_default_str();
   auto* rule = match->add_option(

@@ -184,11 +184,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
                   "true ones: 0.12 keeps Table 4.5's 15 cm rocks, docs/rocks.md)")
       ->check(NonNegativeNumber())
       ->capture_default_str();
-  run->add_option(
-         "--min-shape-points", o->run.matching.min_shape_points,
-         "Eq. 3.28 compares two rock models only when both rest on at least this many surface "
-         "points; a pair with a model from fewer is compared by its measured heights "
-         "(0: eq. 3.28 for every pair, docs/rocks.md)")
+  run->add_option("--min-shape-points", o->run.matching.min_shape_points, kMinShapePointsHelp)
       ->check(IntegerAtLeast(0))
       ->capture_default_str();
   run->add_flag("--keep-coarse-points", o->keep_coarse_points,

@@ -392,8 +392,7 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
     const nlohmann::json summary = nlohmann::json::parse(unit_file)["summary"];
     std::string outcome = summary.value("outcome", std::string("?"));
     std::set<std::pair<int, int>> matched_pairs;  // Extracted rock indices (a, b).
-    std::map<int, std::string> fate_of;           // Rock of a -> RockMatchOutcome::fate.
-    std::map<int, int> candidate_of;              // Rock of a -> RockMatchOutcome::rock_b.
+    std::map<int, RockMatchOutcome> outcome_of;   // Rock of a -> what became of it.
     Funnel f;
     std::optional<RockMatchingPrior> prior =
         RecordedPrior(summary.value("prior", nlohmann::json::object()));
@@ -422,10 +421,7 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
       }
       leg_ties[k] = match.tie_points;
       for (const RockMatch& m : match.matches) matched_pairs.insert({m.rock_a, m.rock_b});
-      for (const RockMatchOutcome& o : match.outcomes) {
-        fate_of[o.rock_a] = o.fate;
-        candidate_of[o.rock_a] = o.rock_b;
-      }
+      for (const RockMatchOutcome& o : match.outcomes) outcome_of[o.rock_a] = o;
       f.leg_matches = static_cast<int>(match.matches.size());
       if (match.error) {
         fits.push_back(*match.error);
@@ -522,13 +518,13 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
         for (int ib : b.rocks_on.at(r.id)) joined = joined || matched_pairs.count({ia, ib}) > 0;
       }
       if (!joined) {
-        const auto it = fate_of.find(ka);
-        const std::string fate = it == fate_of.end() ? "outside the prior's overlap" : it->second;
+        const auto it = outcome_of.find(ka);
+        const std::string fate =
+            it == outcome_of.end() ? "outside the prior's overlap" : it->second.fate;
         ++f.lost_in_matching[fate];
         const std::vector<int>& partners = b.rocks_on.at(r.id);
-        const auto candidate = candidate_of.find(ka);
-        if (candidate != candidate_of.end() &&
-            std::find(partners.begin(), partners.end(), candidate->second) != partners.end()) {
+        if (it != outcome_of.end() &&
+            std::find(partners.begin(), partners.end(), it->second.rock_b) != partners.end()) {
           ++f.lost_with_true_candidate[fate];
         }
         continue;

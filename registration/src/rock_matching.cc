@@ -72,23 +72,20 @@ Eigen::Vector3d GlobalTranslation(const std::vector<CandidateVector>& vectors, b
     }
     return nearest;
   };
-  size_t best = 0, best_support = 0;
+  std::map<int, std::pair<double, size_t>> best;
   double best_spread = std::numeric_limits<double>::infinity();
-  for (size_t i = 0; i < vectors.size(); ++i) {
-    const auto nearest = nearest_per_rock(vectors[i].v);
+  for (const CandidateVector& seed : vectors) {
+    auto nearest = nearest_per_rock(seed.v);
     double spread = 0.0;
     for (const auto& [rock, entry] : nearest) spread += entry.first;
-    if (nearest.size() > best_support || (nearest.size() == best_support && spread < best_spread)) {
-      best = i;
-      best_support = nearest.size();
+    if (nearest.size() > best.size() || (nearest.size() == best.size() && spread < best_spread)) {
+      best = std::move(nearest);
       best_spread = spread;
     }
   }
-  if (best_support < 2) return ComponentMedian(vectors);
+  if (best.size() < 2) return ComponentMedian(vectors);
   std::vector<CandidateVector> group;
-  for (const auto& [rock, entry] : nearest_per_rock(vectors[best].v)) {
-    group.push_back(vectors[entry.second]);
-  }
+  for (const auto& [rock, entry] : best) group.push_back(vectors[entry.second]);
   return ComponentMedian(group);
 }
 
@@ -582,7 +579,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     }
     per_rock.push_back(c);
   }
-  result.median_translation =
+  result.global_translation =
       GlobalTranslation(vectors, options.consensus_translation, options.max_vector_deviation_m);
   report.Add(RockCount("III matching", "local terrain mismatch (plane normals)", terrain_rejects,
                        fd.max_normal_angle_deg, "deg"));
@@ -591,7 +588,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
   // from the median V by the two peaks' errors plus the prior's heading error acting on the
   // rock's distance from site a; the candidate nearer the median by that covariance wins.
   const auto deviation_of = [&](const ExtractedRock& p, int candidate) {
-    return Eigen::Vector3d(p.peak - q_in_a[candidate] - result.median_translation);
+    return Eigen::Vector3d(p.peak - q_in_a[candidate] - result.global_translation);
   };
   const auto heading_lever = [&](const ExtractedRock& p) {
     return prior.heading_sigma_deg / kRadToDeg * (p.peak - a.camera_center).head<2>().norm();

@@ -524,7 +524,7 @@ TEST(RockMatching, ConsensusTranslationFindsThePatternThatFewRocksAgreeOn) {
   }
   const auto fates = [&](const RockMatchingOptions& options, Eigen::Vector3d* translation) {
     const SitePairMatch match = MatchTwelveMetrePair(a_rocks, b_rocks, options);
-    *translation = match.median_translation;
+    *translation = match.global_translation;
     std::vector<std::string> out(in_a.size(), "not eligible");
     for (const RockMatchOutcome& o : match.outcomes) {
       if (o.rock_a >= static_cast<int>(in_a.size())) continue;

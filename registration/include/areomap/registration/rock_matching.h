@@ -176,7 +176,7 @@ struct SitePairMatch {
   PairFaultReport report;
   std::optional<SitePairError> error;  // RE (eq. 4.9) and geometry of the matches.
   // The global pattern's V (in a) [m]: RockMatchingOptions::consensus_translation.
-  Eigen::Vector3d median_translation = Eigen::Vector3d::Zero();
+  Eigen::Vector3d global_translation = Eigen::Vector3d::Zero();
   int eligible_a = 0, eligible_b = 0;  // Rocks passing the per-rock rules.
   int significant = 0;
   int model_matches = 0, pattern_matches = 0;
