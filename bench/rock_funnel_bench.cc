@@ -229,6 +229,7 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options, TruthPri
   const std::map<std::string, double*> doubles = {
       {"max_peak_sigma_m", &m.max_peak_sigma_m},
       {"low_rock_max_peak_sigma_m", &m.low_rock_max_peak_sigma_m},
+      {"low_pair_max_height_m", &m.low_pair_max_height_m},
       {"pattern_tolerance_m", &m.pattern_tolerance_m},
       {"max_model_cost", &m.max_model_cost},
       {"significant_cell_m", &m.significant_cell_m},

@@ -321,6 +321,8 @@ nlohmann::json MissionRunOptions::ToJson() const {
   figures["rocks_model_min_height_m"] = rocks.model_min_height_m;
   figures["rock_min_peak_to_plane_m"] = matching.fault_detection.min_peak_to_plane_m;
   figures["rock_low_rock_max_peak_sigma_m"] = matching.low_rock_max_peak_sigma_m;
+  // Since 2026-12-05 the limit holds for pairs of two low rocks only (one before).
+  figures["rock_low_pair_max_height_m"] = matching.low_pair_max_height_m;
   // Three significant rocks per cell since 2026-12-04 (one before): legs made with one are
   // recomputed.
   figures["rock_significant_per_cell"] = matching.significant_per_cell;

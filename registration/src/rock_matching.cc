@@ -334,6 +334,8 @@ void RockMatchingOptions::Check() const {
   RequireOption(max_peak_sigma_m > 0.0, "RockMatchingOptions.max_peak_sigma_m", "> 0 m");
   RequireOption(low_rock_max_peak_sigma_m > 0.0, "RockMatchingOptions.low_rock_max_peak_sigma_m",
                 "> 0 m");
+  RequireOption(low_pair_max_height_m >= 0.0, "RockMatchingOptions.low_pair_max_height_m",
+                ">= 0 m");
   fault_detection.Check();
 }
 
@@ -644,7 +646,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
       set_fate(c.rock_a, eb.rocks[winner], "terrain mismatch");
       continue;
     }
-    if (std::min(p.height_m, q.height_m) < options.ambiguity_min_height_m &&
+    if (std::max(p.height_m, q.height_m) < options.low_pair_max_height_m &&
         std::max(LargestHorizontalSigma(p), spread_b[winner].largest_sigma) >
             options.low_rock_max_peak_sigma_m) {
       set_fate(c.rock_a, eb.rocks[winner], "low rock seen from afar");

@@ -429,15 +429,18 @@ TEST(MissionRunOptions, RockHeightRuleChangesTheFingerprint) {
   // not reused with the 12 cm one, nor with another limit for low rocks.
   const MissionRunOptions defaults;
   // Nor legs made with one significant rock per cell (before 2026-12-04) with three.
-  MissionRunOptions rule = defaults, models = defaults, low = defaults, cell = defaults;
+  MissionRunOptions rule = defaults, models = defaults, low = defaults, cell = defaults,
+                    pair = defaults;
   rule.matching.fault_detection.min_peak_to_plane_m = 0.15;
   rule.rocks.model_min_height_m = 0.15;
   low.matching.low_rock_max_peak_sigma_m = 0.6;
+  pair.matching.low_pair_max_height_m = 0.15;
   models.rocks.model_min_height_m = 0.10;
   cell.matching.significant_per_cell = 1;
   EXPECT_NE(rule.ToJson(), defaults.ToJson());
   EXPECT_NE(models.ToJson(), defaults.ToJson());
   EXPECT_NE(low.ToJson(), defaults.ToJson());
+  EXPECT_NE(pair.ToJson(), defaults.ToJson());
   EXPECT_NE(cell.ToJson(), defaults.ToJson());
 }
 

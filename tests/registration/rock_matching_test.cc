@@ -442,27 +442,37 @@ TEST(RockMatching, SignificantRocksAreTheThreeHighestOfTheirCell) {
   EXPECT_LT(left_out, left_out_single);
 }
 
-// A rock under 15 cm (the 12 cm rule admits it) is matched only while both peaks are precise: a
-// far peak of a low rock has look-alike neighbours too low to be extracted, which the ambiguity
-// test cannot see.
-TEST(RockMatching, LowRockIsMatchedOnlyBetweenPrecisePeaks) {
+// A pair of two rocks under 16 cm (the 12 cm rule admits them) is matched only while both peaks
+// are precise: a far peak of a low rock has look-alike neighbours too low to be extracted, which
+// the ambiguity test cannot see. A pair with one rock from 16 cm up is not low.
+TEST(RockMatching, LowPairIsMatchedOnlyBetweenPrecisePeaks) {
   const RockMatchingOptions twelve_cm;  // The default.
   ASSERT_EQ(twelve_cm.fault_detection.min_peak_to_plane_m, 0.12);
-  const auto fate = [](double height, double sigma_b, const RockMatchingOptions& options) {
+  const auto fate = [](double height_a, double height_b, double sigma_b,
+                       const RockMatchingOptions& options) {
     return FateOfFirstRockOfA(
-        MatchTwelveMetrePair({ModeledRock(1, kRockInA, height, 0.05)},
-                             {ModeledRock(1, kRockInA - kCameraBInA, height, sigma_b)}, options));
+        MatchTwelveMetrePair({ModeledRock(1, kRockInA, height_a, 0.05)},
+                             {ModeledRock(1, kRockInA - kCameraBInA, height_b, sigma_b)}, options));
   };
-  EXPECT_EQ(fate(0.13, 0.05, twelve_cm), "matched");
-  EXPECT_EQ(fate(0.13, 0.25, twelve_cm), "matched");
-  EXPECT_EQ(fate(0.13, 0.40, twelve_cm), "low rock seen from afar");
-  EXPECT_EQ(fate(0.17, 0.40, twelve_cm), "matched");  // Not low.
+  EXPECT_EQ(fate(0.13, 0.13, 0.05, twelve_cm), "matched");
+  EXPECT_EQ(fate(0.13, 0.13, 0.25, twelve_cm), "matched");
+  EXPECT_EQ(fate(0.13, 0.13, 0.40, twelve_cm), "low rock seen from afar");
+  EXPECT_EQ(fate(0.15, 0.15, 0.40, twelve_cm), "low rock seen from afar");
+  EXPECT_EQ(fate(0.17, 0.17, 0.40, twelve_cm), "matched");  // Not low.
+  // Measured under 15 cm at one site, from 16 cm up at the other: not a low pair.
+  EXPECT_EQ(fate(0.13, 0.165, 0.40, twelve_cm), "matched");
+  EXPECT_EQ(fate(0.165, 0.13, 0.40, twelve_cm), "matched");
+  // A bound above both rocks: the pair is low, as every pair with a rock under 15 cm was before
+  // 2026-12-05.
+  RockMatchingOptions higher_bound = twelve_cm;
+  higher_bound.low_pair_max_height_m = 0.20;
+  EXPECT_EQ(fate(0.13, 0.165, 0.40, higher_bound), "low rock seen from afar");
   RockMatchingOptions loose = twelve_cm;
   loose.low_rock_max_peak_sigma_m = 0.5;
-  EXPECT_EQ(fate(0.13, 0.40, loose), "matched");
+  EXPECT_EQ(fate(0.13, 0.13, 0.40, loose), "matched");
   RockMatchingOptions fifteen_cm;
   fifteen_cm.fault_detection.min_peak_to_plane_m = 0.15;
-  EXPECT_EQ(fate(0.13, 0.40, fifteen_cm), "not eligible");
+  EXPECT_EQ(fate(0.13, 0.13, 0.40, fifteen_cm), "not eligible");
 }
 
 // Model matching prefers a look-alike of site b 1.5 m from where the pattern puts the rock's
