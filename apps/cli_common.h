@@ -53,6 +53,11 @@ inline constexpr const char* kMinShapePointsHelp =
     "a pair with a model from fewer is compared by its measured heights (0: eq. 3.28 for every "
     "pair, docs/rocks.md)";
 
+// Help of --low-pair-height (`run` and `rocks match`: RockMatchingOptions::low_pair_max_height_m).
+inline constexpr const char* kLowPairHeightHelp =
+    "A pair of rocks both measured lower than this is matched only between precise peaks (0: "
+    "no pair; before 2026-12-05 every pair with a rock under 15 cm was; docs/rocks.md) [m]";
+
 // Whether a bound of NumberIn belongs to the interval.
 enum class Bound { kClosed, kOpen };
 
