@@ -205,4 +205,21 @@ void CheckLatLonHeight(CLI::Option* option) {
   option->check(FiniteNumber().application_index(2).description(""));
 }
 
+void AddRockPairOptions(CLI::App* command, RockMatchingOptions* matching) {
+  command
+      ->add_option("--min-shape-points", matching->min_shape_points,
+                   "Eq. 3.28 compares two rock models only when both rest on at least this many "
+                   "surface points; a pair with a model from fewer is compared by its measured "
+                   "heights (0: eq. 3.28 for every pair, docs/rocks.md)")
+      ->check(IntegerAtLeast(0))
+      ->capture_default_str();
+  command
+      ->add_option("--low-pair-height", matching->low_pair_max_height_m,
+                   "A pair of rocks both measured lower than this is matched only between precise "
+                   "peaks (0: no pair; before 2026-12-05 every pair with a rock under 15 cm was; "
+                   "docs/rocks.md) [m]")
+      ->check(NonNegativeNumber())
+      ->capture_default_str();
+}
+
 }  // namespace areomap::cli

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "areomap/map/progress.h"
+#include "areomap/registration/rock_matching.h"
 
 namespace areomap::cli {
 
@@ -47,17 +48,6 @@ void WriteSummary(const std::filesystem::path& out_dir, const nlohmann::json& su
 // value at CLI::Validator::application_index. --help shows the accepted values after the type
 // as an interval of finite numbers, e.g. "FLOAT:(0, inf)", "INT:[0, 65535]".
 
-// Help of --min-shape-points (`run` and `rocks match`: RockMatchingOptions::min_shape_points).
-inline constexpr const char* kMinShapePointsHelp =
-    "Eq. 3.28 compares two rock models only when both rest on at least this many surface points; "
-    "a pair with a model from fewer is compared by its measured heights (0: eq. 3.28 for every "
-    "pair, docs/rocks.md)";
-
-// Help of --low-pair-height (`run` and `rocks match`: RockMatchingOptions::low_pair_max_height_m).
-inline constexpr const char* kLowPairHeightHelp =
-    "A pair of rocks both measured lower than this is matched only between precise peaks (0: "
-    "no pair; before 2026-12-05 every pair with a rock under 15 cm was; docs/rocks.md) [m]";
-
 // Whether a bound of NumberIn belongs to the interval.
 enum class Bound { kClosed, kOpen };
 
@@ -91,5 +81,10 @@ CLI::Validator IntegerAmong(std::vector<long long> values);
 // Checks the three values of an option read as "LAT,LON,H" (expected(3), delimiter ','):
 // Latitude(), Longitude() and FiniteNumber() [m].
 void CheckLatLonHeight(CLI::Option* option);
+
+// The rock-pair rules that `run` and `rocks match` share: --min-shape-points
+// (RockMatchingOptions::min_shape_points) and --low-pair-height (low_pair_max_height_m), each
+// checked and with its default shown.
+void AddRockPairOptions(CLI::App* command, RockMatchingOptions* matching);
 
 }  // namespace areomap::cli

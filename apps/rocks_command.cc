@@ -234,15 +234,7 @@ void AddRocksCommand(CLI::App& app, const GlobalOptions& global) {
                    "sigma0^2, summary.json rock_tie_variance) for the fit, RE and the output")
       ->check(PositiveNumber())
       ->capture_default_str();
-  match
-      ->add_option("--min-shape-points", match_args->matching.min_shape_points, kMinShapePointsHelp)
-      ->check(IntegerAtLeast(0))
-      ->capture_default_str();
-  match
-      ->add_option("--low-pair-height", match_args->matching.low_pair_max_height_m,
-                   kLowPairHeightHelp)
-      ->check(NonNegativeNumber())
-      ->capture_default_str();
+  AddRockPairOptions(match, &match_args->matching);
   auto* rule = match->add_option(
       "--min-peak-to-plane", match_args->matching.fault_detection.min_peak_to_plane_m,
       "Table 4.5's height rule: lower rocks are not tie points [m] (measured heights "

@@ -184,12 +184,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
                   "true ones: 0.12 keeps Table 4.5's 15 cm rocks, docs/rocks.md)")
       ->check(NonNegativeNumber())
       ->capture_default_str();
-  run->add_option("--min-shape-points", o->run.matching.min_shape_points, kMinShapePointsHelp)
-      ->check(IntegerAtLeast(0))
-      ->capture_default_str();
-  run->add_option("--low-pair-height", o->run.matching.low_pair_max_height_m, kLowPairHeightHelp)
-      ->check(NonNegativeNumber())
-      ->capture_default_str();
+  AddRockPairOptions(run, &o->run.matching);
   run->add_flag("--keep-coarse-points", o->keep_coarse_points,
                 "Keep every pair's points where a more precise pair (Pancam over Navcam) sees the "
                 "same ground");

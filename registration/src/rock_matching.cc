@@ -587,8 +587,8 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
                        fd.max_normal_angle_deg, "deg"));
 
   // Global pattern consistency, then the combination of both methods. A candidate's V deviates
-  // from the median V by the two peaks' errors plus the prior's heading error acting on the
-  // rock's distance from site a; the candidate nearer the median by that covariance wins.
+  // from the global V by the two peaks' errors plus the prior's heading error acting on the
+  // rock's distance from site a; the candidate nearer the global V by that covariance wins.
   const auto deviation_of = [&](const ExtractedRock& p, int candidate) {
     return Eigen::Vector3d(p.peak - q_in_a[candidate] - result.global_translation);
   };
