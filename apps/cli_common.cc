@@ -206,11 +206,14 @@ void CheckLatLonHeight(CLI::Option* option) {
 }
 
 void AddRockPairOptions(CLI::App* command, RockMatchingOptions* matching) {
+  command->add_flag("--compare-models", matching->compare_models,
+                    "Compare rock pairs by their fitted models (eq. 3.28) rather than by their "
+                    "measured heights (the default since 2026-12-05, docs/rocks.md)");
   command
       ->add_option("--min-shape-points", matching->min_shape_points,
-                   "Eq. 3.28 compares two rock models only when both rest on at least this many "
-                   "surface points; a pair with a model from fewer is compared by its measured "
-                   "heights (0: eq. 3.28 for every pair, docs/rocks.md)")
+                   "With --compare-models, eq. 3.28 compares two rock models only when both rest "
+                   "on at least this many surface points; a pair with a model from fewer is "
+                   "compared by its measured heights (0: eq. 3.28 for every pair)")
       ->check(IntegerAtLeast(0))
       ->capture_default_str();
   command

@@ -29,7 +29,9 @@
 //
 // Each table ends with the eligible rocks lost in the matching, by fate, and how many of them the
 // matching judged with their true partner as the candidate (what a looser rule at that step could
-// gain); an excluded leg lists its own. `truth_prior_position_sigma_m=S
+// gain); an excluded leg lists its own. Then how often the pair cost (PairCost) passes an eligible
+// rock's true partner and an eligible look-alike of site b within 1.5 m of it, compared by the
+// measured heights and by the models (eq. 3.28). `truth_prior_position_sigma_m=S
 // truth_prior_heading_sigma_deg=D` searches each leg around the true pose with those sigmas instead
 // of the run's prior: an upper bound on what a better prior (the adjusted poses, say) could give.
 //
@@ -253,6 +255,8 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options, TruthPri
     truth_prior->heading_sigma_deg = value;
   } else if (name == "pattern_settles_disagreement") {
     options->matching.pattern_settles_disagreement = value != 0.0;
+  } else if (name == "compare_models") {
+    options->matching.compare_models = value != 0.0;
   } else if (name == "consensus_translation") {
     options->matching.consensus_translation = value != 0.0;
   } else if (name == "rock_variance_pass") {
@@ -333,6 +337,46 @@ void PrintHeightDifferences(std::vector<double> right, std::vector<double> wrong
   std::printf("\n");
 }
 
+// How well the pair cost tells an eligible rock's true partner from the eligible peaks of site b
+// within kLookAlikeDistance of it on other truth rocks (by the sight ray): how many of each pass
+// max_model_cost, compared by the measured heights and by eq. 3.28 of the models, over all pairs
+// and over those whose models both rest on min_shape_points or more.
+constexpr double kLookAlikeDistance = 1.5;  // [m]
+struct CostDiscrimination {
+  // [true partner, look-alike][all, both models from min_shape_points]: pairs, passing by the
+  // heights, passing by the models.
+  std::array<std::array<std::array<int, 3>, 2>, 2> counts{};
+  void Add(const ExtractedRock& p, const ExtractedRock& q, bool partner,
+           const RockMatchingOptions& options) {
+    RockMatchingOptions heights = options, models = options;
+    heights.compare_models = false;
+    models.compare_models = true;
+    models.min_shape_points = 0;
+    const bool determined = std::min(p.surface_indices.size(), q.surface_indices.size()) >=
+                            static_cast<size_t>(options.min_shape_points);
+    for (int subset = 0; subset < (determined ? 2 : 1); ++subset) {
+      std::array<int, 3>& c = counts[partner ? 0 : 1][subset];
+      ++c[0];
+      c[1] += PairCost(p, q, heights) <= options.max_model_cost ? 1 : 0;
+      c[2] += PairCost(p, q, models) <= options.max_model_cost ? 1 : 0;
+    }
+  }
+  void Print(const RockMatchingOptions& options) const {
+    const auto percent = [](int n, int of) { return of > 0 ? 100.0 * n / of : std::nan(""); };
+    for (int subset = 0; subset < 2; ++subset) {
+      const std::array<int, 3>& t = counts[0][subset];
+      const std::array<int, 3>& l = counts[1][subset];
+      std::printf(
+          "pair cost <= %.2f, %s: true partners %d, by the measured heights %.1f %%, by the "
+          "models (eq. 3.28) %.1f %%; look-alikes within %.1f m %d, %.1f %% / %.1f %%\n",
+          options.max_model_cost,
+          subset == 0 ? "all eligible pairs" : "both models from min_shape_points up", t[0],
+          percent(t[1], t[0]), percent(t[2], t[0]), kLookAlikeDistance, l[0], percent(l[1], l[0]),
+          percent(l[2], l[0]));
+    }
+  }
+};
+
 // One pass over the legs; returns the legs' conformal fits pooled at the a-priori covariances.
 PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run_dir,
                                 const fs::path& rocks_csv, const MissionRunOptions& options,
@@ -367,6 +411,7 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
   const bench::SightRayTruth sight_rays(truth, mission.origin.h);
   // Every match's relative height difference |H_a - H_b| / mean, by the sight ray's verdict.
   std::vector<double> height_difference_right, height_difference_wrong;
+  CostDiscrimination costs;
   loaded->sites.resize(mission.sites.size());
   const auto site_at = [&](size_t k) -> const Site& {
     if (!loaded->sites[k]) {
@@ -514,6 +559,17 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
         continue;
       }
       ++f.eligible;
+      // The pair costs of the true partners and of site b's eligible look-alikes near the partner.
+      costs.Add(a.rocks[ka], b.rocks[kb], true, options.matching);
+      for (size_t q = 0; q < b.peaks_world.size(); ++q) {
+        const double d = (b.peaks_world[q] - b.peaks_world[kb]).norm();
+        if (static_cast<int>(q) == kb || d > kLookAlikeDistance || b.seen_on[q] == r.id ||
+            CheckRockRules(b.rocks[q], cam_b_in_b, cam_a_in_b, options.matching) !=
+                RockRule::kEligible) {
+          continue;
+        }
+        costs.Add(a.rocks[ka], b.rocks[q], false, options.matching);
+      }
       bool joined = false;
       for (int ia : a.rocks_on.at(r.id)) {
         for (int ib : b.rocks_on.at(r.id)) joined = joined || matched_pairs.count({ia, ib}) > 0;
@@ -687,6 +743,7 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
       loaded->agreement.agree[0], loaded->agreement.peaks[0], loaded->agreement.agree[1],
       loaded->agreement.peaks[1]);
   PrintHeightDifferences(height_difference_right, height_difference_wrong);
+  costs.Print(options.matching);
   if (options.leg_test) PrintLegTest(leg_ties, truth_by_rock_a, options.LegTestOptions());
   const PooledVarianceFactor pooled = PoolVarianceFactor(fits);
   std::printf(

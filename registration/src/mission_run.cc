@@ -332,6 +332,8 @@ nlohmann::json MissionRunOptions::ToJson() const {
   // Since 2026-12-04 (the consensus translation, models compared from min_shape_points up).
   figures["rock_consensus_translation"] = matching.consensus_translation;
   figures["rock_min_shape_points"] = matching.min_shape_points;
+  // Since 2026-12-05 pairs are compared by their measured heights (by their models before).
+  figures["rock_compare_models"] = matching.compare_models;
   // Library callers may change the rock ties' variance factor: legs made with another are not
   // reused. Left out at its default, so that earlier runs keep their fingerprint.
   if (matching.tie_variance_factor != 1.0) {

@@ -422,6 +422,10 @@ TEST(MissionRunOptions, RockAmbiguityRuleChangesTheFingerprint) {
   shapes.matching.min_shape_points = 0;
   EXPECT_NE(median.ToJson(), defaults.ToJson());
   EXPECT_NE(shapes.ToJson(), defaults.ToJson());
+  // Nor legs whose pairs were compared by their models (before 2026-12-05).
+  MissionRunOptions models = defaults;
+  models.matching.compare_models = true;
+  EXPECT_NE(models.ToJson(), defaults.ToJson());
 }
 
 TEST(MissionRunOptions, RockHeightRuleChangesTheFingerprint) {

@@ -476,10 +476,10 @@ TEST(RockMatching, LowPairIsMatchedOnlyBetweenPrecisePeaks) {
 }
 
 // Model matching prefers a look-alike of site b 1.5 m from where the pattern puts the rock's
-// partner (eq. 3.28 cost 0 against the partner's ~0.2): the global pattern excludes that
-// look-alike as it would exclude it as the winner, so it is no alternative, and the partner is
-// matched as a lone candidate would be. Not when the option is off (ch. 3.2: both methods must
-// agree), nor when the partner's own cost is above the limit.
+// partner (measured heights 0.30 and 0.30 m: cost 0, against the partner's 0.25 m: 0.36): the
+// global pattern excludes that look-alike as it would exclude it as the winner, so it is no
+// alternative, and the partner is matched as a lone candidate would be. Not when the option is off
+// (ch. 3.2: both methods must agree), nor when the partner's own cost is above the limit.
 TEST(RockMatching, PatternSettlesADisagreementWhenTheModelsChoiceIsOffThePattern) {
   // Four rocks seen alike at both sites set the pattern (the median V).
   std::vector<ExtractedRock> a_rocks, b_rocks;
@@ -508,12 +508,19 @@ TEST(RockMatching, PatternSettlesADisagreementWhenTheModelsChoiceIsOffThePattern
   };
   const RockMatchingOptions settles;
   ASSERT_TRUE(settles.pattern_settles_disagreement);
-  EXPECT_EQ(fate(0.22, 0.25, settles), "matched 1");
+  EXPECT_EQ(fate(0.25, 0.25, settles), "matched 1");
   RockMatchingOptions off;
   off.pattern_settles_disagreement = false;
-  EXPECT_EQ(fate(0.22, 0.25, off), "methods disagree 1");
-  // Height 0.16 against 0.30 and radius 0.7 against 0.25: cost above 0.6.
-  EXPECT_EQ(fate(0.16, 0.7, settles), "methods disagree 1");
+  EXPECT_EQ(fate(0.25, 0.25, off), "methods disagree 1");
+  // Height 0.16 against 0.30: cost above 0.6.
+  EXPECT_EQ(fate(0.16, 0.25, settles), "methods disagree 1");
+  // Eq. 3.28 also weighs the models' radii: 0.9 against 0.25 m costs above 0.6 there, not by
+  // the measured heights.
+  EXPECT_EQ(fate(0.25, 0.9, settles), "matched 1");
+  RockMatchingOptions models = settles;
+  models.compare_models = true;
+  EXPECT_EQ(fate(0.25, 0.25, models), "matched 1");
+  EXPECT_EQ(fate(0.25, 0.9, models), "methods disagree 1");
 }
 
 // Three rocks whose partners lie 1.8 m from where the prior puts them, each with a decoy of site b
@@ -556,12 +563,12 @@ TEST(RockMatching, ConsensusTranslationFindsThePatternThatFewRocksAgreeOn) {
   EXPECT_NEAR(translation.y(), 0.7, 1e-9);
 }
 
-// A far peak whose model rests on 12 surface points has a mean radius of 0.06 m where the near
-// site's model has 0.35 m: eq. 3.28 costs more than 0.6 and drops the true partner. Below
-// min_shape_points the pair is compared by its measured heights (0.20 and 0.18 m): matched. A
-// look-alike of 0.13 m (42 % lower) is still refused, and with min_shape_points 0 the models
-// decide as in ch. 3.2.
-TEST(RockMatching, ModelsFromFewPointsAreComparedByTheirMeasuredHeights) {
+// A far peak whose model rests on 12 (or 80) surface points has a mean radius of 0.06 m where the
+// near site's model has 0.35 m: eq. 3.28 costs more than 0.6 and would drop the true partner. By
+// default the pair is compared by its measured heights (0.20 and 0.18 m): matched, while a
+// look-alike of 0.13 m (42 % lower) is refused. With compare_models, eq. 3.28 decides where both
+// models rest on min_shape_points or more, and with min_shape_points 0 for every pair (ch. 3.2).
+TEST(RockMatching, PairsAreComparedByTheirMeasuredHeightsUnlessModelsAreAskedFor) {
   const auto fate = [](double far_height, int far_points, const RockMatchingOptions& options) {
     ExtractedRock near = ModeledRock(1, kRockInA, 0.20, 0.05);
     near.models.front().parameters.a = near.models.front().parameters.b = 0.35;
@@ -570,11 +577,17 @@ TEST(RockMatching, ModelsFromFewPointsAreComparedByTheirMeasuredHeights) {
     return FateOfFirstRockOfA(MatchTwelveMetrePair({near}, {far}, options));
   };
   const RockMatchingOptions options;
-  ASSERT_EQ(options.min_shape_points, 40);
+  ASSERT_FALSE(options.compare_models);
   EXPECT_EQ(fate(0.18, 12, options), "matched");
-  EXPECT_EQ(fate(0.18, 80, options), "model cost");  // Both models determined: eq. 3.28.
+  EXPECT_EQ(fate(0.18, 80, options), "matched");
   EXPECT_EQ(fate(0.13, 12, options), "model cost");
-  RockMatchingOptions models_always = options;
+  EXPECT_EQ(fate(0.13, 80, options), "model cost");
+  RockMatchingOptions models = options;
+  models.compare_models = true;
+  ASSERT_EQ(models.min_shape_points, 40);
+  EXPECT_EQ(fate(0.18, 12, models), "matched");     // A model from 12 points: the heights.
+  EXPECT_EQ(fate(0.18, 80, models), "model cost");  // Both models determined: eq. 3.28.
+  RockMatchingOptions models_always = models;
   models_always.min_shape_points = 0;
   EXPECT_EQ(fate(0.18, 12, models_always), "model cost");
   // The cost itself: max_model_cost at the "same size" limit of the ambiguity test (30 %).
