@@ -82,9 +82,9 @@ CLI::Validator IntegerAmong(std::vector<long long> values);
 // Latitude(), Longitude() and FiniteNumber() [m].
 void CheckLatLonHeight(CLI::Option* option);
 
-// The rock-pair rules that `run` and `rocks match` share: --min-shape-points
-// (RockMatchingOptions::min_shape_points) and --low-pair-height (low_pair_max_height_m), each
-// checked and with its default shown.
+// The rock-pair rules that `run` and `rocks match` share: --compare-models
+// (RockMatchingOptions::compare_models), --min-shape-points (min_shape_points) and
+// --low-pair-height (low_pair_max_height_m), each checked and with its default shown.
 void AddRockPairOptions(CLI::App* command, RockMatchingOptions* matching);
 
 }  // namespace areomap::cli

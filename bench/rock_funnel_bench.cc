@@ -342,39 +342,47 @@ void PrintHeightDifferences(std::vector<double> right, std::vector<double> wrong
 // max_model_cost, compared by the measured heights and by eq. 3.28 of the models, over all pairs
 // and over those whose models both rest on min_shape_points or more.
 constexpr double kLookAlikeDistance = 1.5;  // [m]
-struct CostDiscrimination {
-  // [true partner, look-alike][all, both models from min_shape_points]: pairs, passing by the
-  // heights, passing by the models.
-  std::array<std::array<std::array<int, 3>, 2>, 2> counts{};
-  void Add(const ExtractedRock& p, const ExtractedRock& q, bool partner,
-           const RockMatchingOptions& options) {
-    RockMatchingOptions heights = options, models = options;
-    heights.compare_models = false;
-    models.compare_models = true;
-    models.min_shape_points = 0;
+class CostDiscrimination {
+ public:
+  explicit CostDiscrimination(const RockMatchingOptions& options)
+      : options_(options), heights_(options), models_(options) {
+    heights_.compare_models = false;
+    models_.compare_models = true;
+    models_.min_shape_points = 0;
+  }
+  void Add(const ExtractedRock& p, const ExtractedRock& q, bool partner) {
     const bool determined = std::min(p.surface_indices.size(), q.surface_indices.size()) >=
-                            static_cast<size_t>(options.min_shape_points);
+                            static_cast<size_t>(options_.min_shape_points);
+    const int by_heights = PairCost(p, q, heights_) <= options_.max_model_cost ? 1 : 0;
+    const int by_models = PairCost(p, q, models_) <= options_.max_model_cost ? 1 : 0;
     for (int subset = 0; subset < (determined ? 2 : 1); ++subset) {
-      std::array<int, 3>& c = counts[partner ? 0 : 1][subset];
+      std::array<int, 3>& c = counts_[partner ? 0 : 1][subset];
       ++c[0];
-      c[1] += PairCost(p, q, heights) <= options.max_model_cost ? 1 : 0;
-      c[2] += PairCost(p, q, models) <= options.max_model_cost ? 1 : 0;
+      c[1] += by_heights;
+      c[2] += by_models;
     }
   }
-  void Print(const RockMatchingOptions& options) const {
+  void Print() const {
     const auto percent = [](int n, int of) { return of > 0 ? 100.0 * n / of : std::nan(""); };
     for (int subset = 0; subset < 2; ++subset) {
-      const std::array<int, 3>& t = counts[0][subset];
-      const std::array<int, 3>& l = counts[1][subset];
+      const std::array<int, 3>& t = counts_[0][subset];
+      const std::array<int, 3>& l = counts_[1][subset];
       std::printf(
           "pair cost <= %.2f, %s: true partners %d, by the measured heights %.1f %%, by the "
           "models (eq. 3.28) %.1f %%; look-alikes within %.1f m %d, %.1f %% / %.1f %%\n",
-          options.max_model_cost,
+          options_.max_model_cost,
           subset == 0 ? "all eligible pairs" : "both models from min_shape_points up", t[0],
           percent(t[1], t[0]), percent(t[2], t[0]), kLookAlikeDistance, l[0], percent(l[1], l[0]),
           percent(l[2], l[0]));
     }
   }
+
+ private:
+  const RockMatchingOptions options_;
+  RockMatchingOptions heights_, models_;  // The options with each cost.
+  // [true partner, look-alike][all, both models from min_shape_points]: pairs, passing by the
+  // heights, passing by the models.
+  std::array<std::array<std::array<int, 3>, 2>, 2> counts_{};
 };
 
 // One pass over the legs; returns the legs' conformal fits pooled at the a-priori covariances.
@@ -411,7 +419,7 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
   const bench::SightRayTruth sight_rays(truth, mission.origin.h);
   // Every match's relative height difference |H_a - H_b| / mean, by the sight ray's verdict.
   std::vector<double> height_difference_right, height_difference_wrong;
-  CostDiscrimination costs;
+  CostDiscrimination costs(options.matching);
   loaded->sites.resize(mission.sites.size());
   const auto site_at = [&](size_t k) -> const Site& {
     if (!loaded->sites[k]) {
@@ -560,7 +568,7 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
       }
       ++f.eligible;
       // The pair costs of the true partners and of site b's eligible look-alikes near the partner.
-      costs.Add(a.rocks[ka], b.rocks[kb], true, options.matching);
+      costs.Add(a.rocks[ka], b.rocks[kb], true);
       for (size_t q = 0; q < b.peaks_world.size(); ++q) {
         const double d = (b.peaks_world[q] - b.peaks_world[kb]).norm();
         if (static_cast<int>(q) == kb || d > kLookAlikeDistance || b.seen_on[q] == r.id ||
@@ -568,7 +576,7 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
                 RockRule::kEligible) {
           continue;
         }
-        costs.Add(a.rocks[ka], b.rocks[q], false, options.matching);
+        costs.Add(a.rocks[ka], b.rocks[q], false);
       }
       bool joined = false;
       for (int ia : a.rocks_on.at(r.id)) {
@@ -743,7 +751,7 @@ PooledVarianceFactor FunnelPass(const fs::path& mission_dir, const fs::path& run
       loaded->agreement.agree[0], loaded->agreement.peaks[0], loaded->agreement.agree[1],
       loaded->agreement.peaks[1]);
   PrintHeightDifferences(height_difference_right, height_difference_wrong);
-  costs.Print(options.matching);
+  costs.Print();
   if (options.leg_test) PrintLegTest(leg_ties, truth_by_rock_a, options.LegTestOptions());
   const PooledVarianceFactor pooled = PoolVarianceFactor(fits);
   std::printf(

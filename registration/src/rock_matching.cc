@@ -348,8 +348,8 @@ double ModelMatchCost(const RockModelParameters& p, const RockModelParameters& q
 
 double PairCost(const ExtractedRock& p, const ExtractedRock& q,
                 const RockMatchingOptions& options) {
-  const size_t fewest = std::min(p.surface_indices.size(), q.surface_indices.size());
-  if (options.compare_models && fewest >= static_cast<size_t>(options.min_shape_points)) {
+  if (options.compare_models && std::min(p.surface_indices.size(), q.surface_indices.size()) >=
+                                    static_cast<size_t>(options.min_shape_points)) {
     return ModelMatchCost(p.best_model()->parameters, q.best_model()->parameters, options);
   }
   const double difference = RelativeDifference(p.height_m, q.height_m);
