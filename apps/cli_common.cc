@@ -223,6 +223,20 @@ void AddRockPairOptions(CLI::App* command, RockMatchingOptions* matching) {
                    "docs/rocks.md) [m]")
       ->check(NonNegativeNumber())
       ->capture_default_str();
+  command
+      ->add_option(
+          "--low-pair-vouch", matching->low_pair_vouch_deviation_m,
+          "A low pair is matched all the same when its translation lies within this of the "
+          "global pattern's and --low-pair-votes rocks vote for it (0: never; "
+          "docs/rocks.md) [m]")
+      ->check(NonNegativeNumber())
+      ->capture_default_str();
+  command
+      ->add_option("--low-pair-votes", matching->low_pair_vouch_votes,
+                   "Rocks (the pair's own included) whose pattern votes for a low pair's "
+                   "translation before it can be vouched for")
+      ->check(IntegerAtLeast(1))
+      ->capture_default_str();
 }
 
 }  // namespace areomap::cli

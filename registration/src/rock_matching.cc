@@ -336,6 +336,9 @@ void RockMatchingOptions::Check() const {
                 "> 0 m");
   RequireOption(low_pair_max_height_m >= 0.0, "RockMatchingOptions.low_pair_max_height_m",
                 ">= 0 m");
+  RequireOption(low_pair_vouch_deviation_m >= 0.0, "RockMatchingOptions.low_pair_vouch_deviation_m",
+                ">= 0 m");
+  RequireOption(low_pair_vouch_votes >= 1, "RockMatchingOptions.low_pair_vouch_votes", ">= 1");
   fault_detection.Check();
 }
 
@@ -646,7 +649,11 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
       set_fate(c.rock_a, eb.rocks[winner], "terrain mismatch");
       continue;
     }
-    if (std::max(p.height_m, q.height_m) < options.low_pair_max_height_m &&
+    // A low pair seen from afar, unless the global pattern puts the partner where it is.
+    const bool vouched = options.low_pair_vouch_deviation_m > 0.0 &&
+                         c.votes[k] >= options.low_pair_vouch_votes &&
+                         deviation_of(p, winner).norm() <= options.low_pair_vouch_deviation_m;
+    if (!vouched && std::max(p.height_m, q.height_m) < options.low_pair_max_height_m &&
         std::max(LargestHorizontalSigma(p), spread_b[winner].largest_sigma) >
             options.low_rock_max_peak_sigma_m) {
       set_fate(c.rock_a, eb.rocks[winner], "low rock seen from afar");

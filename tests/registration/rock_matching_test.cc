@@ -248,6 +248,12 @@ TEST(RockMatching, ModelCostIsEq328) {
   bad = RockMatchingOptions{};
   bad.fault_detection.min_tie_points = 1;
   EXPECT_THROW(MatchSitePair({}, {}, Rigid3d(), bad), Error);
+  bad = RockMatchingOptions{};
+  bad.low_pair_vouch_votes = 0;
+  EXPECT_THROW(MatchSitePair({}, {}, Rigid3d(), bad), Error);
+  bad = RockMatchingOptions{};
+  bad.low_pair_vouch_deviation_m = -0.1;
+  EXPECT_THROW(MatchSitePair({}, {}, Rigid3d(), bad), Error);
 }
 
 // A modeled rock at `peak` (site frame) with an isotropic horizontal peak sigma [m], its model
@@ -473,6 +479,48 @@ TEST(RockMatching, LowPairIsMatchedOnlyBetweenPrecisePeaks) {
   RockMatchingOptions fifteen_cm;
   fifteen_cm.fault_detection.min_peak_to_plane_m = 0.15;
   EXPECT_EQ(fate(0.13, 0.13, 0.40, fifteen_cm), "not eligible");
+}
+
+// A low pair seen from afar is matched when the global pattern vouches for it: its V within
+// low_pair_vouch_deviation_m (0.2 m) of the global V, and at least low_pair_vouch_votes (3) rocks
+// voting for it. Rocks of 0.25-0.28 m 3 m around it set the pattern.
+TEST(RockMatching, PatternVouchesForALowPairSeenFromAfar) {
+  const auto fate = [](int others, const Eigen::Vector3d& partner_offset,
+                       const RockMatchingOptions& options) {
+    const std::vector<Eigen::Vector3d> around = {{3, 3, 0}, {-3, 3, 0}, {3, -3, 0}, {-2.5, -3, 0}};
+    std::vector<ExtractedRock> at_a = {ModeledRock(1, kRockInA, 0.13, 0.05)};
+    std::vector<ExtractedRock> at_b = {
+        ModeledRock(1, kRockInA - kCameraBInA + partner_offset, 0.13, 0.40)};
+    for (int k = 0; k < others; ++k) {
+      const double height = 0.25 + 0.01 * k;
+      at_a.push_back(ModeledRock(2 + k, kRockInA + around[k], height, 0.05));
+      at_b.push_back(ModeledRock(2 + k, kRockInA + around[k] - kCameraBInA, height, 0.05));
+    }
+    return FateOfFirstRockOfA(MatchTwelveMetrePair(at_a, at_b, options));
+  };
+  const RockMatchingOptions defaults;
+  ASSERT_EQ(defaults.low_pair_vouch_deviation_m, 0.2);
+  ASSERT_EQ(defaults.low_pair_vouch_votes, 3);
+  const Eigen::Vector3d on_pattern = Eigen::Vector3d::Zero();
+  EXPECT_EQ(fate(4, on_pattern, defaults), "matched");
+  EXPECT_EQ(fate(2, on_pattern, defaults), "matched");  // Three votes.
+  EXPECT_EQ(fate(2, Eigen::Vector3d(0.15, 0, 0), defaults), "matched");
+  // Two votes: a pattern of two rocks does not vouch (a lone rock's V is the global V).
+  EXPECT_EQ(fate(1, on_pattern, defaults), "low rock seen from afar");
+  EXPECT_EQ(fate(0, on_pattern, defaults), "low rock seen from afar");
+  // 0.3 m off the pattern, within the global test's bounds (1 m) but not the vouching's.
+  EXPECT_EQ(fate(4, Eigen::Vector3d(0.3, 0, 0), defaults), "low rock seen from afar");
+  EXPECT_EQ(fate(4, Eigen::Vector3d(0, -0.3, 0), defaults), "low rock seen from afar");
+  RockMatchingOptions wider = defaults;
+  wider.low_pair_vouch_deviation_m = 0.35;
+  EXPECT_EQ(fate(4, Eigen::Vector3d(0.3, 0, 0), wider), "matched");
+  RockMatchingOptions never = defaults;
+  never.low_pair_vouch_deviation_m = 0.0;
+  EXPECT_EQ(fate(4, on_pattern, never), "low rock seen from afar");
+  RockMatchingOptions more_votes = defaults;
+  more_votes.low_pair_vouch_votes = 5;
+  EXPECT_EQ(fate(2, on_pattern, more_votes), "low rock seen from afar");
+  EXPECT_EQ(fate(4, on_pattern, more_votes), "matched");
 }
 
 // Model matching prefers a look-alike of site b 1.5 m from where the pattern puts the rock's
