@@ -450,7 +450,8 @@ TEST(RockMatching, SignificantRocksAreTheThreeHighestOfTheirCell) {
 
 // A pair of two rocks under 16 cm (the 12 cm rule admits them) is matched only while both peaks
 // are precise: a far peak of a low rock has look-alike neighbours too low to be extracted, which
-// the ambiguity test cannot see. A pair with one rock from 16 cm up is not low.
+// the ambiguity test cannot see. A pair with one rock from 16 cm up is not low. (A lone rock: no
+// pattern vouches for it, PatternVouchesForALowPairSeenFromAfar.)
 TEST(RockMatching, LowPairIsMatchedOnlyBetweenPrecisePeaks) {
   const RockMatchingOptions twelve_cm;  // The default.
   ASSERT_EQ(twelve_cm.fault_detection.min_peak_to_plane_m, 0.12);
