@@ -225,16 +225,16 @@ void AddRockPairOptions(CLI::App* command, RockMatchingOptions* matching) {
       ->capture_default_str();
   command
       ->add_option(
-          "--low-pair-vouch", matching->low_pair_vouch_deviation_m,
-          "A low pair is matched all the same when its translation lies within this of the "
-          "global pattern's and --low-pair-votes rocks vote for it (0: never; "
-          "docs/rocks.md) [m]")
+          "--pattern-vouch", matching->pattern_vouch_deviation_m,
+          "A rock pair whose translation lies within this of the global pattern's, with "
+          "--pattern-vouch-votes votes, is matched even if it is a low pair seen from afar or "
+          "its pair cost is above the limit (0: never; docs/rocks.md) [m]")
       ->check(NonNegativeNumber())
       ->capture_default_str();
   command
-      ->add_option("--low-pair-votes", matching->low_pair_vouch_votes,
-                   "Rocks (the pair's own included) whose pattern votes for a low pair's "
-                   "translation before it can be vouched for")
+      ->add_option("--pattern-vouch-votes", matching->pattern_vouch_votes,
+                   "Rocks (the pair's own included) that must vote for a pair's translation "
+                   "before the pattern vouches for it")
       ->check(IntegerAtLeast(1))
       ->capture_default_str();
 }

@@ -84,8 +84,8 @@ void CheckLatLonHeight(CLI::Option* option);
 
 // The rock-pair rules that `run` and `rocks match` share: --compare-models
 // (RockMatchingOptions::compare_models), --min-shape-points (min_shape_points) and
-// --low-pair-height (low_pair_max_height_m), --low-pair-vouch (low_pair_vouch_deviation_m) and
-// --low-pair-votes (low_pair_vouch_votes), each checked and with its default shown.
+// --low-pair-height (low_pair_max_height_m), --pattern-vouch (pattern_vouch_deviation_m) and
+// --pattern-vouch-votes (pattern_vouch_votes), each checked and with its default shown.
 void AddRockPairOptions(CLI::App* command, RockMatchingOptions* matching);
 
 }  // namespace areomap::cli

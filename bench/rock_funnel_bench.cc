@@ -232,7 +232,7 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options, TruthPri
       {"max_peak_sigma_m", &m.max_peak_sigma_m},
       {"low_rock_max_peak_sigma_m", &m.low_rock_max_peak_sigma_m},
       {"low_pair_max_height_m", &m.low_pair_max_height_m},
-      {"low_pair_vouch_deviation_m", &m.low_pair_vouch_deviation_m},
+      {"pattern_vouch_deviation_m", &m.pattern_vouch_deviation_m},
       {"pattern_tolerance_m", &m.pattern_tolerance_m},
       {"max_model_cost", &m.max_model_cost},
       {"significant_cell_m", &m.significant_cell_m},
@@ -264,8 +264,8 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options, TruthPri
     options->rock_variance_pass = value != 0.0;
   } else if (name == "min_shape_points") {
     m.min_shape_points = static_cast<int>(value);
-  } else if (name == "low_pair_vouch_votes") {
-    m.low_pair_vouch_votes = static_cast<int>(value);
+  } else if (name == "pattern_vouch_votes") {
+    m.pattern_vouch_votes = static_cast<int>(value);
   } else if (name == "significant_per_cell") {
     m.significant_per_cell = static_cast<int>(value);
   } else if (name == "min_surface_points") {

@@ -324,8 +324,8 @@ nlohmann::json MissionRunOptions::ToJson() const {
   // Since 2026-12-05 the limit holds for pairs of two low rocks only (one before).
   figures["rock_low_pair_max_height_m"] = matching.low_pair_max_height_m;
   // Since 2026-12-05 the pattern can vouch for a low pair (no exemption before).
-  figures["rock_low_pair_vouch_deviation_m"] = matching.low_pair_vouch_deviation_m;
-  figures["rock_low_pair_vouch_votes"] = matching.low_pair_vouch_votes;
+  figures["rock_pattern_vouch_deviation_m"] = matching.pattern_vouch_deviation_m;
+  figures["rock_pattern_vouch_votes"] = matching.pattern_vouch_votes;
   // Three significant rocks per cell since 2026-12-04 (one before): legs made with one are
   // recomputed.
   figures["rock_significant_per_cell"] = matching.significant_per_cell;

@@ -336,9 +336,9 @@ void RockMatchingOptions::Check() const {
                 "> 0 m");
   RequireOption(low_pair_max_height_m >= 0.0, "RockMatchingOptions.low_pair_max_height_m",
                 ">= 0 m");
-  RequireOption(low_pair_vouch_deviation_m >= 0.0, "RockMatchingOptions.low_pair_vouch_deviation_m",
+  RequireOption(pattern_vouch_deviation_m >= 0.0, "RockMatchingOptions.pattern_vouch_deviation_m",
                 ">= 0 m");
-  RequireOption(low_pair_vouch_votes >= 1, "RockMatchingOptions.low_pair_vouch_votes", ">= 1");
+  RequireOption(pattern_vouch_votes >= 1, "RockMatchingOptions.pattern_vouch_votes", ">= 1");
   fault_detection.Check();
 }
 
@@ -626,12 +626,17 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
       continue;
     }
     ++result.pattern_matches;
-    if (c.model_best < 0) {
+    const int k = winner == c.pattern[0] ? 0 : 1;  // The winner's pattern slot.
+    // The global pattern vouches for the winner where it puts b's rock within
+    // pattern_vouch_deviation_m of where the other rocks say it should be, with enough votes.
+    const bool vouched = options.pattern_vouch_deviation_m > 0.0 &&
+                         c.votes[k] >= options.pattern_vouch_votes &&
+                         deviation_of(p, winner).norm() <= options.pattern_vouch_deviation_m;
+    if (c.model_best < 0 && !vouched) {
       set_fate(c.rock_a, eb.rocks[winner], "model cost");
       continue;
     }
-    const int k = winner == c.pattern[0] ? 0 : 1;  // The winner's pattern slot.
-    if (winner != c.model_best) {
+    if (c.model_best >= 0 && winner != c.model_best) {
       // The model prefers the other pattern candidate. Where the global pattern excludes that one
       // (the bounds that would have excluded it as the winner), it is no alternative, and the
       // winner is judged as a lone candidate is: by its own model cost and terrain.
@@ -649,10 +654,6 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
       set_fate(c.rock_a, eb.rocks[winner], "terrain mismatch");
       continue;
     }
-    // A low pair seen from afar, unless the global pattern puts the partner where it is.
-    const bool vouched = options.low_pair_vouch_deviation_m > 0.0 &&
-                         c.votes[k] >= options.low_pair_vouch_votes &&
-                         deviation_of(p, winner).norm() <= options.low_pair_vouch_deviation_m;
     if (!vouched && std::max(p.height_m, q.height_m) < options.low_pair_max_height_m &&
         std::max(LargestHorizontalSigma(p), spread_b[winner].largest_sigma) >
             options.low_rock_max_peak_sigma_m) {

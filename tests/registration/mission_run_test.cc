@@ -448,8 +448,8 @@ TEST(MissionRunOptions, RockHeightRuleChangesTheFingerprint) {
   EXPECT_NE(cell.ToJson(), defaults.ToJson());
   // Nor legs whose low pairs the pattern could not vouch for (before 2026-12-05).
   MissionRunOptions unvouched = defaults, votes = defaults;
-  unvouched.matching.low_pair_vouch_deviation_m = 0.0;
-  votes.matching.low_pair_vouch_votes = 5;
+  unvouched.matching.pattern_vouch_deviation_m = 0.0;
+  votes.matching.pattern_vouch_votes = 5;
   EXPECT_NE(unvouched.ToJson(), defaults.ToJson());
   EXPECT_NE(votes.ToJson(), defaults.ToJson());
 }

@@ -249,10 +249,10 @@ TEST(RockMatching, ModelCostIsEq328) {
   bad.fault_detection.min_tie_points = 1;
   EXPECT_THROW(MatchSitePair({}, {}, Rigid3d(), bad), Error);
   bad = RockMatchingOptions{};
-  bad.low_pair_vouch_votes = 0;
+  bad.pattern_vouch_votes = 0;
   EXPECT_THROW(MatchSitePair({}, {}, Rigid3d(), bad), Error);
   bad = RockMatchingOptions{};
-  bad.low_pair_vouch_deviation_m = -0.1;
+  bad.pattern_vouch_deviation_m = -0.1;
   EXPECT_THROW(MatchSitePair({}, {}, Rigid3d(), bad), Error);
 }
 
@@ -482,26 +482,35 @@ TEST(RockMatching, LowPairIsMatchedOnlyBetweenPrecisePeaks) {
   EXPECT_EQ(fate(0.13, 0.13, 0.40, fifteen_cm), "not eligible");
 }
 
+// The fate of rock 1 of a (height_a, peak sigma 0.05 m) whose partner at b (height_b, sigma_b)
+// lies `partner_offset` from its true place, among `others` (0-4) rocks of 0.25-0.28 m seen alike
+// at both sites 3-4 m around it, which set the global pattern.
+std::string FateAmongPatternRocks(double height_a, double height_b, double sigma_b, int others,
+                                  const Eigen::Vector3d& partner_offset,
+                                  const RockMatchingOptions& options) {
+  const std::vector<Eigen::Vector3d> around = {{3, 3, 0}, {-3, 3, 0}, {3, -3, 0}, {-2.5, -3, 0}};
+  std::vector<ExtractedRock> at_a = {ModeledRock(1, kRockInA, height_a, 0.05)};
+  std::vector<ExtractedRock> at_b = {
+      ModeledRock(1, kRockInA - kCameraBInA + partner_offset, height_b, sigma_b)};
+  for (int k = 0; k < others; ++k) {
+    const double height = 0.25 + 0.01 * k;
+    at_a.push_back(ModeledRock(2 + k, kRockInA + around[k], height, 0.05));
+    at_b.push_back(ModeledRock(2 + k, kRockInA + around[k] - kCameraBInA, height, 0.05));
+  }
+  return FateOfFirstRockOfA(MatchTwelveMetrePair(at_a, at_b, options));
+}
+
 // A low pair seen from afar is matched when the global pattern vouches for it: its V within
-// low_pair_vouch_deviation_m (0.2 m) of the global V, and at least low_pair_vouch_votes (3) rocks
+// pattern_vouch_deviation_m (0.2 m) of the global V, and at least pattern_vouch_votes (3) rocks
 // voting for it. Rocks of 0.25-0.28 m 3 m around it set the pattern.
 TEST(RockMatching, PatternVouchesForALowPairSeenFromAfar) {
   const auto fate = [](int others, const Eigen::Vector3d& partner_offset,
                        const RockMatchingOptions& options) {
-    const std::vector<Eigen::Vector3d> around = {{3, 3, 0}, {-3, 3, 0}, {3, -3, 0}, {-2.5, -3, 0}};
-    std::vector<ExtractedRock> at_a = {ModeledRock(1, kRockInA, 0.13, 0.05)};
-    std::vector<ExtractedRock> at_b = {
-        ModeledRock(1, kRockInA - kCameraBInA + partner_offset, 0.13, 0.40)};
-    for (int k = 0; k < others; ++k) {
-      const double height = 0.25 + 0.01 * k;
-      at_a.push_back(ModeledRock(2 + k, kRockInA + around[k], height, 0.05));
-      at_b.push_back(ModeledRock(2 + k, kRockInA + around[k] - kCameraBInA, height, 0.05));
-    }
-    return FateOfFirstRockOfA(MatchTwelveMetrePair(at_a, at_b, options));
+    return FateAmongPatternRocks(0.13, 0.13, 0.40, others, partner_offset, options);
   };
   const RockMatchingOptions defaults;
-  ASSERT_EQ(defaults.low_pair_vouch_deviation_m, 0.2);
-  ASSERT_EQ(defaults.low_pair_vouch_votes, 3);
+  ASSERT_EQ(defaults.pattern_vouch_deviation_m, 0.2);
+  ASSERT_EQ(defaults.pattern_vouch_votes, 3);
   const Eigen::Vector3d on_pattern = Eigen::Vector3d::Zero();
   EXPECT_EQ(fate(4, on_pattern, defaults), "matched");
   EXPECT_EQ(fate(2, on_pattern, defaults), "matched");  // Three votes.
@@ -513,15 +522,37 @@ TEST(RockMatching, PatternVouchesForALowPairSeenFromAfar) {
   EXPECT_EQ(fate(4, Eigen::Vector3d(0.3, 0, 0), defaults), "low rock seen from afar");
   EXPECT_EQ(fate(4, Eigen::Vector3d(0, -0.3, 0), defaults), "low rock seen from afar");
   RockMatchingOptions wider = defaults;
-  wider.low_pair_vouch_deviation_m = 0.35;
+  wider.pattern_vouch_deviation_m = 0.35;
   EXPECT_EQ(fate(4, Eigen::Vector3d(0.3, 0, 0), wider), "matched");
   RockMatchingOptions never = defaults;
-  never.low_pair_vouch_deviation_m = 0.0;
+  never.pattern_vouch_deviation_m = 0.0;
   EXPECT_EQ(fate(4, on_pattern, never), "low rock seen from afar");
   RockMatchingOptions more_votes = defaults;
-  more_votes.low_pair_vouch_votes = 5;
+  more_votes.pattern_vouch_votes = 5;
   EXPECT_EQ(fate(2, on_pattern, more_votes), "low rock seen from afar");
   EXPECT_EQ(fate(4, on_pattern, more_votes), "matched");
+}
+
+// The pattern vouches against the pair cost too: a rock measured 0.40 m high at a and 0.26 m at b
+// (a 42 % difference, cost 0.84 > 0.6; a far view measures a rock low) is matched where the
+// pattern puts its partner, not 0.3 m off it nor without three votes.
+TEST(RockMatching, PatternVouchesForAPairOfUnequalHeights) {
+  const auto fate = [](int others, const Eigen::Vector3d& partner_offset,
+                       const RockMatchingOptions& options) {
+    return FateAmongPatternRocks(0.40, 0.26, 0.20, others, partner_offset, options);
+  };
+  const RockMatchingOptions defaults;
+  ASSERT_GT(PairCost(ModeledRock(1, kRockInA, 0.40, 0.05), ModeledRock(1, kRockInA, 0.26, 0.05),
+                     defaults),
+            defaults.max_model_cost);
+  const Eigen::Vector3d on_pattern = Eigen::Vector3d::Zero();
+  EXPECT_EQ(fate(4, on_pattern, defaults), "matched");
+  EXPECT_EQ(fate(2, on_pattern, defaults), "matched");
+  EXPECT_EQ(fate(1, on_pattern, defaults), "model cost");
+  EXPECT_EQ(fate(4, Eigen::Vector3d(0.3, 0, 0), defaults), "model cost");
+  RockMatchingOptions never = defaults;
+  never.pattern_vouch_deviation_m = 0.0;
+  EXPECT_EQ(fate(4, on_pattern, never), "model cost");
 }
 
 // Model matching prefers a look-alike of site b 1.5 m from where the pattern puts the rock's

@@ -30,14 +30,16 @@
 // partners' combined horizontal covariance, along each of its principal directions (no vote can
 // tell them apart; tested at both sites once the partner is known); rocks whose peak sigma exceeds
 // `max_peak_sigma_m` are not used, nor pairs with both rocks lower than `low_pair_max_height_m`
-// and a peak sigma above `low_rock_max_peak_sigma_m`, unless the pattern vouches for them (V within
-// `low_pair_vouch_deviation_m` of the global V, `low_pair_vouch_votes` votes). (5) A pair is
-// matched only where both methods agree, or (`pattern_settles_disagreement`) where the model's
-// choice fails the global pattern test and the pattern's winner has an acceptable cost of its own;
-// when several rocks of a take the same rock of b, only the lowest-cost one is kept. (6) Data
-// snooping in the 2D conformal fit of the matches (eq. 4.4), each tie point tested against the fit
-// of the others, drops outliers while more than min_tie_points remain. Pair-level rules (traverse,
-// peaks, tie-point count, distance ratio, RE) decide the outcome.
+// and a peak sigma above `low_rock_max_peak_sigma_m`. The global pattern vouches for a winner
+// whose V lies within `pattern_vouch_deviation_m` of the global V with `pattern_vouch_votes`
+// votes: such a pair is exempt from that low-pair limit and from the pair cost's limit. (5) A
+// pair is matched only where both methods agree (or the pattern vouches where no cost passed), or
+// (`pattern_settles_disagreement`) where the model's choice fails the global pattern test and the
+// pattern's winner has an acceptable cost of its own; when several rocks of a take the same rock of
+// b, only the lowest-cost one is kept. (6) Data snooping in the 2D conformal fit of the matches
+// (eq. 4.4), each tie point tested against the fit of the others, drops outliers while more than
+// min_tie_points remain. Pair-level rules (traverse, peaks, tie-point count, distance ratio, RE)
+// decide the outcome.
 //
 // Failures: invalid options throw areomap::Error; everything about the data (no overlap, no
 // rocks, too few tie points) is a verdict in the report, never an exception.
@@ -166,18 +168,20 @@ struct RockMatchingOptions {
   // through (docs/rocks.md, "Low pairs").
   double low_rock_max_peak_sigma_m = 0.3;
   double low_pair_max_height_m = 0.16;
-  // ... unless the global pattern vouches for the pair: its translation V lies within
-  // `low_pair_vouch_deviation_m` of the global V and at least `low_pair_vouch_votes` rocks of a
-  // (the rock itself included) vote for it (eq. 3.31). A wrong low pair joins a rock to a
-  // neighbour of its partner 0.3-1.5 m away. On six generated Navcam missions, 197 low pairs seen
-  // from afar passed every other test with the limit off, 21 of them wrong by the sight ray
-  // (median |V - global V| 0.49 m against 0.17 m of the right ones); 0.2 m and 3 votes keep 97
-  // right ones and 1 wrong, and the missions' legs up to 25 m with three tie points or more rise
-  // from 104 to 111 of 126 (docs/rocks.md, "Low pairs the pattern vouches for"). A lone rock's V
-  // is the global V, hence the votes. 0 m turns the exemption off (the limit alone, as before
-  // 2026-12-05).
-  double low_pair_vouch_deviation_m = 0.2;
-  int low_pair_vouch_votes = 3;
+  // The global pattern vouches for a pair whose translation V lies within
+  // `pattern_vouch_deviation_m` of the global V while at least `pattern_vouch_votes` rocks of a
+  // (the rock itself included) vote for it (eq. 3.31); such a pair is matched even if it is a low
+  // pair seen from afar (above) or its pair cost exceeds max_model_cost (no pattern candidate
+  // passed it). A wrong pair joins a rock to a neighbour of its partner 0.3-1.5 m away, a few
+  // decimetres off the pattern. On six generated Navcam missions, 197 low pairs seen from afar
+  // passed every other test with the limit off, 21 of them wrong by the sight ray (median
+  // |V - global V| 0.49 m against 0.17 m of the right ones); 0.2 m and 3 votes keep 97 right ones
+  // and 1 wrong; the missions' legs up to 25 m with three tie points or more rise from 104 to 111
+  // of 126 with the low pairs vouched for and to 112 with the pair costs too, no tie point more
+  // wrong (docs/rocks.md, "Pairs the pattern vouches for"). A lone rock's V is the global V,
+  // hence the votes. 0 m: no pair is vouched for (as before 2026-12-05).
+  double pattern_vouch_deviation_m = 0.2;
+  int pattern_vouch_votes = 3;
   FaultDetectionOptions fault_detection;
   void Check() const;  // Throws areomap::Error naming the field.
 };
