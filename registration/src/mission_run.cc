@@ -323,7 +323,8 @@ nlohmann::json MissionRunOptions::ToJson() const {
   figures["rock_low_rock_max_peak_sigma_m"] = matching.low_rock_max_peak_sigma_m;
   // Since 2026-12-05 the limit holds for pairs of two low rocks only (one before).
   figures["rock_low_pair_max_height_m"] = matching.low_pair_max_height_m;
-  // Since 2026-12-05 the pattern can vouch for a low pair (no exemption before).
+  // Since 2026-12-05 the pattern vouches for pairs against the low-pair limit and the pair cost
+  // (no exemption before).
   figures["rock_pattern_vouch_deviation_m"] = matching.pattern_vouch_deviation_m;
   figures["rock_pattern_vouch_votes"] = matching.pattern_vouch_votes;
   // Three significant rocks per cell since 2026-12-04 (one before): legs made with one are
