@@ -354,8 +354,7 @@ class CostDiscrimination {
     models_.min_shape_points = 0;
   }
   void Add(const ExtractedRock& p, const ExtractedRock& q, bool partner) {
-    const bool determined = std::min(p.surface_indices.size(), q.surface_indices.size()) >=
-                            static_cast<size_t>(options_.min_shape_points);
+    const bool determined = ModelsRestOnShapePoints(p, q, options_);
     const int by_heights = PairCost(p, q, heights_) <= options_.max_model_cost ? 1 : 0;
     const int by_models = PairCost(p, q, models_) <= options_.max_model_cost ? 1 : 0;
     for (int subset = 0; subset < (determined ? 2 : 1); ++subset) {

@@ -349,10 +349,15 @@ double ModelMatchCost(const RockModelParameters& p, const RockModelParameters& q
          options.cost_area_weight * RelativeDifference(p.SurfaceAreaExact(), q.SurfaceAreaExact());
 }
 
+bool ModelsRestOnShapePoints(const ExtractedRock& p, const ExtractedRock& q,
+                             const RockMatchingOptions& options) {
+  return std::min(p.surface_indices.size(), q.surface_indices.size()) >=
+         static_cast<size_t>(options.min_shape_points);
+}
+
 double PairCost(const ExtractedRock& p, const ExtractedRock& q,
                 const RockMatchingOptions& options) {
-  if (options.compare_models && std::min(p.surface_indices.size(), q.surface_indices.size()) >=
-                                    static_cast<size_t>(options.min_shape_points)) {
+  if (options.compare_models && ModelsRestOnShapePoints(p, q, options)) {
     return ModelMatchCost(p.best_model()->parameters, q.best_model()->parameters, options);
   }
   const double difference = RelativeDifference(p.height_m, q.height_m);

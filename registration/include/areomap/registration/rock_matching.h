@@ -252,6 +252,10 @@ void CheckModelsCoverHeightRule(const RockExtractionOptions& extraction,
 // Eq. 3.28 between two fitted models (relative differences against their mean).
 double ModelMatchCost(const RockModelParameters& p, const RockModelParameters& q,
                       const RockMatchingOptions& options);
+// Whether the models of both rocks rest on at least options.min_shape_points surface points (the
+// pairs eq. 3.28 compares with options.compare_models).
+bool ModelsRestOnShapePoints(const ExtractedRock& p, const ExtractedRock& q,
+                             const RockMatchingOptions& options);
 // The model matching cost of two rocks: their measured heights' relative difference scaled so
 // that ambiguity_similar_height_difference costs max_model_cost; with options.compare_models,
 // eq. 3.28 of their best models where both rest on at least options.min_shape_points surface
