@@ -254,6 +254,8 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options, TruthPri
     truth_prior->position_sigma_m = value;
   } else if (name == "truth_prior_heading_sigma_deg") {
     truth_prior->heading_sigma_deg = value;
+  } else if (name == "pattern_vouch_rules_out_alternatives") {
+    options->matching.pattern_vouch_rules_out_alternatives = value != 0.0;
   } else if (name == "pattern_settles_disagreement") {
     options->matching.pattern_settles_disagreement = value != 0.0;
   } else if (name == "compare_models") {

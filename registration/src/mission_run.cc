@@ -327,6 +327,9 @@ nlohmann::json MissionRunOptions::ToJson() const {
   // (no exemption before).
   figures["rock_pattern_vouch_deviation_m"] = matching.pattern_vouch_deviation_m;
   figures["rock_pattern_vouch_votes"] = matching.pattern_vouch_votes;
+  // Since 2026-12-05 (second change) a vouched pair's off-pattern alternatives are ruled out.
+  figures["rock_pattern_vouch_rules_out_alternatives"] =
+      matching.pattern_vouch_rules_out_alternatives;
   // Three significant rocks per cell since 2026-12-04 (one before): legs made with one are
   // recomputed.
   figures["rock_significant_per_cell"] = matching.significant_per_cell;

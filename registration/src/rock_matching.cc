@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -197,8 +198,10 @@ class AmbiguityTest {
         options_(options),
         grid_(Peaks(rocks, neighbours_), 1.0) {}
   // `partner_covariance`: horizontal covariance of the peak it would be matched with, in this
-  // site's frame [m^2].
-  bool Ambiguous(int i, const Eigen::Matrix2d& partner_covariance = Eigen::Matrix2d::Zero()) const {
+  // site's frame [m^2]. `alternative`, where given, says whether a neighbour (index into the
+  // site's rocks) could take the rock's place; one it rules out does not make the rock ambiguous.
+  bool Ambiguous(int i, const Eigen::Matrix2d& partner_covariance = Eigen::Matrix2d::Zero(),
+                 const std::function<bool(int)>& alternative = nullptr) const {
     const ExtractedRock& r = rocks_[i];
     const EllipticGate gate =
         EllipticGate::ToleranceAndSigmas(HorizontalCovariance(r) + partner_covariance,
@@ -207,7 +210,8 @@ class AmbiguityTest {
     grid_.ForEachNear(r.peak.head<2>(), gate.LargestSemiAxis(), [&](int k) {
       const int j = neighbours_[k];
       ambiguous = ambiguous || (j != i && Counts(rocks_[j], r) &&
-                                gate.Contains((rocks_[j].peak - r.peak).head<2>()));
+                                gate.Contains((rocks_[j].peak - r.peak).head<2>()) &&
+                                (!alternative || alternative(j)));
     });
     return ambiguous;
   }
@@ -637,6 +641,15 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     const bool vouched = options.pattern_vouch_deviation_m > 0.0 &&
                          c.votes[k] >= options.pattern_vouch_votes &&
                          deviation_of(p, winner).norm() <= options.pattern_vouch_deviation_m;
+    // A rock that, put in the place of either rock of a pair the pattern vouches for, moves V
+    // beyond pattern_vouch_deviation_m plus ambiguity_sigmas sigmas of the new pair's peaks from
+    // the global V is no alternative to that pair (pattern_vouch_rules_out_alternatives).
+    const bool rules_out = vouched && options.pattern_vouch_rules_out_alternatives;
+    const auto off_pattern = [&](const Eigen::Vector3d& v, const Eigen::Matrix2d& covariance) {
+      return !EllipticGate::ToleranceAndSigmas(covariance, options.pattern_vouch_deviation_m,
+                                               options.ambiguity_sigmas)
+                  .Contains((v - result.global_translation).head<2>());
+    };
     if (c.model_best < 0 && !vouched) {
       set_fate(c.rock_a, eb.rocks[winner], "model cost");
       continue;
@@ -645,9 +658,12 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
       // The model prefers the other pattern candidate. Where the global pattern excludes that one
       // (the bounds that would have excluded it as the winner), it is no alternative, and the
       // winner is judged as a lone candidate is: by its own model cost and terrain.
-      const bool settled = options.pattern_settles_disagreement &&
-                           inconsistent(c.model_best, deviation_chi2(p, c.model_best)) &&
-                           c.cost[k] <= options.max_model_cost;
+      const bool settled =
+          (options.pattern_settles_disagreement &&
+           inconsistent(c.model_best, deviation_chi2(p, c.model_best)) &&
+           c.cost[k] <= options.max_model_cost) ||
+          (rules_out && off_pattern(p.peak - q_in_a[c.model_best],
+                                    HorizontalCovariance(p) + spread_b[c.model_best].covariance));
       if (!settled) {
         set_fate(c.rock_a, eb.rocks[winner], "methods disagree");
         continue;
@@ -669,15 +685,26 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     // neighbour that the heading can swap with the rock is no better than one the peaks can.
     const double lever = heading_lever(p);
     const Eigen::Matrix2d heading = lever * lever * Eigen::Matrix2d::Identity();
+    const std::function<bool(int)> alternative_b = [&](int j) {
+      return !off_pattern(
+          p.peak - a_from_b_prior * b.rocks[j].peak,
+          HorizontalCovariance(p) + HorizontalCovariance(b.rocks[j], rotation_a_from_b));
+    };
+    const std::function<bool(int)> alternative_a = [&](int i) {
+      return !off_pattern(a.rocks[i].peak - q_in_a[winner],
+                          HorizontalCovariance(a.rocks[i]) + spread_b[winner].covariance);
+    };
     if (ambiguous_b.Ambiguous(eb.rocks[winner],
-                              HorizontalCovariance(p, rotation_a_from_b.transpose()) + heading)) {
+                              HorizontalCovariance(p, rotation_a_from_b.transpose()) + heading,
+                              rules_out ? alternative_b : nullptr)) {
       ++ambiguous;
       set_fate(c.rock_a, eb.rocks[winner], "ambiguous at b");
       continue;
     }
     // The same test at a with the partner's covariance: a far (imprecise) peak of b can as well be
     // a neighbour of p within its uncertainty.
-    if (ambiguous_a.Ambiguous(c.rock_a, spread_b[winner].covariance + heading)) {
+    if (ambiguous_a.Ambiguous(c.rock_a, spread_b[winner].covariance + heading,
+                              rules_out ? alternative_a : nullptr)) {
       ++ambiguous;
       set_fate(c.rock_a, eb.rocks[winner], "ambiguous at a");
       continue;

@@ -452,6 +452,11 @@ TEST(MissionRunOptions, RockHeightRuleChangesTheFingerprint) {
   votes.matching.pattern_vouch_votes = 5;
   EXPECT_NE(unvouched.ToJson(), defaults.ToJson());
   EXPECT_NE(votes.ToJson(), defaults.ToJson());
+  // Nor legs in which a vouched pair's off-pattern neighbours made it ambiguous (before the
+  // second change of 2026-12-05).
+  MissionRunOptions alternatives = defaults;
+  alternatives.matching.pattern_vouch_rules_out_alternatives = false;
+  EXPECT_NE(alternatives.ToJson(), defaults.ToJson());
 }
 
 TEST(MissionRunOptions, RocksThatPassTheHeightRuleMustBeModeled) {

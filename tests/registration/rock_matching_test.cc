@@ -485,13 +485,20 @@ TEST(RockMatching, LowPairIsMatchedOnlyBetweenPrecisePeaks) {
 // The fate of rock 1 of a (height_a, peak sigma 0.05 m) whose partner at b (height_b, sigma_b)
 // lies `partner_offset` from its true place, among `others` (0-4) rocks of 0.25-0.28 m seen alike
 // at both sites 3-4 m around it, which set the global pattern.
+// `extra_a`, `extra_b`: further rocks of either site, in site a's frame (b's are shifted by the
+// prior's translation).
 std::string FateAmongPatternRocks(double height_a, double height_b, double sigma_b, int others,
                                   const Eigen::Vector3d& partner_offset,
-                                  const RockMatchingOptions& options) {
+                                  const RockMatchingOptions& options,
+                                  const std::vector<ExtractedRock>& extra_a = {},
+                                  std::vector<ExtractedRock> extra_b = {}) {
   const std::vector<Eigen::Vector3d> around = {{3, 3, 0}, {-3, 3, 0}, {3, -3, 0}, {-2.5, -3, 0}};
   std::vector<ExtractedRock> at_a = {ModeledRock(1, kRockInA, height_a, 0.05)};
   std::vector<ExtractedRock> at_b = {
       ModeledRock(1, kRockInA - kCameraBInA + partner_offset, height_b, sigma_b)};
+  at_a.insert(at_a.end(), extra_a.begin(), extra_a.end());
+  for (ExtractedRock& r : extra_b) r.peak -= kCameraBInA;
+  at_b.insert(at_b.end(), extra_b.begin(), extra_b.end());
   for (int k = 0; k < others; ++k) {
     const double height = 0.25 + 0.01 * k;
     at_a.push_back(ModeledRock(2 + k, kRockInA + around[k], height, 0.05));
@@ -555,6 +562,34 @@ TEST(RockMatching, PatternVouchesForAPairOfUnequalHeights) {
   EXPECT_EQ(fate(4, on_pattern, never), "model cost");
 }
 
+// A neighbour 0.75 m from either rock of a pair, as high as they: within the ambiguity test's gate
+// (0.6 m plus a sigma of the peaks and of the prior's 2 degree heading error 6 m from site a,
+// 0.22 m), so the pair is ambiguous unless the pattern vouches for it. Put in the place of the
+// rock, the neighbour would move V 0.75 m off the global V, beyond pattern_vouch_deviation_m
+// (0.2 m) plus a sigma of the peaks (0.07 m): it is no alternative. One 0.25 m away still is.
+TEST(RockMatching, PatternRulesOutAlternativesToAPairItVouchesFor) {
+  const RockMatchingOptions defaults;
+  ASSERT_TRUE(defaults.pattern_vouch_rules_out_alternatives);
+  RockMatchingOptions off = defaults;
+  off.pattern_vouch_rules_out_alternatives = false;
+  for (const bool at_b : {true, false}) {
+    const auto fate = [&](int others, double neighbour_m, const RockMatchingOptions& options) {
+      const std::vector<ExtractedRock> neighbour = {
+          ModeledRock(9, kRockInA + Eigen::Vector3d(neighbour_m, 0, 0), 0.25, 0.05)};
+      return FateAmongPatternRocks(0.25, 0.25, 0.05, others, Eigen::Vector3d::Zero(), options,
+                                   at_b ? std::vector<ExtractedRock>{} : neighbour,
+                                   at_b ? neighbour : std::vector<ExtractedRock>{});
+    };
+    const std::string ambiguous = at_b ? "ambiguous at b" : "ambiguous at a";
+    SCOPED_TRACE(ambiguous);
+    EXPECT_EQ(fate(4, 0.75, defaults), "matched");
+    EXPECT_EQ(fate(4, 0.75, off), ambiguous);
+    EXPECT_EQ(fate(4, 0.25, defaults), ambiguous);
+    // Two votes: no vouching, the neighbour counts.
+    EXPECT_EQ(fate(1, 0.75, defaults), ambiguous);
+  }
+}
+
 // Model matching prefers a look-alike of site b 1.5 m from where the pattern puts the rock's
 // partner (measured heights 0.30 and 0.30 m: cost 0, against the partner's 0.25 m: 0.36): the
 // global pattern excludes that look-alike as it would exclude it as the winner, so it is no
@@ -586,12 +621,23 @@ TEST(RockMatching, PatternSettlesADisagreementWhenTheModelsChoiceIsOffThePattern
     }
     return std::string("not eligible");
   };
-  const RockMatchingOptions settles;
+  // The partner's V is the global V with five votes: the pattern vouches for it, and rules the
+  // look-alike out on its own (PatternRulesOutAlternativesToAPairItVouchesFor); here the rule of
+  // pattern_settles_disagreement alone.
+  const RockMatchingOptions defaults;
+  ASSERT_TRUE(defaults.pattern_vouch_rules_out_alternatives);
+  RockMatchingOptions settles = defaults;
+  settles.pattern_vouch_rules_out_alternatives = false;
   ASSERT_TRUE(settles.pattern_settles_disagreement);
   EXPECT_EQ(fate(0.25, 0.25, settles), "matched 1");
-  RockMatchingOptions off;
+  RockMatchingOptions off = settles;
   off.pattern_settles_disagreement = false;
   EXPECT_EQ(fate(0.25, 0.25, off), "methods disagree 1");
+  RockMatchingOptions vouch_only = defaults;
+  vouch_only.pattern_settles_disagreement = false;
+  EXPECT_EQ(fate(0.25, 0.25, vouch_only), "matched 1");
+  // A pair the pattern vouches for is exempt from the cost limit too.
+  EXPECT_EQ(fate(0.16, 0.25, defaults), "matched 1");
   // Height 0.16 against 0.30: cost above 0.6.
   EXPECT_EQ(fate(0.16, 0.25, settles), "methods disagree 1");
   // Eq. 3.28 also weighs the models' radii: 0.9 against 0.25 m costs above 0.6 there, not by
