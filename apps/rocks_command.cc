@@ -143,6 +143,13 @@ void RunMatch(const RocksArgs& a, const GlobalOptions& global) {
       {"eligible_a", match.eligible_a},
       {"eligible_b", match.eligible_b},
       {"significant", match.significant},
+      // The global pattern: b's rocks, put in a by the prior, lie off by this translation and
+      // turn (the prior's error as the rocks measure it).
+      {"pattern",
+       {{"translation_m",
+         {match.global_translation.x(), match.global_translation.y(),
+          match.global_translation.z()}},
+        {"turn_deg", match.global_turn_deg}}},
       {"rock_matches", match.matches.size()},
       {"tie_points", match.tie_points.size()},
       {"outcome", ToString(match.report.outcome)},

@@ -243,6 +243,7 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options, TruthPri
       {"peak_definition_sigma_m", &m.peak_definition_sigma_m},
       {"max_vector_deviation_m", &m.max_vector_deviation_m},
       {"max_vector_chi2", &m.max_vector_chi2},
+      {"consensus_turn_trim_m", &m.consensus_turn_trim_m},
       {"tie_variance_factor", &m.tie_variance_factor},
       {"min_peak_to_plane_m", &fd.min_peak_to_plane_m},
       {"max_relative_error_percent", &fd.max_relative_error_percent},
@@ -254,6 +255,8 @@ void ApplyOverride(const std::string& text, MissionRunOptions* options, TruthPri
     truth_prior->position_sigma_m = value;
   } else if (name == "truth_prior_heading_sigma_deg") {
     truth_prior->heading_sigma_deg = value;
+  } else if (name == "consensus_turn") {
+    options->matching.consensus_turn = value != 0.0;
   } else if (name == "pattern_vouch_rules_out_alternatives") {
     options->matching.pattern_vouch_rules_out_alternatives = value != 0.0;
   } else if (name == "pattern_settles_disagreement") {

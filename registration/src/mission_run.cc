@@ -338,6 +338,9 @@ nlohmann::json MissionRunOptions::ToJson() const {
   figures["rock_pattern_settles_disagreement"] = matching.pattern_settles_disagreement;
   // Since 2026-12-04 (the consensus translation, models compared from min_shape_points up).
   figures["rock_consensus_translation"] = matching.consensus_translation;
+  // Since 2026-12-05 the pattern's turn is fitted with its translation.
+  figures["rock_consensus_turn"] = matching.consensus_turn;
+  figures["rock_consensus_turn_trim_m"] = matching.consensus_turn_trim_m;
   figures["rock_min_shape_points"] = matching.min_shape_points;
   // Since 2026-12-05 pairs are compared by their measured heights (by their models before).
   figures["rock_compare_models"] = matching.compare_models;

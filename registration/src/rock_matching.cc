@@ -40,6 +40,7 @@ double Median(std::vector<double> values) {
 struct CandidateVector {
   int rock = -1;  // Index of the rock of a among those with candidates.
   Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  Eigen::Vector3d q = Eigen::Vector3d::Zero();  // The candidate of b, in a's frame [m].
 };
 
 Eigen::Vector3d ComponentMedian(const std::vector<CandidateVector>& vectors) {
@@ -59,24 +60,28 @@ Eigen::Vector3d ComponentMedian(const std::vector<CandidateVector>& vectors) {
 // nearest it. Where no two rocks agree, the median of all. (Few rocks with a prior off by 2 m: the
 // wrong candidates scatter about the prior and pull the median halfway, so the true pattern's
 // vectors all fail the deviation test; docs/rocks.md, "The pattern's consensus".)
+// Of each rock, its vector nearest `centre` within agreement_m horizontally: rock -> (distance,
+// index into vectors).
+std::map<int, std::pair<double, size_t>> NearestPerRock(const std::vector<CandidateVector>& vectors,
+                                                        const Eigen::Vector3d& centre,
+                                                        double agreement_m) {
+  std::map<int, std::pair<double, size_t>> nearest;
+  for (size_t j = 0; j < vectors.size(); ++j) {
+    const double d = (vectors[j].v - centre).head<2>().norm();
+    if (d > agreement_m) continue;
+    const auto [it, inserted] = nearest.try_emplace(vectors[j].rock, d, j);
+    if (!inserted && d < it->second.first) it->second = {d, j};
+  }
+  return nearest;
+}
+
 Eigen::Vector3d GlobalTranslation(const std::vector<CandidateVector>& vectors, bool consensus,
                                   double agreement_m) {
   if (!consensus) return ComponentMedian(vectors);
-  // Of each rock, its vector nearest `centre` within agreement_m (distance, index into vectors).
-  const auto nearest_per_rock = [&](const Eigen::Vector3d& centre) {
-    std::map<int, std::pair<double, size_t>> nearest;
-    for (size_t j = 0; j < vectors.size(); ++j) {
-      const double d = (vectors[j].v - centre).head<2>().norm();
-      if (d > agreement_m) continue;
-      const auto [it, inserted] = nearest.try_emplace(vectors[j].rock, d, j);
-      if (!inserted && d < it->second.first) it->second = {d, j};
-    }
-    return nearest;
-  };
   std::map<int, std::pair<double, size_t>> best;
   double best_spread = std::numeric_limits<double>::infinity();
   for (const CandidateVector& seed : vectors) {
-    auto nearest = nearest_per_rock(seed.v);
+    auto nearest = NearestPerRock(vectors, seed.v, agreement_m);
     double spread = 0.0;
     for (const auto& [rock, entry] : nearest) spread += entry.first;
     if (nearest.size() > best.size() || (nearest.size() == best.size() && spread < best_spread)) {
@@ -88,6 +93,64 @@ Eigen::Vector3d GlobalTranslation(const std::vector<CandidateVector>& vectors, b
   std::vector<CandidateVector> group;
   for (const auto& [rock, entry] : best) group.push_back(vectors[entry.second]);
   return ComponentMedian(group);
+}
+
+// The global pattern as a motion: the translation V at `pivot` and a small turn about the z axis,
+// so that the V expected of a candidate at q (in a's frame) is V + turn x (q - pivot).
+struct PatternMotion {
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();  // [m].
+  Eigen::Vector2d pivot = Eigen::Vector2d::Zero();        // [m], in a's frame.
+  double turn_rad = 0.0;
+  Eigen::Vector3d ExpectedV(const Eigen::Vector3d& q) const {
+    const Eigen::Vector2d d = q.head<2>() - pivot;
+    return translation + turn_rad * Eigen::Vector3d(-d.y(), d.x(), 0.0);
+  }
+};
+
+// The turn of the global pattern: of each rock, its candidate vector nearest `translation`
+// (within agreement_m horizontally); V_i = t + turn x (q_i - pivot) fitted by least squares to
+// them, then again to those within trim_m of the first fit. No turn (the translation alone)
+// where fewer than three rocks agree, where their candidates spread less than 1 m (rms) about
+// their centre (the turn is not determined), or where the fitted turn exceeds max_turn_rad.
+PatternMotion FitPatternMotion(const std::vector<CandidateVector>& vectors,
+                               const Eigen::Vector3d& translation, double agreement_m,
+                               double trim_m, double max_turn_rad) {
+  PatternMotion motion;
+  motion.translation = translation;
+  std::vector<const CandidateVector*> group;
+  for (const auto& [rock, entry] : NearestPerRock(vectors, translation, agreement_m)) {
+    group.push_back(&vectors[entry.second]);
+  }
+  for (int pass = 0; pass < 2; ++pass) {
+    if (group.size() < 3) return motion;
+    Eigen::Vector2d pivot = Eigen::Vector2d::Zero();
+    for (const CandidateVector* c : group) pivot += c->q.head<2>();
+    pivot /= static_cast<double>(group.size());
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+    double spread = 0.0;
+    for (const CandidateVector* c : group) {
+      const Eigen::Vector2d d = c->q.head<2>() - pivot;
+      spread += d.squaredNorm();
+      const Eigen::Vector3d row_x(1.0, 0.0, -d.y()), row_y(0.0, 1.0, d.x());
+      normal += row_x * row_x.transpose() + row_y * row_y.transpose();
+      rhs += row_x * c->v.x() + row_y * c->v.y();
+    }
+    if (spread / static_cast<double>(group.size()) < 1.0) return motion;
+    const Eigen::Vector3d x = normal.ldlt().solve(rhs);
+    if (!x.allFinite() || std::abs(x.z()) > max_turn_rad) return motion;
+    PatternMotion fitted;
+    fitted.translation = Eigen::Vector3d(x.x(), x.y(), translation.z());
+    fitted.pivot = pivot;
+    fitted.turn_rad = x.z();
+    if (pass == 1) return fitted;
+    std::vector<const CandidateVector*> kept;
+    for (const CandidateVector* c : group) {
+      if ((c->v - fitted.ExpectedV(c->q)).head<2>().norm() <= trim_m) kept.push_back(c);
+    }
+    group = std::move(kept);
+  }
+  return motion;
 }
 
 // The horizontal covariance of a rock's peak, turned by `rotation` (into another site's frame).
@@ -343,6 +406,7 @@ void RockMatchingOptions::Check() const {
   RequireOption(pattern_vouch_deviation_m >= 0.0, "RockMatchingOptions.pattern_vouch_deviation_m",
                 ">= 0 m");
   RequireOption(pattern_vouch_votes >= 1, "RockMatchingOptions.pattern_vouch_votes", ">= 1");
+  RequireOption(consensus_turn_trim_m > 0.0, "RockMatchingOptions.consensus_turn_trim_m", "> 0 m");
   fault_detection.Check();
 }
 
@@ -589,7 +653,8 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     }
     for (int k = 0; k < 2; ++k) {
       if (c.pattern[k] < 0) continue;
-      vectors.push_back({static_cast<int>(per_rock.size()), p.peak - q_in_a[c.pattern[k]]});
+      vectors.push_back(
+          {static_cast<int>(per_rock.size()), p.peak - q_in_a[c.pattern[k]], q_in_a[c.pattern[k]]});
     }
     per_rock.push_back(c);
   }
@@ -599,10 +664,23 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
                        fd.max_normal_angle_deg, "deg"));
 
   // Global pattern consistency, then the combination of both methods. A candidate's V deviates
-  // from the global V by the two peaks' errors plus the prior's heading error acting on the
-  // rock's distance from site a; the candidate nearer the global V by that covariance wins.
+  // from the V the pattern expects there (the global V, turned with consensus_turn) by the two
+  // peaks' errors plus the prior's heading error acting on the rock's distance from site a (kept
+  // in full with the turn: a bound, not an estimate); the candidate nearer by that covariance
+  // wins.
+  const PatternMotion motion =
+      options.consensus_turn
+          ? FitPatternMotion(vectors, result.global_translation, options.max_vector_deviation_m,
+                             options.consensus_turn_trim_m,
+                             3.0 * prior.heading_sigma_deg / kRadToDeg)
+          : PatternMotion{result.global_translation};
+  result.global_turn_deg = motion.turn_rad * kRadToDeg;
+  // A pair's V from the one the pattern expects there (both rocks in a's frame).
+  const auto pattern_deviation = [&](const Eigen::Vector3d& pa, const Eigen::Vector3d& qa) {
+    return Eigen::Vector3d(pa - qa - motion.ExpectedV(qa));
+  };
   const auto deviation_of = [&](const ExtractedRock& p, int candidate) {
-    return Eigen::Vector3d(p.peak - q_in_a[candidate] - result.global_translation);
+    return pattern_deviation(p.peak, q_in_a[candidate]);
   };
   const auto heading_lever = [&](const ExtractedRock& p) {
     return prior.heading_sigma_deg / kRadToDeg * (p.peak - a.camera_center).head<2>().norm();
@@ -645,10 +723,11 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     // beyond pattern_vouch_deviation_m plus ambiguity_sigmas sigmas of the new pair's peaks from
     // the global V is no alternative to that pair (pattern_vouch_rules_out_alternatives).
     const bool rules_out = vouched && options.pattern_vouch_rules_out_alternatives;
-    const auto off_pattern = [&](const Eigen::Vector3d& v, const Eigen::Matrix2d& covariance) {
+    const auto off_pattern = [&](const Eigen::Vector3d& pa, const Eigen::Vector3d& qa,
+                                 const Eigen::Matrix2d& covariance) {
       return !EllipticGate::ToleranceAndSigmas(covariance, options.pattern_vouch_deviation_m,
                                                options.ambiguity_sigmas)
-                  .Contains((v - result.global_translation).head<2>());
+                  .Contains(pattern_deviation(pa, qa).head<2>());
     };
     if (c.model_best < 0 && !vouched) {
       set_fate(c.rock_a, eb.rocks[winner], "model cost");
@@ -662,7 +741,7 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
           (options.pattern_settles_disagreement &&
            inconsistent(c.model_best, deviation_chi2(p, c.model_best)) &&
            c.cost[k] <= options.max_model_cost) ||
-          (rules_out && off_pattern(p.peak - q_in_a[c.model_best],
+          (rules_out && off_pattern(p.peak, q_in_a[c.model_best],
                                     HorizontalCovariance(p) + spread_b[c.model_best].covariance));
       if (!settled) {
         set_fate(c.rock_a, eb.rocks[winner], "methods disagree");
@@ -687,11 +766,11 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
     const Eigen::Matrix2d heading = lever * lever * Eigen::Matrix2d::Identity();
     const std::function<bool(int)> alternative_b = [&](int j) {
       return !off_pattern(
-          p.peak - a_from_b_prior * b.rocks[j].peak,
+          p.peak, a_from_b_prior * b.rocks[j].peak,
           HorizontalCovariance(p) + HorizontalCovariance(b.rocks[j], rotation_a_from_b));
     };
     const std::function<bool(int)> alternative_a = [&](int i) {
-      return !off_pattern(a.rocks[i].peak - q_in_a[winner],
+      return !off_pattern(a.rocks[i].peak, q_in_a[winner],
                           HorizontalCovariance(a.rocks[i]) + spread_b[winner].covariance);
     };
     if (ambiguous_b.Ambiguous(eb.rocks[winner],

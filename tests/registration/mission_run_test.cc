@@ -457,6 +457,10 @@ TEST(MissionRunOptions, RockHeightRuleChangesTheFingerprint) {
   MissionRunOptions alternatives = defaults;
   alternatives.matching.pattern_vouch_rules_out_alternatives = false;
   EXPECT_NE(alternatives.ToJson(), defaults.ToJson());
+  // Nor legs matched with the pattern's translation alone (before the pattern's turn).
+  MissionRunOptions translation_only = defaults;
+  translation_only.matching.consensus_turn = false;
+  EXPECT_NE(translation_only.ToJson(), defaults.ToJson());
 }
 
 TEST(MissionRunOptions, RocksThatPassTheHeightRuleMustBeModeled) {

@@ -254,6 +254,9 @@ TEST(RockMatching, ModelCostIsEq328) {
   bad = RockMatchingOptions{};
   bad.pattern_vouch_deviation_m = -0.1;
   EXPECT_THROW(MatchSitePair({}, {}, Rigid3d(), bad), Error);
+  bad = RockMatchingOptions{};
+  bad.consensus_turn_trim_m = 0.0;
+  EXPECT_THROW(MatchSitePair({}, {}, Rigid3d(), bad), Error);
 }
 
 // A modeled rock at `peak` (site frame) with an isotropic horizontal peak sigma [m], its model
@@ -588,6 +591,42 @@ TEST(RockMatching, PatternRulesOutAlternativesToAPairItVouchesFor) {
     // Two votes: no vouching, the neighbour counts.
     EXPECT_EQ(fate(1, 0.75, defaults), ambiguous);
   }
+}
+
+// The prior's heading is off by 3 degrees: b's rocks, put in a by the prior, lie turned about b's
+// camera, and a pair's V changes across the scene by 5 cm per metre. A low rock seen from afar
+// 9 m from a pattern of five rocks has its V 0.47 m from the global V, beyond the vouching's
+// 0.2 m: it is not vouched for. The pattern's turn, fitted to the rocks' V, puts it back on the
+// pattern (consensus_turn). A turn beyond three sigmas of the prior's heading is not believed.
+TEST(RockMatching, ConsensusTurnMeasuresThePriorsHeadingError) {
+  const Eigen::Matrix3d true_turn =
+      Eigen::AngleAxisd(3.0 * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const auto in_b = [&](const Eigen::Vector3d& in_a) {
+    return Eigen::Vector3d(true_turn.transpose() * (in_a - kCameraBInA));
+  };
+  const Eigen::Vector3d far_rock(6, 6, 0);
+  std::vector<ExtractedRock> at_a = {ModeledRock(1, far_rock, 0.13, 0.05)};
+  std::vector<ExtractedRock> at_b = {ModeledRock(1, in_b(far_rock), 0.13, 0.40)};
+  const std::vector<Eigen::Vector3d> pattern = {
+      {3, -5, 0}, {9, -5, 0}, {3, -1, 0}, {9, -1, 0}, {6, -3, 0}};
+  for (size_t k = 0; k < pattern.size(); ++k) {
+    const double height = 0.25 + 0.01 * static_cast<double>(k);
+    at_a.push_back(ModeledRock(2 + static_cast<int>(k), pattern[k], height, 0.05));
+    at_b.push_back(ModeledRock(2 + static_cast<int>(k), in_b(pattern[k]), height, 0.05));
+  }
+  const RockMatchingOptions turned;
+  ASSERT_TRUE(turned.consensus_turn);
+  const SitePairMatch with_turn = MatchTwelveMetrePair(at_a, at_b, turned);
+  EXPECT_NEAR(with_turn.global_turn_deg, 3.0, 0.05);
+  EXPECT_EQ(FateOfFirstRockOfA(with_turn), "matched");
+  RockMatchingOptions translation_only = turned;
+  translation_only.consensus_turn = false;
+  const SitePairMatch without = MatchTwelveMetrePair(at_a, at_b, translation_only);
+  EXPECT_EQ(without.global_turn_deg, 0.0);
+  EXPECT_EQ(FateOfFirstRockOfA(without), "low rock seen from afar");
+  RockMatchingOptions tight_prior = turned;
+  tight_prior.prior_heading_sigma_deg = 0.5;
+  EXPECT_EQ(MatchTwelveMetrePair(at_a, at_b, tight_prior).global_turn_deg, 0.0);
 }
 
 // Model matching prefers a look-alike of site b 1.5 m from where the pattern puts the rock's
