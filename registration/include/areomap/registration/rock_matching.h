@@ -34,9 +34,9 @@
 // whose V lies within `pattern_vouch_deviation_m` of the global V with `pattern_vouch_votes`
 // votes (with `consensus_turn`, V is measured from the V the pattern's fitted turn expects at
 // the candidate: the prior's heading error turns b's rocks about b's camera): such a pair is
-// exempt from that low-pair limit and from the pair cost's limit, and a rock
-// that would put V off the pattern in its place is no alternative to it (neither a neighbour that
-// makes it ambiguous nor model matching's other choice). (5) A
+// exempt from that low-pair limit and from the pair cost's limit, and a rock that would put V off
+// the pattern in its place is no alternative to it (neither a neighbour that makes it ambiguous
+// nor model matching's other choice). (5) A
 // pair is matched only where both methods agree (or the pattern vouches where no cost passed), or
 // (`pattern_settles_disagreement`) where the model's choice fails the global pattern test and the
 // pattern's winner has an acceptable cost of its own; when several rocks of a take the same rock of
@@ -202,7 +202,8 @@ struct RockMatchingOptions {
   int pattern_vouch_votes = 3;
   // A rock that, put in the place of either rock of a pair the pattern vouches for, would move V
   // beyond pattern_vouch_deviation_m plus ambiguity_sigmas sigmas of that new pair's peaks
-  // (horizontal covariance, along each principal direction) from the global V is no alternative
+  // (horizontal covariance, along each principal direction) from the global V (with
+  // consensus_turn, from the V the pattern expects where that rock lies) is no alternative
   // to the pair: a neighbour so placed does not make it ambiguous, nor does model matching's
   // preference for such a candidate make the methods disagree. The ambiguity test's gate allows
   // for the prior's heading error (2 degrees: 0.7 m at 20 m), which the global V has already
