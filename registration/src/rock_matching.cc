@@ -53,13 +53,6 @@ Eigen::Vector3d ComponentMedian(const std::vector<CandidateVector>& vectors) {
   return {Median(x), Median(y), Median(z)};
 }
 
-// The global pattern's translation from the candidate vectors of all rocks. Ch. 3.2 takes their
-// median. With `consensus`, it is the median of the largest group of rocks that agree: the
-// candidate vector that the most rocks have a vector within `agreement_m` of (horizontally; ties:
-// the smaller summed distance of those vectors, then the first), and of each such rock its vector
-// nearest it. Where no two rocks agree, the median of all. (Few rocks with a prior off by 2 m: the
-// wrong candidates scatter about the prior and pull the median halfway, so the true pattern's
-// vectors all fail the deviation test; docs/rocks.md, "The pattern's consensus".)
 // Of each rock, its vector nearest `centre` within agreement_m horizontally: rock -> (distance,
 // index into vectors).
 std::map<int, std::pair<double, size_t>> NearestPerRock(const std::vector<CandidateVector>& vectors,
@@ -75,6 +68,13 @@ std::map<int, std::pair<double, size_t>> NearestPerRock(const std::vector<Candid
   return nearest;
 }
 
+// The global pattern's translation from the candidate vectors of all rocks. Ch. 3.2 takes their
+// median. With `consensus`, it is the median of the largest group of rocks that agree: the
+// candidate vector that the most rocks have a vector within `agreement_m` of (horizontally; ties:
+// the smaller summed distance of those vectors, then the first), and of each such rock its vector
+// nearest it. Where no two rocks agree, the median of all. (Few rocks with a prior off by 2 m: the
+// wrong candidates scatter about the prior and pull the median halfway, so the true pattern's
+// vectors all fail the deviation test; docs/rocks.md, "The pattern's consensus".)
 Eigen::Vector3d GlobalTranslation(const std::vector<CandidateVector>& vectors, bool consensus,
                                   double agreement_m) {
   if (!consensus) return ComponentMedian(vectors);
@@ -721,7 +721,8 @@ SitePairMatch MatchSitePair(const SiteRocks& a, const SiteRocks& b, const RockMa
                          deviation_of(p, winner).norm() <= options.pattern_vouch_deviation_m;
     // A rock that, put in the place of either rock of a pair the pattern vouches for, moves V
     // beyond pattern_vouch_deviation_m plus ambiguity_sigmas sigmas of the new pair's peaks from
-    // the global V is no alternative to that pair (pattern_vouch_rules_out_alternatives).
+    // the V the pattern expects there is no alternative to that pair
+    // (pattern_vouch_rules_out_alternatives).
     const bool rules_out = vouched && options.pattern_vouch_rules_out_alternatives;
     const auto off_pattern = [&](const Eigen::Vector3d& pa, const Eigen::Vector3d& qa,
                                  const Eigen::Matrix2d& covariance) {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <numbers>
 #include <sstream>
@@ -446,21 +447,29 @@ TEST(MissionRunOptions, RockHeightRuleChangesTheFingerprint) {
   EXPECT_NE(low.ToJson(), defaults.ToJson());
   EXPECT_NE(pair.ToJson(), defaults.ToJson());
   EXPECT_NE(cell.ToJson(), defaults.ToJson());
-  // Nor legs whose low pairs the pattern could not vouch for (before 2026-12-05).
-  MissionRunOptions unvouched = defaults, votes = defaults;
-  unvouched.matching.pattern_vouch_deviation_m = 0.0;
-  votes.matching.pattern_vouch_votes = 5;
-  EXPECT_NE(unvouched.ToJson(), defaults.ToJson());
-  EXPECT_NE(votes.ToJson(), defaults.ToJson());
-  // Nor legs in which a vouched pair's off-pattern neighbours made it ambiguous (before the
-  // second change of 2026-12-05).
-  MissionRunOptions alternatives = defaults;
-  alternatives.matching.pattern_vouch_rules_out_alternatives = false;
-  EXPECT_NE(alternatives.ToJson(), defaults.ToJson());
-  // Nor legs matched with the pattern's translation alone (before the pattern's turn).
-  MissionRunOptions translation_only = defaults;
-  translation_only.matching.consensus_turn = false;
-  EXPECT_NE(translation_only.ToJson(), defaults.ToJson());
+}
+
+// Whether changing one rock-matching option from its default changes the run's fingerprint.
+bool MatchingChangesTheFingerprint(const std::function<void(RockMatchingOptions*)>& change) {
+  MissionRunOptions changed;
+  change(&changed.matching);
+  return changed.ToJson() != MissionRunOptions{}.ToJson();
+}
+
+TEST(MissionRunOptions, RockPatternRulesChangeTheFingerprint) {
+  // Legs whose low pairs the pattern could not vouch for (before 2026-12-05) are not reused ...
+  EXPECT_TRUE(MatchingChangesTheFingerprint(
+      [](RockMatchingOptions* m) { m->pattern_vouch_deviation_m = 0.0; }));
+  EXPECT_TRUE(
+      MatchingChangesTheFingerprint([](RockMatchingOptions* m) { m->pattern_vouch_votes = 5; }));
+  // ... nor those in which a vouched pair's off-pattern neighbours made it ambiguous ...
+  EXPECT_TRUE(MatchingChangesTheFingerprint(
+      [](RockMatchingOptions* m) { m->pattern_vouch_rules_out_alternatives = false; }));
+  // ... nor those matched with the pattern's translation alone (before the pattern's turn).
+  EXPECT_TRUE(
+      MatchingChangesTheFingerprint([](RockMatchingOptions* m) { m->consensus_turn = false; }));
+  EXPECT_TRUE(MatchingChangesTheFingerprint(
+      [](RockMatchingOptions* m) { m->consensus_turn_trim_m = 0.4; }));
 }
 
 TEST(MissionRunOptions, RocksThatPassTheHeightRuleMustBeModeled) {
