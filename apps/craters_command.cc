@@ -7,6 +7,7 @@
 #include "areomap/crater/crater_output.h"
 #include "areomap/crater/crater_raster.h"
 #include "areomap/crater/crater_score.h"
+#include "areomap/crater/learned_detector.h"
 #include "areomap/crater/sun_azimuth.h"
 #include "areomap/map/error.h"
 #include "commands.h"
@@ -23,6 +24,7 @@ struct CratersArgs {
   double max_diameter = 0.0;
   std::optional<double> sun_azimuth_deg;
   bool estimate_sun = true;
+  std::string method = "edges";
   CraterDetectorOptions detector;
 };
 
@@ -41,6 +43,8 @@ std::optional<double> ChooseSunAzimuth(const CratersArgs& a, const RasterDataset
     return a.sun_azimuth_deg;
   }
   (*json)["sun_azimuth_source"] = "none";
+  // The learned detector needs no sun: its rim fits run without the shading checks.
+  if (options.method == CraterMethod::kLearned) return std::nullopt;
   if (!a.estimate_sun) {
     if (options.shading_template.enabled) {
       throw Error(
@@ -80,6 +84,7 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   const RasterDataset dataset = RasterDataset::Open(a.input);
   const RasterInfo& info = dataset.info();
   CraterDetectorOptions options = a.detector;
+  options.method = a.dtm ? CraterMethod::kEdges : CraterMethodFromString(a.method);
   // Ground size of a pixel, to turn metres into pixels and DTM heights into slopes.
   const CraterCatalog probe = MakeCraterCatalog({}, info);
   if (a.units == "m" && !(probe.pixel_size_m > 0.0)) {
@@ -105,6 +110,8 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   const double posting = probe.pixel_size_m > 0.0 ? probe.pixel_size_m : 1.0;
   options.dtm_posting = posting;
   options.Check();
+  // A missing or unreadable model is reported before any work or output.
+  if (options.method == CraterMethod::kLearned) CraterNetwork{options.learned.model_path};
   nlohmann::json sun_json;
   options.sun_azimuth_deg = ChooseSunAzimuth(a, dataset, options, global, &sun_json);
   PrepareOutputFolder(a.out_dir);
@@ -142,12 +149,21 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
                      ReadDecimated(dataset, dataset.FullWindow(), factor, &valid_pixels), found,
                      4096);
   RemoveStaleOutputs(out, {"craters.gpkg"}, files.get<std::vector<std::string>>());
-  int partial = 0;
-  for (const CraterDetection& d : found) partial += d.partial ? 1 : 0;
+  int partial = 0, rims_fitted = 0;
+  for (const CraterDetection& d : found) {
+    partial += d.partial ? 1 : 0;
+    rims_fitted += d.rim_fitted ? 1 : 0;
+  }
   nlohmann::json summary = {
       {"command", "craters"},
       {"input", a.input},
       {"source", a.dtm ? "dtm" : "image"},
+      {"method", ToString(options.method)},
+      {"model", options.method == CraterMethod::kLearned
+                    ? (options.learned.model_path.empty() ? std::string("built-in")
+                                                          : options.learned.model_path)
+                    : std::string()},
+      {"rims_fitted", rims_fitted},
       {"width_px", info.width},
       {"height_px", info.height},
       {"georeferenced", catalog.IsGeoreferenced()},
@@ -185,6 +201,21 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_option("input", args->input, "Image or DTM raster (GeoTIFF, PNG, ISIS3, PDS...)");
   cmd->add_option("--out", args->out_dir, "Output folder (created if needed)");
   cmd->add_flag("--dtm", args->dtm, "The input holds heights: rims from curvature crests");
+  cmd->add_option("--method", args->method,
+                  "Image detector: edges (rim edges to ellipses) or learned (trained network, "
+                  "rims refitted as ellipses where they show edges; docs/crater-model.md). DTMs "
+                  "always use edges")
+      ->check(CLI::IsMember({"learned", "edges"}))
+      ->capture_default_str();
+  cmd->add_option("--model", args->detector.learned.model_path,
+                  "learned: ONNX crater model trained as the built-in one "
+                  "(scripts/crater_model/train.py); default: built-in");
+  cmd->add_option("--min-score", args->detector.learned.min_score,
+                  "learned: heat-map peak threshold in (0, 1)")
+      ->check(NumberIn(0.0, 1.0, Bound::kOpen, Bound::kOpen))
+      ->capture_default_str();
+  cmd->add_flag("--no-rim-fit{false}", args->detector.learned.refine_rims,
+                "learned: keep the network's circles, do not refit rims as ellipses");
   cmd->add_option("--units", args->units, "Unit of the diameter limits: px or m")
       ->check(CLI::IsMember({"px", "m"}))
       ->capture_default_str();
@@ -292,6 +323,10 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
     if (!cmd->get_subcommands().empty()) return;  // `craters score` ran
     if (args->input.empty()) throw Error("craters: missing INPUT raster (or use 'craters score')");
     if (args->out_dir.empty()) throw Error("craters: --out DIR is required");
+    if (args->detector.shading_template.enabled && !args->dtm && args->method == "learned")
+      throw Error(
+          "craters: --shading-templates belongs to --method edges (the learned detector finds "
+          "degraded bowls without it)");
     if (args->detector.shading_template.enabled && args->dtm)
       throw Error(
           "craters: --shading-templates needs an image, not a DTM (the bowl's shading depends on "

@@ -96,6 +96,7 @@ double CpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC;
 // The bench's detector options; `upsample` (0, 1, 2) and `shading` as the command line says.
 areomap::CraterDetectorOptions BenchOptions(int upsample, bool shading) {
   areomap::CraterDetectorOptions options;
+  options.method = areomap::CraterMethod::kEdges;
   options.sun_azimuth_deg = 90.0;
   options.min_diameter_px = 10.0;
   options.upsample_small_craters = upsample != 0;
@@ -186,6 +187,17 @@ int CompareWithHough(int argc, char** argv) {
   const double ours_cpu = CpuSeconds() - cpu_start;
   const auto ours_score = ScoreDetections(truth, found);
 
+  // The learned detector (--method learned) on the same file.
+  cpu_start = CpuSeconds();
+  start = std::chrono::steady_clock::now();
+  areomap::CraterDetectorOptions learned_options;
+  learned_options.method = areomap::CraterMethod::kLearned;
+  learned_options.min_diameter_px = 10.0;
+  const auto learned_found = areomap::DetectCratersInRaster(
+      areomap::RasterDataset::Open(path), areomap::RimSource::kImage, learned_options);
+  const double learned_s = Seconds(start);
+  const double learned_cpu = CpuSeconds() - cpu_start;
+
   // The upsampled level searched everywhere (the default options before it was searched only
   // around small arcs), on the same file.
   double whole_level_s = 0.0, whole_level_cpu = 0.0;
@@ -229,14 +241,18 @@ int CompareWithHough(int argc, char** argv) {
                 megapixels / wall, cpu, megapixels / cpu, score.all.precision, score.all.recall,
                 score.all.f1, count);
   };
-  row("areomap (tiled, disk)", ours_s, ours_cpu, ours_score, found.size());
+  row("areomap learned", learned_s, learned_cpu, ScoreDetections(truth, learned_found),
+      learned_found.size());
+  row("areomap edges", ours_s, ours_cpu, ours_score, found.size());
   if (upsample == 1) {
     row("  upsampled everywhere", whole_level_s, whole_level_cpu,
         ScoreDetections(truth, whole_level_found), whole_level_found.size());
   }
   row("cv::HoughCircles", hough_s, hough_cpu, hough_score, hough.size());
-  std::printf("time ratio areomap / HoughCircles: wall %.2f, cpu %.2f\n", ours_s / hough_s,
+  std::printf("time ratio areomap edges / HoughCircles: wall %.2f, cpu %.2f\n", ours_s / hough_s,
               ours_cpu / hough_cpu);
+  std::printf("time ratio areomap learned / HoughCircles: wall %.2f, cpu %.2f\n",
+              learned_s / hough_s, learned_cpu / hough_cpu);
   if (upsample == 1) {
     std::printf("time ratio upsampled around small arcs / everywhere: wall %.2f, cpu %.2f\n",
                 ours_s / whole_level_s, ours_cpu / whole_level_cpu);

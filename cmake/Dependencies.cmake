@@ -5,7 +5,7 @@
 list(APPEND CMAKE_MODULE_PATH /usr/share/cmake/geographiclib)
 
 find_package(Eigen3 3.4 REQUIRED NO_MODULE)           # Eigen3::Eigen
-find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs calib3d features2d ximgproc)
+find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs calib3d features2d ximgproc dnn)
 find_package(Ceres 2 REQUIRED)                         # Ceres::ceres
 find_package(CGAL 5 REQUIRED)                          # CGAL::CGAL
 find_package(GeographicLib 2 REQUIRED)                 # GeographicLib::GeographicLib

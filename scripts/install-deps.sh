@@ -2,6 +2,9 @@
 # Installs the Debian 12 packages areomap needs to build, test and run.
 # Installs only what is missing; runs `apt-get update` at most once.
 # Must run as root (or with sudo available). Safe to run repeatedly.
+#   bash scripts/install-deps.sh              build, test and run
+#   bash scripts/install-deps.sh --training   also what retraining the crater model needs
+#                                             (scripts/crater_model/train.py: PyTorch on the CPU)
 set -euo pipefail
 
 packages=(
@@ -19,6 +22,12 @@ packages=(
   libgtest-dev libgmock-dev
   libbenchmark-dev
 )
+if [ "${1:-}" = "--training" ]; then
+  packages+=(python3-torch python3-opencv python3-numpy)
+elif [ $# -gt 0 ]; then
+  echo "error: install-deps: unknown option '$1' (expected --training or nothing)" >&2
+  exit 2
+fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -45,6 +45,9 @@ std::vector<std::pair<std::string, double>> Attributes(const CatalogCrater& c) {
       {"confidence", d.confidence},
       {"partial", d.partial ? 1.0 : 0.0},
       {"pyramid_level", static_cast<double>(d.pyramid_level)},
+      // 1: the rim was fitted as an ellipse; 0: the learned detector's circle (no rim edges)
+      {"rim_fitted", d.rim_fitted ? 1.0 : 0.0},
+      {"model_score", d.model_score},
       {"map_x", c.map_center ? c.map_center->x() : kNaN},
       {"map_y", c.map_center ? c.map_center->y() : kNaN},
       {"semi_major_m", c.semi_major_m},

@@ -14,6 +14,7 @@
 #include <tbb/parallel_for.h>
 #include <opencv2/imgproc.hpp>
 
+#include "areomap/crater/learned_detector.h"
 #include "areomap/map/error.h"
 #include "detect_in_core.h"
 #include "edge_scratch.h"
@@ -43,6 +44,9 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
                                                    const CraterDetectorOptions& o,
                                                    const ProgressCallback& progress) {
   o.Check();
+  if (source == RimSource::kImage && o.method == CraterMethod::kLearned) {
+    return DetectCratersLearned(dataset, o, o.learned, progress);
+  }
   const int width = dataset.info().width, height = dataset.info().height;
   const int padded = o.tile_size + 2 * o.tile_overlap;
   if (width <= padded && height <= padded) {

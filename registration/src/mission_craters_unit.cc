@@ -76,9 +76,10 @@ json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
   options.min_diameter_px = run.options->crater_min_diameter_m / probe.pixel_size_m;
   options.sun_azimuth_deg = image->sun_azimuth_deg;  // North-up: clockwise from image up.
   options.Check();
-  // A manifest without the image's sun: estimated from its craters' shading (sun_azimuth.h).
-  json sun = {{"sun_azimuth_source", "manifest"}};
-  if (!options.sun_azimuth_deg) {
+  // A manifest without the image's sun: estimated from its craters' shading (sun_azimuth.h) for
+  // the edge detector; the learned one needs none.
+  json sun = {{"sun_azimuth_source", options.sun_azimuth_deg ? "manifest" : "none"}};
+  if (!options.sun_azimuth_deg && options.method == CraterMethod::kEdges) {
     const SunAzimuthEstimate e = EstimateSunAzimuthInRaster(dataset, options);
     sun = {{"sun_azimuth_source", e.reliable ? "estimated" : "none"},
            {"sun_azimuth_estimate", SunAzimuthEstimateJson(e)}};
@@ -98,6 +99,7 @@ json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
   json summary = {{"image", image->path.filename().string()},
                   {"pixel_size_m", probe.pixel_size_m},
                   {"min_diameter_m", run.options->crater_min_diameter_m},
+                  {"method", ToString(options.method)},
                   {"craters", found.size()},
                   {"files", {"craters.csv", "craters.json", "craters.gpkg", "overlay.png"}}};
   summary.update(sun);

@@ -36,12 +36,14 @@
 // image without craters, a constant image or one full of nodata gives an empty result.
 #pragma once
 
+#include <limits>
 #include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "areomap/crater/ellipse.h"
+#include "areomap/crater/learned_options.h"
 #include "areomap/crater/rim_edges.h"
 #include "areomap/crater/shading_hypotheses.h"
 #include "areomap/map/progress.h"
@@ -78,6 +80,10 @@ struct CraterDetection {
   double edge_contrast = 0.0;  // mean strength of the rim edges / the high Canny threshold  //
                                // edges used by the final fit
   int pyramid_level = 0;       // level where the crater was found (0 = full resolution)
+  // false: the learned detector's circle, kept because the rim showed too few edges for an
+  // ellipse fit; the sigmas then are the network's measured errors (learned_detector.h).
+  bool rim_fitted = true;
+  double model_score = std::numeric_limits<double>::quiet_NaN();  // learned heat-map peak
 
   double Diameter() const { return ellipse.semi_major + ellipse.semi_minor; }  // [px]
 };
@@ -121,6 +127,11 @@ struct CraterDetectorOptions {
   // degraded craters whose rims show edges only along the sun line; each is first tried as a
   // start for the edge fit and validation above, then accepted on its own evidence.
   ShadingTemplateOptions shading_template;
+  // DetectCratersInRaster on an image: the edge pipeline above (default) or the learned detector
+  // (learned_detector.h; docs/crater-model.md says where each is better); DTMs and DetectCraters
+  // always use the edges.
+  CraterMethod method = CraterMethod::kEdges;
+  LearnedDetectorOptions learned;
 
   void Check() const;  // throws areomap::Error naming the bad field
   // Whether detection searches the 2x upsampled level: upsample_small_craters is on and craters

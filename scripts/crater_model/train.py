@@ -1,0 +1,300 @@
+#!/usr/bin/env python3
+"""Trains areomap's learned crater detector and exports it to ONNX.
+
+The model is a small fully convolutional centre-point network (CenterNet-style): from one
+locally normalised image channel it predicts, at half the input resolution, a crater-centre
+heat map, the centre's sub-cell offset and the log rim diameter. crater/src/learned_detector.cc
+runs it through OpenCV dnn on an image pyramid; docs/crater-model.md says why this design.
+
+Data: the CTX MC-11 East catalogue (../shared/data/craters-train/ctx-mc11e, CC-BY-4.0), nine
+images for training and three held out for validation (HELD_OUT below). Nothing else: the HRSC
+images in ../shared/data are for measurement only.
+
+Usage (Debian's python3-torch and python3-opencv; `bash scripts/install-deps.sh --training`):
+    /usr/bin/python3 scripts/crater_model/train.py --data ../shared/data/craters-train/ctx-mc11e \
+        --out crater/models/crater_centernet.onnx
+Deterministic for a given --seed on one machine (torch CPU, fixed thread count).
+"""
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import cv2
+import numpy as np
+import torch
+import torch.nn as nn
+import torch.nn.functional as F
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import crater_net  # noqa: E402
+
+ALL_IMAGES = "ABCDEFGHIJKL"
+HELD_OUT = "CFL"  # validation images, never trained on
+
+
+def load_catalogue(data_dir, letters):
+    items = []
+    for letter in letters:
+        stem = os.path.join(data_dir, f"MC11E-{letter}")
+        image = cv2.imread(stem + ".png", cv2.IMREAD_UNCHANGED)
+        if image is None:
+            raise SystemExit(f"error: cannot read {stem}.png")
+        rows = np.genfromtxt(stem + "_craters.csv", delimiter=",", names=True)
+        craters = np.stack([rows["x_px"], rows["y_px"], rows["diameter_px"], rows["annotators"]], 1)
+        items.append((letter, image.astype(np.float32), craters))
+    return items
+
+
+class Sampler:
+    """Random training crops with their crater labels, augmented as real products differ:
+    scale (GSD), rotation by quarter turns and flips (sun direction), blur (MTF), noise, gain."""
+
+    def __init__(self, items, crop, rng, min_prefilter=0.5, sharpen=0.0):
+        self.min_prefilter = min_prefilter
+        self.sharpen = sharpen
+        self.items = items
+        self.crop = crop
+        self.rng = rng
+        # Images with more craters are drawn more often, but every image is drawn.
+        counts = np.array([max(50, len(c)) for _, _, c in items], np.float64)
+        self.weights = counts / counts.sum()
+
+    def sample(self):
+        rng = self.rng
+        _, image, craters = self.items[rng.choice(len(self.items), p=self.weights)]
+        # Output/input scale: mostly near the native GSD, sometimes much coarser, so that
+        # large craters are seen at the sizes the pyramid shows them.
+        if rng.random() < 0.3:
+            scale = math.exp(rng.uniform(math.log(0.2), math.log(0.5)))
+        else:
+            scale = math.exp(rng.uniform(math.log(0.5), math.log(1.2)))
+        src = self.crop / scale
+        h, w = image.shape
+        src = min(src, h - 1, w - 1)
+        scale = self.crop / src
+        x0 = rng.uniform(0, w - src)
+        y0 = rng.uniform(0, h - src)
+        # Affine on pixel indices: output = scale * (input - origin).
+        m = np.array([[scale, 0, -scale * x0], [0, scale, -scale * y0]], np.float32)
+        # Low-pass before decimation: from none to the pyramid's 2x2 averaging (sigma ~0.5 px of
+        # the output), because a sensor's native image is as sharp as its pixels allow, which a
+        # downsampled CTX crop is not unless the prefilter is weak.
+        sigma = (rng.uniform(self.min_prefilter, 0.5) if self.min_prefilter < 0.5 else 0.5) / scale
+        if scale < 1.0 and sigma > 0.3:
+            k = int(2 * math.ceil(2 * sigma) + 1)
+            ys, xs = int(max(0, y0 - k)), int(max(0, x0 - k))
+            ye, xe = int(min(h, y0 + src + k + 1)), int(min(w, x0 + src + k + 1))
+            patch = cv2.GaussianBlur(image[ys:ye, xs:xe], (k, k), sigma)
+            m[0, 2] += scale * xs
+            m[1, 2] += scale * ys
+        else:
+            patch, xs, ys = image, 0, 0
+        out = cv2.warpAffine(patch, m, (self.crop, self.crop), flags=cv2.INTER_LINEAR,
+                             borderMode=cv2.BORDER_REFLECT)
+        # Photometric: gain, gamma, blur, noise.
+        lo, hi = np.percentile(out, [1, 99])
+        out = (out - lo) / max(hi - lo, 1.0)
+        out = np.clip(out, 0, 1) ** math.exp(rng.uniform(-0.4, 0.4))
+        if rng.random() < 0.5:
+            s = rng.uniform(0.3, 1.2)
+            out = cv2.GaussianBlur(out, (0, 0), s)
+        elif self.sharpen > 0.0 and rng.random() < 0.5:
+            # Unsharp masking: the crisp, high-contrast texture of sensors such as HRSC.
+            out = out + rng.uniform(0.0, self.sharpen) * (out - cv2.GaussianBlur(out, (0, 0), 1.0))
+        out = out + rng.normal(0, rng.uniform(0, 0.04), out.shape).astype(np.float32)
+        out = out * rng.uniform(20, 200)
+        # Label coordinates have pixel centres at +0.5; warpAffine's at integers.
+        cx = scale * (craters[:, 0] - 0.5 - x0) + 0.5
+        cy = scale * (craters[:, 1] - 0.5 - y0) + 0.5
+        d = scale * craters[:, 2]
+        labels = np.stack([cx, cy, d, craters[:, 3]], 1)
+        keep = (cx > -d) & (cy > -d) & (cx < self.crop + d) & (cy < self.crop + d)
+        labels = labels[keep]
+        # Quarter turns and flips.
+        k = int(rng.integers(4))
+        flip = bool(rng.integers(2))
+        out, labels = rotate_flip(out, labels, k, flip)
+        return crater_net.normalize(out), labels
+
+
+def rotate_flip(image, labels, quarter_turns, flip):
+    n = image.shape[0]
+    labels = labels.copy()
+    for _ in range(quarter_turns):
+        image = np.rot90(image)  # counter-clockwise: (x, y) -> (y, n - x)
+        x, y = labels[:, 0].copy(), labels[:, 1].copy()
+        labels[:, 0], labels[:, 1] = y, n - x
+    if flip:
+        image = image[:, ::-1]
+        labels[:, 0] = n - labels[:, 0]
+    return np.ascontiguousarray(image), labels
+
+
+def targets(labels, size, min_annotators, max_net_diameter):
+    """Heat map (Gaussian per crater), ignore mask, and regression targets at half resolution."""
+    s = crater_net.STRIDE
+    n = size // s
+    heat = np.zeros((n, n), np.float32)
+    weight = np.ones((n, n), np.float32)
+    reg = np.zeros((3, n, n), np.float32)
+    reg_mask = np.zeros((n, n), np.float32)
+    yy, xx = np.mgrid[0:n, 0:n].astype(np.float32)
+    for cx, cy, d, annotators in labels:
+        gx, gy, gd = cx / s - 0.5, cy / s - 0.5, d / s  # cell-centre coordinates
+        r = 0.5 * gd + 2
+        x0, x1 = int(max(0, math.floor(gx - r))), int(min(n, math.ceil(gx + r) + 1))
+        y0, y1 = int(max(0, math.floor(gy - r))), int(min(n, math.ceil(gy + r) + 1))
+        if x0 >= x1 or y0 >= y1:
+            continue
+        doubtful = annotators < min_annotators or d < crater_net.MIN_TRAIN_DIAMETER_PX
+        if doubtful or d > max_net_diameter:
+            # Neither crater nor background: only some annotators saw it, or the network is
+            # not asked to find it at this scale (the pyramid's next level will).
+            rr = max(1.0, 0.35 * gd)
+            inside = (xx[y0:y1, x0:x1] - gx) ** 2 + (yy[y0:y1, x0:x1] - gy) ** 2 <= rr * rr
+            weight[y0:y1, x0:x1][inside] = 0.0
+            continue
+        sigma = max(0.5, gd / 6.0)
+        g = np.exp(-((xx[y0:y1, x0:x1] - gx) ** 2 + (yy[y0:y1, x0:x1] - gy) ** 2) / (2 * sigma ** 2))
+        heat[y0:y1, x0:x1] = np.maximum(heat[y0:y1, x0:x1], g)
+        px, py = int(round(gx)), int(round(gy))
+        if 0 <= px < n and 0 <= py < n:
+            heat[py, px] = 1.0
+            # Regression at the peak cell and its 4-neighbours.
+            for ox, oy in ((0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)):
+                qx, qy = px + ox, py + oy
+                if 0 <= qx < n and 0 <= qy < n:
+                    reg[0, qy, qx] = gx - qx
+                    reg[1, qy, qx] = gy - qy
+                    reg[2, qy, qx] = math.log(d / crater_net.DIAMETER_UNIT_PX)
+                    reg_mask[qy, qx] = 1.0 if (ox, oy) == (0, 0) else 0.5
+    weight[heat >= 1.0] = 1.0
+    return heat, weight, reg, reg_mask
+
+
+def focal_loss(pred, heat, weight):
+    p = pred.clamp(1e-4, 1 - 1e-4)
+    pos = (heat >= 1.0).float()
+    pos_loss = -((1 - p) ** 2) * torch.log(p) * pos
+    neg_loss = -((1 - heat) ** 4) * (p ** 2) * torch.log(1 - p) * (1 - pos) * weight
+    num_pos = pos.sum().clamp(min=1.0)
+    return (pos_loss.sum() + neg_loss.sum()) / num_pos
+
+
+def batch(sampler, size, args):
+    images, heats, weights, regs, masks = [], [], [], [], []
+    for _ in range(args.batch):
+        image, labels = sampler.sample()
+        h, w, r, m = targets(labels, size, args.min_annotators, args.max_net_diameter)
+        images.append(image[None])
+        heats.append(h[None])
+        weights.append(w[None])
+        regs.append(r)
+        masks.append(m[None])
+    t = lambda a: torch.from_numpy(np.stack(a))
+    return t(images), t(heats), t(weights), t(regs), t(masks)
+
+
+def evaluate(model, items, min_diameter, thresholds):
+    """F1 >= min_diameter on whole images, for each heat-map threshold (decoding as in C++)."""
+    model.eval()
+    results = {t: [0, 0, 0, 0] for t in thresholds}  # matched truth / detections, detected, truth
+    with torch.no_grad():
+        for _, image, craters in items:
+            detections = crater_net.detect(model, image, min(thresholds))
+            truth = craters[craters[:, 3] >= 2][:, :3]
+            for t in thresholds:
+                dets = detections[detections[:, 3] >= t]
+                m, nd, nt = crater_net.score(truth, dets[:, :3], min_diameter)
+                results[t][0] += m[0]
+                results[t][1] += m[1]
+                results[t][2] += nd
+                results[t][3] += nt
+    model.train()
+    out = {}
+    for t, (mt, md, nd, nt) in results.items():
+        p = md / max(nd, 1)
+        r = mt / max(nt, 1)
+        out[t] = (p, r, 2 * p * r / max(p + r, 1e-9))
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--data", required=True, help="the ctx-mc11e folder")
+    ap.add_argument("--out", required=True, help="ONNX file to write")
+    ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--iterations", type=int, default=3000)
+    ap.add_argument("--batch", type=int, default=12)
+    ap.add_argument("--crop", type=int, default=160)
+    ap.add_argument("--lr", type=float, default=3e-3)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--min-annotators", type=int, default=2)
+    ap.add_argument("--max-net-diameter", type=float, default=48.0)
+    ap.add_argument("--eval-every", type=int, default=500)
+    ap.add_argument("--init", help="start from these weights (.pt) instead of random ones")
+    ap.add_argument("--min-prefilter", type=float, default=0.5,
+                    help="least anti-alias sigma before downsampling a crop [output px]")
+    ap.add_argument("--sharpen", type=float, default=0.0,
+                    help="largest unsharp-mask amount of the augmentation (0: none)")
+    args = ap.parse_args()
+
+    torch.manual_seed(args.seed)
+    torch.set_num_threads(args.threads)
+    rng = np.random.default_rng(args.seed)
+    train_letters = [c for c in ALL_IMAGES if c not in HELD_OUT]
+    train = load_catalogue(args.data, train_letters)
+    val = load_catalogue(args.data, HELD_OUT)
+    sampler = Sampler(train, args.crop, rng, args.min_prefilter, args.sharpen)
+    model = crater_net.CraterNet()
+    if args.init:
+        model.load_state_dict(torch.load(args.init))
+    print(f"parameters: {sum(p.numel() for p in model.parameters())}", flush=True)
+    opt = torch.optim.AdamW(model.parameters(), lr=args.lr, weight_decay=1e-4)
+    sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=args.lr, total_steps=args.iterations,
+                                                pct_start=0.1)
+    thresholds = [0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5]
+    best = (-1.0, None, None)
+    start = time.time()
+    history = []
+    for it in range(1, args.iterations + 1):
+        x, heat, weight, reg, mask = batch(sampler, args.crop, args)
+        out = model(x)
+        hm_loss = focal_loss(out[:, 0:1], heat, weight)
+        num = mask.sum().clamp(min=1.0)
+        reg_loss = ((out[:, 1:4] - reg).abs() * mask).sum() / num
+        loss = hm_loss + reg_loss
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        sched.step()
+        if it % 50 == 0:
+            print(f"it {it} loss {loss.item():.3f} (heat {hm_loss.item():.3f} reg "
+                  f"{reg_loss.item():.3f}) {time.time() - start:.0f} s", flush=True)
+        if it % args.eval_every == 0 or it == args.iterations:
+            scores = evaluate(model, val, 8.0, thresholds)
+            t_best = max(scores, key=lambda t: scores[t][2])
+            p, r, f1 = scores[t_best]
+            history.append({"iteration": it, "threshold": t_best, "precision": p, "recall": r,
+                            "f1": f1})
+            print(f"val it {it}: best threshold {t_best} P {p:.3f} R {r:.3f} F1 {f1:.3f}",
+                  flush=True)
+            if f1 > best[0]:
+                best = (f1, t_best, {k: v.clone() for k, v in model.state_dict().items()})
+    model.load_state_dict(best[2])
+    model.eval()
+    crater_net.export_onnx(model, args.out)
+    meta = {"threshold": best[1], "validation_f1": best[0], "history": history,
+            "seconds": time.time() - start, "seed": args.seed, "args": vars(args),
+            "held_out": list(HELD_OUT)}
+    with open(os.path.splitext(args.out)[0] + ".train.json", "w") as f:
+        json.dump(meta, f, indent=1)
+    torch.save(best[2], os.path.splitext(args.out)[0] + ".pt")
+    print(json.dumps({k: meta[k] for k in ("threshold", "validation_f1", "seconds")}))
+
+
+if __name__ == "__main__":
+    main()

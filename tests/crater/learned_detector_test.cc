@@ -1,0 +1,285 @@
+#include "areomap/crater/learned_detector.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "areomap/crater/crater_raster.h"
+#include "areomap/crater/crater_score.h"
+#include "areomap/map/csv.h"
+#include "areomap/map/error.h"
+#include "areomap/map/image_io.h"
+#include "crater_scene.h"
+#include "test_support.h"
+
+namespace areomap {
+namespace {
+
+using testing::CraterScene;
+
+const CraterScene& FieldScene() {
+  static const CraterScene scene = testing::MakeFieldScene(120.0);
+  return scene;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+std::string ErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::filesystem::path TempDir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("areomap_learned_" + name);
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+TEST(CraterNetwork, BuiltInModelGivesFourMapsAtHalfResolution) {
+  CraterNetwork network;
+  EXPECT_EQ(network.source(), "built-in");
+  const CraterNetwork::Output out = network.Forward(cv::Mat::zeros(24, 40, CV_32F));
+  for (const cv::Mat* m : {&out.heat, &out.dx, &out.dy, &out.log_diameter}) {
+    EXPECT_EQ(m->rows, 12);
+    EXPECT_EQ(m->cols, 20);
+    EXPECT_EQ(m->type(), CV_32F);
+  }
+  double lo = 0.0, hi = 0.0;
+  cv::minMaxLoc(out.heat, &lo, &hi);
+  EXPECT_GE(lo, 0.0);
+  EXPECT_LE(hi, 1.0);
+}
+
+TEST(CraterNetwork, MissingOrCorruptModelFileIsAnErrorNamingIt) {
+  const auto dir = TempDir("model");
+  const std::string missing = (dir / "missing.onnx").string();
+  EXPECT_NE(ErrorOf([&] { CraterNetwork{missing}; }).find(missing + ": crater model file not found"),
+            std::string::npos);
+  const std::string corrupt = (dir / "corrupt.onnx").string();
+  std::ofstream(corrupt) << "not a network at all";
+  const std::string message = ErrorOf([&] { CraterNetwork{corrupt}; });
+  EXPECT_NE(message.find(corrupt), std::string::npos) << message;
+  // The command-line route: the option names the file before any work.
+  CraterDetectorOptions options;
+  options.learned.model_path = corrupt;
+  EXPECT_NE(ErrorOf([&] { DetectCratersLearned(cv::Mat::zeros(64, 64, CV_32F), options, options.learned); })
+                .find(corrupt),
+            std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(LearnedDetectorOptions, CheckNamesTheField) {
+  LearnedDetectorOptions o;
+  o.min_score = 1.0;
+  EXPECT_NE(ErrorOf([&] { o.Check(); }).find("LearnedDetectorOptions.min_score"), std::string::npos);
+  o = {};
+  o.tile_size = 16;
+  EXPECT_NE(ErrorOf([&] { o.Check(); }).find("LearnedDetectorOptions.tile_size"), std::string::npos);
+  EXPECT_EQ(CraterMethodFromString("edges"), CraterMethod::kEdges);
+  EXPECT_EQ(ToString(CraterMethodFromString("learned")), "learned");
+  EXPECT_NE(ErrorOf([] { CraterMethodFromString("hough"); }).find("'hough'"), std::string::npos);
+}
+
+// Any gain and bit depth give the same input (the std floor, 1e-3 of the local mean, scales
+// with the gain too).
+TEST(NormalizeForCraterNetwork, IsTheSameForAnyGainAndBitDepth) {
+  cv::Mat byte;
+  FieldScene().products.image.bands[0].convertTo(byte, CV_8U, 1.0 / 4.0);
+  cv::Mat word, real;
+  byte.convertTo(word, CV_16U, 64.0);
+  byte.convertTo(real, CV_32F, 1.0 / 255.0);
+  const cv::Mat a = NormalizeForCraterNetwork(byte);
+  EXPECT_LT(cv::norm(a, NormalizeForCraterNetwork(word), cv::NORM_INF), 1e-3);
+  EXPECT_LT(cv::norm(a, NormalizeForCraterNetwork(real), cv::NORM_INF), 1e-3);
+  double lo = 0.0, hi = 0.0;
+  cv::minMaxLoc(a, &lo, &hi);
+  EXPECT_GE(lo, -4.0);
+  EXPECT_LE(hi, 4.0);
+}
+
+TEST(DetectCratersLearned, ConstantTinyAndAllNodataImagesGiveNoCraters) {
+  const CraterDetectorOptions options;
+  EXPECT_TRUE(DetectCratersLearned(cv::Mat(300, 200, CV_32F, cv::Scalar(7.0)), options).empty());
+  EXPECT_TRUE(DetectCratersLearned(cv::Mat(1, 1, CV_8U, cv::Scalar(9)), options).empty());
+  EXPECT_TRUE(DetectCratersLearned(cv::Mat(3, 5, CV_16U, cv::Scalar(9)), options).empty());
+  const cv::Mat nodata(128, 128, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  EXPECT_TRUE(DetectCratersLearned(nodata, options).empty());
+}
+
+TEST(DetectCratersLearned, FindsNoCraterInNodataAndTheSameOnesBesideIt) {
+  cv::Mat image;
+  FieldScene().products.image.bands[0].convertTo(image, CV_32F);
+  const std::vector<CraterDetection> full = DetectCratersLearned(image, {});
+  cv::Mat holed = image.clone();
+  const int half = image.cols / 2;
+  holed.colRange(half, image.cols).setTo(std::numeric_limits<float>::quiet_NaN());
+  const std::vector<CraterDetection> found = DetectCratersLearned(holed, {});
+  ASSERT_FALSE(found.empty());
+  int kept_left = 0, far_left = 0;
+  for (const CraterDetection& d : found) {
+    EXPECT_LT(d.ellipse.center.x(), half) << "a crater centred in the nodata half";
+  }
+  // Craters well inside the valid half (a reach of the network away) are found as before.
+  for (const CraterDetection& f : full) {
+    if (f.ellipse.center.x() + 2.0 * f.Diameter() + 40.0 > half) continue;
+    ++far_left;
+    for (const CraterDetection& d : found) {
+      if ((d.ellipse.center - f.ellipse.center).norm() < 0.1 * f.Diameter()) {
+        ++kept_left;
+        break;
+      }
+    }
+  }
+  ASSERT_GT(far_left, 3);
+  EXPECT_GE(kept_left, far_left - 1);
+}
+
+TEST(DetectCratersLearned, SameCratersFrom8BitAnd16BitAndFloatImages) {
+  cv::Mat byte;
+  FieldScene().products.image.bands[0].convertTo(byte, CV_8U, 1.0 / 4.0);
+  cv::Mat word, real;
+  byte.convertTo(word, CV_16U, 64.0, 1000.0);  // an offset too, as a 16-bit product may have
+  byte.convertTo(real, CV_32F, 1.0 / 255.0);
+  CraterDetectorOptions options;
+  options.learned.refine_rims = false;
+  const std::vector<CraterDetection> a = DetectCratersLearned(byte, options);
+  const std::vector<CraterDetection> b = DetectCratersLearned(word, options);
+  const std::vector<CraterDetection> c = DetectCratersLearned(real, options);
+  ASSERT_GE(a.size(), 10u);
+  for (const auto* other : {&b, &c}) {
+    const CraterScore s = ScoreCraters(CirclesOf(a), CirclesOf(*other), {0.0, 1e9});
+    EXPECT_GE(s.all.recall, 0.95);
+    EXPECT_GE(s.all.precision, 0.95);
+  }
+}
+
+// Pyramid levels run in tiles with a margin wider than the network's reach: a raster read in
+// 64 px tiles gives the craters of one whole-image pass.
+TEST(DetectCratersLearned, TiledRasterGivesTheCratersOfTheWholeImage) {
+  const auto dir = TempDir("tiles");
+  cv::Mat image;
+  FieldScene().products.image.bands[0].convertTo(image, CV_32F);
+  GeoRaster raster;
+  raster.bands = {image};
+  WriteGeoTiff(dir / "scene.tif", raster);
+  const RasterDataset dataset = RasterDataset::Open(dir / "scene.tif");
+  CraterDetectorOptions options;
+  options.learned.refine_rims = false;
+  options.learned.tile_size = 64;
+  int calls = 0;
+  const std::vector<CraterDetection> tiled =
+      DetectCratersLearned(dataset, options, options.learned, [&](double, std::string_view) {
+        ++calls;
+        return true;
+      });
+  EXPECT_GT(calls, 100);
+  options.learned.tile_size = 4096;
+  const std::vector<CraterDetection> whole = DetectCratersLearned(image, options, options.learned);
+  ASSERT_EQ(tiled.size(), whole.size());
+  ASSERT_FALSE(whole.empty());
+  for (size_t i = 0; i < whole.size(); ++i) {
+    EXPECT_LT((tiled[i].ellipse.center - whole[i].ellipse.center).norm(), 1e-3) << i;
+    EXPECT_NEAR(tiled[i].Diameter(), whole[i].Diameter(), 1e-3) << i;
+  }
+  // DetectCratersInRaster takes the learned path for images when asked.
+  options.method = CraterMethod::kLearned;
+  options.learned.tile_size = 1024;
+  options.learned.refine_rims = true;
+  EXPECT_EQ(DetectCratersInRaster(dataset, RimSource::kImage, options).size(),
+            DetectCratersLearned(image, options).size());
+  std::filesystem::remove_all(dir);
+}
+
+TEST(DetectCratersLearned, CancellingStopsWithAnError) {
+  cv::Mat image;
+  FieldScene().products.image.bands[0].convertTo(image, CV_32F);
+  CraterDetectorOptions options;
+  options.learned.tile_size = 128;
+  int calls = 0;
+  const std::string message = ErrorOf([&] {
+    DetectCratersLearned(image, options, options.learned,
+                         [&](double, std::string_view) { return ++calls < 3; });
+  });
+  EXPECT_NE(message.find("cancelled"), std::string::npos);
+}
+
+// Generated scene (HiRISE-like 0.5 m/px, craters 10-160 px), a scene the network never saw:
+// measured P 0.955, R 0.913 (21 of 23), median centre error 0.12 px where the rim was fitted.
+// Regression guards; the edge detector's 0.95 / 0.95 is not reached (docs/crater-model.md).
+TEST(DetectCratersLearned, FindsGeneratedCratersWithSubPixelAccuracy) {
+  const CraterScene& scene = FieldScene();
+  const std::vector<CraterDetection> found =
+      DetectCratersLearned(scene.products.image.bands[0], {});
+  const CraterScore score =
+      ScoreCraters(CirclesOf(scene.truth_px), CirclesOf(found), {10.0, 1e9});
+  std::vector<double> center_errors;
+  int fitted = 0;
+  for (const auto& [t, d] : score.matches) {
+    const CraterDetection& det = found[static_cast<size_t>(d)];
+    if (!det.rim_fitted) continue;
+    ++fitted;
+    center_errors.push_back(
+        (det.ellipse.center - scene.truth_px[static_cast<size_t>(t)].center).norm());
+  }
+  RecordProperty("recall", std::to_string(score.all.recall));
+  RecordProperty("precision", std::to_string(score.all.precision));
+  RecordProperty("rims_fitted", fitted);
+  RecordProperty("median_center_error_px", std::to_string(Median(center_errors)));
+  EXPECT_GE(score.all.recall, 0.9);
+  EXPECT_GE(score.all.precision, 0.95);
+  EXPECT_GE(fitted, static_cast<int>(score.matches.size()) * 3 / 4);
+  EXPECT_LT(Median(center_errors), 0.5);
+}
+
+// The C++ port against the training code: scripts/crater_model/make_reference.py ran the
+// built-in model in PyTorch on a 256 x 256 crop of the HRSC image and wrote the network's
+// circles of 4 px and more.
+TEST(DetectCratersLearned, MatchesThePyTorchReferenceOnARealImage) {
+  SKIP_WITHOUT_SHARED_DATA();
+  const auto reference = std::filesystem::path(AREOMAP_TEST_DATA_DIR) / "crater_net_reference.csv";
+  const int x0 = 700, y0 = 300, size = 256;  // make_reference.py's crop
+  const cv::Mat image = ReadImage(testing::SharedDataDir() / "craters" / "hrsc_nanedi_north.png");
+  const cv::Mat crop = image(cv::Rect(x0, y0, size, size)).clone();
+  const std::vector<CraterCircle> expected = ReadCraterCsv(reference);
+  CraterDetectorOptions options;
+  options.min_diameter_px = 4.0;
+  options.learned.refine_rims = false;
+  const std::vector<CraterDetection> found = DetectCratersLearned(crop, options, options.learned);
+  ASSERT_GE(expected.size(), 10u);
+  ASSERT_EQ(found.size(), expected.size());
+  const std::vector<CraterCircle> got = CirclesOf(found);
+  for (size_t i = 0; i < got.size(); ++i) {
+    EXPECT_LT((got[i].center - expected[i].center).norm(), 0.01) << i;
+    EXPECT_NEAR(got[i].diameter, expected[i].diameter, 0.01) << i;
+  }
+}
+
+// Real HRSC image (never trained or tuned on), craters >= 8 px, default learned options: measured
+// F1 0.496. A regression guard: the target of 0.80 is not reached (docs/crater-model.md).
+TEST(DetectCratersLearned, HrscNanediLabelledCraters) {
+  SKIP_WITHOUT_SHARED_DATA();
+  const auto dir = testing::SharedDataDir() / "craters";
+  const cv::Mat image = ReadImage(dir / "hrsc_nanedi_north.png");
+  const std::vector<CraterCircle> truth = ReadCraterCsv(dir / "hrsc_nanedi_north_craters.csv");
+  const std::vector<CraterDetection> found = DetectCratersLearned(image, {});
+  const CraterScore score = ScoreCraters(truth, CirclesOf(found), {8.0, 16.0, 32.0, 1e9});
+  RecordProperty("f1_ge_8px", std::to_string(score.all.f1));
+  RecordProperty("precision", std::to_string(score.all.precision));
+  RecordProperty("recall", std::to_string(score.all.recall));
+  EXPECT_GE(score.all.f1, 0.45);
+}
+
+}  // namespace
+}  // namespace areomap
