@@ -48,9 +48,9 @@ void AddErrorsCommand(CLI::App& app, const GlobalOptions& global) {
       ->check(NumberAbove(10.0))
       ->capture_default_str();
   simulate->callback([o, &global] {
+    // Staged: a study that fails (a plot of NaN) leaves the earlier study whole.
+    OutputFolder out(o->out, OutputPolicy(global, "errors simulate", {"study.csv", "re_*m.png"}, {}));
     const std::vector<ConfigurationSample> samples = RunConfigurationStudy(o->study);
-    PrepareOutputFolder(o->out);
-    const std::filesystem::path out(o->out);
     std::ostringstream csv;
     csv << "landmarks,traverse_length_m,convergence_deg,figure_size_m,position_sigma_m,"
            "relative_error_percent\n";
@@ -82,11 +82,12 @@ void AddErrorsCommand(CLI::App& app, const GlobalOptions& global) {
                         {"min_relative_error_percent", range.first},
                         {"max_relative_error_percent", range.second}});
     }
-    WriteSummary(out, {{"command", "errors simulate"},
-                       {"samples", samples.size()},
-                       {"table", "study.csv"},
-                       {"plots", plots},
-                       {"ranges", ranges}});
+    WriteSummary(out.dir(), {{"command", "errors simulate"},
+                             {"samples", samples.size()},
+                             {"table", "study.csv"},
+                             {"plots", plots},
+                             {"ranges", ranges}});
+    out.Commit();
     if (!global.quiet) {
       for (const auto& [key, range] : extremes) {
         std::printf("%5.1f m, %d landmarks: RE %.2f-%.2f %%\n", key.first, key.second, range.first,
