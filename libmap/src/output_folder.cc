@@ -31,6 +31,7 @@ constexpr const char* kStagingPrefix = ".areomap-staging-";
 // Plain arrays, set before the handler can see them (one output folder per process at a time).
 char g_signal_staging[4096];
 char g_signal_lock[4096];
+char g_signal_folder[4096];  // The output folder when this process made it (removed if empty).
 volatile std::sig_atomic_t g_signal_armed = 0;
 
 // Removes `path` and everything under it with async-signal-safe calls only.
@@ -63,6 +64,7 @@ void OnSignal(int signal_number) {
   if (g_signal_armed) {
     if (g_signal_staging[0] != '\0') RemoveTreeInHandler(g_signal_staging);
     if (g_signal_lock[0] != '\0') ::unlink(g_signal_lock);
+    if (g_signal_folder[0] != '\0') ::rmdir(g_signal_folder);  // Only when empty.
   }
   std::signal(signal_number, SIG_DFL);
   std::raise(signal_number);
@@ -77,10 +79,11 @@ void CopyForHandler(char* target, size_t size, const fs::path& path) {
   std::memcpy(target, text.c_str(), text.size() + 1);
 }
 
-void ArmSignalCleanup(const fs::path& staging, const fs::path& lock) {
+void ArmSignalCleanup(const fs::path& staging, const fs::path& lock, const fs::path& folder) {
   g_signal_armed = 0;
   CopyForHandler(g_signal_staging, sizeof(g_signal_staging), staging);
   CopyForHandler(g_signal_lock, sizeof(g_signal_lock), lock);
+  CopyForHandler(g_signal_folder, sizeof(g_signal_folder), folder);
   g_signal_armed = 1;
   struct sigaction action {};
   action.sa_handler = OnSignal;
@@ -213,7 +216,7 @@ OutputFolder::OutputFolder(fs::path dir, OutputFolderOptions options)
       }
       write_dir_ = staging_dir_;
     }
-    ArmSignalCleanup(staging_dir_, final_dir_ / kLockName);
+    ArmSignalCleanup(staging_dir_, final_dir_ / kLockName, created_ ? final_dir_ : fs::path());
   } catch (...) {
     Unlock();
     if (created_) {

@@ -249,6 +249,21 @@ TEST_F(OutputFolderTest, AdoptsAFolderAnEarlierVersionWroteForItsFixedNamesOnly)
   EXPECT_THROW(OutputFolder(out_, other), Error);
 }
 
+TEST_F(OutputFolderTest, SigintInAFolderItMadeLeavesNoFolder) {
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    OutputFolder folder(out_, Stereo());
+    Write(folder / "points.ply", "half");
+    std::raise(SIGTERM);
+    ::_exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM);
+  EXPECT_FALSE(fs::exists(out_));
+}
+
 TEST_F(OutputFolderTest, RefusesAFileWhereItWritesAFolder) {
   Write(out_ / "sites", "user's file");
   OutputFolderOptions options;
