@@ -18,6 +18,7 @@
 
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
+#include "atomic_file_registry.h"
 
 namespace areomap {
 
@@ -62,6 +63,7 @@ void RemoveTreeInHandler(const char* path) {
 
 void OnSignal(int signal_number) {
   if (g_signal_armed) {
+    internal::RemoveAtomicTempsInHandler();  // In place (the run): the files being written.
     if (g_signal_staging[0] != '\0') RemoveTreeInHandler(g_signal_staging);
     if (g_signal_lock[0] != '\0') ::unlink(g_signal_lock);
     if (g_signal_folder[0] != '\0') ::rmdir(g_signal_folder);  // Only when empty.

@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 
 namespace areomap {
@@ -262,6 +263,29 @@ TEST_F(OutputFolderTest, SigintInAFolderItMadeLeavesNoFolder) {
   ASSERT_EQ(::waitpid(child, &status, 0), child);
   EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM);
   EXPECT_FALSE(fs::exists(out_));
+}
+
+TEST_F(OutputFolderTest, SigintDuringAnInPlaceWriteRemovesTheTemporaryFile) {
+  OutputFolderOptions run;
+  run.command = "run";
+  run.outputs = {"sites/"};
+  run.in_place = true;
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    OutputFolder folder(out_, run);
+    fs::create_directories(folder / "sites/site_000");
+    AtomicFile file(folder / "sites/site_000/points.ply");
+    Write(file.temp_path(), "half");
+    std::raise(SIGINT);
+    ::_exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGINT);
+  ASSERT_TRUE(fs::is_directory(out_ / "sites/site_000"));
+  EXPECT_TRUE(fs::is_empty(out_ / "sites/site_000"));
+  EXPECT_FALSE(fs::exists(out_ / OutputFolder::kLockName));
 }
 
 TEST_F(OutputFolderTest, RefusesAFileWhereItWritesAFolder) {

@@ -17,8 +17,9 @@
 //    A command whose work units persist across runs (the mission run) writes in place; its
 //    folders are recorded as its own when it starts, so a killed run is resumed, not refused.
 //  - Temporary files a killed run left (.areomap-staging-*, AtomicFile's .tmp-<pid>-*) are removed
-//    by the next run, which holds the lock; on SIGINT / SIGTERM the staging folder and the lock are
-//    removed before the process ends with the signal.
+//    by the next run, which holds the lock; on SIGINT / SIGTERM the staging folder, the
+//    AtomicFile temporaries being written and the lock are removed before the process ends with
+//    the signal (SIGKILL: by the next run).
 // Failure: every refusal throws areomap::Error naming the file or folder and what to do.
 #pragma once
 
