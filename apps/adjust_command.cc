@@ -52,13 +52,19 @@ void AddAdjustCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->callback([o, &global] {
     o->adjustment.orbital_image = o->orbital;
     o->adjustment.Check();
-    // The inputs are read before the output folder is made: a bad input creates nothing.
+    std::vector<std::filesystem::path> inputs(o->inputs.begin(), o->inputs.end());
+    inputs.push_back(o->orbital);
+    // Staged: an adjustment that fails (at the GeoPackage, say) leaves the earlier one whole.
+    OutputFolder out(o->out, OutputPolicy(global, "adjust",
+                                          {"adjustment.json", "report.txt", "sites.csv", "legs.csv",
+                                           "traverse.gpkg", "traverse_map.png"},
+                                          inputs));
     BundleInputFile input = ReadBundleInput({o->inputs.begin(), o->inputs.end()});
-    PrepareOutputFolder(o->out);
-    nlohmann::json summary = AdjustTraverseInput(std::move(input), o->out, o->adjustment,
+    nlohmann::json summary = AdjustTraverseInput(std::move(input), out.dir(), o->adjustment,
                                                  MakeProgressBar(global, "adjust"));
     summary["command"] = "adjust";
-    WriteSummary(o->out, summary);
+    WriteSummary(out.dir(), summary);
+    out.Commit();
     if (!global.quiet) {
       std::cout << "adjusted " << summary["sites"] << " sites (" << summary["tie_points"]
                 << " tie points, " << summary["control_points"] << " control points, "

@@ -116,6 +116,8 @@ void WriteFootprints(const FootprintOptions& options, const GlobalOptions& globa
     double azimuth_deg = 0.0, elevation_deg = 0.0;
     Eigen::Vector3d center;
   };
+  OutputFolder out(options.out, OutputPolicy(global, "camera footprint", {"footprints.png"},
+                                             {options.files.begin(), options.files.end()}));
   std::vector<Item> items;
   double ground_z = 0.0;
   int site = -1;
@@ -200,14 +202,14 @@ void WriteFootprints(const FootprintOptions& options, const GlobalOptions& globa
     const double area_px = cv::countNonZero(masks[i] & masks[i + 1]);
     overlaps.push_back({{"images", {i, i + 1}}, {"overlap_m2", area_px / (scale * scale)}});
   }
-  PrepareOutputFolder(options.out);
-  WriteImage(std::filesystem::path(options.out) / "footprints.png", plot);
-  WriteSummary(options.out, {{"command", "camera footprint"},
-                             {"site", site},
-                             {"ground_z_site_m", ground_z},
-                             {"max_range_m", options.max_range_m},
-                             {"images", images},
-                             {"consecutive_overlaps", overlaps}});
+  WriteImage(out / "footprints.png", plot);
+  WriteSummary(out.dir(), {{"command", "camera footprint"},
+                           {"site", site},
+                           {"ground_z_site_m", ground_z},
+                           {"max_range_m", options.max_range_m},
+                           {"images", images},
+                           {"consecutive_overlaps", overlaps}});
+  out.Commit();
   if (!global.quiet) {
     for (const nlohmann::json& image : images) {
       std::printf("%s: azimuth %.1f deg, elevation %.1f deg, footprint %.1f m2\n",

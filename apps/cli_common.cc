@@ -39,46 +39,16 @@ ProgressCallback MakeProgressBar(const GlobalOptions& global, std::string title)
   };
 }
 
-void PrepareOutputFolder(const std::filesystem::path& out_dir) {
-  std::error_code ec;
-  std::filesystem::create_directories(out_dir, ec);
-  if (ec || !std::filesystem::is_directory(out_dir)) {
-    throw Error(out_dir.string() + ": cannot create output folder" +
-                (ec ? ": " + ec.message() : std::string()));
-  }
-  if (::access(out_dir.c_str(), W_OK) != 0) {
-    throw Error(out_dir.string() + ": output folder is not writable");
-  }
-}
-
-namespace {
-
-// Whether `name` matches `pattern`, in which one '*' stands for any run of characters.
-bool MatchesPattern(const std::string& name, const std::string& pattern) {
-  const size_t star = pattern.find('*');
-  if (star == std::string::npos) return name == pattern;
-  const std::string head = pattern.substr(0, star), tail = pattern.substr(star + 1);
-  return name.size() >= head.size() + tail.size() && name.starts_with(head) && name.ends_with(tail);
-}
-
-}  // namespace
-
-void RemoveStaleOutputs(const std::filesystem::path& out_dir,
-                        const std::vector<std::string>& optional_outputs,
-                        const std::vector<std::string>& written) {
-  std::error_code ec;
-  for (const auto& entry : std::filesystem::directory_iterator(out_dir, ec)) {
-    if (!entry.is_regular_file()) continue;
-    const std::string name = entry.path().filename().string();
-    if (std::find(written.begin(), written.end(), name) != written.end()) continue;
-    for (const std::string& pattern : optional_outputs) {
-      if (!MatchesPattern(name, pattern)) continue;
-      std::filesystem::remove(entry.path(), ec);
-      if (ec)
-        throw Error(entry.path().string() + ": cannot remove this stale output: " + ec.message());
-      break;
-    }
-  }
+OutputFolderOptions OutputPolicy(const GlobalOptions& global, std::string command,
+                                 std::vector<std::string> outputs,
+                                 std::vector<std::filesystem::path> inputs) {
+  OutputFolderOptions options;
+  options.command = std::move(command);
+  options.outputs = std::move(outputs);
+  options.outputs.push_back("summary.json");
+  options.inputs = std::move(inputs);
+  options.overwrite = global.overwrite;
+  return options;
 }
 
 void WriteSummary(const std::filesystem::path& out_dir, const nlohmann::json& summary) {

@@ -114,7 +114,10 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   if (options.method == CraterMethod::kLearned) CraterNetwork{options.learned.model_path};
   nlohmann::json sun_json;
   options.sun_azimuth_deg = ChooseSunAzimuth(a, dataset, options, global, &sun_json);
-  PrepareOutputFolder(a.out_dir);
+  OutputFolder folder(a.out_dir,
+                      OutputPolicy(global, "craters",
+                                   {"craters.csv", "craters.json", "craters.gpkg", "overlay.png"},
+                                   {a.input}));
   const RimSource source = a.dtm ? RimSource::kDtm : RimSource::kImage;
   const ProgressCallback progress = MakeProgressBar(global, "craters");
   const std::vector<CraterDetection> found =
@@ -135,7 +138,7 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
                                    posting);
     }
   }
-  const std::filesystem::path out(a.out_dir);
+  const std::filesystem::path out = folder.dir();
   WriteCratersCsv(out / "craters.csv", catalog);
   WriteCratersJson(out / "craters.json", catalog);
   nlohmann::json files = {"craters.csv", "craters.json", "overlay.png"};
@@ -148,7 +151,6 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   WriteCraterOverlay(out / "overlay.png",
                      ReadDecimated(dataset, dataset.FullWindow(), factor, &valid_pixels), found,
                      4096);
-  RemoveStaleOutputs(out, {"craters.gpkg"}, files.get<std::vector<std::string>>());
   int partial = 0, rims_fitted = 0;
   for (const CraterDetection& d : found) {
     partial += d.partial ? 1 : 0;
@@ -181,6 +183,7 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
       {"files", files}};
   summary.update(sun_json);
   WriteSummary(out, summary);
+  folder.Commit();  // Also removes an earlier run's craters.gpkg when this input has no CRS.
   if (valid_pixels == 0) {
     std::cerr << "warning: " << a.input
               << " has no valid pixel (every pixel is nodata or NaN): nothing was searched\n";
@@ -294,14 +297,17 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
       throw Error("craters score: --image needs --out DIR for the overlay");
     }
     if (!(*score_args)[2].empty()) {
-      PrepareOutputFolder((*score_args)[2]);
+      OutputFolder folder((*score_args)[2],
+                          OutputPolicy(global, "craters score", {"score_overlay.png"},
+                                       {(*score_args)[0], (*score_args)[1], (*score_args)[3]}));
       if (!(*score_args)[3].empty()) {
         const RasterDataset image = RasterDataset::Open((*score_args)[3]);
-        WriteScoreOverlay(std::filesystem::path((*score_args)[2]) / "score_overlay.png",
+        WriteScoreOverlay(folder / "score_overlay.png",
                           image.ReadWindowFloat(1, image.FullWindow()), truth, detections, s, lo);
         summary["overlay"] = "score_overlay.png";
       }
-      WriteSummary((*score_args)[2], summary);
+      WriteSummary(folder.dir(), summary);
+      folder.Commit();
     }
     std::cout << std::fixed << std::setprecision(3);
     std::cout << "diameter_px        truth  detected  precision  recall  f1     center_err_px\n";

@@ -126,6 +126,9 @@ void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
     }
     o->dtm.gridding.method = GriddingMethodFromString(o->method);
     o->dtm.Check();
+    std::vector<std::filesystem::path> inputs(o->clouds.begin(), o->clouds.end());
+    inputs.push_back(o->mission);
+    OutputFolder out(o->out, OutputPolicy(global, "dtm", {"dtm.tif"}, inputs));
     const ProgressCallback progress = MakeProgressBar(global, "dtm");
     const Georeference g = ReadGeoreference(*o);
     std::vector<PointCloud> clouds;
@@ -155,9 +158,8 @@ void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
     }
     const MapFrame map = o->crs.empty() ? MapFrame::LocalEquirectangular(g.body, g.origin)
                                         : MapFrame::FromCrs(g.body, Crs::FromUserInput(o->crs));
-    PrepareOutputFolder(o->out);
     const Dtm dtm = MakeDtm(sites, map, o->dtm, progress);
-    const std::filesystem::path path = std::filesystem::path(o->out) / "dtm.tif";
+    const std::filesystem::path path = out / "dtm.tif";
     WriteDtm(path, dtm);
     size_t points = 0;
     for (const PointCloud& c : clouds) points += c.points.size();
@@ -177,7 +179,7 @@ void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
     };
     const GridSpec& grid = dtm.layers.grid;
     const double cells = static_cast<double>(grid.width) * grid.height;
-    WriteSummary(o->out, {{"command", "dtm"},
+    WriteSummary(out.dir(), {{"command", "dtm"},
                           {"dtm", path.filename().string()},
                           {"clouds", o->clouds},
                           {"points", points},
@@ -189,8 +191,9 @@ void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
                           {"coverage", dtm.layers.known_cells / cells},
                           {"sigma_median_m", percentile(0.5)},
                           {"sigma_p90_m", percentile(0.9)}});
+    out.Commit();
     if (!global.quiet) {
-      std::cout << "wrote " << path.string() << " (" << grid.width << " x " << grid.height << " at "
+      std::cout << "wrote " << (out.final_dir() / "dtm.tif").string() << " (" << grid.width << " x " << grid.height << " at "
                 << grid.posting << " m, " << dtm.layers.known_cells << " cells known, median sigma "
                 << percentile(0.5) << " m)\n";
     }

@@ -1,11 +1,13 @@
 // areomap errors simulate --out DIR: the localization error configuration study of ch. 4.1.2
 // (Figs. 4.1-4.5) as a CSV table and one plot per traverse length.
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <map>
 #include <sstream>
 
 #include "areomap/map/atomic_file.h"
+#include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "areomap/registration/localization_error.h"
 #include "areomap/registration/localization_error_plot.h"
@@ -39,18 +41,25 @@ void AddErrorsCommand(CLI::App& app, const GlobalOptions& global) {
   simulate
       ->add_option("--sigma-p", o->study.camera.parallax_sigma_px,
                    "Parallax error sigma_p of eq. 4.3 [px]")
-      ->check(PositiveNumber())
+      ->check(NumberIn(0.0, 100.0, Bound::kOpen))
       ->capture_default_str();
   simulate->add_option("--baseline", o->study.camera.baseline_m, "Stereo base [m] (Navcam 0.2)")
-      ->check(PositiveNumber())
+      ->check(NumberIn(1e-3, 100.0))
       ->capture_default_str();
   simulate->add_option("--focal-px", o->study.camera.focal_px, "Focal length [px] (Navcam 1222.5)")
       ->check(NumberAbove(10.0))
       ->capture_default_str();
   simulate->callback([o, &global] {
+    // Staged: a study that fails (a plot of NaN) leaves the earlier study whole.
+    OutputFolder out(o->out, OutputPolicy(global, "errors simulate", {"study.csv", "re_*m.png"}, {}));
     const std::vector<ConfigurationSample> samples = RunConfigurationStudy(o->study);
-    PrepareOutputFolder(o->out);
-    const std::filesystem::path out(o->out);
+    for (const ConfigurationSample& sample : samples) {
+      if (!std::isfinite(sample.relative_error_percent) || !std::isfinite(sample.position_sigma_m)) {
+        throw Error(
+            "errors simulate: the study gives a relative error that is not a finite number "
+            "(--sigma-p, --baseline and --focal-px out of scale with each other?)");
+      }
+    }
     std::ostringstream csv;
     csv << "landmarks,traverse_length_m,convergence_deg,figure_size_m,position_sigma_m,"
            "relative_error_percent\n";
@@ -82,11 +91,12 @@ void AddErrorsCommand(CLI::App& app, const GlobalOptions& global) {
                         {"min_relative_error_percent", range.first},
                         {"max_relative_error_percent", range.second}});
     }
-    WriteSummary(out, {{"command", "errors simulate"},
-                       {"samples", samples.size()},
-                       {"table", "study.csv"},
-                       {"plots", plots},
-                       {"ranges", ranges}});
+    WriteSummary(out.dir(), {{"command", "errors simulate"},
+                             {"samples", samples.size()},
+                             {"table", "study.csv"},
+                             {"plots", plots},
+                             {"ranges", ranges}});
+    out.Commit();
     if (!global.quiet) {
       for (const auto& [key, range] : extremes) {
         std::printf("%5.1f m, %d landmarks: RE %.2f-%.2f %%\n", key.first, key.second, range.first,

@@ -50,6 +50,10 @@ int main(int argc, char** argv) {
   app.fallthrough();  // Global options (--quiet) may follow the subcommand.
   areomap::cli::GlobalOptions global;
   app.add_flag("--quiet", global.quiet, "No progress bar and no human summary");
+  app.add_flag("--overwrite", global.overwrite,
+               "Replace files in --out that carry an output's name but that no areomap command "
+               "recorded writing there (.areomap-outputs.json); a command's own earlier outputs "
+               "are replaced without it");
   areomap::cli::AddInfoCommand(app, global);
   areomap::cli::AddCoordsCommand(app, global);
   areomap::cli::AddCameraCommand(app, global);

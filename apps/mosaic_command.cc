@@ -26,6 +26,8 @@ void AddMosaicCommand(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   cmd->callback([inputs, out_dir, options, &global] {
     options->Check();
+    OutputFolder out(*out_dir, OutputPolicy(global, "mosaic", {"mosaic.tif"},
+                                            {inputs->begin(), inputs->end()}));
     const ProgressCallback progress = MakeProgressBar(global, "mosaic");
     std::vector<Orthophoto> orthophotos;
     for (const std::string& path : *inputs) {
@@ -36,13 +38,12 @@ void AddMosaicCommand(CLI::App& app, const GlobalOptions& global) {
         throw Error(path + ": its CRS differs from " + inputs->front() + "'s");
       }
     }
-    PrepareOutputFolder(*out_dir);
     const GridSpec grid = CommonGrid(orthophotos);
     const Orthophoto mosaic =
         MakeOrthomosaic(orthophotos, grid, orthophotos.front().crs_wkt, *options, progress);
-    const std::filesystem::path path = std::filesystem::path(*out_dir) / "mosaic.tif";
-    WriteOrthophoto(path, mosaic);
-    WriteSummary(*out_dir, {{"command", "mosaic"},
+    WriteOrthophoto(out / "mosaic.tif", mosaic);
+    const std::filesystem::path path = out.final_dir() / "mosaic.tif";
+    WriteSummary(out.dir(), {{"command", "mosaic"},
                             {"mosaic", path.filename().string()},
                             {"inputs", *inputs},
                             {"width", grid.width},
@@ -52,6 +53,7 @@ void AddMosaicCommand(CLI::App& app, const GlobalOptions& global) {
                             {"valid_cells", mosaic.valid_cells},
                             {"coverage", static_cast<double>(mosaic.valid_cells) /
                                              (static_cast<double>(grid.width) * grid.height)}});
+    out.Commit();
     if (!global.quiet) {
       std::cout << "wrote " << path.string() << " (" << grid.width << " x " << grid.height << " at "
                 << grid.posting << " m, " << mosaic.valid_cells << " valid cells)\n";

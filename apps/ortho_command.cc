@@ -105,6 +105,9 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   cmd->callback([o, &global] {
     o->ortho.Check();
+    std::vector<std::filesystem::path> inputs(o->images.begin(), o->images.end());
+    inputs.push_back(o->dtm);
+    OutputFolder out(o->out, OutputPolicy(global, "ortho", {"ortho.tif"}, inputs));
     const ProgressCallback progress = MakeProgressBar(global, "ortho");
     const Body body = Body::Mars2000();
     // Checked while parsing (CheckLatLonHeight).
@@ -121,10 +124,9 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
       sources.push_back(
           {static_cast<int>(i), ReadAnyImage(o->images[i]), CameraInSite(o->images[i])});
     }
-    PrepareOutputFolder(o->out);
     const Orthophoto ortho = MakeOrthophoto(dtm, site, map, sources, o->ortho, progress);
-    const std::filesystem::path path = std::filesystem::path(o->out) / "ortho.tif";
-    WriteOrthophoto(path, ortho);
+    WriteOrthophoto(out / "ortho.tif", ortho);
+    const std::filesystem::path path = out.final_dir() / "ortho.tif";
     int known_in_window = 0;
     const Eigen::Vector2i offset = ortho.grid.OffsetIn(dtm.layers.grid);
     for (int row = 0; row < ortho.grid.height; ++row) {
@@ -135,7 +137,7 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
       }
     }
     WriteSummary(
-        o->out,
+        out.dir(),
         {{"command", "ortho"},
          {"orthophoto", path.filename().string()},
          {"dtm", o->dtm},
@@ -147,6 +149,7 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
          {"dtm_cells_in_reach", known_in_window},
          {"coverage_of_dtm",
           known_in_window > 0 ? static_cast<double>(ortho.valid_cells) / known_in_window : 0.0}});
+    out.Commit();
     if (ortho.valid_cells == 0) {
       std::cerr << "warning: nothing was painted: "
                 << (known_in_window == 0

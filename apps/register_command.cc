@@ -21,9 +21,11 @@
 namespace areomap::cli {
 namespace {
 
-// The files written only when an orbital image matched (beside one cc_surface_K.png per image).
-const std::array<const char*, 4> kMatchOutputs = {"wvv_histograms.png", "control_points.json",
-                                                  "control_points.csv", "registered_ortho.tif"};
+// The files `register` writes: one cc_surface_K.png per orbital image, and the others only when an
+// orbital image matched.
+const std::vector<std::string> kOutputs = {"cc_surface_*.png", "wvv_histograms.png",
+                                           "control_points.json", "control_points.csv",
+                                           "registered_ortho.tif"};
 
 struct RegisterArgs {
   std::string ortho;
@@ -60,6 +62,9 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
   args.control.Check();
   RequireOption(args.prior_lat_deg.has_value() == args.prior_lon_deg.has_value(),
                 "--prior-lat/--prior-lon", "both or neither");
+  std::vector<std::filesystem::path> inputs = {args.ortho, args.orbital_dtm};
+  inputs.insert(inputs.end(), args.orbitals.begin(), args.orbitals.end());
+  OutputFolder out(args.out_dir, OutputPolicy(global, "register", kOutputs, inputs));
   OrthoImage ortho = ReadOrthoImage(args.ortho);
   const PixelGrid ortho_grid(ortho.geotransform, ortho.crs_wkt, ortho.source);
   OrbitalPrior prior;
@@ -99,8 +104,6 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
     throw Error(std::string("no orbital image overlaps the search window: ") + where);
   }
 
-  PrepareOutputFolder(args.out_dir);
-  const std::filesystem::path out(args.out_dir);
   nlohmann::json summary = {{"command", "register"},
                             {"ortho", args.ortho},
                             {"prior",
@@ -108,7 +111,6 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
                               {"lon_deg", DegFromRad(prior.position.lon)},
                               {"sigma_m", prior.sigma_m}}},
                             {"matches", nlohmann::json::array()}};
-  std::vector<std::string> written;  // the optional outputs (RemoveStaleOutputs below)
   for (size_t k = 0; k < result.matches.size(); ++k) {
     const OrbitalMatch& m = result.matches[k];
     nlohmann::json j = MatchJson(m);
@@ -116,7 +118,6 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
       const std::string name = "cc_surface_" + std::to_string(k) + ".png";
       WriteImage(out / name, CorrelationSurfaceImage(m));
       j["cc_surface_png"] = name;
-      written.push_back(name);
     }
     summary["matches"].push_back(j);
   }
@@ -154,16 +155,13 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
     summary["control_points_json"] = "control_points.json";
     summary["control_points_csv"] = "control_points.csv";
     summary["registered_ortho"] = "registered_ortho.tif";
-    written.insert(written.end(), kMatchOutputs.begin(), kMatchOutputs.end());
     if (!global.quiet) {
       std::cout << "edges: " << edges.BriefReport() << "\n";
     }
   }
-  // Without a match no control points: an earlier match's must not stay beside this summary.
-  std::vector<std::string> optional = {"cc_surface_*.png"};
-  optional.insert(optional.end(), kMatchOutputs.begin(), kMatchOutputs.end());
-  RemoveStaleOutputs(out, optional, written);
-  WriteSummary(out, summary);
+  WriteSummary(out.dir(), summary);
+  // Without a match no control points: Commit() removes an earlier match's.
+  out.Commit();
   progress(1.0, "done");
   if (!global.quiet) {
     for (const OrbitalMatch& m : result.matches) std::cout << m.BriefReport() << "\n";

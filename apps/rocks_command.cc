@@ -78,6 +78,10 @@ SiteRocks ExtractFrom(const std::string& path, const RocksArgs& a, int fallback_
 
 void RunExtract(const RocksArgs& a, const GlobalOptions& global) {
   a.extraction.Check();
+  OutputFolder out(a.out_dir,
+                   OutputPolicy(global, "rocks extract",
+                                {"rocks.csv", "rocks.json", "rocks.png", "rocks_image.png"},
+                                {a.cloud, a.image}));
   const cv::Mat image = a.image.empty() ? cv::Mat() : ReadImage(a.image);  // Fails before work.
   RockExtractionSummary summary;
   PointCloud cloud;
@@ -86,8 +90,6 @@ void RunExtract(const RocksArgs& a, const GlobalOptions& global) {
   const cv::Mat overlay = image.empty()
                               ? cv::Mat()
                               : RenderRocksImage(image, cloud, rocks.rocks, a.image_pair, a.image);
-  PrepareOutputFolder(a.out_dir);
-  const std::filesystem::path out(a.out_dir);
   WriteRocksCsv(out / "rocks.csv", rocks.rocks);
   WriteRocksJson(out / "rocks.json", rocks.rocks);
   WriteRocksPlotPng(out / "rocks.png", cloud, rocks.rocks, a.extraction.max_peak_range_m);
@@ -96,11 +98,12 @@ void RunExtract(const RocksArgs& a, const GlobalOptions& global) {
     WriteImage(out / "rocks_image.png", overlay);
     files.push_back("rocks_image.png");
   }
-  WriteSummary(out, {{"command", "rocks extract"},
-                     {"input", a.cloud},
-                     {"site", rocks.site},
-                     {"extraction", RockExtractionSummaryToJson(summary)},
-                     {"files", files}});
+  WriteSummary(out.dir(), {{"command", "rocks extract"},
+                           {"input", a.cloud},
+                           {"site", rocks.site},
+                           {"extraction", RockExtractionSummaryToJson(summary)},
+                           {"files", files}});
+  out.Commit();  // Also removes an earlier run's rocks_image.png when no --image this time.
   if (!global.quiet) {
     std::cout << summary.rocks << " rocks (" << summary.modeled << " modeled) from "
               << summary.points << " points; wrote " << a.out_dir << "\n";
@@ -112,13 +115,15 @@ void RunMatch(const RocksArgs& a, const GlobalOptions& global) {
   a.matching.Check();
   CheckModelsCoverHeightRule(a.extraction, a.matching);
   const RockMatchingPrior prior = ParsePrior(a);
+  OutputFolder out(a.out_dir, OutputPolicy(global, "rocks match",
+                                           {"rocks_a.csv", "rocks_b.csv", "matches.csv",
+                                            "tie_points.json", "faults.json", "faults.txt"},
+                                           {a.cloud, a.cloud_b}));
   RockExtractionSummary summary_a, summary_b;
   SiteRocks rocks_a = ExtractFrom(a.cloud, a, 0, &summary_a, global);
   SiteRocks rocks_b = ExtractFrom(a.cloud_b, a, 1, &summary_b, global);
   if (rocks_a.site == rocks_b.site) rocks_b.site = rocks_a.site + 1;  // Tie-point ids differ.
   const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, prior, a.matching);
-  PrepareOutputFolder(a.out_dir);
-  const std::filesystem::path out(a.out_dir);
   WriteRocksCsv(out / "rocks_a.csv", rocks_a.rocks);
   WriteRocksCsv(out / "rocks_b.csv", rocks_b.rocks);
   WriteRockMatchesCsv(out / "matches.csv", rocks_a, rocks_b, match);
@@ -158,7 +163,8 @@ void RunMatch(const RocksArgs& a, const GlobalOptions& global) {
       {"files",
        {"rocks_a.csv", "rocks_b.csv", "matches.csv", "tie_points.json", "faults.json",
         "faults.txt"}}};
-  WriteSummary(out, summary);
+  WriteSummary(out.dir(), summary);
+  out.Commit();
   if (!global.quiet) {
     std::cout << "sites " << rocks_a.site << "-" << rocks_b.site << ": "
               << ToString(match.report.outcome) << ", " << match.matches.size() << " rock matches, "

@@ -168,7 +168,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   run->add_option("--prior-sigma-per-m", o->run.prior_sigma_per_m,
                   "Orbital search prior: telemetry sigma per metre driven")
-      ->check(NonNegativeNumber())
+      ->check(NumberIn(0.0, 1.0))
       ->capture_default_str();
   run->add_option("--traverse-posting", o->run.traverse_posting_m,
                   "Whole-traverse DTM and orthomosaic posting [m]")
@@ -197,7 +197,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
                 "the legs' precision against each other");
   run->add_option("--leg-test-alpha", o->run.leg_test_alpha,
                   "False alarm rate of the legs' F test against each other")
-      ->check(CLI::Range(1e-9, 0.5))
+      ->check(NumberIn(1e-9, 0.5))
       ->capture_default_str();
   run->add_flag("--no-craters", o->no_craters, "Skip crater detection on the orbital image");
   run->add_flag("--no-products", o->no_products,
@@ -210,15 +210,24 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     if (o->no_rock_variance_pass) o->run.rock_variance_pass = false;
     o->run.rocks.model_min_height_m = o->run.matching.fault_detection.min_peak_to_plane_m;
     o->run.Check();  // Bad options fail before the mission is read.
+    // In place: the run's units are files under --out that a later run resumes from. The lock
+    // keeps a second run on the same --out from computing them all again at the same time.
+    OutputFolderOptions policy =
+        OutputPolicy(global, "run",
+                     {"sites/", "legs/", "guided/", "adjustment/", "craters/", "products/",
+                      "report.html"},
+                     {o->mission});
+    policy.in_place = true;
+    OutputFolder out(o->out, std::move(policy));
     // Every file the manifest names is checked before any work starts.
     const MissionManifest mission = ReadMissionManifest(o->mission);
-    PrepareOutputFolder(o->out);
     const MissionRunSummary summary =
-        RunMission(mission, o->out, o->run, MakeProgressBar(global, "run"));
+        RunMission(mission, out.dir(), o->run, MakeProgressBar(global, "run"));
     nlohmann::json json = summary.json;
     json["command"] = "run";
-    WriteSummary(o->out, json);
-    WriteRunReport(o->out);
+    WriteSummary(out.dir(), json);
+    WriteRunReport(out.dir());
+    out.Commit();
     if (!global.quiet) {
       PrintRunSummary(json);
       std::printf("report: %s/report.html\n", o->out.c_str());

@@ -35,16 +35,16 @@ void AddSampleCommand(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   cmd->callback([options, out_dir, &global] {
     options->Check();
-    PrepareOutputFolder(*out_dir);
+    OutputFolder out(*out_dir, OutputPolicy(global, "sample", {"sample_dtm.tif"}, {}));
     const ProgressCallback progress = MakeProgressBar(global, "sample");
     progress(0.0, "terrain");
     const GeoRaster dtm = MakeSampleTerrain(*options);
     progress(0.6, "GeoTIFF");
-    const std::filesystem::path dtm_path = std::filesystem::path(*out_dir) / "sample_dtm.tif";
-    WriteGeoTiff(dtm_path, dtm);
+    WriteGeoTiff(out / "sample_dtm.tif", dtm);
+    const std::filesystem::path dtm_path = out.final_dir() / "sample_dtm.tif";
     double min_z = 0.0, max_z = 0.0;
     cv::minMaxLoc(dtm.bands.front(), &min_z, &max_z);
-    WriteSummary(*out_dir, {{"command", "sample"},
+    WriteSummary(out.dir(), {{"command", "sample"},
                             {"dtm", dtm_path.filename().string()},
                             {"size_px", options->size_px},
                             {"posting_m", options->posting_m},
@@ -54,6 +54,7 @@ void AddSampleCommand(CLI::App& app, const GlobalOptions& global) {
                             {"seed", options->seed},
                             {"min_elevation_m", min_z},
                             {"max_elevation_m", max_z}});
+    out.Commit();
     progress(1.0, "done");
     if (!global.quiet) {
       std::cout << "wrote " << dtm_path.string() << " (" << options->size_px << " x "

@@ -73,10 +73,14 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
     if (o->fov) options.navcam.field_of_view_deg = *o->fov;
     if (o->rock_abundance) options.scene.rock_abundance_k = *o->rock_abundance;
     options.Check();
-    PrepareOutputFolder(o->out);
+    // Staged: the whole mission folder is replaced at once; a failed run leaves the earlier one.
+    OutputFolder out(o->out, OutputPolicy(global, "simulate",
+                                          {"mission.json", "sites/", "orbital/", "truth/",
+                                           "telemetry/"},
+                                          {}));
     const MissionSummary summary =
-        GenerateMission(options, o->out, MakeProgressBar(global, "simulate"));
-    WriteSummary(o->out, {{"command", "simulate"},
+        GenerateMission(options, out.dir(), MakeProgressBar(global, "simulate"));
+    WriteSummary(out.dir(), {{"command", "simulate"},
                           {"preset", options.preset},
                           {"seed", options.seed},
                           {"manifest", "mission.json"},
@@ -88,6 +92,7 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
                           {"final_telemetry_error_m", summary.final_telemetry_error_m},
                           {"orbital_size_px", summary.orbital_size_px},
                           {"rover_images", summary.rover_images}});
+    out.Commit();
     if (!global.quiet) {
       std::cout << "mission " << o->out << ": " << summary.site_count << " sites over "
                 << summary.traverse_length_m << " m (telemetry off by "

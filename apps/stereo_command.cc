@@ -128,6 +128,10 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   cmd->callback([o, &global] {
     const auto start = std::chrono::steady_clock::now();
+    OutputFolder out(o->out, OutputPolicy(global, "stereo",
+                                          {"points.ply", "disparity.png", "tie_points.csv",
+                                           "left_rectified.png", "right_rectified.png"},
+                                          {o->left, o->right, o->left_camera, o->right_camera}));
     const CameraFile left =
         o->left_camera.empty() ? ReadCameraForImage(o->left) : ReadCameraFile(o->left_camera);
     const CameraFile right =
@@ -141,9 +145,7 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-    // Everything computed: only now touch the output folder.
-    const std::filesystem::path out = o->out;
-    PrepareOutputFolder(out);
+    // Everything computed: only now write (into the staging folder).
     WritePointCloudPly(result.cloud, out / "points.ply");
     cv::Mat quicklook;
     const DisparityResult& disparity = result.disparity;
@@ -158,14 +160,8 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
       WriteImage(out / "left_rectified.png", result.disparity.left8);
       WriteImage(out / "right_rectified.png", result.disparity.right8);
     }
-    std::vector<std::string> written;
-    if (o->tie_points) written.push_back("tie_points.csv");
-    if (o->write_rectified)
-      written.insert(written.end(), {"left_rectified.png", "right_rectified.png"});
-    RemoveStaleOutputs(out, {"tie_points.csv", "left_rectified.png", "right_rectified.png"},
-                       written);
     const DenseStereoSummary& m = result.summary;
-    WriteSummary(out, {{"command", "stereo"},
+    WriteSummary(out.dir(), {{"command", "stereo"},
                        {"left", o->left},
                        {"right", o->right},
                        {"left_camera", left.source},
@@ -199,15 +195,17 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
                        {"interest_points", ties.size()},
                        {"tie_points", accepted_ties},
                        {"seconds", seconds}});
+    out.Commit();  // Also removes an earlier run's tie_points.csv or rectified pair.
     if (!global.quiet) {
       std::printf(
           "%zu points (%.1f%% of the overlap has a disparity), %zu beyond %.0f m, %zu buried under "
           "and %zu floating over the ground they see -> %s\n",
           m.points, 100.0 * m.valid_fraction, m.beyond_range, o->stereo.max_range_m,
-          m.line_of_sight.buried, m.line_of_sight.floating, (out / "points.ply").c_str());
+          m.line_of_sight.buried, m.line_of_sight.floating,
+          (out.final_dir() / "points.ply").c_str());
       if (o->tie_points) {
         std::printf("%zu of %zu Förstner points matched as tie points -> %s\n", accepted_ties,
-                    ties.size(), (out / "tie_points.csv").c_str());
+                    ties.size(), (out.final_dir() / "tie_points.csv").c_str());
       }
     }
   });

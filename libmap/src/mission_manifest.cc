@@ -33,6 +33,31 @@ T Get(const json& object, const std::string& key, const std::string& where,
   }
 }
 
+// Reads `key` of `object` as an integer in [lo, hi] (not 1.5, not 1e20), or throws naming it.
+int GetInteger(const json& object, const std::string& key, const std::string& where,
+               const fs::path& manifest, int lo, int hi) {
+  const json value = Get<json>(object, key, where, manifest);
+  if (!value.is_number_integer() ||
+      (value.is_number_unsigned() ? value.get<unsigned long long>() > static_cast<unsigned>(hi)
+                                  : value.get<long long>() < lo || value.get<long long>() > hi)) {
+    throw Error(manifest.string() + ": key \"" + where + key + "\" is " + value.dump() +
+                "; expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                "]");
+  }
+  return value.get<int>();
+}
+
+// Reads `key` of `object` as a finite number in [lo, hi], or throws naming it and the rule.
+double GetNumber(const json& object, const std::string& key, const std::string& where,
+                 const fs::path& manifest, double lo, double hi, const std::string& rule) {
+  const json value = Get<json>(object, key, where, manifest);
+  if (!value.is_number() || !(value.get<double>() >= lo && value.get<double>() <= hi)) {
+    throw Error(manifest.string() + ": key \"" + where + key + "\" is " + value.dump() +
+                "; expected " + rule);
+  }
+  return value.get<double>();
+}
+
 fs::path ExistingFile(const fs::path& root, const std::string& relative, const std::string& key,
                       const fs::path& manifest) {
   const fs::path path = root / relative;
@@ -68,7 +93,7 @@ std::pair<std::string, std::string> SplitInstrument(const std::string& id,
 
 MissionSite ReadSite(const json& entry, const fs::path& root, const fs::path& manifest) {
   MissionSite site;
-  site.site = Get<int>(entry, "site", "sites[].", manifest);
+  site.site = GetInteger(entry, "site", "sites[].", manifest, 0, 999999);
   const std::string where = "sites[" + std::to_string(site.site) + "].images[].";
   // Keyed by (instrument, pair): a site may hold a Navcam and a Pancam panorama.
   std::map<std::pair<std::string, int>, MissionStereoPair> pairs;
@@ -76,7 +101,7 @@ MissionSite ReadSite(const json& entry, const fs::path& root, const fs::path& ma
   for (const json& image : Get<json>(entry, "images", "sites[].", manifest)) {
     const auto [instrument, side] =
         SplitInstrument(Get<std::string>(image, "instrument", where, manifest), manifest);
-    const int index = Get<int>(image, "pair", where, manifest);
+    const int index = GetInteger(image, "pair", where, manifest, 0, 65535);
     const std::pair<std::string, int> key(instrument, index);
     MissionStereoPair& pair = pairs[key];
     pair.pair = index;
@@ -128,7 +153,12 @@ std::vector<MissionSitePose> ReadSitePosesCsv(const fs::path& csv) {
                   std::to_string(f.size()) + " fields; expected at least 5");
     }
     MissionSitePose pose;
-    pose.site = static_cast<int>(ParseNumber(f[0], csv, line_number, "site"));
+    const double site = ParseNumber(f[0], csv, line_number, "site");
+    if (!(site >= 0.0 && site <= 999999.0 && site == std::floor(site))) {
+      throw Error(csv.string() + ": line " + std::to_string(line_number) +
+                  ", column site: expected an integer in [0, 999999], got \"" + f[0] + "\"");
+    }
+    pose.site = static_cast<int>(site);
     pose.position = {ParseNumber(f[1], csv, line_number, "north_m"),
                      ParseNumber(f[2], csv, line_number, "east_m"),
                      ParseNumber(f[3], csv, line_number, "down_m")};
@@ -152,7 +182,7 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
   if (Get<std::string>(root_json, "format", "", manifest) != "areomap-mission") {
     throw Error(manifest.string() + ": \"format\" is not \"areomap-mission\"");
   }
-  if (const int version = Get<int>(root_json, "version", "", manifest); version != 1) {
+  if (const int version = GetInteger(root_json, "version", "", manifest, 0, 1000000); version != 1) {
     throw Error(manifest.string() + ": version " + std::to_string(version) +
                 " is not supported; expected 1");
   }
@@ -161,12 +191,21 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
   mission.name = root_json.value("name", std::string());
   const json& body = Get<json>(root_json, "body", "", manifest);
   mission.body.name = Get<std::string>(body, "name", "body.", manifest);
-  mission.body.a = Get<double>(body, "a_m", "body.", manifest);
-  mission.body.b = Get<double>(body, "b_m", "body.", manifest);
+  constexpr double kHuge = 1e12;  // [m], any body's radius is below it
+  mission.body.a = GetNumber(body, "a_m", "body.", manifest, 1.0, kHuge,
+                             "a finite equatorial radius > 0 [m]");
+  mission.body.b = GetNumber(body, "b_m", "body.", manifest, 1.0, mission.body.a,
+                             "a finite polar radius in (0, a_m] [m]");
   const json& origin = Get<json>(root_json, "origin", "", manifest);
-  mission.origin.lat = Get<double>(origin, "lat_deg", "origin.", manifest) * kRadPerDeg;
-  mission.origin.lon = Get<double>(origin, "lon_deg", "origin.", manifest) * kRadPerDeg;
-  mission.origin.h = Get<double>(origin, "h_m", "origin.", manifest);
+  mission.origin.lat =
+      GetNumber(origin, "lat_deg", "origin.", manifest, -90.0, 90.0, "a latitude in [-90, 90]") *
+      kRadPerDeg;
+  mission.origin.lon = GetNumber(origin, "lon_deg", "origin.", manifest, -360.0, 360.0,
+                                 "a longitude in [-360, 360]") *
+                       kRadPerDeg;
+  // Heights above the ellipsoid: Olympus Mons is 22 km up, Hellas 8 km down.
+  mission.origin.h = GetNumber(origin, "h_m", "origin.", manifest, -1e5, 1e5,
+                               "a height in [-100000, 100000] m above the ellipsoid");
 
   for (const json& product : Get<json>(root_json, "orbital", "", manifest)) {
     MissionOrbitalProduct p;
@@ -178,9 +217,16 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
     }
     p.path = ExistingFile(mission.root, Get<std::string>(product, "path", "orbital[].", manifest),
                           "orbital[" + p.id + "].path", manifest);
-    p.gsd_m = Get<double>(product, "gsd_m", "orbital[].", manifest);
-    if (product.contains("sun_azimuth_deg")) p.sun_azimuth_deg = product["sun_azimuth_deg"];
-    if (product.contains("sun_elevation_deg")) p.sun_elevation_deg = product["sun_elevation_deg"];
+    p.gsd_m = GetNumber(product, "gsd_m", "orbital[].", manifest, 1e-6, 1e6,
+                        "a ground sample distance in (0, 1e6] m");
+    if (product.contains("sun_azimuth_deg")) {
+      p.sun_azimuth_deg = GetNumber(product, "sun_azimuth_deg", "orbital[].", manifest, -360.0,
+                                    360.0, "an azimuth in [-360, 360] degrees from north");
+    }
+    if (product.contains("sun_elevation_deg")) {
+      p.sun_elevation_deg = GetNumber(product, "sun_elevation_deg", "orbital[].", manifest, -90.0,
+                                      90.0, "an elevation in [-90, 90] degrees");
+    }
     mission.orbital.push_back(p);
   }
   for (const json& site : Get<json>(root_json, "sites", "", manifest)) {

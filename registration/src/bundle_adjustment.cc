@@ -486,7 +486,12 @@ class Network {
     const int total =
         pose_dims + 3 * (static_cast<int>(evaluate.parameter_blocks.size()) - pose_blocks);
     ceres::CRSMatrix crs;
-    problem.Evaluate(evaluate, nullptr, nullptr, nullptr, &crs);
+    // Non-finite residuals or Jacobians (coordinates beyond what doubles square) leave no matrix.
+    if (!problem.Evaluate(evaluate, nullptr, nullptr, nullptr, &crs) || crs.num_cols < total) {
+      throw Error(
+          "bundle adjustment: the Jacobian at the solution is not finite (a site, prior or "
+          "point with coordinates too large to adjust?)");
+    }
     Eigen::SparseMatrix<double, Eigen::RowMajor> j(crs.num_rows, crs.num_cols);
     std::vector<Eigen::Triplet<double>> triplets;
     for (int row = 0; row < crs.num_rows; ++row) {

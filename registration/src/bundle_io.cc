@@ -55,6 +55,17 @@ Eigen::Matrix<double, N, 1> Vector(const json& j, const Where& where) {
   return v;
 }
 
+// A position [m] in a site, the traverse or MBF: within 10,000 km of its frame's origin (farther
+// than across Mars), so that the adjustment's squares and covariances stay finite.
+Eigen::Vector3d Position(const json& j, const Where& where) {
+  constexpr double kMaxM = 1e7;
+  const Eigen::Vector3d v = Vector<3>(j, where);
+  if (!(v.cwiseAbs().maxCoeff() <= kMaxM)) {
+    where.Fail("coordinates within 1e7 m (10,000 km) of the frame's origin");
+  }
+  return v;
+}
+
 template <int N>
 Eigen::Matrix<double, N, N> Matrix(const json& j, const Where& where) {
   const std::string expected =
@@ -140,7 +151,7 @@ void ReadHeader(const json& doc, const Where& w, BundleInputFile& out) {
       (ws / "site").Fail(std::to_string(i) + " (sites are listed in order from 0)");
     }
     input.initial_poses.emplace_back(
-        Rotation(sites[i], ws), Vector<3>(Field(sites[i], "position_m", ws), ws / "position_m"));
+        Rotation(sites[i], ws), Position(Field(sites[i], "position_m", ws), ws / "position_m"));
   }
   input.site_count = static_cast<int>(sites.size());
   if (doc.contains("site0_prior")) {
@@ -159,9 +170,9 @@ void ReadTiePointArray(const json& doc, const Where& w, std::vector<TiePoint>& t
     tie.id = Text(t, "id", "tie" + std::to_string(ties.size()), wt);
     tie.site_a = Integer(Field(t, "site_a", wt), wt / "site_a");
     tie.site_b = Integer(Field(t, "site_b", wt), wt / "site_b");
-    tie.position_in_a = Vector<3>(Field(t, "position_in_a_m", wt), wt / "position_in_a_m");
+    tie.position_in_a = Position(Field(t, "position_in_a_m", wt), wt / "position_in_a_m");
     tie.covariance_in_a = Matrix<3>(Field(t, "covariance_in_a_m2", wt), wt / "covariance_in_a_m2");
-    tie.position_in_b = Vector<3>(Field(t, "position_in_b_m", wt), wt / "position_in_b_m");
+    tie.position_in_b = Position(Field(t, "position_in_b_m", wt), wt / "position_in_b_m");
     tie.covariance_in_b = Matrix<3>(Field(t, "covariance_in_b_m2", wt), wt / "covariance_in_b_m2");
     tie.source = Text(t, "source", tie.source, wt);
     ties.push_back(tie);
@@ -178,7 +189,7 @@ void ReadSections(const json& doc, const Where& w, BundleInputFile& out) {
     prior.site_a = Integer(Field(p, "site_a", wp), wp / "site_a");
     prior.site_b = Integer(Field(p, "site_b", wp), wp / "site_b");
     prior.a_from_b =
-        Rigid3d(Rotation(p, wp), Vector<3>(Field(p, "position_m", wp), wp / "position_m"));
+        Rigid3d(Rotation(p, wp), Position(Field(p, "position_m", wp), wp / "position_m"));
     prior.covariance = PoseCovariance(p, wp);
     prior.source = Text(p, "source", prior.source, wp);
     input.priors.push_back(prior);
@@ -192,16 +203,16 @@ void ReadSections(const json& doc, const Where& w, BundleInputFile& out) {
     control.id = Text(c, "id", "control" + std::to_string(input.control_points.size()), wc);
     control.site = Integer(Field(c, "site", wc), wc / "site");
     control.position_in_site =
-        Vector<3>(Field(c, "position_in_site_m", wc), wc / "position_in_site_m");
+        Position(Field(c, "position_in_site_m", wc), wc / "position_in_site_m");
     control.covariance_in_site =
         Matrix<3>(Field(c, "covariance_in_site_m2", wc), wc / "covariance_in_site_m2");
     const Rigid3d mbf_from_traverse = SiteFromMbf(input.body, input.origin).Inverse();
     const bool in_traverse = c.contains("position_traverse_m");
     if (in_traverse) {
       control.position_mbf =
-          mbf_from_traverse * Vector<3>(c.at("position_traverse_m"), wc / "position_traverse_m");
+          mbf_from_traverse * Position(c.at("position_traverse_m"), wc / "position_traverse_m");
     } else if (c.contains("position_mbf_m")) {
-      control.position_mbf = Vector<3>(c.at("position_mbf_m"), wc / "position_mbf_m");
+      control.position_mbf = Position(c.at("position_mbf_m"), wc / "position_mbf_m");
     } else {
       const Geographic g{RadFromDeg(Number(Field(c, "lat_deg", wc), wc / "lat_deg")),
                          RadFromDeg(Number(Field(c, "lon_deg", wc), wc / "lon_deg")),
@@ -273,7 +284,7 @@ void ReadSections(const json& doc, const Where& w, BundleInputFile& out) {
       const int site = Integer(Field(truth[i], "site", wt), wt / "site");
       if (site < 0 || site >= input.site_count) (wt / "site").Fail("a listed site");
       out.truth[static_cast<size_t>(site)] =
-          Vector<3>(Field(truth[i], "position_m", wt), wt / "position_m");
+          Position(Field(truth[i], "position_m", wt), wt / "position_m");
     }
     for (const Eigen::Vector3d& t : out.truth) {
       if (!t.allFinite()) (w / "truth").Fail("a position for every site");

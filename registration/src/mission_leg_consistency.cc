@@ -52,8 +52,14 @@ std::vector<fs::path> TestLegsAgainstEachOther(const RunContext& run, std::vecto
       ties[i] = ReadTiePoints(files[i]);
     }
   }
-  // What an earlier run's test left there is not this run's: the adjustment reads only `files`.
-  fs::remove_all(ties_dir);
+  // What an earlier run's test left there is not this run's (the adjustment reads only `files`):
+  // remove the files this test writes, one per leg named after the leg's folder, and nothing else
+  // (a user's file or folder there stays).
+  for (const fs::path& leg_file : files) {
+    const fs::path earlier = ties_dir / (leg_file.parent_path().filename().string() + ".json");
+    std::error_code ec;
+    if (fs::is_regular_file(fs::symlink_status(earlier, ec))) fs::remove(earlier, ec);
+  }
   if (!options.leg_test) return files;
   const std::vector<LegConsistency> verdicts = TestLegConsistency(ties, options.LegTestOptions());
   for (size_t i = 0; i < legs.size(); ++i) {

@@ -245,8 +245,9 @@ void MissionRunOptions::Check() const {
   precise_pairs.Check();
   RequireOption(prior_sigma_floor_m > 0.0, "MissionRunOptions.prior_sigma_floor_m",
                 "a positive sigma in metres");
-  RequireOption(prior_sigma_per_m >= 0.0, "MissionRunOptions.prior_sigma_per_m",
-                "a non-negative fraction of the distance driven");
+  RequireOption(prior_sigma_per_m >= 0.0 && prior_sigma_per_m <= 1.0,
+                "MissionRunOptions.prior_sigma_per_m",
+                "a fraction of the distance driven in [0, 1]");
   CheckModelsCoverHeightRule(rocks, matching);
   RequireOption(leg_scale_sigma > 0.0, "MissionRunOptions.leg_scale_sigma",
                 "a positive relative leg-length sigma");

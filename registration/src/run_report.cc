@@ -2,6 +2,7 @@
 
 #include <cpl_string.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
@@ -340,6 +341,8 @@ std::string LegSection(const json& leg) {
   return html + "</table>";
 }
 
+void WriteRunReportHtml(const fs::path& run_dir, const json& summary);
+
 }  // namespace
 
 void WriteRunReport(const fs::path& run_dir) {
@@ -352,6 +355,26 @@ void WriteRunReport(const fs::path& run_dir) {
     throw Error((run_dir / "summary.json").string() +
                 ": not the summary of areomap run (expected \"sites\" and \"legs\")");
   }
+  for (const char* key : {"sites", "legs"}) {
+    const json& list = summary[key];
+    if (!list.is_array() ||
+        !std::all_of(list.begin(), list.end(), [](const json& e) { return e.is_object(); })) {
+      throw Error((run_dir / "summary.json").string() + ": \"" + key + "\" is " +
+                  list.dump().substr(0, 40) + "; expected an array of objects (areomap run's)");
+    }
+  }
+  try {
+    WriteRunReportHtml(run_dir, summary);
+  } catch (const json::exception& e) {
+    // A field of another type than areomap run writes (the summary was edited, or is foreign).
+    throw Error((run_dir / "summary.json").string() +
+                ": a field has another type than areomap run writes: " + e.what());
+  }
+}
+
+namespace {
+
+void WriteRunReportHtml(const fs::path& run_dir, const json& summary) {
   std::string html =
       "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>areomap run: " +
       Escape(summary.value("name", std::string())) +
@@ -399,5 +422,7 @@ void WriteRunReport(const fs::path& run_dir) {
   html += "</body></html>\n";
   WriteFileAtomically(run_dir / "report.html", html);
 }
+
+}  // namespace
 
 }  // namespace areomap

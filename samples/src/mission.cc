@@ -244,6 +244,10 @@ void MissionOptions::Check() const {
   scene.Check();
   orbital.Check();
   traverse.Check();
+  // A longer leg would leave the scene from its centre (PlanTraverse turns back at 3/4 of it).
+  RequireOption(traverse.max_leg_m <= 0.75 * scene.half_extent_m, "MissionOptions.traverse.max_leg_m",
+                "at most 3/4 of scene.half_extent_m (" + std::to_string(0.75 * scene.half_extent_m) +
+                    " m for this preset) [m]");
   telemetry.Check();
   navcam.Check();
   render.Check();

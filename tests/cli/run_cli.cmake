@@ -2,7 +2,8 @@
 # and that nothing was written on failure). Invoked by ctest as:
 #   cmake -DCOMMAND=<|-list> [-DSTDIN=<file>] [-DSETUP=<|-list>] -DEXPECT_FAIL=ON|OFF
 #         [-DSTDERR_MATCH=<regex>] [-DSTDOUT_MATCH=<regex>] [-DNO_OUTPUT_IN=<dir>]
-#         [-DREQUIRES=<path>] [-DABSENT=<path>] -P run_cli.cmake
+#         [-DREQUIRES=<path>] [-DABSENT=<path>] [-DKEEPS=<dir>] -P run_cli.cmake
+# KEEPS: every file under <dir> before the command (after SETUP) is there, byte-identical, after it.
 # Argument lists arrive joined by "|" (a ";" would not survive add_test).
 string(REPLACE "|" ";" COMMAND "${COMMAND}")
 if(DEFINED SETUP)
@@ -17,6 +18,13 @@ if(DEFINED SETUP)
   if(NOT setup_rc EQUAL 0)
     message(FATAL_ERROR "setup failed (${setup_rc}): ${SETUP}")
   endif()
+endif()
+if(DEFINED KEEPS)
+  file(GLOB_RECURSE kept_files LIST_DIRECTORIES false "${KEEPS}/*")
+  foreach(f IN LISTS kept_files)
+    file(SHA256 "${f}" hash)
+    list(APPEND kept_entries "${hash}|${f}")
+  endforeach()
 endif()
 if(DEFINED STDIN)
   execute_process(COMMAND ${COMMAND} INPUT_FILE "${STDIN}" RESULT_VARIABLE rc
@@ -44,6 +52,19 @@ endif()
 if(DEFINED ABSENT AND EXISTS "${ABSENT}")
   message(FATAL_ERROR "${ABSENT} should not exist after the command")
 endif()
+foreach(entry IN LISTS kept_entries)
+  string(FIND "${entry}" "|" bar)
+  string(SUBSTRING "${entry}" 0 ${bar} hash)
+  math(EXPR start "${bar} + 1")
+  string(SUBSTRING "${entry}" ${start} -1 f)
+  if(NOT EXISTS "${f}")
+    message(FATAL_ERROR "${f} was there before the command and is gone")
+  endif()
+  file(SHA256 "${f}" now)
+  if(NOT now STREQUAL hash)
+    message(FATAL_ERROR "${f} was changed by the command")
+  endif()
+endforeach()
 if(DEFINED NO_OUTPUT_IN AND EXISTS "${NO_OUTPUT_IN}")
   file(GLOB_RECURSE left "${NO_OUTPUT_IN}/*")
   if(left)

@@ -1,6 +1,7 @@
 #include "areomap/samples/mission.h"
 
 #include <fstream>
+#include <functional>
 #include <numeric>
 #include <sstream>
 
@@ -388,6 +389,44 @@ TEST(MissionManifest, ReadsWhatTheGeneratorWrote) {
   EXPECT_NE(message.find("mission.json"), std::string::npos) << message;
   EXPECT_NE(message.find("navcam_p00_left.png, which does not exist"), std::string::npos)
       << message;
+}
+
+// Values of the right JSON type but out of range, or of the wrong type, are named with the key
+// and the rule, never read as something else (pair 1e20 as -2147483648, site 1.5 as 1).
+TEST(MissionManifest, NamesTheKeyOfAnOutOfRangeOrMistypedValue) {
+  testing::TempDir dir;
+  MissionOptions options = SmallMission();
+  options.navcam_pairs = 1;
+  options.pancam_pairs = 0;
+  options.traverse.site_count = 2;
+  GenerateMission(options, dir.path());
+  const auto manifest = dir.path() / "mission.json";
+  nlohmann::json good;
+  std::ifstream(manifest) >> good;
+  const auto message_with = [&](const std::function<void(nlohmann::json&)>& edit) {
+    nlohmann::json bad = good;
+    edit(bad);
+    std::ofstream(manifest) << bad.dump();
+    return testing::ErrorMessageOf([&] { ReadMissionManifest(dir.path()); });
+  };
+  const std::vector<std::pair<std::function<void(nlohmann::json&)>, std::string>> cases = {
+      {[](nlohmann::json& j) { j["orbital"][0]["sun_azimuth_deg"] = "east"; },
+       "\"orbital[].sun_azimuth_deg\" is \"east\"; expected an azimuth in [-360, 360]"},
+      {[](nlohmann::json& j) { j["body"]["a_m"] = 0; },
+       "\"body.a_m\" is 0; expected a finite equatorial radius > 0 [m]"},
+      {[](nlohmann::json& j) { j["sites"][0]["images"][0]["pair"] = 1e20; },
+       "\"sites[0].images[].pair\" is 1e+20; expected an integer in [0, 65535]"},
+      {[](nlohmann::json& j) { j["sites"][1]["site"] = 1.5; },
+       "\"sites[].site\" is 1.5; expected an integer in [0, 999999]"},
+      {[](nlohmann::json& j) { j["orbital"][0]["gsd_m"] = -1; },
+       "\"orbital[].gsd_m\" is -1; expected a ground sample distance in (0, 1e6] m"},
+      {[](nlohmann::json& j) { j["origin"]["h_m"] = 1e300; },
+       "\"origin.h_m\" is 1e+300; expected a height in [-100000, 100000] m"},
+  };
+  for (const auto& [edit, expected] : cases) {
+    const std::string message = message_with(edit);
+    EXPECT_NE(message.find("mission.json: key " + expected), std::string::npos) << message;
+  }
 }
 
 }  // namespace
