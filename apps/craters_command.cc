@@ -114,10 +114,10 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
   if (options.method == CraterMethod::kLearned) CraterNetwork{options.learned.model_path};
   nlohmann::json sun_json;
   options.sun_azimuth_deg = ChooseSunAzimuth(a, dataset, options, global, &sun_json);
-  OutputFolder folder(a.out_dir,
-                      OutputPolicy(global, "craters",
-                                   {"craters.csv", "craters.json", "craters.gpkg", "overlay.png"},
-                                   {a.input}));
+  OutputFolder folder(
+      a.out_dir,
+      OutputPolicy(global, "craters",
+                   {"craters.csv", "craters.json", "craters.gpkg", "overlay.png"}, {a.input}));
   const RimSource source = a.dtm ? RimSource::kDtm : RimSource::kImage;
   const ProgressCallback progress = MakeProgressBar(global, "craters");
   const std::vector<CraterDetection> found =

@@ -775,6 +775,18 @@ std::vector<CraterDetection> DetectCraters(const cv::Mat& raster, RimSource sour
 
 namespace internal {
 
+CraterDetection ShiftedDetection(CraterDetection d, double dx, double dy, double factor) {
+  d.ellipse.center = d.ellipse.center * factor + Eigen::Vector2d(dx, dy);
+  d.ellipse.semi_major *= factor;
+  d.ellipse.semi_minor *= factor;
+  d.center_x_sigma *= factor;
+  d.center_y_sigma *= factor;
+  d.semi_major_sigma *= factor;
+  d.semi_minor_sigma *= factor;
+  d.rms_residual *= factor;
+  return d;
+}
+
 std::vector<CraterDetection> DetectCratersInCore(const cv::Mat& raster, RimSource source,
                                                  const CraterDetectorOptions& options,
                                                  const cv::Rect2d& core) {

@@ -26,18 +26,6 @@ void Report(const ProgressCallback& progress, double fraction, std::string_view 
   if (progress && !progress(fraction, stage)) throw Error("crater detection cancelled");
 }
 
-CraterDetection Shifted(CraterDetection d, double dx, double dy, double factor) {
-  d.ellipse.center = d.ellipse.center * factor + Eigen::Vector2d(dx, dy);
-  d.ellipse.semi_major *= factor;
-  d.ellipse.semi_minor *= factor;
-  d.center_x_sigma *= factor;
-  d.center_y_sigma *= factor;
-  d.semi_major_sigma *= factor;
-  d.semi_minor_sigma *= factor;
-  d.rms_residual *= factor;
-  return d;
-}
-
 }  // namespace
 
 std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset, RimSource source,
@@ -124,7 +112,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
         found = internal::DetectCratersInCore(tile, source, tile_options, core);
       }
       scratch_pool.Release(std::move(scratch));
-      for (CraterDetection& d : found) d = Shifted(d, c0, r0, 1.0);
+      for (CraterDetection& d : found) d = internal::ShiftedDetection(d, c0, r0, 1.0);
       std::lock_guard<std::mutex> lock(progress_mutex);
       const double fraction = (1.0 - overview_share) * (++done) / static_cast<double>(tile_count);
       if (progress && !progress(fraction, "craters: tiles")) cancelled = true;
@@ -149,7 +137,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
     overview_options.refine_to_full_resolution = false;
     const std::vector<CraterDetection> big = DetectCraters(overview, source, overview_options);
     for (const CraterDetection& coarse : big) {
-      CraterDetection d = Shifted(coarse, 0.0, 0.0, factor);
+      CraterDetection d = internal::ShiftedDetection(coarse, 0.0, 0.0, factor);
       // Re-fit on a window around the rim at the finest resolution that fits a padded tile.
       const double reach = 1.2 * d.ellipse.semi_major + 8.0;
       const int c0 = std::max(0, static_cast<int>(d.ellipse.center.x() - reach));
@@ -168,7 +156,7 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
         window_options.dtm_posting = o.dtm_posting * fine;  // ground size of a window pixel
         if (auto refined = RefineCrater(window, source, local, window_options)) {
           const double confidence = d.confidence;
-          d = Shifted(*refined, c0, r0, fine);
+          d = internal::ShiftedDetection(*refined, c0, r0, fine);
           d.confidence = std::max(confidence, d.confidence);
           d.pyramid_level = coarse.pyramid_level + static_cast<int>(std::log2(factor));
         }

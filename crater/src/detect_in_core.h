@@ -35,6 +35,10 @@ inline double RimReach(double radius, double scale) {
   return CoreMargin(radius, scale) + 2.35 * radius;
 }
 
+// `d` in the pixels of a raster where its own raster's pixel (x, y) lies at (factor x + dx,
+// factor y + dy): centre, axes, their sigmas and the residual scaled, the rest kept.
+CraterDetection ShiftedDetection(CraterDetection d, double dx, double dy, double factor);
+
 // DetectCraters restricted to craters centred in `core`; sorted by decreasing confidence.
 std::vector<CraterDetection> DetectCratersInCore(const cv::Mat& raster, RimSource source,
                                                  const CraterDetectorOptions& options,

@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "detect_in_core.h"
 
 namespace areomap {
 namespace internal {
@@ -22,14 +23,14 @@ extern const std::size_t kCraterModelOnnx_size;
 namespace {
 
 // The network's geometry; scripts/crater_model/crater_net.py holds the same numbers.
-constexpr int kStride = 2;                 // output cell [input px]
-constexpr int kPadMultiple = 8;            // input sizes must be multiples of this
-constexpr double kDiameterUnitPx = 8.0;    // the size head predicts log(D / 8 px)
-constexpr int kNormalizeBoxPx = 31;        // local mean / std window
+constexpr int kStride = 2;               // output cell [input px]
+constexpr int kPadMultiple = 8;          // input sizes must be multiples of this
+constexpr double kDiameterUnitPx = 8.0;  // the size head predicts log(D / 8 px)
+constexpr int kNormalizeBoxPx = 31;      // local mean / std window
 constexpr float kNormalizeClip = 4.0f;
-constexpr double kBandLowPx = 12.0;        // a level above 0 reports 12-24 px of its own
+constexpr double kBandLowPx = 12.0;  // a level above 0 reports 12-24 px of its own
 constexpr double kBandHighPx = 24.0;
-constexpr int kMinLevelSizePx = 48;        // no level smaller than this
+constexpr int kMinLevelSizePx = 48;  // no level smaller than this
 // Margin of a level tile [px of the level]: the normalisation's half box (15) plus the
 // network's half receptive field (~37), rounded up to a multiple of 8 so that tiles keep the
 // stride-8 grid of the whole level and give the same outputs.
@@ -74,8 +75,7 @@ struct Peak {
 
 // Peaks of the heat map (3x3 local maxima >= min_score) whose centre lies in `core` (pixels of
 // the tile), in tile pixels of the level.
-std::vector<Peak> Decode(const CraterNetwork::Output& out, double min_score,
-                         const cv::Rect& core) {
+std::vector<Peak> Decode(const CraterNetwork::Output& out, double min_score, const cv::Rect& core) {
   cv::Mat dilated;
   cv::dilate(out.heat, dilated, cv::Mat::ones(3, 3, CV_8U));
   std::vector<Peak> peaks;
@@ -85,8 +85,8 @@ std::vector<Peak> Decode(const CraterNetwork::Output& out, double min_score,
     for (int j = 0; j < out.heat.cols; ++j) {
       if (!(h[j] >= min_score) || h[j] < m[j]) continue;
       Peak p;
-      p.x = (j + out.dx.at<float>(i, j) + 0.5) * kStride;
-      p.y = (i + out.dy.at<float>(i, j) + 0.5) * kStride;
+      p.x = (j + 0.5 + static_cast<double>(out.dx.at<float>(i, j))) * kStride;
+      p.y = (i + 0.5 + static_cast<double>(out.dy.at<float>(i, j))) * kStride;
       p.diameter = std::exp(out.log_diameter.at<float>(i, j)) * kDiameterUnitPx;
       p.score = h[j];
       if (p.x >= core.x && p.x < core.x + core.width && p.y >= core.y &&
@@ -101,7 +101,8 @@ std::vector<Peak> Decode(const CraterNetwork::Output& out, double min_score,
 // Share of nodata pixels of `tile` inside the circle (tile pixels).
 double NodataShare(const cv::Mat& nodata, double x, double y, double radius) {
   if (nodata.empty()) return 0.0;
-  const int c0 = std::max(0, static_cast<int>(x - radius)), r0 = std::max(0, static_cast<int>(y - radius));
+  const int c0 = std::max(0, static_cast<int>(x - radius)),
+            r0 = std::max(0, static_cast<int>(y - radius));
   const int c1 = std::min(nodata.cols, static_cast<int>(x + radius) + 1);
   const int r1 = std::min(nodata.rows, static_cast<int>(y + radius) + 1);
   int inside = 0, missing = 0;
@@ -145,16 +146,17 @@ std::vector<Peak> DetectOnLevel(CraterNetwork& network, const LevelReader& read,
       const int pad_c = (kPadMultiple - input.cols % kPadMultiple) % kPadMultiple;
       if (pad_r || pad_c) {
         // A 1-pixel side cannot be reflected; replicate it instead.
-        const int border = std::min(input.rows, input.cols) > 1 ? cv::BORDER_REFLECT_101
-                                                                 : cv::BORDER_REPLICATE;
+        const int border =
+            std::min(input.rows, input.cols) > 1 ? cv::BORDER_REFLECT_101 : cv::BORDER_REPLICATE;
         cv::copyMakeBorder(input, input, 0, pad_r, 0, pad_c, border);
       }
       const CraterNetwork::Output out = network.Forward(input);
       const cv::Rect core_in_tile(core_rect.x - c0, core_rect.y - r0, core_rect.width,
                                   core_rect.height);
       for (Peak p : Decode(out, learned.min_score, core_in_tile)) {
-        const bool in_band = level == 0 ? p.diameter < kBandHighPx
-                                        : p.diameter >= kBandLowPx && (last || p.diameter < kBandHighPx);
+        const bool in_band = level == 0
+                                 ? p.diameter < kBandHighPx
+                                 : p.diameter >= kBandLowPx && (last || p.diameter < kBandHighPx);
         if (!in_band) continue;
         if (NodataShare(nodata, p.x, p.y, 0.5 * p.diameter) > 0.25) continue;
         const double f = std::ldexp(1.0, level);
@@ -202,7 +204,8 @@ std::optional<CraterDetection> FitRim(const LevelReader& read, const Pyramid& py
   const double x = circle.ellipse.center.x() / f, y = circle.ellipse.center.y() / f;
   const double r = circle.ellipse.semi_major / f;
   const double reach = 1.5 * r + 6.0;
-  const int c0 = std::max(0, static_cast<int>(x - reach)), r0 = std::max(0, static_cast<int>(y - reach));
+  const int c0 = std::max(0, static_cast<int>(x - reach)),
+            r0 = std::max(0, static_cast<int>(y - reach));
   const int c1 = std::min(size.width, static_cast<int>(x + reach) + 1);
   const int r1 = std::min(size.height, static_cast<int>(y + reach) + 1);
   if (c1 - c0 < 8 || r1 - r0 < 8) return std::nullopt;
@@ -213,22 +216,16 @@ std::optional<CraterDetection> FitRim(const LevelReader& read, const Pyramid& py
   CraterDetectorOptions fit_options = options;
   fit_options.min_diameter_px = CraterDetectorOptions::kSmallestDiameterPx;
   fit_options.max_diameter_px = 0.0;
-  std::optional<CraterDetection> fit = RefineCrater(window, RimSource::kImage, initial, fit_options);
+  std::optional<CraterDetection> fit =
+      RefineCrater(window, RimSource::kImage, initial, fit_options);
   if (!fit) return std::nullopt;
   const double shift = (fit->ellipse.center - initial.center).norm();
   const double ratio = fit->Diameter() / (2.0 * r);
-  if (shift > kRefineMaxShift * 2.0 * r || ratio > kRefineMaxRatio || ratio < 1.0 / kRefineMaxRatio) {
+  if (shift > kRefineMaxShift * 2.0 * r || ratio > kRefineMaxRatio ||
+      ratio < 1.0 / kRefineMaxRatio) {
     return std::nullopt;
   }
-  CraterDetection d = *fit;
-  d.ellipse.center = (d.ellipse.center + Eigen::Vector2d(c0, r0)) * f;
-  d.ellipse.semi_major *= f;
-  d.ellipse.semi_minor *= f;
-  d.center_x_sigma *= f;
-  d.center_y_sigma *= f;
-  d.semi_major_sigma *= f;
-  d.semi_minor_sigma *= f;
-  d.rms_residual *= f;
+  CraterDetection d = internal::ShiftedDetection(*fit, c0 * f, r0 * f, f);
   d.confidence = circle.confidence;
   d.model_score = circle.model_score;
   d.pyramid_level = circle.pyramid_level;
@@ -265,8 +262,8 @@ std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, i
   for (int l = 0; l < pyramid.levels; ++l) {
     const double f = std::ldexp(1.0, l);
     const double band_lo = l == 0 ? 0.0 : kBandLowPx * f;
-    const double band_hi = l + 1 == pyramid.levels ? std::numeric_limits<double>::infinity()
-                                                   : kBandHighPx * f;
+    const double band_hi =
+        l + 1 == pyramid.levels ? std::numeric_limits<double>::infinity() : kBandHighPx * f;
     if (band_hi < lo || band_lo > hi) {
       const cv::Size s = pyramid.LevelSize(l);
       for (int k = 0; k < ((s.width + learned.tile_size - 1) / learned.tile_size) *
@@ -277,7 +274,8 @@ std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, i
       continue;
     }
     for (const Peak& p : DetectOnLevel(network, read, l, pyramid, learned, tile_done)) {
-      if (p.diameter >= lo && p.diameter <= hi) circles.push_back(CircleDetection(p, width, height));
+      if (p.diameter >= lo && p.diameter <= hi)
+        circles.push_back(CircleDetection(p, width, height));
     }
   }
   circles = SuppressDuplicateCraters(std::move(circles));
@@ -322,11 +320,10 @@ CraterNetwork::CraterNetwork(const std::string& model_path) : impl_(std::make_un
     throw Error(model_path + ": crater model file not found (expected an ONNX file)");
   }
   try {
-    impl_->net = model_path.empty()
-                     ? cv::dnn::readNetFromONNX(
-                           reinterpret_cast<const char*>(internal::kCraterModelOnnx),
-                           internal::kCraterModelOnnx_size)
-                     : cv::dnn::readNetFromONNX(model_path);
+    impl_->net = model_path.empty() ? cv::dnn::readNetFromONNX(
+                                          reinterpret_cast<const char*>(internal::kCraterModelOnnx),
+                                          internal::kCraterModelOnnx_size)
+                                    : cv::dnn::readNetFromONNX(model_path);
   } catch (const cv::Exception& e) {
     throw Error(what + ": not a crater model OpenCV dnn can read (expected ONNX): " + e.msg);
   }
@@ -367,9 +364,7 @@ CraterNetwork::Output CraterNetwork::Forward(const cv::Mat& normalized) {
     throw Error(impl_->source + ": the crater model's output is not 1 x 4 x H/2 x W/2");
   }
   const int rows = out.size[2], cols = out.size[3];
-  auto plane = [&](int k) {
-    return cv::Mat(rows, cols, CV_32F, out.ptr<float>(0, k)).clone();
-  };
+  auto plane = [&](int k) { return cv::Mat(rows, cols, CV_32F, out.ptr<float>(0, k)).clone(); };
   return {plane(0), plane(1), plane(2), plane(3)};
 }
 
@@ -395,7 +390,8 @@ cv::Mat NormalizeForCraterNetwork(const cv::Mat& image) {
     const float* s = square_mean.ptr<float>(r);
     float* o = out.ptr<float>(r);
     for (int c = 0; c < x.cols; ++c) {
-      const float sd = std::sqrt(std::max(s[c] - m[c] * m[c], 0.0f)) + 1e-3f * std::abs(m[c]) + 1e-12f;
+      const float sd =
+          std::sqrt(std::max(s[c] - m[c] * m[c], 0.0f)) + 1e-3f * std::abs(m[c]) + 1e-12f;
       o[c] = std::clamp((v[c] - m[c]) / sd, -kNormalizeClip, kNormalizeClip);
     }
   }

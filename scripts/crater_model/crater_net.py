@@ -146,9 +146,10 @@ def suppress_duplicates(det):
     return det[kept]
 
 
-def score(truth, det, min_diameter):
-    """Greedy matching as ScoreCraters (centre within half the true radius, diameter within
-    30 %). Returns ((matched truth, matched detections) >= min_diameter, detections, truth)."""
+def match(truth, det):
+    """Greedy one-to-one matching as ScoreCraters: a pair when the centre lies within half the
+    true radius and the diameter within 30 %, by increasing distance / radius + |ratio - 1|.
+    Returns (truth index, detection index) pairs."""
     cand = []
     for t, (tx, ty, td) in enumerate(truth):
         r = 0.5 * td
@@ -157,13 +158,21 @@ def score(truth, det, min_diameter):
         for k in np.nonzero((dist < 0.5 * r) & (ratio >= 0.7) & (ratio <= 1.3))[0]:
             cand.append((dist[k] / r + abs(ratio[k] - 1), t, k))
     cand.sort()
-    tm, dm = {}, {}
+    used_t, used_k, pairs = set(), set(), []
     for _, t, k in cand:
-        if t in tm or k in dm:
+        if t in used_t or k in used_k:
             continue
-        tm[t], dm[k] = k, t
-    mt = sum(1 for t in tm if truth[t, 2] >= min_diameter)
-    md = sum(1 for k in dm if det[k, 2] >= min_diameter)
+        used_t.add(t)
+        used_k.add(k)
+        pairs.append((t, k))
+    return pairs
+
+
+def score(truth, det, min_diameter):
+    """Returns ((matched truth, matched detections) >= min_diameter, detections, truth)."""
+    pairs = match(truth, det)
+    mt = sum(1 for t, _ in pairs if truth[t, 2] >= min_diameter)
+    md = sum(1 for _, k in pairs if det[k, 2] >= min_diameter)
     return (mt, md), int((det[:, 2] >= min_diameter).sum()), int((truth[:, 2] >= min_diameter).sum())
 
 

@@ -32,25 +32,6 @@ def labels(path, min_annotators):
     return out
 
 
-def match(truth, det):
-    cand = []
-    for t, (tx, ty, td) in enumerate(truth):
-        r = 0.5 * td
-        dist = np.hypot(det[:, 0] - tx, det[:, 1] - ty)
-        ratio = det[:, 2] / td
-        for k in np.nonzero((dist < 0.5 * r) & (ratio >= 0.7) & (ratio <= 1.3))[0]:
-            cand.append((dist[k] / r + abs(ratio[k] - 1), t, k))
-    cand.sort()
-    used_t, used_k, pairs = set(), set(), []
-    for _, t, k in cand:
-        if t in used_t or k in used_k:
-            continue
-        used_t.add(t)
-        used_k.add(k)
-        pairs.append((t, k))
-    return pairs
-
-
 def main():
     weights, data = sys.argv[1], sys.argv[2]
     threshold = float(sys.argv[3]) if len(sys.argv) > 3 else 0.35
@@ -78,7 +59,7 @@ def main():
         for i, v in enumerate((mt, md, nd, nt)):
             acc[i] += v
         if name == "ctx-held-out":
-            for t, k in match(truth, det[:, :3]):
+            for t, k in crater_net.match(truth, det[:, :3]):
                 if truth[t, 2] < 8.0:
                     continue
                 d = truth[t, 2]

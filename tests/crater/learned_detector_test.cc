@@ -65,8 +65,9 @@ TEST(CraterNetwork, BuiltInModelGivesFourMapsAtHalfResolution) {
 TEST(CraterNetwork, MissingOrCorruptModelFileIsAnErrorNamingIt) {
   const auto dir = TempDir("model");
   const std::string missing = (dir / "missing.onnx").string();
-  EXPECT_NE(ErrorOf([&] { CraterNetwork{missing}; }).find(missing + ": crater model file not found"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorOf([&] { CraterNetwork{missing}; }).find(missing + ": crater model file not found"),
+      std::string::npos);
   const std::string corrupt = (dir / "corrupt.onnx").string();
   std::ofstream(corrupt) << "not a network at all";
   const std::string message = ErrorOf([&] { CraterNetwork{corrupt}; });
@@ -74,8 +75,9 @@ TEST(CraterNetwork, MissingOrCorruptModelFileIsAnErrorNamingIt) {
   // The command-line route: the option names the file before any work.
   CraterDetectorOptions options;
   options.learned.model_path = corrupt;
-  EXPECT_NE(ErrorOf([&] { DetectCratersLearned(cv::Mat::zeros(64, 64, CV_32F), options, options.learned); })
-                .find(corrupt),
+  EXPECT_NE(ErrorOf([&] {
+              DetectCratersLearned(cv::Mat::zeros(64, 64, CV_32F), options, options.learned);
+            }).find(corrupt),
             std::string::npos);
   std::filesystem::remove_all(dir);
 }
@@ -83,10 +85,12 @@ TEST(CraterNetwork, MissingOrCorruptModelFileIsAnErrorNamingIt) {
 TEST(LearnedDetectorOptions, CheckNamesTheField) {
   LearnedDetectorOptions o;
   o.min_score = 1.0;
-  EXPECT_NE(ErrorOf([&] { o.Check(); }).find("LearnedDetectorOptions.min_score"), std::string::npos);
+  EXPECT_NE(ErrorOf([&] { o.Check(); }).find("LearnedDetectorOptions.min_score"),
+            std::string::npos);
   o = {};
   o.tile_size = 16;
-  EXPECT_NE(ErrorOf([&] { o.Check(); }).find("LearnedDetectorOptions.tile_size"), std::string::npos);
+  EXPECT_NE(ErrorOf([&] { o.Check(); }).find("LearnedDetectorOptions.tile_size"),
+            std::string::npos);
   EXPECT_EQ(CraterMethodFromString("edges"), CraterMethod::kEdges);
   EXPECT_EQ(ToString(CraterMethodFromString("learned")), "learned");
   EXPECT_NE(ErrorOf([] { CraterMethodFromString("hough"); }).find("'hough'"), std::string::npos);
@@ -222,8 +226,7 @@ TEST(DetectCratersLearned, FindsGeneratedCratersWithSubPixelAccuracy) {
   const CraterScene& scene = FieldScene();
   const std::vector<CraterDetection> found =
       DetectCratersLearned(scene.products.image.bands[0], {});
-  const CraterScore score =
-      ScoreCraters(CirclesOf(scene.truth_px), CirclesOf(found), {10.0, 1e9});
+  const CraterScore score = ScoreCraters(CirclesOf(scene.truth_px), CirclesOf(found), {10.0, 1e9});
   std::vector<double> center_errors;
   int fitted = 0;
   for (const auto& [t, d] : score.matches) {

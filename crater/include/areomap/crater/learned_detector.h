@@ -42,9 +42,9 @@ class CraterNetwork {
   struct Output {
     // On the half-resolution grid of the input, cell (i, j) centred on input pixel centre
     // (2j + 1, 2i + 1); each CV_32F of (rows / 2, cols / 2).
-    cv::Mat heat;           // crater-centre score in [0, 1]
-    cv::Mat dx, dy;         // centre offset from the cell centre [cells]
-    cv::Mat log_diameter;   // log(D / 8 px)
+    cv::Mat heat;          // crater-centre score in [0, 1]
+    cv::Mat dx, dy;        // centre offset from the cell centre [cells]
+    cv::Mat log_diameter;  // log(D / 8 px)
   };
   // `normalized`: CV_32F from NormalizeForCraterNetwork, rows and cols multiples of 8.
   Output Forward(const cv::Mat& normalized);
