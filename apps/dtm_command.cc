@@ -180,22 +180,22 @@ void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
     const GridSpec& grid = dtm.layers.grid;
     const double cells = static_cast<double>(grid.width) * grid.height;
     WriteSummary(out.dir(), {{"command", "dtm"},
-                          {"dtm", path.filename().string()},
-                          {"clouds", o->clouds},
-                          {"points", points},
-                          {"method", o->method},
-                          {"posting_m", grid.posting},
-                          {"width", grid.width},
-                          {"height", grid.height},
-                          {"known_cells", dtm.layers.known_cells},
-                          {"coverage", dtm.layers.known_cells / cells},
-                          {"sigma_median_m", percentile(0.5)},
-                          {"sigma_p90_m", percentile(0.9)}});
+                             {"dtm", path.filename().string()},
+                             {"clouds", o->clouds},
+                             {"points", points},
+                             {"method", o->method},
+                             {"posting_m", grid.posting},
+                             {"width", grid.width},
+                             {"height", grid.height},
+                             {"known_cells", dtm.layers.known_cells},
+                             {"coverage", dtm.layers.known_cells / cells},
+                             {"sigma_median_m", percentile(0.5)},
+                             {"sigma_p90_m", percentile(0.9)}});
     out.Commit();
     if (!global.quiet) {
-      std::cout << "wrote " << (out.final_dir() / "dtm.tif").string() << " (" << grid.width << " x " << grid.height << " at "
-                << grid.posting << " m, " << dtm.layers.known_cells << " cells known, median sigma "
-                << percentile(0.5) << " m)\n";
+      std::cout << "wrote " << (out.final_dir() / "dtm.tif").string() << " (" << grid.width << " x "
+                << grid.height << " at " << grid.posting << " m, " << dtm.layers.known_cells
+                << " cells known, median sigma " << percentile(0.5) << " m)\n";
     }
   });
 }

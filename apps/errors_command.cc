@@ -51,10 +51,12 @@ void AddErrorsCommand(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   simulate->callback([o, &global] {
     // Staged: a study that fails (a plot of NaN) leaves the earlier study whole.
-    OutputFolder out(o->out, OutputPolicy(global, "errors simulate", {"study.csv", "re_*m.png"}, {}));
+    OutputFolder out(o->out,
+                     OutputPolicy(global, "errors simulate", {"study.csv", "re_*m.png"}, {}));
     const std::vector<ConfigurationSample> samples = RunConfigurationStudy(o->study);
     for (const ConfigurationSample& sample : samples) {
-      if (!std::isfinite(sample.relative_error_percent) || !std::isfinite(sample.position_sigma_m)) {
+      if (!std::isfinite(sample.relative_error_percent) ||
+          !std::isfinite(sample.position_sigma_m)) {
         throw Error(
             "errors simulate: the study gives a relative error that is not a finite number "
             "(--sigma-p, --baseline and --focal-px out of scale with each other?)");

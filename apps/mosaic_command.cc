@@ -26,8 +26,8 @@ void AddMosaicCommand(CLI::App& app, const GlobalOptions& global) {
       ->capture_default_str();
   cmd->callback([inputs, out_dir, options, &global] {
     options->Check();
-    OutputFolder out(*out_dir, OutputPolicy(global, "mosaic", {"mosaic.tif"},
-                                            {inputs->begin(), inputs->end()}));
+    OutputFolder out(
+        *out_dir, OutputPolicy(global, "mosaic", {"mosaic.tif"}, {inputs->begin(), inputs->end()}));
     const ProgressCallback progress = MakeProgressBar(global, "mosaic");
     std::vector<Orthophoto> orthophotos;
     for (const std::string& path : *inputs) {
@@ -44,15 +44,15 @@ void AddMosaicCommand(CLI::App& app, const GlobalOptions& global) {
     WriteOrthophoto(out / "mosaic.tif", mosaic);
     const std::filesystem::path path = out.final_dir() / "mosaic.tif";
     WriteSummary(out.dir(), {{"command", "mosaic"},
-                            {"mosaic", path.filename().string()},
-                            {"inputs", *inputs},
-                            {"width", grid.width},
-                            {"height", grid.height},
-                            {"posting_m", grid.posting},
-                            {"feather_m", options->feather_m},
-                            {"valid_cells", mosaic.valid_cells},
-                            {"coverage", static_cast<double>(mosaic.valid_cells) /
-                                             (static_cast<double>(grid.width) * grid.height)}});
+                             {"mosaic", path.filename().string()},
+                             {"inputs", *inputs},
+                             {"width", grid.width},
+                             {"height", grid.height},
+                             {"posting_m", grid.posting},
+                             {"feather_m", options->feather_m},
+                             {"valid_cells", mosaic.valid_cells},
+                             {"coverage", static_cast<double>(mosaic.valid_cells) /
+                                              (static_cast<double>(grid.width) * grid.height)}});
     out.Commit();
     if (!global.quiet) {
       std::cout << "wrote " << path.string() << " (" << grid.width << " x " << grid.height << " at "

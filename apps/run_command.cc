@@ -212,11 +212,10 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     o->run.Check();  // Bad options fail before the mission is read.
     // In place: the run's units are files under --out that a later run resumes from. The lock
     // keeps a second run on the same --out from computing them all again at the same time.
-    OutputFolderOptions policy =
-        OutputPolicy(global, "run",
-                     {"sites/", "legs/", "guided/", "adjustment/", "craters/", "products/",
-                      "report.html"},
-                     {o->mission});
+    OutputFolderOptions policy = OutputPolicy(
+        global, "run",
+        {"sites/", "legs/", "guided/", "adjustment/", "craters/", "products/", "report.html"},
+        {o->mission});
     policy.in_place = true;
     OutputFolder out(o->out, std::move(policy));
     // Every file the manifest names is checked before any work starts.

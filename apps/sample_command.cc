@@ -45,15 +45,15 @@ void AddSampleCommand(CLI::App& app, const GlobalOptions& global) {
     double min_z = 0.0, max_z = 0.0;
     cv::minMaxLoc(dtm.bands.front(), &min_z, &max_z);
     WriteSummary(out.dir(), {{"command", "sample"},
-                            {"dtm", dtm_path.filename().string()},
-                            {"size_px", options->size_px},
-                            {"posting_m", options->posting_m},
-                            {"center_lat_deg", options->center_lat_deg},
-                            {"center_lon_deg", options->center_lon_deg},
-                            {"crater_diameter_m", options->crater_diameter_m},
-                            {"seed", options->seed},
-                            {"min_elevation_m", min_z},
-                            {"max_elevation_m", max_z}});
+                             {"dtm", dtm_path.filename().string()},
+                             {"size_px", options->size_px},
+                             {"posting_m", options->posting_m},
+                             {"center_lat_deg", options->center_lat_deg},
+                             {"center_lon_deg", options->center_lon_deg},
+                             {"crater_diameter_m", options->crater_diameter_m},
+                             {"seed", options->seed},
+                             {"min_elevation_m", min_z},
+                             {"max_elevation_m", max_z}});
     out.Commit();
     progress(1.0, "done");
     if (!global.quiet) {

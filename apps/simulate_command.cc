@@ -74,24 +74,23 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
     if (o->rock_abundance) options.scene.rock_abundance_k = *o->rock_abundance;
     options.Check();
     // Staged: the whole mission folder is replaced at once; a failed run leaves the earlier one.
-    OutputFolder out(o->out, OutputPolicy(global, "simulate",
-                                          {"mission.json", "sites/", "orbital/", "truth/",
-                                           "telemetry/"},
-                                          {}));
+    OutputFolder out(
+        o->out, OutputPolicy(global, "simulate",
+                             {"mission.json", "sites/", "orbital/", "truth/", "telemetry/"}, {}));
     const MissionSummary summary =
         GenerateMission(options, out.dir(), MakeProgressBar(global, "simulate"));
     WriteSummary(out.dir(), {{"command", "simulate"},
-                          {"preset", options.preset},
-                          {"seed", options.seed},
-                          {"manifest", "mission.json"},
-                          {"sites", summary.site_count},
-                          {"craters", summary.crater_count},
-                          {"rocks", summary.rock_count},
-                          {"rock_abundance_k", options.scene.rock_abundance_k},
-                          {"traverse_length_m", summary.traverse_length_m},
-                          {"final_telemetry_error_m", summary.final_telemetry_error_m},
-                          {"orbital_size_px", summary.orbital_size_px},
-                          {"rover_images", summary.rover_images}});
+                             {"preset", options.preset},
+                             {"seed", options.seed},
+                             {"manifest", "mission.json"},
+                             {"sites", summary.site_count},
+                             {"craters", summary.crater_count},
+                             {"rocks", summary.rock_count},
+                             {"rock_abundance_k", options.scene.rock_abundance_k},
+                             {"traverse_length_m", summary.traverse_length_m},
+                             {"final_telemetry_error_m", summary.final_telemetry_error_m},
+                             {"orbital_size_px", summary.orbital_size_px},
+                             {"rover_images", summary.rover_images}});
     out.Commit();
     if (!global.quiet) {
       std::cout << "mission " << o->out << ": " << summary.site_count << " sites over "

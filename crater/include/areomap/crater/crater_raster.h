@@ -16,9 +16,9 @@
 namespace areomap {
 
 // Band 1 of `dataset`, scale/offset applied, nodata as NaN. An image with options.method
-// kLearned goes to DetectCratersLearned (learned_detector.h); otherwise the edge pipeline: tiles of options.tile_size (core)
-// plus options.tile_overlap on each side run in parallel (TBB); a raster no bigger than one
-// padded tile is processed whole. Progress per tile.
+// kLearned goes to DetectCratersLearned (learned_detector.h); otherwise the edge pipeline: tiles of
+// options.tile_size (core) plus options.tile_overlap on each side run in parallel (TBB); a raster
+// no bigger than one padded tile is processed whole. Progress per tile.
 std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset, RimSource source,
                                                    const CraterDetectorOptions& options = {},
                                                    const ProgressCallback& progress = nullptr);
