@@ -67,6 +67,23 @@ Pyramid PyramidOf(int width, int height) {
   return p;
 }
 
+// The rim diameters [full-resolution px] that `level` reports, [lo, hi): level 0 everything under
+// 24 px, a level above it 12-24 px of its own, the last level everything from 12 px of its own.
+struct DiameterBand {
+  double lo = 0.0, hi = 0.0;
+};
+
+DiameterBand BandOf(const Pyramid& pyramid, int level) {
+  const double f = std::ldexp(1.0, level);
+  if (level == 0) return {0.0, kBandHighPx};
+  const bool last = level + 1 == pyramid.levels;
+  return {kBandLowPx * f, last ? std::numeric_limits<double>::infinity() : kBandHighPx * f};
+}
+
+int TileCount(const cv::Size& size, int tile) {
+  return ((size.width + tile - 1) / tile) * ((size.height + tile - 1) / tile);
+}
+
 // One detection of the network, in full-resolution pixels.
 struct Peak {
   double x = 0.0, y = 0.0, diameter = 0.0, score = 0.0;
@@ -123,7 +140,7 @@ std::vector<Peak> DetectOnLevel(CraterNetwork& network, const LevelReader& read,
                                 const Pyramid& pyramid, const LearnedDetectorOptions& learned,
                                 const std::function<void()>& tile_done) {
   const cv::Size size = pyramid.LevelSize(level);
-  const bool last = level + 1 == pyramid.levels;
+  const DiameterBand band = BandOf(pyramid, level);
   const int tile = learned.tile_size;
   std::vector<Peak> peaks;
   for (int core_r0 = 0; core_r0 < size.height; core_r0 += tile) {
@@ -154,15 +171,12 @@ std::vector<Peak> DetectOnLevel(CraterNetwork& network, const LevelReader& read,
       const cv::Rect core_in_tile(core_rect.x - c0, core_rect.y - r0, core_rect.width,
                                   core_rect.height);
       for (Peak p : Decode(out, learned.min_score, core_in_tile)) {
-        const bool in_band = level == 0
-                                 ? p.diameter < kBandHighPx
-                                 : p.diameter >= kBandLowPx && (last || p.diameter < kBandHighPx);
-        if (!in_band) continue;
         if (NodataShare(nodata, p.x, p.y, 0.5 * p.diameter) > 0.25) continue;
         const double f = std::ldexp(1.0, level);
         p.x = (p.x + c0) * f;
         p.y = (p.y + r0) * f;
         p.diameter *= f;
+        if (p.diameter < band.lo || p.diameter >= band.hi) continue;
         p.level = level;
         peaks.push_back(p);
       }
@@ -243,36 +257,26 @@ std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, i
   CraterNetwork network(learned.model_path);
   if (width <= 0 || height <= 0) return {};
   const Pyramid pyramid = PyramidOf(width, height);
+  // Levels whose band cannot hold a crater of the asked diameters are not searched.
+  const double lo = 0.9 * options.min_diameter_px;
+  const double hi = options.max_diameter_px > 0.0 ? 1.1 * options.max_diameter_px
+                                                  : std::numeric_limits<double>::infinity();
+  const auto searched = [&](int level) {
+    const DiameterBand band = BandOf(pyramid, level);
+    return band.hi >= lo && band.lo <= hi;
+  };
   int tiles = 0;
   for (int l = 0; l < pyramid.levels; ++l) {
-    const cv::Size s = pyramid.LevelSize(l);
-    tiles += ((s.width + learned.tile_size - 1) / learned.tile_size) *
-             ((s.height + learned.tile_size - 1) / learned.tile_size);
+    if (searched(l)) tiles += TileCount(pyramid.LevelSize(l), learned.tile_size);
   }
   const double detect_share = learned.refine_rims ? 0.7 : 1.0;
   int done = 0;
   const auto tile_done = [&] {
     Report(progress, detect_share * (++done) / std::max(1, tiles), "craters: network");
   };
-  // Levels whose band cannot hold a crater of the asked diameters are skipped.
-  const double lo = 0.9 * options.min_diameter_px;
-  const double hi = options.max_diameter_px > 0.0 ? 1.1 * options.max_diameter_px
-                                                  : std::numeric_limits<double>::infinity();
   std::vector<CraterDetection> circles;
   for (int l = 0; l < pyramid.levels; ++l) {
-    const double f = std::ldexp(1.0, l);
-    const double band_lo = l == 0 ? 0.0 : kBandLowPx * f;
-    const double band_hi =
-        l + 1 == pyramid.levels ? std::numeric_limits<double>::infinity() : kBandHighPx * f;
-    if (band_hi < lo || band_lo > hi) {
-      const cv::Size s = pyramid.LevelSize(l);
-      for (int k = 0; k < ((s.width + learned.tile_size - 1) / learned.tile_size) *
-                              ((s.height + learned.tile_size - 1) / learned.tile_size);
-           ++k) {
-        tile_done();
-      }
-      continue;
-    }
+    if (!searched(l)) continue;
     for (const Peak& p : DetectOnLevel(network, read, l, pyramid, learned, tile_done)) {
       if (p.diameter >= lo && p.diameter <= hi)
         circles.push_back(CircleDetection(p, width, height));
