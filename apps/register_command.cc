@@ -220,13 +220,10 @@ void AddRegisterCommand(CLI::App& app, const GlobalOptions& global) {
       ->check(NumberIn(0.0, 0.5, Bound::kClosed, Bound::kOpen))
       ->capture_default_str();
   matching
-      ->add_option("--min-correlation", args->match.min_correlation, "No match below this peak CC")
-      ->check(NumberIn(-1.0, 1.0))
-      ->capture_default_str();
-  matching
-      ->add_option("--min-peak-ratio", args->match.min_peak_ratio,
-                   "No match below this best / second-best peak ratio")
-      ->check(NumberAtLeast(1.0))
+      ->add_option("--max-false-match", args->match.max_false_match,
+                   "Accept a match only if the probability that its peak is a chance alignment "
+                   "is at most this (the false-accept rate)")
+      ->check(NumberIn(0.0, 1.0, Bound::kOpen, Bound::kClosed))
       ->capture_default_str();
   matching->add_flag("--similarity", args->similarity,
                      "Edge refinement fits a similarity instead of a translation");

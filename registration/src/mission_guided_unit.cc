@@ -118,7 +118,7 @@ json RunGuidedRegistrationUnit(const RunContext& run, size_t site_index, int pas
   const MissionSite& site = run.mission->sites.at(site_index);
   const fs::path dir = GuidedDir(run, pass, site.site);
   const json settings = {{"null_windows", run.options->guided_null_windows},
-                         {"max_null_fraction", run.options->match.max_null_fraction},
+                         {"max_false_match", run.options->match.max_false_match},
                          {"sigma_floor_m", run.options->guided_sigma_floor_m}};
   if (const json done = FinishedUnit(run, dir); done.is_object() &&
                                                 SamePrior(done.value("prior", json()), guided) &&

@@ -291,7 +291,7 @@ nlohmann::json MissionRunOptions::ToJson() const {
       {"dtm_posting_m", dtm.posting_m},
       {"dtm_method", ToString(dtm.gridding.method)},
       {"ortho_max_range_m", ortho.max_range_m},
-      {"match_min_correlation", match.min_correlation},
+      {"match_max_false_match", match.max_false_match},
       {"match_max_rotation_deg", match.max_rotation_deg},
       {"match_subpixel_floor_px", match.subpixel_floor_px},
       // Not on the CLI, but they set the sites' rotation sigmas; runs made before the floor grew

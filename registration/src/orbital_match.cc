@@ -407,14 +407,65 @@ void RefineWarpAtFullResolution(const PyramidSearch& search, const WarpAt& warp_
   }
 }
 
-// The chance level of a search window (OrbitalMatchOptions::null_windows): the best CC of `t`
-// (template top-left on orbital pixel (x, y)) in each window of side 2 radius + 1 tiling a ring
-// around the window centred on (cx, cy), every shift of a tile farther than `exclusion_px` from
-// every shift of that window; the ring grows until `wanted` tiles fit. Tiles off the image (no
-// defined CC) are not counted. Sets m.null_windows, null_reaching (best >= m.correlation) and
-// null_highest.
-void NullWindowTest(const OrbitalImage& orbital, const MaskedImage& t, int cx, int cy, int radius,
-                    double exclusion_px, int wanted, double min_overlap_fraction, OrbitalMatch& m) {
+// The chance level is measured on both images less their local mean (a Gaussian of this many
+// orbital pixels): the shading of broad slopes and albedo makes wrong shifts of a smooth scene
+// correlate by the tenths everywhere, and hides no evidence of where the template fits.
+constexpr double kHighPassSigmaPx = 3.0;
+
+// `in` less its local mean (normalized convolution over valid pixels); the validity as `in`.
+MaskedImage HighPass(const MaskedImage& in, double sigma) {
+  cv::Mat value(in.image.size(), CV_32F, cv::Scalar(0.0f));
+  cv::Mat weight(in.image.size(), CV_32F, cv::Scalar(0.0f));
+  cv::Mat mask(in.image.size(), CV_8U, cv::Scalar(0));
+  for (int r = 0; r < in.image.rows; ++r) {
+    for (int c = 0; c < in.image.cols; ++c) {
+      const float v = in.image.at<float>(r, c);
+      if (!std::isfinite(v) || (!in.mask.empty() && in.mask.at<uchar>(r, c) == 0)) continue;
+      value.at<float>(r, c) = v;
+      weight.at<float>(r, c) = 1.0f;
+      mask.at<uchar>(r, c) = 255;
+    }
+  }
+  cv::Mat blurred_value, blurred_weight;
+  cv::GaussianBlur(value, blurred_value, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
+  cv::GaussianBlur(weight, blurred_weight, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
+  MaskedImage out;
+  out.image.create(in.image.size(), CV_32F);
+  out.mask = mask;
+  for (int r = 0; r < in.image.rows; ++r) {
+    for (int c = 0; c < in.image.cols; ++c) {
+      const float w = blurred_weight.at<float>(r, c);
+      out.image.at<float>(r, c) = mask.at<uchar>(r, c) && w > 1e-3f
+                                      ? value.at<float>(r, c) - blurred_value.at<float>(r, c) / w
+                                      : std::numeric_limits<float>::quiet_NaN();
+    }
+  }
+  return out;
+}
+
+// The highest NCC of `t` on `fixed` at shifts within 1 px of `shift`; NaN if none is defined.
+double PeakNear(const MaskedImage& fixed, const MaskedImage& t, cv::Point shift,
+                double min_overlap_fraction) {
+  MaskedNccOptions options;
+  options.min_overlap_fraction = min_overlap_fraction;
+  options.search_window = ShiftWindow::Around(shift.x, shift.y, 1);
+  const MaskedNccSurface s = MaskedNccNaive(fixed.image, fixed.mask, t.image, t.mask, options);
+  double best = std::numeric_limits<double>::quiet_NaN();
+  for (auto it = s.ncc.begin<float>(); it != s.ncc.end<float>(); ++it) {
+    if (std::isfinite(*it) && !(best >= *it)) best = *it;
+  }
+  return best;
+}
+
+// The null of a small search window (OrbitalMatchOptions::null_windows): the full-resolution
+// surface of `t` (template top-left on orbital pixel (x, y)) in windows of side 2 radius + 1
+// tiling a ring around the window centred on (cx, cy), every shift of a tile farther than
+// `exclusion_px` from every shift of that window; the ring grows until `wanted` tiles fit. Tiles
+// off the image (no defined CC) are not counted. Sets m.null_windows, null_reaching (best >=
+// m.correlation) and null_highest, and returns the statistics of the tiles' pixels.
+SurfaceNull NullWindowTest(const OrbitalImage& orbital, const MaskedImage& t, int cx, int cy,
+                           int radius, double exclusion_px, int wanted,
+                           double min_overlap_fraction, OrbitalMatch& m) {
   const int side = 2 * radius + 1;
   // Tile (i, j) is centred on (cx + i side, cy + j side); with max(|i|, |j|) = k its nearest
   // shift is (k - 1) side + 1 away from the window's farthest.
@@ -430,12 +481,17 @@ void NullWindowTest(const OrbitalImage& orbital, const MaskedImage& t, int cx, i
   m.null_windows = 0;
   m.null_reaching = 0;
   m.null_highest = std::numeric_limits<double>::quiet_NaN();
-  if (patch.empty()) return;
+  if (patch.empty()) return {};
   MaskedNccOptions options;
   options.min_overlap_fraction = min_overlap_fraction;
   options.search_window = ShiftWindow::Around(cx - window.col0, cy - window.row0, reach);
   const MaskedNccSurface surface = MaskedNcc(patch, {}, t.image, t.mask, options);
-  if (surface.empty()) return;
+  const MaskedImage hp_patch = HighPass({patch, {}}, kHighPassSigmaPx);
+  const MaskedImage hp_t = HighPass(t, kHighPassSigmaPx);
+  const MaskedNccSurface hp_surface =
+      MaskedNcc(hp_patch.image, hp_patch.mask, hp_t.image, hp_t.mask, options);
+  if (surface.empty()) return {};
+  cv::Mat null_mask(surface.ncc.size(), CV_8U, cv::Scalar(0));
   for (int j = -k_max; j <= k_max; ++j) {
     for (int i = -k_max; i <= k_max; ++i) {
       if (std::max(std::abs(i), std::abs(j)) < k_min) continue;
@@ -451,38 +507,157 @@ void NullWindowTest(const OrbitalImage& orbital, const MaskedImage& t, int cx, i
         }
       }
       if (best < -1.5) continue;
+      null_mask(tile).setTo(255);
       ++m.null_windows;
       if (best >= m.correlation) ++m.null_reaching;
       if (!(best <= m.null_highest)) m.null_highest = best;
     }
   }
+  if (m.null_windows < (wanted + 1) / 2 || hp_surface.ncc.size() != surface.ncc.size()) return {};
+  return MeasureSurfaceNull(hp_surface.ncc, null_mask);
+}
+
+// Where a match's own peak spreads on a surface: the template's autocorrelation at least this
+// (a perfect match's surface is the autocorrelation; an imperfect one's, that scaled by its CC).
+constexpr double kPeakLobe = 0.2;
+// The surface's background is its blur over this many template correlation widths.
+constexpr double kBackgroundWidths = 3.0;
+
+// The template's autocorrelation (masked NCC with itself) over shifts up to the size of a
+// surface of `rows` x `cols`, with overlaps down to a quarter of its pixels.
+MaskedNccSurface Autocorrelation(const MaskedImage& t, int rows, int cols) {
+  MaskedNccOptions self;
+  self.min_overlap_fraction = 0.25;
+  self.search_window = ShiftWindow{-cols, cols, -rows, rows};
+  return MaskedNcc(t.image, t.mask, t.image, t.mask, self);
+}
+
+// How far [px] the template's autocorrelation `acf` (Autocorrelation) stays at or above 0.5 from
+// shift 0, the mean over the four axis directions; at least 1.
+double CorrelationWidth(const MaskedNccSurface& acf) {
+  const int r0 = -acf.shift_y0, c0 = -acf.shift_x0;
+  double sum = 0.0;
+  for (const auto& [dr, dc] : {std::pair{0, 1}, std::pair{0, -1}, std::pair{1, 0}, std::pair{-1, 0}}) {
+    int k = 1;
+    for (;; ++k) {
+      const int r = r0 + k * dr, c = c0 + k * dc;
+      if (r < 0 || c < 0 || r >= acf.ncc.rows || c >= acf.ncc.cols) break;
+      const float v = acf.ncc.at<float>(r, c);
+      if (!(v >= 0.5f)) break;
+    }
+    sum += k;
+  }
+  return std::max(1.0, sum / 4.0);
+}
+
+// The surface less its local background: a Gaussian of `sigma` [px] over its finite pixels
+// (normalized convolution); NaN stays NaN. What the broad shading of a scene adds to every
+// shift alike is not evidence of a match.
+cv::Mat LessBackground(const cv::Mat& s, double sigma) {
+  cv::Mat value(s.size(), CV_32F, cv::Scalar(0.0f)), weight(s.size(), CV_32F, cv::Scalar(0.0f));
+  for (int r = 0; r < s.rows; ++r) {
+    for (int c = 0; c < s.cols; ++c) {
+      const float v = s.at<float>(r, c);
+      if (!std::isfinite(v)) continue;
+      value.at<float>(r, c) = v;
+      weight.at<float>(r, c) = 1.0f;
+    }
+  }
+  cv::GaussianBlur(value, value, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
+  cv::GaussianBlur(weight, weight, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
+  cv::Mat out = s.clone();
+  for (int r = 0; r < s.rows; ++r) {
+    for (int c = 0; c < s.cols; ++c) {
+      float& v = out.at<float>(r, c);
+      const float w = weight.at<float>(r, c);
+      if (std::isfinite(v) && w > 1e-6f) v -= value.at<float>(r, c) / w;
+    }
+  }
+  return out;
+}
+
+// Tiles of this many shifts a side sample a large window's full-resolution surface.
+constexpr int kNullTile = 48;
+
+// The null of a large search window at full resolution: the surface of `t` over `window` (shifts
+// on `fixed`), sampled in a grid of kNullTile x kNullTile tiles (3 x 3 where the window holds
+// them, else 2 x 2, else the whole window as one tile), at the shifts where the peak at shift `peak` does not spread: farther than
+// `exclusion_px` from it, and where the template's coarse autocorrelation `acf` (pyramid unit
+// `unit`) at the offset is below kPeakLobe.
+SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t, const ShiftWindow& window,
+                            cv::Point peak, const MaskedNccSurface& acf, int unit,
+                            double exclusion_px, double min_overlap_fraction) {
+  const int side = window.max_shift_x - window.min_shift_x + 1;
+  const int height = window.max_shift_y - window.min_shift_y + 1;
+  // A window under two tiles a side is one tile: all of it.
+  const int n = std::min(side, height) >= 3 * kNullTile   ? 3
+                : std::min(side, height) >= 2 * kNullTile ? 2
+                                                          : 1;
+  const int tile_w = n == 1 ? side : kNullTile, tile_h = n == 1 ? height : kNullTile;
+  cv::Mat all(height, side, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  cv::Mat null_mask(height, side, CV_8U, cv::Scalar(0));
+  const auto in_lobe = [&](int dx, int dy) {
+    if (std::hypot(dx, dy) <= exclusion_px) return true;
+    const int ac = static_cast<int>(std::lround(static_cast<double>(dx) / unit)) - acf.shift_x0;
+    const int ar = static_cast<int>(std::lround(static_cast<double>(dy) / unit)) - acf.shift_y0;
+    if (ar < 0 || ac < 0 || ar >= acf.ncc.rows || ac >= acf.ncc.cols) return false;
+    return acf.ncc.at<float>(ar, ac) >= kPeakLobe;
+  };
+  tbb::parallel_for(0, n * n, [&](int k) {
+    const double step = n > 1 ? 1.0 / (n - 1.0) : 0.0;
+    const int x0 = window.min_shift_x + static_cast<int>(std::lround((k % n) * (side - tile_w) * step));
+    const int y0 = window.min_shift_y + static_cast<int>(std::lround((k / n) * (height - tile_h) * step));
+    MaskedNccOptions options;
+    options.min_overlap_fraction = min_overlap_fraction;
+    options.search_window = ShiftWindow{x0, x0 + tile_w - 1, y0, y0 + tile_h - 1};
+    const MaskedNccSurface s = MaskedNcc(fixed.image, fixed.mask, t.image, t.mask, options);
+    for (int r = 0; r < s.ncc.rows; ++r) {
+      for (int c = 0; c < s.ncc.cols; ++c) {
+        const int sx = s.shift_x0 + c, sy = s.shift_y0 + r;
+        const int px = sx - window.min_shift_x, py = sy - window.min_shift_y;
+        if (px < 0 || py < 0 || px >= side || py >= height) continue;
+        all.at<float>(py, px) = s.ncc.at<float>(r, c);
+        if (!in_lobe(sx - peak.x, sy - peak.y)) null_mask.at<uchar>(py, px) = 255;
+      }
+    }
+  });
+  return MeasureSurfaceNull(all, null_mask);
+}
+
+// The null of a large search window: its (coarse) surface at the shifts where the peak at
+// surface pixel `peak` does not spread: outside a disc of `exclusion` [px of the surface] and
+// where the template's autocorrelation `acf` (Autocorrelation) at the offset from the peak is
+// below kPeakLobe.
+SurfaceNull SearchWindowNull(const MaskedNccSurface& surface, cv::Point peak, double exclusion,
+                             const MaskedNccSurface& acf) {
+  cv::Mat null_mask(surface.ncc.size(), CV_8U, cv::Scalar(255));
+  cv::circle(null_mask, peak, static_cast<int>(std::ceil(exclusion)), cv::Scalar(0), cv::FILLED);
+  for (int r = 0; r < surface.ncc.rows; ++r) {
+    for (int c = 0; c < surface.ncc.cols; ++c) {
+      const int ar = r - peak.y - acf.shift_y0, ac = c - peak.x - acf.shift_x0;
+      if (ar < 0 || ac < 0 || ar >= acf.ncc.rows || ac >= acf.ncc.cols) continue;
+      if (acf.ncc.at<float>(ar, ac) >= kPeakLobe) null_mask.at<uchar>(r, c) = 0;
+    }
+  }
+  return MeasureSurfaceNull(surface.ncc, null_mask);
 }
 
 // Why a match is not confident, or "" if it is.
 std::string Verdict(const OrbitalMatch& m, bool coarse_on_border, bool fine_on_border,
                     const OrbitalMatchOptions& options) {
-  const int null_needed = (options.null_windows + 1) / 2;
   std::ostringstream why;
   why.precision(3);
   if (coarse_on_border) {
     why << "the best peak lies on the edge of the search window";
   } else if (fine_on_border) {
     why << "the refined peak drifted to the edge of its refinement window";
-  } else if (m.correlation < options.min_correlation) {
-    why << "peak CC " << m.correlation << " < min_correlation " << options.min_correlation;
-  } else if (m.peak_ratio < options.min_peak_ratio) {
-    why << "peak ratio " << m.peak_ratio << " < min_peak_ratio " << options.min_peak_ratio;
-  } else if (m.relative_sharpness < options.min_relative_sharpness) {
-    why << "relative sharpness " << m.relative_sharpness << " < min_relative_sharpness "
-        << options.min_relative_sharpness;
-  } else if (options.null_windows > 0 && m.null_windows < null_needed) {
-    why << "only " << m.null_windows << " windows at wrong offsets lie on the image, fewer than "
-        << null_needed << " for the chance level";
-  } else if (options.null_windows > 0 &&
-             m.null_reaching > options.max_null_fraction * m.null_windows) {
-    why << "peak CC " << m.correlation << " is reached in " << m.null_reaching << " of "
-        << m.null_windows << " windows at wrong offsets (max_null_fraction "
-        << options.max_null_fraction << ")";
+  } else if (!m.null.valid()) {
+    why << "no chance level: " << m.null.samples
+        << " correlation samples at wrong shifts (too few on the image, or a flat surface)";
+  } else if (!(m.false_match_probability <= options.max_false_match)) {
+    why << "false-match probability " << m.false_match_probability << " > max_false_match "
+        << options.max_false_match << " (peak " << m.peak_z << " sigma above the chance level, "
+        << m.expected_chance_peaks << " chance peaks that high expected)";
   }
   return why.str();
 }
@@ -510,17 +685,13 @@ void OrbitalMatchOptions::Check() const {
   RequireOption(scale_step > 0.0, "OrbitalMatchOptions.scale_step", "> 0");
   RequireOption(min_overlap_fraction > 0.0 && min_overlap_fraction <= 1.0,
                 "OrbitalMatchOptions.min_overlap_fraction", "in (0, 1]");
-  RequireOption(min_correlation >= -1.0 && min_correlation <= 1.0,
-                "OrbitalMatchOptions.min_correlation", "in [-1, 1]");
-  RequireOption(min_peak_ratio >= 1.0, "OrbitalMatchOptions.min_peak_ratio", ">= 1");
-  RequireOption(min_relative_sharpness >= 0.0 && min_relative_sharpness <= 1.0,
-                "OrbitalMatchOptions.min_relative_sharpness", "in [0, 1]");
+  RequireOption(max_false_match > 0.0 && max_false_match <= 1.0,
+                "OrbitalMatchOptions.max_false_match", "in (0, 1]");
   RequireOption(exclusion_radius_m >= 0.0, "OrbitalMatchOptions.exclusion_radius_m", ">= 0 m");
   RequireOption(min_template_pixels >= 16, "OrbitalMatchOptions.min_template_pixels", ">= 16");
   RequireOption(subpixel_floor_px >= 0.0, "OrbitalMatchOptions.subpixel_floor_px", ">= 0 px");
   RequireOption(null_windows >= 0, "OrbitalMatchOptions.null_windows", ">= 0");
-  RequireOption(max_null_fraction >= 0.0 && max_null_fraction <= 1.0,
-                "OrbitalMatchOptions.max_null_fraction", "in [0, 1]");
+  RequireOption(min_null_samples >= 16, "OrbitalMatchOptions.min_null_samples", ">= 16");
 }
 
 Eigen::Vector2d OrbitalMatch::TemplateToOrbital(const Eigen::Vector2d& p) const {
@@ -790,10 +961,44 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
     out.corrected_position = GeographicFromMbf(prior.body, *corrected);
   }
 
-  if (options.null_windows > 0) {
-    NullWindowTest(orbital, final_template, templ.col0 + ex, templ.row0 + ey, radius, exclusion_px,
-                   options.null_windows, options.min_overlap_fraction, out);
+  // The chance level: the peak against the search window's coarse surface at wrong shifts, or,
+  // for a small window, against the full-resolution surface in a ring of windows around it.
+  const int warps = static_cast<int>(rotations.size() * scales.size());
+  const cv::Point coarse_peak(candidates[best_index].x - best.surface.shift_x0,
+                              candidates[best_index].y - best.surface.shift_y0);
+  // Both images less their local mean (kHighPassSigmaPx): the peak's NCC there, against the null.
+  const MaskedImage hp_patch = HighPass(orbital_pyramid[0], kHighPassSigmaPx);
+  const MaskedImage hp_template = HighPass(final_template, kHighPassSigmaPx);
+  const double hp_peak = PeakNear(hp_patch, hp_template, cv::Point(fine.shift_x, fine.shift_y),
+                                  options.min_overlap_fraction);
+  SurfaceNull null;
+  if (options.null_windows == 0) {
+    const MaskedNccSurface acf =
+        Autocorrelation(template_pyramid[levels], best.surface.ncc.rows, best.surface.ncc.cols);
+    const ShiftWindow full{x0 + ex - radius, x0 + ex + radius, y0 + ey - radius, y0 + ey + radius};
+    null = WindowTilesNull(hp_patch, hp_template, full,
+                           cv::Point(fine.shift_x, fine.shift_y), acf, unit, exclusion_px,
+                           options.min_overlap_fraction);
   }
+  PeakSignificance significance;
+  if (options.null_windows == 0 && null.samples >= options.min_null_samples) {
+    out.null_level = 0;
+    significance = SignificanceOfPeak(hp_peak, null, 2.0 * radius + 1.0, 2.0 * radius + 1.0,
+                                      warps);
+  } else {
+    constexpr int kDefaultNullWindows = 24;
+    null = NullWindowTest(orbital, final_template, templ.col0 + ex, templ.row0 + ey, radius,
+                          exclusion_px,
+                          options.null_windows > 0 ? options.null_windows : kDefaultNullWindows,
+                          options.min_overlap_fraction, out);
+    out.null_level = 0;
+    significance =
+        SignificanceOfPeak(hp_peak, null, 2.0 * radius + 1.0, 2.0 * radius + 1.0, warps);
+  }
+  out.null = null;
+  out.peak_z = significance.z;
+  out.expected_chance_peaks = significance.expected_chance_peaks;
+  out.false_match_probability = significance.false_match_probability;
   out.reason = Verdict(out, coarse_on_border, fine.on_border, options);
   out.matched = out.reason.empty();
   Report(progress, 1.0, "register: done");

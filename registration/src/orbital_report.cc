@@ -79,6 +79,7 @@ std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
       }
       p.sigma_east_m = std::sqrt(match.template_shift_covariance_en_m2(0, 0));
       p.sigma_north_m = std::sqrt(match.template_shift_covariance_en_m2(1, 1));
+      p.false_match_probability = match.false_match_probability;
       ControlPoint& cp = p.point;
       cp.id = stem + "-cp" + std::to_string(out.size());
       cp.source = std::filesystem::path(orbital.name()).filename().string() + " ncc";
@@ -129,6 +130,7 @@ nlohmann::json ControlPointsJson(const std::vector<OrbitalControlPoint>& points)
         {"sigma_east_m", p.sigma_east_m},
         {"sigma_north_m", p.sigma_north_m},
         {"sigma_up_m", p.sigma_up_m},
+        {"false_match_probability", p.false_match_probability},
         {"mbf_m", {p.point.position_mbf.x(), p.point.position_mbf.y(), p.point.position_mbf.z()}},
         {"covariance_mbf_m2", MatrixJson(p.point.covariance_mbf)},
     };
@@ -146,7 +148,7 @@ nlohmann::json ControlPointsJson(const std::vector<OrbitalControlPoint>& points)
 std::string ControlPointsCsv(const std::vector<OrbitalControlPoint>& points) {
   std::ostringstream out;
   out << "id,site,ortho_col,ortho_row,orbital_col,orbital_row,lat_deg,lon_deg,h_m,"
-         "sigma_east_m,sigma_north_m,sigma_up_m,mbf_x_m,mbf_y_m,mbf_z_m,site_x_m,site_y_m,"
+         "sigma_east_m,sigma_north_m,sigma_up_m,false_match_probability,mbf_x_m,mbf_y_m,mbf_z_m,site_x_m,site_y_m,"
          "site_z_m\n";
   out << std::setprecision(12);
   for (const OrbitalControlPoint& p : points) {
@@ -155,7 +157,7 @@ std::string ControlPointsCsv(const std::vector<OrbitalControlPoint>& points) {
     out << p.point.id << "," << p.point.site << "," << p.ortho_px.x() << "," << p.ortho_px.y()
         << "," << p.orbital_px.x() << "," << p.orbital_px.y() << "," << DegFromRad(p.geographic.lat)
         << "," << DegFromRad(p.geographic.lon) << "," << p.geographic.h << "," << p.sigma_east_m
-        << "," << p.sigma_north_m << "," << p.sigma_up_m << "," << m.x() << "," << m.y() << ","
+        << "," << p.sigma_north_m << "," << p.sigma_up_m << "," << p.false_match_probability << "," << m.x() << "," << m.y() << ","
         << m.z();
     if (p.point.site >= 0) {
       out << "," << s.x() << "," << s.y() << "," << s.z() << "\n";
@@ -176,6 +178,16 @@ nlohmann::json MatchJson(const OrbitalMatch& m) {
       {"correlation", Number(m.correlation)},
       {"peak_ratio", Number(m.peak_ratio)},
       {"sharpness", Number(m.sharpness)},
+      {"false_match_probability", Number(m.false_match_probability)},
+      {"chance_level",
+       {{"peak_z", Number(m.peak_z)},
+        {"expected_chance_peaks", Number(m.expected_chance_peaks)},
+        {"null_samples", m.null.samples},
+        {"null_mean", Number(m.null.mean)},
+        {"null_stddev", Number(m.null.stddev)},
+        {"null_lambda_x", Number(m.null.lambda_x)},
+        {"null_lambda_y", Number(m.null.lambda_y)},
+        {"pyramid_level", m.null_level}}},
       {"gsd_m", m.gsd_m},
       {"pyramid_levels", m.levels},
       {"search_radius_px", m.search_radius_px},

@@ -252,9 +252,9 @@ TEST(OrbitalMatch, AnOrthoOnEarthIsRejectedWithItsName) {
 TEST(OrbitalMatchOptions, CheckNamesTheField) {
   OrbitalMatchOptions options;
   EXPECT_NO_THROW(options.Check());
-  options.min_peak_ratio = 0.5;
+  options.max_false_match = 0.0;
   std::string message = areomap::testing::ErrorMessageOf([&] { options.Check(); });
-  EXPECT_NE(message.find("OrbitalMatchOptions.min_peak_ratio"), std::string::npos) << message;
+  EXPECT_NE(message.find("OrbitalMatchOptions.max_false_match"), std::string::npos) << message;
   options = {};
   options.template_options.min_coverage = 0.0;
   message = areomap::testing::ErrorMessageOf([&] { options.Check(); });

@@ -9,9 +9,11 @@
 // error) and scale changes is tried at the coarsest level, the best refined by a parabola there
 // and again at full resolution (walking half a grid step at a time to the maximum). Like JPL's Mars
 // Global Localization and VICAR marsautoloco, the answer comes with its confidence: the peak CC,
-// the ratio of the best to the best separated runner-up (both at full resolution), and the peak's
-// sharpness relative to the template's own autocorrelation; a match that fails a threshold is
-// reported as "no match" with the reason, never as a position. The shift's covariance follows
+// the ratio of the best to the best separated runner-up (both at full resolution), the peak's
+// sharpness relative to the template's own autocorrelation, and the probability that the peak
+// is a chance alignment (peak_significance.h). That probability is the one accept rule
+// (OrbitalMatchOptions::max_false_match); a refused match is reported as "no match" with the
+// reason, never as a position. The shift's covariance follows
 // Forstner's correlation precision plus a floor (OrbitalMatchOptions::subpixel_floor_px); with a
 // solved rotation, the rover's also holds the rotation's error (Forstner's, plus a floor that
 // grows at low correlation: rotation_floor_deg, rotation_floor_correlation) times its lever. Cost:
@@ -34,6 +36,7 @@
 #include "areomap/map/progress.h"
 #include "areomap/registration/orbital_image.h"
 #include "areomap/registration/orbital_template.h"
+#include "areomap/registration/peak_significance.h"
 
 namespace areomap {
 
@@ -70,12 +73,12 @@ struct OrbitalMatchOptions {
   double max_scale_change = 0.0;      // Scales searched: 1 +- this, in [0, 0.5) (0 = none).
   double scale_step = 0.02;           // Scale grid step, > 0.
   double min_overlap_fraction = 0.7;  // Of the template's valid pixels, for a shift to count.
-  double min_correlation = 0.3;       // Confident only if the full-resolution NCC >= this.
-  double min_peak_ratio = 1.25;       // ... and best / second-best separated peak >= this, >= 1.
-  // ... and the peak is sharp: its mean NCC drop to the 8 neighbours is at least this
-  // fraction of what a perfect match of this template would show (CC x the drop of the
-  // template's own autocorrelation), in [0, 1]. Spurious peaks from smooth shading are broad.
-  double min_relative_sharpness = 0.4;
+  // The accept rule: a match is confident only if the probability that its peak is a chance
+  // alignment (peak_significance.h: the peak against the correlation surface at wrong shifts,
+  // with the number of independent trials of the window and of the warps searched) is at most
+  // this, in (0, 1]. It is the rate of false acceptances where the template's place is not in
+  // the window (docs/benchmarks.md, "Registration decision", has the measured curve).
+  double max_false_match = 1e-3;
   double exclusion_radius_m = 3.0;  // Runner-ups lie farther than this [m] and 3 px from the best.
   int min_template_pixels = 400;    // Fewer valid template pixels at full resolution: no match.
   // Accuracy floor of area correlation between images of different sensors and illumination
@@ -99,15 +102,15 @@ struct OrbitalMatchOptions {
   // (rotation error / sigma)^2 4.2 with the constant floor, 0.72 with this one. Checked on two
   // others (37 and 16 matches): 11.2 -> 1.69 and 11.0 -> 0.97.
   double rotation_floor_correlation = 0.6;  // In (0, 1).
-  // Chance level of the window (for small, guided windows, where no separated runner-up fits
-  // inside and any texture has some peak): the template at the match's rotation and scale is
-  // also correlated in at least this many windows of the search window's size that tile a ring
-  // around it (every shift farther than exclusion_radius_m from every shift of the window);
-  // the match is confident only if at most max_null_fraction of them reach the peak CC, and
-  // at least half of them lie on the image. 0 = no such test.
-  int null_windows = 0;             // >= 0.
-  double max_null_fraction = 0.05;  // In [0, 1].
-
+  // Where the chance level's null statistics come from. With 0, the coarse surface of the
+  // search window outside the exclusion disc around the peak (of radius max(exclusion_radius_m,
+  // 3 coarse px)); where that holds fewer than min_null_samples pixels (a small window), or with
+  // null_windows > 0, the full-resolution surface of the template at the match's rotation and
+  // scale in at least null_windows (24 when 0) windows of the search window's size that tile a
+  // ring around it (every shift farther than exclusion_radius_m from every shift of the window),
+  // at least half of them on the image.
+  int null_windows = 0;          // >= 0.
+  int min_null_samples = 100;    // >= 16.
   // Throws areomap::Error naming the field and the rule it broke.
   void Check() const;
 };
@@ -115,7 +118,7 @@ struct OrbitalMatchOptions {
 struct OrbitalMatch {
   std::string orbital;          // The orbital image's name.
   bool overlaps = false;        // The search window reaches the orbital image.
-  bool matched = false;         // A confident match (all thresholds passed).
+  bool matched = false;         // A confident match (false_match_probability <= the maximum).
   std::string reason;           // Why there is no match; empty when matched.
   bool window_clipped = false;  // The search window ran over the image's edge.
 
@@ -165,8 +168,17 @@ struct OrbitalMatch {
   int levels = 0;                   // Pyramid halvings used.
   int search_radius_px = 0;         // Full-resolution search radius [px].
   int template_pixels = 0;          // Valid template pixels at full resolution.
-  // The chance-level test (OrbitalMatchOptions::null_windows): windows tested, how many reach
-  // the peak CC, and the highest CC among them (NaN when not run).
+  // The chance level (peak_significance.h): the probability that the peak is a chance
+  // alignment, and what it follows from: z = (peak - mean) / stddev of the null surface, the
+  // expected number of chance peaks at least that high in the window, the null's samples and
+  // mean, stddev and smoothness (lambda_x, lambda_y [1/px^2] at the surface's level).
+  double false_match_probability = 1.0;
+  double expected_chance_peaks = std::numeric_limits<double>::infinity();
+  double peak_z = std::numeric_limits<double>::quiet_NaN();
+  SurfaceNull null;
+  int null_level = 0;  // Pyramid level of the surface the null and z are measured on.
+  // With a ring of windows (OrbitalMatchOptions::null_windows): windows tested, how many reach
+  // the full-resolution peak CC, and the highest CC among them (0, 0 and NaN without a ring).
   int null_windows = 0;
   int null_reaching = 0;
   double null_highest = std::numeric_limits<double>::quiet_NaN();

@@ -47,6 +47,9 @@ struct OrbitalControlPoint {
   double sigma_north_m = 0.0;
   double sigma_up_m = 0.0;
   bool height_from_dtm = false;
+  // The match's probability of being a chance alignment (OrbitalMatch::false_match_probability),
+  // shared by all its points.
+  double false_match_probability = 1.0;
 };
 
 // Control points on a grid over the valid template pixels of a confident `match` (an empty
