@@ -407,6 +407,9 @@ void RefineWarpAtFullResolution(const PyramidSearch& search, const WarpAt& warp_
   }
 }
 
+// The null's spread is its largest over blocks of this many shifts a side (MeasureSurfaceNull).
+constexpr int kNullBlock = 24;
+
 // The chance level is measured on both images less their local mean (a Gaussian of this many
 // orbital pixels): the shading of broad slopes and albedo makes wrong shifts of a smooth scene
 // correlate by the tenths everywhere, and hides no evidence of where the template fits.
@@ -514,7 +517,7 @@ SurfaceNull NullWindowTest(const OrbitalImage& orbital, const MaskedImage& t, in
     }
   }
   if (m.null_windows < (wanted + 1) / 2 || hp_surface.ncc.size() != surface.ncc.size()) return {};
-  return MeasureSurfaceNull(hp_surface.ncc, null_mask);
+  return MeasureSurfaceNull(hp_surface.ncc, null_mask, kNullBlock);
 }
 
 // Where a match's own peak spreads on a surface: the template's autocorrelation at least this
@@ -621,7 +624,7 @@ SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t, cons
       }
     }
   });
-  return MeasureSurfaceNull(all, null_mask);
+  return MeasureSurfaceNull(all, null_mask, kNullBlock);
 }
 
 // The null of a large search window: its (coarse) surface at the shifts where the peak at

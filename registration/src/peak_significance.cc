@@ -1,11 +1,12 @@
 #include "areomap/registration/peak_significance.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
 namespace areomap {
 
-SurfaceNull MeasureSurfaceNull(const cv::Mat& surface, const cv::Mat& null_mask) {
+SurfaceNull MeasureSurfaceNull(const cv::Mat& surface, const cv::Mat& null_mask, int block_px) {
   SurfaceNull out;
   if (surface.empty() || surface.type() != CV_32F || null_mask.size() != surface.size() ||
       null_mask.type() != CV_8U) {
@@ -49,6 +50,26 @@ SurfaceNull MeasureSurfaceNull(const cv::Mat& surface, const cv::Mat& null_mask)
   if (variance > 0.0 && nx > 0 && ny > 0) {
     out.lambda_x = dx / nx / variance;
     out.lambda_y = dy / ny / variance;
+  }
+  if (block_px > 0) {
+    for (int r0 = 0; r0 < surface.rows; r0 += block_px) {
+      for (int c0 = 0; c0 < surface.cols; c0 += block_px) {
+        double bs = 0.0, bss = 0.0;
+        int bn = 0;
+        for (int r = r0; r < std::min(r0 + block_px, surface.rows); ++r) {
+          for (int c = c0; c < std::min(c0 + block_px, surface.cols); ++c) {
+            if (!usable(r, c)) continue;
+            const double v = surface.at<float>(r, c);
+            bs += v;
+            bss += v * v;
+            ++bn;
+          }
+        }
+        if (2 * bn < block_px * block_px) continue;
+        const double bv = std::max(0.0, bss / bn - (bs / bn) * (bs / bn)) * bn / (bn - 1.0);
+        out.stddev = std::max(out.stddev, std::sqrt(bv));
+      }
+    }
   }
   return out;
 }

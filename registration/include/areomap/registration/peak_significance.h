@@ -46,9 +46,13 @@ struct SurfaceNull {
 
 // Measures the null statistics of `surface` (CV_32F, NaN where undefined) over the pixels where
 // `null_mask` (CV_8U of its size) is nonzero; differences count only where both pixels are null
-// pixels. Fewer than 2 samples or a flat surface give an invalid result (valid() false), never
-// an exception.
-SurfaceNull MeasureSurfaceNull(const cv::Mat& surface, const cv::Mat& null_mask);
+// pixels. With `block_px` > 0 the standard deviation is the largest of those of the blocks of
+// block_px x block_px pixels at least half of whose pixels are null samples (the pooled one
+// where no block qualifies): a surface is not stationary, and a window's highest chance peak
+// arises where it varies most. Fewer than 2 samples or a flat surface give an invalid result
+// (valid() false), never an exception.
+SurfaceNull MeasureSurfaceNull(const cv::Mat& surface, const cv::Mat& null_mask,
+                               int block_px = 0);
 
 // The significance of a peak.
 struct PeakSignificance {
