@@ -446,13 +446,34 @@ MaskedImage HighPass(const MaskedImage& in, double sigma) {
   return out;
 }
 
-// The highest NCC of `t` on `fixed` at shifts within 1 px of `shift`; NaN if none is defined.
+// HighPass of the pixels of `fixed` that a template of `size` at `shifts` reaches, and a margin
+// that makes them exact; `*local` is `shifts` on the crop.
+MaskedImage HighPassReach(const MaskedImage& fixed, const ShiftWindow& shifts, cv::Size size,
+                          ShiftWindow* local) {
+  const int margin = static_cast<int>(std::ceil(4.0 * kHighPassSigmaPx)) + 1;
+  const cv::Rect reach = cv::Rect(shifts.min_shift_x - margin, shifts.min_shift_y - margin,
+                                  shifts.max_shift_x - shifts.min_shift_x + size.width + 2 * margin,
+                                  shifts.max_shift_y - shifts.min_shift_y + size.height + 2 * margin) &
+                         cv::Rect(0, 0, fixed.image.cols, fixed.image.rows);
+  *local = ShiftWindow{shifts.min_shift_x - reach.x, shifts.max_shift_x - reach.x,
+                       shifts.min_shift_y - reach.y, shifts.max_shift_y - reach.y};
+  if (reach.empty()) return {};
+  MaskedImage crop{fixed.image(reach), fixed.mask.empty() ? cv::Mat() : fixed.mask(reach)};
+  return HighPass(crop, kHighPassSigmaPx);
+}
+
+// The highest NCC of `t` (high-passed) on `fixed` (raw; high-passed here where `t` reaches) at
+// shifts within 1 px of `shift`; NaN if none is defined.
 double PeakNear(const MaskedImage& fixed, const MaskedImage& t, cv::Point shift,
                 double min_overlap_fraction) {
   MaskedNccOptions options;
   options.min_overlap_fraction = min_overlap_fraction;
-  options.search_window = ShiftWindow::Around(shift.x, shift.y, 1);
-  const MaskedNccSurface s = MaskedNccNaive(fixed.image, fixed.mask, t.image, t.mask, options);
+  ShiftWindow local;
+  const MaskedImage hp = HighPassReach(fixed, ShiftWindow::Around(shift.x, shift.y, 1),
+                                       t.image.size(), &local);
+  if (hp.image.empty()) return std::numeric_limits<double>::quiet_NaN();
+  options.search_window = local;
+  const MaskedNccSurface s = MaskedNccNaive(hp.image, hp.mask, t.image, t.mask, options);
   double best = std::numeric_limits<double>::quiet_NaN();
   for (auto it = s.ncc.begin<float>(); it != s.ncc.end<float>(); ++it) {
     if (std::isfinite(*it) && !(best >= *it)) best = *it;
@@ -582,8 +603,8 @@ cv::Mat LessBackground(const cv::Mat& s, double sigma) {
 // Tiles of this many shifts a side sample a large window's full-resolution surface.
 constexpr int kNullTile = 48;
 
-// The null of a large search window at full resolution: the surface of `t` over `window` (shifts
-// on `fixed`), sampled in a grid of kNullTile x kNullTile tiles (3 x 3 where the window holds
+// The null of a large search window at full resolution: the surface of `t` (high-passed) over
+// `window` (shifts on `fixed`, raw: high-passed here where each tile reaches), sampled in a grid of kNullTile x kNullTile tiles (3 x 3 where the window holds
 // them, else 2 x 2, else the whole window as one tile), at the shifts where the peak at shift `peak` does not spread: farther than
 // `exclusion_px` from it, and where the template's coarse autocorrelation `acf` (pyramid unit
 // `unit`) at the offset is below kPeakLobe.
@@ -612,11 +633,17 @@ SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t, cons
     const int y0 = window.min_shift_y + static_cast<int>(std::lround((k / n) * (height - tile_h) * step));
     MaskedNccOptions options;
     options.min_overlap_fraction = min_overlap_fraction;
-    options.search_window = ShiftWindow{x0, x0 + tile_w - 1, y0, y0 + tile_h - 1};
-    const MaskedNccSurface s = MaskedNcc(fixed.image, fixed.mask, t.image, t.mask, options);
+    ShiftWindow local;
+    const MaskedImage hp = HighPassReach(
+        fixed, ShiftWindow{x0, x0 + tile_w - 1, y0, y0 + tile_h - 1}, t.image.size(), &local);
+    if (hp.image.empty()) return;
+    options.search_window = local;
+    const MaskedNccSurface s = MaskedNcc(hp.image, hp.mask, t.image, t.mask, options);
+    // Back from the crop's shifts to the window's.
+    const int dx = x0 - local.min_shift_x, dy = y0 - local.min_shift_y;
     for (int r = 0; r < s.ncc.rows; ++r) {
       for (int c = 0; c < s.ncc.cols; ++c) {
-        const int sx = s.shift_x0 + c, sy = s.shift_y0 + r;
+        const int sx = s.shift_x0 + c + dx, sy = s.shift_y0 + r + dy;
         const int px = sx - window.min_shift_x, py = sy - window.min_shift_y;
         if (px < 0 || py < 0 || px >= side || py >= height) continue;
         all.at<float>(py, px) = s.ncc.at<float>(r, c);
@@ -970,16 +997,17 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   const cv::Point coarse_peak(candidates[best_index].x - best.surface.shift_x0,
                               candidates[best_index].y - best.surface.shift_y0);
   // Both images less their local mean (kHighPassSigmaPx): the peak's NCC there, against the null.
-  const MaskedImage hp_patch = HighPass(orbital_pyramid[0], kHighPassSigmaPx);
   const MaskedImage hp_template = HighPass(final_template, kHighPassSigmaPx);
-  const double hp_peak = PeakNear(hp_patch, hp_template, cv::Point(fine.shift_x, fine.shift_y),
+  const double hp_peak = PeakNear(orbital_pyramid[0], hp_template, cv::Point(fine.shift_x, fine.shift_y),
                                   options.min_overlap_fraction);
   SurfaceNull null;
   if (options.null_windows == 0) {
     const MaskedNccSurface acf =
-        Autocorrelation(template_pyramid[levels], best.surface.ncc.rows, best.surface.ncc.cols);
+        Autocorrelation(template_pyramid[levels],
+                        std::min(best.surface.ncc.rows, template_pyramid[levels].image.rows),
+                        std::min(best.surface.ncc.cols, template_pyramid[levels].image.cols));
     const ShiftWindow full{x0 + ex - radius, x0 + ex + radius, y0 + ey - radius, y0 + ey + radius};
-    null = WindowTilesNull(hp_patch, hp_template, full,
+    null = WindowTilesNull(orbital_pyramid[0], hp_template, full,
                            cv::Point(fine.shift_x, fine.shift_y), acf, unit, exclusion_px,
                            options.min_overlap_fraction);
   }
