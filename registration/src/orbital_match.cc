@@ -544,8 +544,6 @@ SurfaceNull NullWindowTest(const OrbitalImage& orbital, const MaskedImage& t, in
 // Where a match's own peak spreads on a surface: the template's autocorrelation at least this
 // (a perfect match's surface is the autocorrelation; an imperfect one's, that scaled by its CC).
 constexpr double kPeakLobe = 0.2;
-// The surface's background is its blur over this many template correlation widths.
-constexpr double kBackgroundWidths = 3.0;
 
 // The template's autocorrelation (masked NCC with itself) over shifts up to the size of a
 // surface of `rows` x `cols`, with overlaps down to a quarter of its pixels.
@@ -556,67 +554,31 @@ MaskedNccSurface Autocorrelation(const MaskedImage& t, int rows, int cols) {
   return MaskedNcc(t.image, t.mask, t.image, t.mask, self);
 }
 
-// How far [px] the template's autocorrelation `acf` (Autocorrelation) stays at or above 0.5 from
-// shift 0, the mean over the four axis directions; at least 1.
-double CorrelationWidth(const MaskedNccSurface& acf) {
-  const int r0 = -acf.shift_y0, c0 = -acf.shift_x0;
-  double sum = 0.0;
-  for (const auto& [dr, dc] : {std::pair{0, 1}, std::pair{0, -1}, std::pair{1, 0}, std::pair{-1, 0}}) {
-    int k = 1;
-    for (;; ++k) {
-      const int r = r0 + k * dr, c = c0 + k * dc;
-      if (r < 0 || c < 0 || r >= acf.ncc.rows || c >= acf.ncc.cols) break;
-      const float v = acf.ncc.at<float>(r, c);
-      if (!(v >= 0.5f)) break;
-    }
-    sum += k;
-  }
-  return std::max(1.0, sum / 4.0);
-}
-
-// The surface less its local background: a Gaussian of `sigma` [px] over its finite pixels
-// (normalized convolution); NaN stays NaN. What the broad shading of a scene adds to every
-// shift alike is not evidence of a match.
-cv::Mat LessBackground(const cv::Mat& s, double sigma) {
-  cv::Mat value(s.size(), CV_32F, cv::Scalar(0.0f)), weight(s.size(), CV_32F, cv::Scalar(0.0f));
-  for (int r = 0; r < s.rows; ++r) {
-    for (int c = 0; c < s.cols; ++c) {
-      const float v = s.at<float>(r, c);
-      if (!std::isfinite(v)) continue;
-      value.at<float>(r, c) = v;
-      weight.at<float>(r, c) = 1.0f;
-    }
-  }
-  cv::GaussianBlur(value, value, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
-  cv::GaussianBlur(weight, weight, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
-  cv::Mat out = s.clone();
-  for (int r = 0; r < s.rows; ++r) {
-    for (int c = 0; c < s.cols; ++c) {
-      float& v = out.at<float>(r, c);
-      const float w = weight.at<float>(r, c);
-      if (std::isfinite(v) && w > 1e-6f) v -= value.at<float>(r, c) / w;
-    }
-  }
-  return out;
-}
-
 // Tiles of this many shifts a side sample a large window's full-resolution surface.
 constexpr int kNullTile = 48;
 
 // The null of a large search window at full resolution: the surface of `t` (high-passed) over
-// `window` (shifts on `fixed`, raw: high-passed here where each tile reaches), sampled in a grid of kNullTile x kNullTile tiles (3 x 3 where the window holds
-// them, else 2 x 2, else the whole window as one tile), at the shifts where the peak at shift `peak` does not spread: farther than
+// `search` (shifts on `fixed`, raw: high-passed here where each tile reaches), sampled in its
+// four corner tiles of kNullTile x kNullTile shifts (the whole window as one tile where it is
+// under two tiles a side), at the shifts where the peak at shift `peak` does not spread: farther than
 // `exclusion_px` from it, and where the template's coarse autocorrelation `acf` (pyramid unit
 // `unit`) at the offset is below kPeakLobe.
-SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t, const ShiftWindow& window,
+SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t, const ShiftWindow& search,
                             cv::Point peak, const MaskedNccSurface& acf, int unit,
                             double exclusion_px, double min_overlap_fraction) {
+  // Tiles go where the template lies on the image (a clipped window's corners do not).
+  ShiftWindow window = search;
+  const ShiftWindow inside{std::max(window.min_shift_x, 0),
+                           std::min(window.max_shift_x, fixed.image.cols - t.image.cols),
+                           std::max(window.min_shift_y, 0),
+                           std::min(window.max_shift_y, fixed.image.rows - t.image.rows)};
+  if (inside.min_shift_x <= inside.max_shift_x && inside.min_shift_y <= inside.max_shift_y) {
+    window = inside;
+  }
   const int side = window.max_shift_x - window.min_shift_x + 1;
   const int height = window.max_shift_y - window.min_shift_y + 1;
   // A window under two tiles a side is one tile: all of it.
-  const int n = std::min(side, height) >= 3 * kNullTile   ? 3
-                : std::min(side, height) >= 2 * kNullTile ? 2
-                                                          : 1;
+  const int n = std::min(side, height) >= 2 * kNullTile ? 2 : 1;
   const int tile_w = n == 1 ? side : kNullTile, tile_h = n == 1 ? height : kNullTile;
   cv::Mat all(height, side, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   cv::Mat null_mask(height, side, CV_8U, cv::Scalar(0));
@@ -654,23 +616,6 @@ SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t, cons
   return MeasureSurfaceNull(all, null_mask, kNullBlock);
 }
 
-// The null of a large search window: its (coarse) surface at the shifts where the peak at
-// surface pixel `peak` does not spread: outside a disc of `exclusion` [px of the surface] and
-// where the template's autocorrelation `acf` (Autocorrelation) at the offset from the peak is
-// below kPeakLobe.
-SurfaceNull SearchWindowNull(const MaskedNccSurface& surface, cv::Point peak, double exclusion,
-                             const MaskedNccSurface& acf) {
-  cv::Mat null_mask(surface.ncc.size(), CV_8U, cv::Scalar(255));
-  cv::circle(null_mask, peak, static_cast<int>(std::ceil(exclusion)), cv::Scalar(0), cv::FILLED);
-  for (int r = 0; r < surface.ncc.rows; ++r) {
-    for (int c = 0; c < surface.ncc.cols; ++c) {
-      const int ar = r - peak.y - acf.shift_y0, ac = c - peak.x - acf.shift_x0;
-      if (ar < 0 || ac < 0 || ar >= acf.ncc.rows || ac >= acf.ncc.cols) continue;
-      if (acf.ncc.at<float>(ar, ac) >= kPeakLobe) null_mask.at<uchar>(r, c) = 0;
-    }
-  }
-  return MeasureSurfaceNull(surface.ncc, null_mask);
-}
 
 // Why a match is not confident, or "" if it is.
 std::string Verdict(const OrbitalMatch& m, bool coarse_on_border, bool fine_on_border,

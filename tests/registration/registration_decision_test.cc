@@ -131,8 +131,11 @@ TEST(RegistrationDecision, MaxFalseMatchMovesAcceptanceAsTheStatedProbabilitySay
         EXPECT_LE(r.error_px, 1.0) << r.kind;
       }
     }
-    if (alpha < 1.0) EXPECT_EQ(accepted_negatives, 0) << alpha;
-    if (alpha == 1.0) EXPECT_GT(accepted_negatives, 0);
+    if (alpha < 1.0) {
+      EXPECT_EQ(accepted_negatives, 0) << alpha;
+    } else {
+      EXPECT_GT(accepted_negatives, 0);
+    }
   }
 }
 
@@ -179,7 +182,7 @@ TEST_F(BadInput, AMaskHiding99PercentIsRefused) {
   cv::Mat keep(masked.image.size(), CV_8U, cv::Scalar(0));
   cv::circle(keep, {keep.cols / 2 + 20, keep.rows / 2}, keep.cols / 20, cv::Scalar(255), cv::FILLED);
   cv::bitwise_and(masked.mask, keep, masked.mask);
-  ASSERT_LT(cv::countNonZero(masked.mask), 0.01 * masked.image.total());
+  ASSERT_LT(cv::countNonZero(masked.mask), 0.01 * static_cast<double>(masked.image.total()));
   const OrbitalMatch m = Match(masked);
   EXPECT_FALSE(m.matched) << m.BriefReport();
   EXPECT_FALSE(m.reason.empty());
@@ -192,7 +195,9 @@ TEST_F(BadInput, NanPixelsAreInvalidNotFatal) {
       .setTo(std::numeric_limits<float>::quiet_NaN());
   const OrbitalMatch m = Match(holes);
   EXPECT_TRUE(std::isfinite(m.false_match_probability));
-  if (m.matched) EXPECT_TRUE(m.shift_en_m.allFinite());
+  if (m.matched) {
+    EXPECT_TRUE(m.shift_en_m.allFinite());
+  }
   // An orthophoto of NaN only: refused with a reason.
   OrthoImage none = trial_.ortho;
   none.image.setTo(std::numeric_limits<float>::quiet_NaN());
