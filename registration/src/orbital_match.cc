@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <iomanip>
 #include <sstream>
 
 #include <tbb/parallel_for.h>
@@ -697,7 +698,9 @@ std::string OrbitalMatch::BriefReport() const {
   out << "shift E " << shift_en_m.x() << " +- " << std::sqrt(shift_covariance_en_m2(0, 0))
       << " m, N " << shift_en_m.y() << " +- " << std::sqrt(shift_covariance_en_m2(1, 1))
       << " m, CC " << correlation << ", ratio " << peak_ratio << ", sharpness " << sharpness
-      << " (relative " << relative_sharpness << ")";
+      << " (relative " << relative_sharpness << "), false-match probability "
+      << std::setprecision(2) << std::scientific << false_match_probability << " (z "
+      << std::fixed << std::setprecision(1) << peak_z << ")" << std::setprecision(3);
   if (rotation_solved) {
     out << ", rotation " << DegFromRad(rotation_rad) << " +- " << DegFromRad(rotation_sigma_rad)
         << " deg";

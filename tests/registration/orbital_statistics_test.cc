@@ -61,7 +61,8 @@ TEST(OrbitalMatchStatistics, RecoversGeneratedSitesAndRejectsDecoys) {
       ++decoy_trials;
       if (d.matched) {
         ++decoys_accepted;
-        std::printf("decoy accepted (trial %d on scene %d): %s\n", k, (k + j) % kTrials,
+        std::printf("decoy accepted (trial %d on scene %d, %.2f m from the true correction): %s\n",
+                    k, (k + j) % kTrials, (d.shift_en_m + t.telemetry_error_en_m).norm(),
                     d.BriefReport().c_str());
       }
     }
