@@ -102,13 +102,14 @@ struct OrbitalMatchOptions {
   // (rotation error / sigma)^2 4.2 with the constant floor, 0.72 with this one. Checked on two
   // others (37 and 16 matches): 11.2 -> 1.69 and 11.0 -> 0.97.
   double rotation_floor_correlation = 0.6;  // In (0, 1).
-  // Where the chance level's null statistics come from. With 0, the coarse surface of the
-  // search window outside the exclusion disc around the peak (of radius max(exclusion_radius_m,
-  // 3 coarse px)); where that holds fewer than min_null_samples pixels (a small window), or with
-  // null_windows > 0, the full-resolution surface of the template at the match's rotation and
-  // scale in at least null_windows (24 when 0) windows of the search window's size that tile a
-  // ring around it (every shift farther than exclusion_radius_m from every shift of the window),
-  // at least half of them on the image.
+  // Where the chance level's null statistics come from: the full-resolution NCC of the template
+  // at the match's rotation and scale, both images less their local mean (3 px), at wrong
+  // shifts. With 0, the search window's four corner tiles of 48 x 48 shifts (the whole window
+  // under 96 px a side), where the template lies on the image, minus the peak's lobe (its
+  // autocorrelation >= 0.2, or within exclusion_radius_m); where that leaves fewer than
+  // min_null_samples, or with null_windows > 0 (a small guided window), at least null_windows (24
+  // when 0) windows of the search window's size tiling a ring around it (every shift farther than
+  // exclusion_radius_m from every shift of the window), at least half of them on the image.
   int null_windows = 0;          // >= 0.
   int min_null_samples = 100;    // >= 16.
   // Throws areomap::Error naming the field and the rule it broke.
@@ -176,7 +177,7 @@ struct OrbitalMatch {
   double expected_chance_peaks = std::numeric_limits<double>::infinity();
   double peak_z = std::numeric_limits<double>::quiet_NaN();
   SurfaceNull null;
-  int null_level = 0;  // Pyramid level of the surface the null and z are measured on.
+  int null_level = 0;  // Pyramid level of the surface the null and z are measured on (0).
   // With a ring of windows (OrbitalMatchOptions::null_windows): windows tested, how many reach
   // the full-resolution peak CC, and the highest CC among them (0, 0 and NaN without a ring).
   int null_windows = 0;

@@ -17,10 +17,11 @@
 // template's and the image's autocorrelation through the surface, so a template with broad
 // shading features (a smooth surface) gets few independent trials and a textured one many.
 //
-// The null statistics come from surface pixels at wrong shifts (outside an exclusion disc
-// around the peak): the search window's own surface when it is large, or a surface around it
-// (OrbitalMatchOptions::null_windows) when the window is small. Calibration on real and
-// generated image pairs: docs/benchmarks.md, "Registration decision".
+// The null statistics come from surface pixels at wrong shifts (outside the peak's lobe): tiles
+// of the search window, or a ring of windows around a small one (OrbitalMatchOptions::
+// null_windows). The orbital matcher measures both the peak and the null on high-passed images
+// (broad shading correlates every shift alike). Calibration on real and generated image pairs:
+// docs/benchmarks.md, "Registration decision: the false-match probability".
 #pragma once
 
 #include <limits>
