@@ -104,9 +104,10 @@ cv::Mat FootprintMask(int n, double px_m, const std::string& kind, double radius
     for (int k = 0; k < 10; ++k) {
       const double a = 2.0 * std::numbers::pi * u(rng);
       const double d = (inner + (radius_m - inner) * u(rng)) / px_m;
-      cv::circle(mask, cv::Point(static_cast<int>(c + d * std::cos(a)),
-                                 static_cast<int>(c + d * std::sin(a))),
-                 static_cast<int>((2.0 + 6.0 * u(rng)) / px_m), cv::Scalar(0), cv::FILLED);
+      cv::circle(
+          mask,
+          cv::Point(static_cast<int>(c + d * std::cos(a)), static_cast<int>(c + d * std::sin(a))),
+          static_cast<int>((2.0 + 6.0 * u(rng)) / px_m), cv::Scalar(0), cv::FILLED);
     }
   }
   return mask;
@@ -120,11 +121,10 @@ void AddNoise(cv::Mat& image, double sigma, std::mt19937& rng) {
 // One real-image case: the template's true centre `truth` and its telemetry centre `telemetry`
 // [orbital px, GDAL convention].
 CaseResult RunRealCase(const cv::Mat& normalized, const OrbitalImage& orbital,
-                       const PixelGrid& orbital_grid, const Source& source,
-                       const std::string& kind, bool positive, const Eigen::Vector2d& truth,
-                       const Eigen::Vector2d& telemetry, double sigma_m,
-                       const CaseOptions& options, const OrbitalMatchOptions& match,
-                       std::mt19937& rng) {
+                       const PixelGrid& orbital_grid, const Source& source, const std::string& kind,
+                       bool positive, const Eigen::Vector2d& truth,
+                       const Eigen::Vector2d& telemetry, double sigma_m, const CaseOptions& options,
+                       const OrbitalMatchOptions& match, std::mt19937& rng) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   const double g = options.orbital_gsd_m;
   const double k = kind == "gsd" ? 4.0 + 8.0 * u(rng) : 2.0;  // Ortho px per orbital px.
@@ -160,7 +160,7 @@ CaseResult RunRealCase(const cv::Mat& normalized, const OrbitalImage& orbital,
   ortho.image.setTo(std::numeric_limits<float>::quiet_NaN(), ortho.mask == 0);
   ortho.mask.release();
   ortho.geotransform.c = {kX0 + g * (telemetry.x() - n / (2.0 * k)), g / k, 0.0,
-                          kY0 - g * (telemetry.y() - n / (2.0 * k)), 0.0, -g / k};
+                          kY0 - g * (telemetry.y() - n / (2.0 * k)), 0.0,   -g / k};
   ortho.crs_wkt = orbital.crs_wkt();
   ortho.source = source.path.filename().string() + "-" + kind;
   const PixelGrid ortho_grid(ortho.geotransform, ortho.crs_wkt, ortho.source);
@@ -170,7 +170,8 @@ CaseResult RunRealCase(const cv::Mat& normalized, const OrbitalImage& orbital,
   OrbitalMatchOptions o = match;
   o.template_options.reliable_range_m = options.template_radius_m;
   const OrbitalMatch m = MatchOrthoToOrbital(ortho, orbital, prior, o);
-  CaseResult r = Outcome(m, source.family, kind, source.path.filename().string(), positive, sigma_m);
+  CaseResult r =
+      Outcome(m, source.family, kind, source.path.filename().string(), positive, sigma_m);
   if (positive && m.overlaps && m.template_pixels > 0) {
     r.error_px = (orbital_grid.GeographicToPixel(m.corrected_position) - truth).norm();
   }
@@ -181,8 +182,7 @@ CaseResult RunRealCase(const cv::Mat& normalized, const OrbitalImage& orbital,
 // `az_deg` (clockwise from north) and elevation `el_deg`.
 cv::Mat Hillshade(const cv::Mat& dtm, double posting_m, double az_deg, double el_deg) {
   const double az = az_deg * std::numbers::pi / 180.0, el = el_deg * std::numbers::pi / 180.0;
-  const Eigen::Vector3d sun(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el),
-                            std::sin(el));
+  const Eigen::Vector3d sun(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el));
   cv::Mat out(dtm.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   for (int r = 1; r + 1 < dtm.rows; ++r) {
     for (int c = 1; c + 1 < dtm.cols; ++c) {
@@ -334,7 +334,8 @@ std::vector<CaseResult> RunGeneratedCases(const CaseOptions& options,
     const int half = static_cast<int>(std::ceil(kHalf / posting));
     const int col0 = static_cast<int>(std::lround(rover_px.x())) - half;
     const int row0 = static_cast<int>(std::lround(rover_px.y())) - half;
-    const cv::Rect crop = cv::Rect(col0, row0, 2 * half, 2 * half) & cv::Rect(0, 0, dtm.cols, dtm.rows);
+    const cv::Rect crop =
+        cv::Rect(col0, row0, 2 * half, 2 * half) & cv::Rect(0, 0, dtm.cols, dtm.rows);
     OrthoImage hill;
     hill.image = shade(crop).clone();
     hill.crs_wkt = trial.dtm->crs_wkt();
@@ -359,9 +360,9 @@ std::string CaseResultsCsv(const std::vector<CaseResult>& results) {
     std::replace(reason.begin(), reason.end(), ',', ';');
     out << r.family << "," << r.kind << "," << r.image << "," << r.positive << ","
         << r.prior_sigma_m << "," << r.matched << "," << r.error_px << ","
-        << r.false_match_probability << "," << r.correlation << "," << r.peak_z << "," << r.null.mean << ","
-        << r.null.stddev << "," << r.null.lambda_x << "," << r.null.lambda_y << ","
-        << r.null.samples << "," << r.null_level << "," << r.search_radius_px << ","
+        << r.false_match_probability << "," << r.correlation << "," << r.peak_z << ","
+        << r.null.mean << "," << r.null.stddev << "," << r.null.lambda_x << "," << r.null.lambda_y
+        << "," << r.null.samples << "," << r.null_level << "," << r.search_radius_px << ","
         << r.structural_refusal << "," << reason << "\n";
   }
   return out.str();

@@ -33,9 +33,9 @@ namespace areomap::eval {
 
 struct CaseOptions {
   uint32_t seed = 1;
-  int cases_per_image = 1;        // Positives (and as many negatives) per kind and image, >= 1.
-  int max_images_per_family = 0;  // 0 = every image of a family (ctx 12, hrsc 5, moc 1).
-  double orbital_gsd_m = 1.0;     // Pixel size given to the real images [m], > 0.
+  int cases_per_image = 1;          // Positives (and as many negatives) per kind and image, >= 1.
+  int max_images_per_family = 0;    // 0 = every image of a family (ctx 12, hrsc 5, moc 1).
+  double orbital_gsd_m = 1.0;       // Pixel size given to the real images [m], > 0.
   double template_radius_m = 80.0;  // The template's reliable range [m], > 0.
   // Prior sigmas drawn from [m] (the window is +-3 sigma); larger ones are skipped where the
   // image cannot hold a negative's window.
@@ -53,13 +53,13 @@ struct CaseResult {
   std::string image;   // Source image file name, or the generated seed.
   bool positive = false;
   double prior_sigma_m = 0.0;
-  bool matched = false;        // Accepted under the match options given.
-  double error_px = 0.0;       // Positives: rover error [orbital px]; NaN for negatives.
+  bool matched = false;   // Accepted under the match options given.
+  double error_px = 0.0;  // Positives: rover error [orbital px]; NaN for negatives.
   double false_match_probability = 1.0;
   double correlation = 0.0;
   double peak_z = 0.0;
-  SurfaceNull null;     // The null statistics behind false_match_probability.
-  int null_level = 0;   // Their pyramid level.
+  SurfaceNull null;    // The null statistics behind false_match_probability.
+  int null_level = 0;  // Their pyramid level.
   int search_radius_px = 0;
   // Refused for a reason the false-match threshold does not move (a border peak, no chance
   // level): such a case is refused at every threshold.

@@ -24,7 +24,8 @@ void PrintTable(const std::vector<CaseResult>& results, double alpha) {
   };
   std::map<std::string, Count> counts;
   for (const CaseResult& r : results) {
-    for (const std::string& key : {r.family + " " + r.kind, r.family + " all", std::string("all")}) {
+    for (const std::string& key :
+         {r.family + " " + r.kind, r.family + " all", std::string("all")}) {
       Count& c = counts[key];
       if (r.positive) {
         ++c.positives;
@@ -37,20 +38,21 @@ void PrintTable(const std::vector<CaseResult>& results, double alpha) {
     }
   }
   std::printf("max_false_match %g\n", alpha);
-  std::printf("| set | positives | accepted within 1 px | accepted > 1 px off | negatives | "
-              "negatives accepted |\n|---|---|---|---|---|---|\n");
+  std::printf(
+      "| set | positives | accepted within 1 px | accepted > 1 px off | negatives | "
+      "negatives accepted |\n|---|---|---|---|---|---|\n");
   for (const auto& [key, c] : counts) {
     std::printf("| %s | %d | %d (%.1f %%) | %d | %d | %d (%.2f %%) |\n", key.c_str(), c.positives,
-                c.within, c.positives ? 100.0 * c.within / c.positives : 0.0, c.wrong,
-                c.negatives, c.false_accepts,
-                c.negatives ? 100.0 * c.false_accepts / c.negatives : 0.0);
+                c.within, c.positives ? 100.0 * c.within / c.positives : 0.0, c.wrong, c.negatives,
+                c.false_accepts, c.negatives ? 100.0 * c.false_accepts / c.negatives : 0.0);
   }
 }
 
 void PrintReliability(const std::vector<CaseResult>& results) {
   std::printf("\nReliability: stated false-match probability (threshold) vs observed\n");
-  std::printf("| max_false_match | negatives accepted (observed rate) | positives accepted within "
-              "1 px |\n|---|---|---|\n");
+  std::printf(
+      "| max_false_match | negatives accepted (observed rate) | positives accepted within "
+      "1 px |\n|---|---|---|\n");
   for (const double alpha : {1e-8, 1e-6, 1e-4, 1e-3, 1e-2, 0.05, 0.1, 0.3, 1.0}) {
     int n = 0, fa = 0, p = 0, pa = 0;
     for (const CaseResult& r : results) {
@@ -63,7 +65,8 @@ void PrintReliability(const std::vector<CaseResult>& results) {
       }
     }
     std::printf("| %g | %d / %d = %.4f | %d / %d = %.3f |\n", alpha, fa, n,
-                n ? static_cast<double>(fa) / n : 0.0, pa, p, p ? static_cast<double>(pa) / p : 0.0);
+                n ? static_cast<double>(fa) / n : 0.0, pa, p,
+                p ? static_cast<double>(pa) / p : 0.0);
   }
 }
 
@@ -74,12 +77,18 @@ int main(int argc, char** argv) {
   std::string data = AREOMAP_SHARED_DATA_DIR, csv;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
-    if (key == "--data") data = value;
-    else if (key == "--seed") options.seed = static_cast<uint32_t>(std::stoul(value));
-    else if (key == "--cases") options.cases_per_image = std::stoi(value);
-    else if (key == "--images") options.max_images_per_family = std::stoi(value);
-    else if (key == "--trials") options.generated_trials = std::stoi(value);
-    else if (key == "--csv") csv = value;
+    if (key == "--data")
+      data = value;
+    else if (key == "--seed")
+      options.seed = static_cast<uint32_t>(std::stoul(value));
+    else if (key == "--cases")
+      options.cases_per_image = std::stoi(value);
+    else if (key == "--images")
+      options.max_images_per_family = std::stoi(value);
+    else if (key == "--trials")
+      options.generated_trials = std::stoi(value);
+    else if (key == "--csv")
+      csv = value;
     else {
       std::fprintf(stderr, "error: unknown option %s\n", key.c_str());
       return 2;

@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <numbers>
-#include <iomanip>
 #include <sstream>
 
 #include <tbb/parallel_for.h>
@@ -452,10 +452,11 @@ MaskedImage HighPass(const MaskedImage& in, double sigma) {
 MaskedImage HighPassReach(const MaskedImage& fixed, const ShiftWindow& shifts, cv::Size size,
                           ShiftWindow* local) {
   const int margin = static_cast<int>(std::ceil(4.0 * kHighPassSigmaPx)) + 1;
-  const cv::Rect reach = cv::Rect(shifts.min_shift_x - margin, shifts.min_shift_y - margin,
-                                  shifts.max_shift_x - shifts.min_shift_x + size.width + 2 * margin,
-                                  shifts.max_shift_y - shifts.min_shift_y + size.height + 2 * margin) &
-                         cv::Rect(0, 0, fixed.image.cols, fixed.image.rows);
+  const cv::Rect reach =
+      cv::Rect(shifts.min_shift_x - margin, shifts.min_shift_y - margin,
+               shifts.max_shift_x - shifts.min_shift_x + size.width + 2 * margin,
+               shifts.max_shift_y - shifts.min_shift_y + size.height + 2 * margin) &
+      cv::Rect(0, 0, fixed.image.cols, fixed.image.rows);
   *local = ShiftWindow{shifts.min_shift_x - reach.x, shifts.max_shift_x - reach.x,
                        shifts.min_shift_y - reach.y, shifts.max_shift_y - reach.y};
   if (reach.empty()) return {};
@@ -470,8 +471,8 @@ double PeakNear(const MaskedImage& fixed, const MaskedImage& t, cv::Point shift,
   MaskedNccOptions options;
   options.min_overlap_fraction = min_overlap_fraction;
   ShiftWindow local;
-  const MaskedImage hp = HighPassReach(fixed, ShiftWindow::Around(shift.x, shift.y, 1),
-                                       t.image.size(), &local);
+  const MaskedImage hp =
+      HighPassReach(fixed, ShiftWindow::Around(shift.x, shift.y, 1), t.image.size(), &local);
   if (hp.image.empty()) return std::numeric_limits<double>::quiet_NaN();
   options.search_window = local;
   const MaskedNccSurface s = MaskedNccNaive(hp.image, hp.mask, t.image, t.mask, options);
@@ -489,8 +490,8 @@ double PeakNear(const MaskedImage& fixed, const MaskedImage& t, cv::Point shift,
 // off the image (no defined CC) are not counted. Sets m.null_windows, null_reaching (best >=
 // m.correlation) and null_highest, and returns the statistics of the tiles' pixels.
 SurfaceNull NullWindowTest(const OrbitalImage& orbital, const MaskedImage& t, int cx, int cy,
-                           int radius, double exclusion_px, int wanted,
-                           double min_overlap_fraction, OrbitalMatch& m) {
+                           int radius, double exclusion_px, int wanted, double min_overlap_fraction,
+                           OrbitalMatch& m) {
   const int side = 2 * radius + 1;
   // Tile (i, j) is centred on (cx + i side, cy + j side); with max(|i|, |j|) = k its nearest
   // shift is (k - 1) side + 1 away from the window's farthest.
@@ -561,12 +562,12 @@ constexpr int kNullTile = 48;
 // The null of a large search window at full resolution: the surface of `t` (high-passed) over
 // `search` (shifts on `fixed`, raw: high-passed here where each tile reaches), sampled in its
 // four corner tiles of kNullTile x kNullTile shifts (the whole window as one tile where it is
-// under two tiles a side), at the shifts where the peak at shift `peak` does not spread: farther than
-// `exclusion_px` from it, and where the template's coarse autocorrelation `acf` (pyramid unit
+// under two tiles a side), at the shifts where the peak at shift `peak` does not spread: farther
+// than `exclusion_px` from it, and where the template's coarse autocorrelation `acf` (pyramid unit
 // `unit`) at the offset is below kPeakLobe.
-SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t, const ShiftWindow& search,
-                            cv::Point peak, const MaskedNccSurface& acf, int unit,
-                            double exclusion_px, double min_overlap_fraction) {
+SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t,
+                            const ShiftWindow& search, cv::Point peak, const MaskedNccSurface& acf,
+                            int unit, double exclusion_px, double min_overlap_fraction) {
   // Tiles go where the template lies on the image (a clipped window's corners do not).
   ShiftWindow window = search;
   const ShiftWindow inside{std::max(window.min_shift_x, 0),
@@ -592,8 +593,10 @@ SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t, cons
   };
   tbb::parallel_for(0, n * n, [&](int k) {
     const double step = n > 1 ? 1.0 / (n - 1.0) : 0.0;
-    const int x0 = window.min_shift_x + static_cast<int>(std::lround((k % n) * (side - tile_w) * step));
-    const int y0 = window.min_shift_y + static_cast<int>(std::lround((k / n) * (height - tile_h) * step));
+    const int x0 =
+        window.min_shift_x + static_cast<int>(std::lround((k % n) * (side - tile_w) * step));
+    const int y0 =
+        window.min_shift_y + static_cast<int>(std::lround((k / n) * (height - tile_h) * step));
     MaskedNccOptions options;
     options.min_overlap_fraction = min_overlap_fraction;
     ShiftWindow local;
@@ -616,7 +619,6 @@ SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t, cons
   });
   return MeasureSurfaceNull(all, null_mask, kNullBlock);
 }
-
 
 // Why a match is not confident, or "" if it is.
 std::string Verdict(const OrbitalMatch& m, bool coarse_on_border, bool fine_on_border,
@@ -699,8 +701,8 @@ std::string OrbitalMatch::BriefReport() const {
       << " m, N " << shift_en_m.y() << " +- " << std::sqrt(shift_covariance_en_m2(1, 1))
       << " m, CC " << correlation << ", ratio " << peak_ratio << ", sharpness " << sharpness
       << " (relative " << relative_sharpness << "), false-match probability "
-      << std::setprecision(2) << std::scientific << false_match_probability << " (z "
-      << std::fixed << std::setprecision(1) << peak_z << ")" << std::setprecision(3);
+      << std::setprecision(2) << std::scientific << false_match_probability << " (z " << std::fixed
+      << std::setprecision(1) << peak_z << ")" << std::setprecision(3);
   if (rotation_solved) {
     out << ", rotation " << DegFromRad(rotation_rad) << " +- " << DegFromRad(rotation_sigma_rad)
         << " deg";
@@ -946,8 +948,9 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
                               candidates[best_index].y - best.surface.shift_y0);
   // Both images less their local mean (kHighPassSigmaPx): the peak's NCC there, against the null.
   const MaskedImage hp_template = HighPass(final_template, kHighPassSigmaPx);
-  const double hp_peak = PeakNear(orbital_pyramid[0], hp_template, cv::Point(fine.shift_x, fine.shift_y),
-                                  options.min_overlap_fraction);
+  const double hp_peak =
+      PeakNear(orbital_pyramid[0], hp_template, cv::Point(fine.shift_x, fine.shift_y),
+               options.min_overlap_fraction);
   SurfaceNull null;
   if (options.null_windows == 0) {
     const MaskedNccSurface acf =
@@ -962,8 +965,7 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   PeakSignificance significance;
   if (options.null_windows == 0 && null.samples >= options.min_null_samples) {
     out.null_level = 0;
-    significance = SignificanceOfPeak(hp_peak, null, 2.0 * radius + 1.0, 2.0 * radius + 1.0,
-                                      warps);
+    significance = SignificanceOfPeak(hp_peak, null, 2.0 * radius + 1.0, 2.0 * radius + 1.0, warps);
   } else {
     constexpr int kDefaultNullWindows = 24;
     null = NullWindowTest(orbital, final_template, templ.col0 + ex, templ.row0 + ey, radius,
@@ -971,8 +973,7 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
                           options.null_windows > 0 ? options.null_windows : kDefaultNullWindows,
                           options.min_overlap_fraction, out);
     out.null_level = 0;
-    significance =
-        SignificanceOfPeak(hp_peak, null, 2.0 * radius + 1.0, 2.0 * radius + 1.0, warps);
+    significance = SignificanceOfPeak(hp_peak, null, 2.0 * radius + 1.0, 2.0 * radius + 1.0, warps);
   }
   out.null = null;
   out.peak_z = significance.z;

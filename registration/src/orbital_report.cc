@@ -148,7 +148,8 @@ nlohmann::json ControlPointsJson(const std::vector<OrbitalControlPoint>& points)
 std::string ControlPointsCsv(const std::vector<OrbitalControlPoint>& points) {
   std::ostringstream out;
   out << "id,site,ortho_col,ortho_row,orbital_col,orbital_row,lat_deg,lon_deg,h_m,"
-         "sigma_east_m,sigma_north_m,sigma_up_m,false_match_probability,mbf_x_m,mbf_y_m,mbf_z_m,site_x_m,site_y_m,"
+         "sigma_east_m,sigma_north_m,sigma_up_m,false_match_probability,mbf_x_m,mbf_y_m,mbf_z_m,"
+         "site_x_m,site_y_m,"
          "site_z_m\n";
   out << std::setprecision(12);
   for (const OrbitalControlPoint& p : points) {
@@ -157,8 +158,8 @@ std::string ControlPointsCsv(const std::vector<OrbitalControlPoint>& points) {
     out << p.point.id << "," << p.point.site << "," << p.ortho_px.x() << "," << p.ortho_px.y()
         << "," << p.orbital_px.x() << "," << p.orbital_px.y() << "," << DegFromRad(p.geographic.lat)
         << "," << DegFromRad(p.geographic.lon) << "," << p.geographic.h << "," << p.sigma_east_m
-        << "," << p.sigma_north_m << "," << p.sigma_up_m << "," << p.false_match_probability << "," << m.x() << "," << m.y() << ","
-        << m.z();
+        << "," << p.sigma_north_m << "," << p.sigma_up_m << "," << p.false_match_probability << ","
+        << m.x() << "," << m.y() << "," << m.z();
     if (p.point.site >= 0) {
       out << "," << s.x() << "," << s.y() << "," << s.z() << "\n";
     } else {

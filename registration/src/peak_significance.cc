@@ -85,9 +85,9 @@ PeakSignificance SignificanceOfPeak(double peak, const SurfaceNull& null, double
   const double tail = 0.5 * std::erfc(z / std::numbers::sqrt2);
   const double two_pi = 2.0 * std::numbers::pi;
   const double sx = std::sqrt(null.lambda_x), sy = std::sqrt(null.lambda_y);
-  const double euler = tail + (std::max(width, 1.0) * sx + std::max(height, 1.0) * sy) * g / two_pi +
-                       std::max(width, 1.0) * std::max(height, 1.0) * sx * sy * z * g /
-                           std::pow(two_pi, 1.5);
+  const double euler =
+      tail + (std::max(width, 1.0) * sx + std::max(height, 1.0) * sy) * g / two_pi +
+      std::max(width, 1.0) * std::max(height, 1.0) * sx * sy * z * g / std::pow(two_pi, 1.5);
   out.expected_chance_peaks = std::max(warps, 1) * euler;
   out.false_match_probability = -std::expm1(-out.expected_chance_peaks);
   return out;

@@ -41,7 +41,8 @@ TEST(PeakSignificance, TheMaximumOfPureNoiseIsAsLikelyAsStated) {
     // The null measured on another stretch of the same field (as the matcher measures it at
     // wrong shifts), large enough that its own sampling error is small.
     const cv::Mat other = SmoothField(256, 2.0, rng);
-    const SurfaceNull null = MeasureSurfaceNull(other, cv::Mat(other.size(), CV_8U, cv::Scalar(255)));
+    const SurfaceNull null =
+        MeasureSurfaceNull(other, cv::Mat(other.size(), CV_8U, cv::Scalar(255)));
     const PeakSignificance s = SignificanceOfPeak(max, null, field.cols, field.rows);
     below_1 += s.false_match_probability <= 0.01;
     below_5 += s.false_match_probability <= 0.05;
@@ -62,10 +63,15 @@ TEST(PeakSignificance, HigherPeaksSmallerWindowsAndFewerWarpsAreLessLikelyByChan
   const SurfaceNull null = MeasureSurfaceNull(field, cv::Mat(field.size(), CV_8U, cv::Scalar(1)));
   ASSERT_TRUE(null.valid());
   EXPECT_GT(null.lambda_x, 0.0);
-  const double p = SignificanceOfPeak(null.mean + 4.5 * null.stddev, null, 80, 80).false_match_probability;
-  EXPECT_LT(SignificanceOfPeak(null.mean + 5.5 * null.stddev, null, 80, 80).false_match_probability, p);
-  EXPECT_LT(SignificanceOfPeak(null.mean + 4.5 * null.stddev, null, 20, 20).false_match_probability, p);
-  EXPECT_GT(SignificanceOfPeak(null.mean + 4.5 * null.stddev, null, 80, 80, 11).false_match_probability, p);
+  const double p =
+      SignificanceOfPeak(null.mean + 4.5 * null.stddev, null, 80, 80).false_match_probability;
+  EXPECT_LT(SignificanceOfPeak(null.mean + 5.5 * null.stddev, null, 80, 80).false_match_probability,
+            p);
+  EXPECT_LT(SignificanceOfPeak(null.mean + 4.5 * null.stddev, null, 20, 20).false_match_probability,
+            p);
+  EXPECT_GT(
+      SignificanceOfPeak(null.mean + 4.5 * null.stddev, null, 80, 80, 11).false_match_probability,
+      p);
   // No null (a flat surface), a peak below the mean, a NaN peak: probability 1.
   const cv::Mat flat(40, 40, CV_32F, cv::Scalar(0.3f));
   EXPECT_FALSE(MeasureSurfaceNull(flat, cv::Mat(flat.size(), CV_8U, cv::Scalar(1))).valid());
@@ -100,8 +106,8 @@ TEST(RegistrationDecision, AcceptsRealPositivesWithinAPixelAndRefusesRealNegativ
     } else {
       ++negatives;
       false_accepts += r.matched;
-      EXPECT_FALSE(r.matched) << r.image << " " << r.kind << ": p "
-                              << r.false_match_probability << ", CC " << r.correlation;
+      EXPECT_FALSE(r.matched) << r.image << " " << r.kind << ": p " << r.false_match_probability
+                              << ", CC " << r.correlation;
     }
   }
   ASSERT_GE(positives, 20);
@@ -180,7 +186,8 @@ TEST_F(BadInput, AWindowWithoutOverlapIsRefused) {
 TEST_F(BadInput, AMaskHiding99PercentIsRefused) {
   OrthoImage masked = trial_.ortho;
   cv::Mat keep(masked.image.size(), CV_8U, cv::Scalar(0));
-  cv::circle(keep, {keep.cols / 2 + 20, keep.rows / 2}, keep.cols / 20, cv::Scalar(255), cv::FILLED);
+  cv::circle(keep, {keep.cols / 2 + 20, keep.rows / 2}, keep.cols / 20, cv::Scalar(255),
+             cv::FILLED);
   cv::bitwise_and(masked.mask, keep, masked.mask);
   ASSERT_LT(cv::countNonZero(masked.mask), 0.01 * static_cast<double>(masked.image.total()));
   const OrbitalMatch m = Match(masked);

@@ -110,8 +110,8 @@ struct OrbitalMatchOptions {
   // min_null_samples, or with null_windows > 0 (a small guided window), at least null_windows (24
   // when 0) windows of the search window's size tiling a ring around it (every shift farther than
   // exclusion_radius_m from every shift of the window), at least half of them on the image.
-  int null_windows = 0;          // >= 0.
-  int min_null_samples = 100;    // >= 16.
+  int null_windows = 0;        // >= 0.
+  int min_null_samples = 100;  // >= 16.
   // Throws areomap::Error naming the field and the rule it broke.
   void Check() const;
 };

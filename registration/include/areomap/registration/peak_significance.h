@@ -34,7 +34,7 @@ namespace areomap {
 // The null statistics of a correlation surface: its pixels where `null_mask` is nonzero and the
 // score is finite.
 struct SurfaceNull {
-  int samples = 0;                                          // Finite null pixels used.
+  int samples = 0;                                           // Finite null pixels used.
   double mean = std::numeric_limits<double>::quiet_NaN();    // mu [NCC].
   double stddev = std::numeric_limits<double>::quiet_NaN();  // sigma [NCC].
   // Variances of the standardised surface's first differences along x (columns) and y (rows)
@@ -52,12 +52,11 @@ struct SurfaceNull {
 // where no block qualifies): a surface is not stationary, and a window's highest chance peak
 // arises where it varies most. Fewer than 2 samples or a flat surface give an invalid result
 // (valid() false), never an exception.
-SurfaceNull MeasureSurfaceNull(const cv::Mat& surface, const cv::Mat& null_mask,
-                               int block_px = 0);
+SurfaceNull MeasureSurfaceNull(const cv::Mat& surface, const cv::Mat& null_mask, int block_px = 0);
 
 // The significance of a peak.
 struct PeakSignificance {
-  double z = std::numeric_limits<double>::quiet_NaN();  // (peak - mu) / sigma.
+  double z = std::numeric_limits<double>::quiet_NaN();                     // (peak - mu) / sigma.
   double expected_chance_peaks = std::numeric_limits<double>::infinity();  // warps x E(z).
   // 1 - exp(-expected_chance_peaks), in [0, 1]; 1 when the null is invalid or z <= 0.
   double false_match_probability = 1.0;
