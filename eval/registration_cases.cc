@@ -13,6 +13,7 @@
 #include "areomap/map/error.h"
 #include "areomap/map/raster.h"
 #include "areomap/registration/orbital_grid.h"
+#include "areomap/registration/part_consistency.h"
 #include "areomap/samples/orbital.h"
 #include "orbital_trial.h"
 
@@ -72,7 +73,11 @@ CaseResult Outcome(const OrbitalMatch& m, const std::string& family, const std::
   r.null_level = m.null_level;
   r.search_radius_px = m.search_radius_px;
   r.reason = m.reason;
-  r.structural_refusal = !m.overlaps || m.template_pixels == 0 || IsStructural(m.reason);
+  r.part_contradiction = m.part_contradiction;
+  // A quadrant that fits elsewhere refuses the match at every threshold (the verdict names the
+  // false-match probability first where both refuse).
+  r.structural_refusal = !m.overlaps || m.template_pixels == 0 || IsStructural(m.reason) ||
+                         m.part_contradiction >= kMinContradiction;
   return r;
 }
 
@@ -250,8 +255,10 @@ std::vector<CaseResult> RunRealImageCases(const fs::path& data_dir, const CaseOp
           std::uniform_real_distribution<double> u(0.0, 1.0);
           std::normal_distribution<double> gauss(0.0, 1.0);
           const double sigma_m =
-              options.prior_sigmas_m[static_cast<size_t>(u(rng) * options.prior_sigmas_m.size()) %
-                                     options.prior_sigmas_m.size()];
+              options
+                  .prior_sigmas_m[static_cast<size_t>(
+                                      u(rng) * static_cast<double>(options.prior_sigmas_m.size())) %
+                                  options.prior_sigmas_m.size()];
           const double window_px = 3.0 * sigma_m / g;
           const double margin = radius_px + window_px + 4.0;
           const auto in_image = [&](const Eigen::Vector2d& p, double m) {
@@ -353,7 +360,7 @@ std::string CaseResultsCsv(const std::vector<CaseResult>& results) {
   std::ostringstream out;
   out << "family,kind,image,positive,prior_sigma_m,matched,error_px,false_match_probability,"
          "correlation,peak_z,null_mean,null_stddev,null_lambda_x,null_lambda_y,null_samples,"
-         "null_level,search_radius_px,structural_refusal,reason\n";
+         "null_level,search_radius_px,part_contradiction,structural_refusal,reason\n";
   out.precision(6);
   for (const CaseResult& r : results) {
     std::string reason = r.reason;
@@ -363,7 +370,7 @@ std::string CaseResultsCsv(const std::vector<CaseResult>& results) {
         << r.false_match_probability << "," << r.correlation << "," << r.peak_z << ","
         << r.null.mean << "," << r.null.stddev << "," << r.null.lambda_x << "," << r.null.lambda_y
         << "," << r.null.samples << "," << r.null_level << "," << r.search_radius_px << ","
-        << r.structural_refusal << "," << reason << "\n";
+        << r.part_contradiction << "," << r.structural_refusal << "," << reason << "\n";
   }
   return out.str();
 }

@@ -61,6 +61,7 @@ struct CaseResult {
   SurfaceNull null;    // The null statistics behind false_match_probability.
   int null_level = 0;  // Their pyramid level.
   int search_radius_px = 0;
+  double part_contradiction = 0.0;  // OrbitalMatch::part_contradiction.
   // Refused for a reason the false-match threshold does not move (a border peak, no chance
   // level): such a case is refused at every threshold.
   bool structural_refusal = false;

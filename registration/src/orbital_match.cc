@@ -15,9 +15,15 @@
 #include "areomap/registration/masked_ncc.h"
 #include "areomap/registration/orbital_grid.h"
 #include "areomap/registration/orbital_pyramid.h"
+#include "areomap/registration/part_consistency.h"
+#include "high_pass.h"
 
 namespace areomap {
 namespace {
+
+using internal::HighPass;
+using internal::HighPassReach;
+using internal::kHighPassSigmaPx;
 
 void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
   if (progress && !progress(fraction, stage)) throw Error("orbital registration cancelled");
@@ -411,59 +417,6 @@ void RefineWarpAtFullResolution(const PyramidSearch& search, const WarpAt& warp_
 // The null's spread is its largest over blocks of this many shifts a side (MeasureSurfaceNull).
 constexpr int kNullBlock = 24;
 
-// The chance level is measured on both images less their local mean (a Gaussian of this many
-// orbital pixels): the shading of broad slopes and albedo makes wrong shifts of a smooth scene
-// correlate by the tenths everywhere, and hides no evidence of where the template fits.
-constexpr double kHighPassSigmaPx = 3.0;
-
-// `in` less its local mean (normalized convolution over valid pixels); the validity as `in`.
-MaskedImage HighPass(const MaskedImage& in, double sigma) {
-  cv::Mat value(in.image.size(), CV_32F, cv::Scalar(0.0f));
-  cv::Mat weight(in.image.size(), CV_32F, cv::Scalar(0.0f));
-  cv::Mat mask(in.image.size(), CV_8U, cv::Scalar(0));
-  for (int r = 0; r < in.image.rows; ++r) {
-    for (int c = 0; c < in.image.cols; ++c) {
-      const float v = in.image.at<float>(r, c);
-      if (!std::isfinite(v) || (!in.mask.empty() && in.mask.at<uchar>(r, c) == 0)) continue;
-      value.at<float>(r, c) = v;
-      weight.at<float>(r, c) = 1.0f;
-      mask.at<uchar>(r, c) = 255;
-    }
-  }
-  cv::Mat blurred_value, blurred_weight;
-  cv::GaussianBlur(value, blurred_value, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
-  cv::GaussianBlur(weight, blurred_weight, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
-  MaskedImage out;
-  out.image.create(in.image.size(), CV_32F);
-  out.mask = mask;
-  for (int r = 0; r < in.image.rows; ++r) {
-    for (int c = 0; c < in.image.cols; ++c) {
-      const float w = blurred_weight.at<float>(r, c);
-      out.image.at<float>(r, c) = mask.at<uchar>(r, c) && w > 1e-3f
-                                      ? value.at<float>(r, c) - blurred_value.at<float>(r, c) / w
-                                      : std::numeric_limits<float>::quiet_NaN();
-    }
-  }
-  return out;
-}
-
-// HighPass of the pixels of `fixed` that a template of `size` at `shifts` reaches, and a margin
-// that makes them exact; `*local` is `shifts` on the crop.
-MaskedImage HighPassReach(const MaskedImage& fixed, const ShiftWindow& shifts, cv::Size size,
-                          ShiftWindow* local) {
-  const int margin = static_cast<int>(std::ceil(4.0 * kHighPassSigmaPx)) + 1;
-  const cv::Rect reach =
-      cv::Rect(shifts.min_shift_x - margin, shifts.min_shift_y - margin,
-               shifts.max_shift_x - shifts.min_shift_x + size.width + 2 * margin,
-               shifts.max_shift_y - shifts.min_shift_y + size.height + 2 * margin) &
-      cv::Rect(0, 0, fixed.image.cols, fixed.image.rows);
-  *local = ShiftWindow{shifts.min_shift_x - reach.x, shifts.max_shift_x - reach.x,
-                       shifts.min_shift_y - reach.y, shifts.max_shift_y - reach.y};
-  if (reach.empty()) return {};
-  MaskedImage crop{fixed.image(reach), fixed.mask.empty() ? cv::Mat() : fixed.mask(reach)};
-  return HighPass(crop, kHighPassSigmaPx);
-}
-
 // The highest NCC of `t` (high-passed) on `fixed` (raw; high-passed here where `t` reaches) at
 // shifts within 1 px of `shift`; NaN if none is defined.
 double PeakNear(const MaskedImage& fixed, const MaskedImage& t, cv::Point shift,
@@ -622,7 +575,7 @@ SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t,
 
 // Why a match is not confident, or "" if it is.
 std::string Verdict(const OrbitalMatch& m, bool coarse_on_border, bool fine_on_border,
-                    const OrbitalMatchOptions& options) {
+                    const PartConsistency& parts, const OrbitalMatchOptions& options) {
   std::ostringstream why;
   why.precision(3);
   if (coarse_on_border) {
@@ -636,6 +589,8 @@ std::string Verdict(const OrbitalMatch& m, bool coarse_on_border, bool fine_on_b
     why << "false-match probability " << m.false_match_probability << " > max_false_match "
         << options.max_false_match << " (peak " << m.peak_z << " sigma above the chance level, "
         << m.expected_chance_peaks << " chance peaks that high expected)";
+  } else if (!parts.consistent()) {
+    why << parts.Describe();
   }
   return why.str();
 }
@@ -979,7 +934,16 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   out.peak_z = significance.z;
   out.expected_chance_peaks = significance.expected_chance_peaks;
   out.false_match_probability = significance.false_match_probability;
-  out.reason = Verdict(out, coarse_on_border, fine.on_border, options);
+  // Structured look-alikes: do the template's quadrants fit where the whole does?
+  PartConsistency parts;
+  if (options.check_parts) {
+    parts = CheckPartConsistency(
+        orbital_pyramid[0], hp_template, cv::Point(fine.shift_x, fine.shift_y),
+        static_cast<int>(std::ceil(2.0 * exclusion_px)), options.min_overlap_fraction);
+    out.parts_tested = parts.tested();
+    out.part_contradiction = parts.largest_contradiction();
+  }
+  out.reason = Verdict(out, coarse_on_border, fine.on_border, parts, options);
   out.matched = out.reason.empty();
   Report(progress, 1.0, "register: done");
   return out;

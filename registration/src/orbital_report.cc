@@ -189,6 +189,8 @@ nlohmann::json MatchJson(const OrbitalMatch& m) {
         {"null_lambda_x", Number(m.null.lambda_x)},
         {"null_lambda_y", Number(m.null.lambda_y)},
         {"pyramid_level", m.null_level}}},
+      {"parts_tested", m.parts_tested},
+      {"part_contradiction", Number(m.part_contradiction)},
       {"gsd_m", m.gsd_m},
       {"pyramid_levels", m.levels},
       {"search_radius_px", m.search_radius_px},

@@ -54,9 +54,9 @@ TEST(OrbitalMatchStatistics, RecoversGeneratedSitesAndRejectsDecoys) {
     if (!m.matched || error_px > 0.5) {
       std::printf("trial %d: error %.2f px: %s\n", k, error_px, m.BriefReport().c_str());
     }
-    // Other scenes' orbital images on the same grid: the site is not on them. (Under the
-    // false-match rule trial 0 fits scenes 4 and 5: its fan sees one crater wall, and those scenes
-    // hold another crater a few metres off; docs/benchmarks.md, known limits.)
+    // Other scenes' orbital images on the same grid: the site is not on them. (Trial 0's fan
+    // sees one crater wall, and scenes 4 and 5 hold another crater a few metres off: far above
+    // chance, refused because parts of the template fit elsewhere, part_consistency.h.)
     for (int j = 1; j <= kDecoysPerTrial; ++j) {
       const Trial& other = trials[(k + j) % kTrials];
       const OrbitalMatch d = MatchOrthoToOrbital(t.ortho, *other.orbital, t.prior);

@@ -79,6 +79,10 @@ struct OrbitalMatchOptions {
   // this, in (0, 1]. It is the rate of false acceptances where the template's place is not in
   // the window (docs/benchmarks.md, "Registration decision", has the measured curve).
   double max_false_match = 1e-3;
+  // A match far above chance is also refused where a quadrant of the template fits clearly
+  // better elsewhere (part_consistency.h: a look-alike of part of the template, such as one
+  // crater wall on another crater). Off only for experiments.
+  bool check_parts = true;
   double exclusion_radius_m = 3.0;  // Runner-ups lie farther than this [m] and 3 px from the best.
   int min_template_pixels = 400;    // Fewer valid template pixels at full resolution: no match.
   // Accuracy floor of area correlation between images of different sensors and illumination
@@ -174,6 +178,11 @@ struct OrbitalMatch {
   // expected number of chance peaks at least that high in the window, the null's samples and
   // mean, stddev and smoothness (lambda_x, lambda_y [1/px^2] at the surface's level).
   double false_match_probability = 1.0;
+  // The template's quadrants correlated alone around the match (part_consistency.h): how many
+  // were tested, and the largest contradiction among those that fit clearly elsewhere [their
+  // chance spreads; 0 when none does]; at kMinContradiction or more the match is refused.
+  int parts_tested = 0;
+  double part_contradiction = 0.0;
   double expected_chance_peaks = std::numeric_limits<double>::infinity();
   double peak_z = std::numeric_limits<double>::quiet_NaN();
   SurfaceNull null;
