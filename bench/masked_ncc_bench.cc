@@ -63,8 +63,9 @@ const Scene& GetScene(int template_size, int image_size) {
   return scene;
 }
 
-MaskedNccOptions WindowOptions(const Scene& scene, int radius) {
+MaskedNccOptions WindowOptions(const Scene& scene, int radius, NccMethod method = NccMethod::kFft) {
   MaskedNccOptions options;
+  options.method = method;
   options.search_window = ShiftWindow::Around(scene.true_x + 2, scene.true_y - 1, radius);
   return options;
 }
@@ -78,9 +79,11 @@ void SetCounters(benchmark::State& state, const cv::Mat& surface) {
 // Arguments: template size, image size [px]; window radius [px] for the windowed variants.
 void BM_MaskedNccFft(benchmark::State& state) {
   const Scene& scene = GetScene(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  MaskedNccOptions options;
+  options.method = NccMethod::kFft;
   MaskedNccSurface surface;
   for (auto _ : state) {
-    surface = MaskedNcc(scene.fixed, scene.fixed_mask, scene.moving, scene.moving_mask);
+    surface = MaskedNcc(scene.fixed, scene.fixed_mask, scene.moving, scene.moving_mask, options);
     benchmark::DoNotOptimize(surface.ncc.data);
   }
   SetCounters(state, surface.ncc);
@@ -91,6 +94,7 @@ void BM_MaskedNccFft(benchmark::State& state) {
 void BM_MaskedNccFftInside(benchmark::State& state) {
   const Scene& scene = GetScene(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   MaskedNccOptions options;
+  options.method = NccMethod::kFft;
   options.search_window =
       ShiftWindow{0, scene.fixed.cols - scene.moving.cols, 0, scene.fixed.rows - scene.moving.rows};
   MaskedNccSurface surface;
@@ -134,6 +138,22 @@ void BM_MaskedNccNaiveWindow(benchmark::State& state) {
   SetCounters(state, surface.ncc);
 }
 
+// Direct summation against FFTs over small windows, and the cost model's pick (NccMethod::kAuto):
+// where the two cross, the pick should follow. Arguments: template size, image size, radius.
+template <NccMethod kMethod>
+void BM_MaskedNccWindowBy(benchmark::State& state) {
+  const Scene& scene = GetScene(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const MaskedNccOptions options = WindowOptions(scene, static_cast<int>(state.range(2)), kMethod);
+  MaskedNccSurface surface;
+  for (auto _ : state) {
+    surface = MaskedNcc(scene.fixed, scene.fixed_mask, scene.moving, scene.moving_mask, options);
+    benchmark::DoNotOptimize(surface.ncc.data);
+  }
+  SetCounters(state, surface.ncc);
+  state.counters["direct_picked"] =
+      DirectNccIsCheaper(scene.fixed, scene.fixed_mask, scene.moving, scene.moving_mask, options);
+}
+
 void BM_FindPeak(benchmark::State& state) {
   const Scene& scene = GetScene(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   const MaskedNccSurface surface =
@@ -162,6 +182,13 @@ void Common(benchmark::internal::Benchmark* b) {
   b->Unit(benchmark::kMillisecond)->UseRealTime()->Repetitions(3)->ReportAggregatesOnly(true);
 }
 
+void CrossOver(benchmark::internal::Benchmark* b) {
+  Common(b);
+  for (const int templ : {32, 128}) {
+    for (const int radius : {1, 2, 4, 8}) b->Args({templ, 4 * templ, radius});
+  }
+}
+
 void Sizes(benchmark::internal::Benchmark* b) {
   Common(b);
   b->Args({256, 1024})->Args({64, 256});
@@ -175,6 +202,9 @@ BENCHMARK(BM_MaskedNccNaive)->Apply(Common)->Args({64, 256});
 BENCHMARK(BM_MaskedNccFftWindow)->Apply(Common)->Args({256, 1024, 16});
 BENCHMARK(BM_MaskedNccNaiveWindow)->Apply(Common)->Args({256, 1024, 16});
 BENCHMARK(BM_FindPeak)->Apply(Common)->Args({256, 1024});
+BENCHMARK(BM_MaskedNccWindowBy<NccMethod::kFft>)->Apply(CrossOver);
+BENCHMARK(BM_MaskedNccWindowBy<NccMethod::kDirect>)->Apply(CrossOver);
+BENCHMARK(BM_MaskedNccWindowBy<NccMethod::kAuto>)->Apply(CrossOver);
 
 // Console output as usual, and the real time [ms] of every run kept for the ratio table.
 class RecordingReporter : public benchmark::ConsoleReporter {

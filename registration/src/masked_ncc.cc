@@ -182,42 +182,9 @@ MaskedNccSurface EmptySurface(const Problem& p) {
   return s;
 }
 
-}  // namespace
-
-ShiftWindow ShiftWindow::Around(int x, int y, int radius) {
-  if (radius < 0) ThrowField("ShiftWindow::Around radius", radius, ">= 0 [px]");
-  return ShiftWindow{x - radius, x + radius, y - radius, y + radius};
-}
-
-void MaskedNccOptions::Check() const {
-  if (min_overlap_pixels < 2) {
-    ThrowField("MaskedNccOptions.min_overlap_pixels", min_overlap_pixels, ">= 2 [px]");
-  }
-  if (!(min_overlap_fraction >= 0.0 && min_overlap_fraction <= 1.0)) {
-    ThrowField("MaskedNccOptions.min_overlap_fraction", min_overlap_fraction,
-               "a fraction in [0, 1]");
-  }
-  if (!(std::isfinite(min_stddev) && min_stddev >= 0.0)) {
-    ThrowField("MaskedNccOptions.min_stddev", min_stddev, "a finite value >= 0");
-  }
-  if (search_window) {
-    const ShiftWindow& w = *search_window;
-    if (w.min_shift_x > w.max_shift_x) {
-      ThrowField("MaskedNccOptions.search_window.min_shift_x", w.min_shift_x,
-                 "<= search_window.max_shift_x (" + std::to_string(w.max_shift_x) + ")");
-    }
-    if (w.min_shift_y > w.max_shift_y) {
-      ThrowField("MaskedNccOptions.search_window.min_shift_y", w.min_shift_y,
-                 "<= search_window.max_shift_y (" + std::to_string(w.max_shift_y) + ")");
-    }
-  }
-}
-
-MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
-                           const cv::Mat& moving_mask, const MaskedNccOptions& options) {
-  const Problem p = MakeProblem(fixed, fixed_mask, moving, moving_mask, options);
+// The surface by FFTs (MaskedNcc's header); `p` has at least one shift.
+MaskedNccSurface FftSurface(const Problem& p) {
   MaskedNccSurface surface = EmptySurface(p);
-  if (p.rows == 0) return surface;
 
   const cv::Size crop = p.fixed.value.size();
   const cv::Size tmpl = p.moving.value.size();
@@ -316,12 +283,9 @@ MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, cons
   return surface;
 }
 
-MaskedNccSurface MaskedNccNaive(const cv::Mat& fixed, const cv::Mat& fixed_mask,
-                                const cv::Mat& moving, const cv::Mat& moving_mask,
-                                const MaskedNccOptions& options) {
-  const Problem p = MakeProblem(fixed, fixed_mask, moving, moving_mask, options);
+// The surface by direct summation over each shift; `p` has at least one shift.
+MaskedNccSurface DirectSurface(const Problem& p) {
   MaskedNccSurface surface = EmptySurface(p);
-  if (p.rows == 0) return surface;
 
   const int crop_rows = p.fixed.value.rows;
   const int crop_cols = p.fixed.value.cols;
@@ -359,6 +323,92 @@ MaskedNccSurface MaskedNccNaive(const cv::Mat& fixed, const cv::Mat& fixed_mask,
     }
   });
   return surface;
+}
+
+// Direct summation costs about kDirectNsPerPair per valid template pixel and shift, the FFT
+// route about kFftNsPerPoint per padded point, per transform, times log2 of the padded size
+// (both on two threads; the ratio is what matters): fitted to `areomap_bench
+// --benchmark_filter=WindowBy` (32 and 128 px templates, windows of radius 1 to 8), where the
+// two cross at a radius of about 4 px. Release, GCC 12, OpenCV 4.6.
+constexpr double kDirectNsPerPair = 1.6;
+constexpr double kFftNsPerPoint = 0.8;
+
+// The FFT route's padded size (MaskedNcc's, FftSurface) and transform count.
+double FftCost(const Problem& p) {
+  const cv::Size crop = p.fixed.value.size();
+  const cv::Size tmpl = p.moving.value.size();
+  const cv::Point offset(p.crop_x - p.shift_x0, p.crop_y - p.shift_y0);
+  const double rows =
+      cv::getOptimalDFTSize(std::max(offset.y + crop.height, tmpl.height + p.rows - 1 - offset.y));
+  const double cols =
+      cv::getOptimalDFTSize(std::max(offset.x + crop.width, tmpl.width + p.cols - 1 - offset.x));
+  const bool fixed_all_valid = p.fixed.valid_count == crop.area();
+  const double transforms = fixed_all_valid ? 7.0 : 12.0;
+  return kFftNsPerPoint * transforms * rows * cols * std::log2(rows * cols);
+}
+
+double DirectCost(const Problem& p) {
+  return kDirectNsPerPair * static_cast<double>(p.rows) * p.cols * p.moving.valid_count;
+}
+
+}  // namespace
+
+ShiftWindow ShiftWindow::Around(int x, int y, int radius) {
+  if (radius < 0) ThrowField("ShiftWindow::Around radius", radius, ">= 0 [px]");
+  return ShiftWindow{x - radius, x + radius, y - radius, y + radius};
+}
+
+void MaskedNccOptions::Check() const {
+  if (min_overlap_pixels < 2) {
+    ThrowField("MaskedNccOptions.min_overlap_pixels", min_overlap_pixels, ">= 2 [px]");
+  }
+  if (!(min_overlap_fraction >= 0.0 && min_overlap_fraction <= 1.0)) {
+    ThrowField("MaskedNccOptions.min_overlap_fraction", min_overlap_fraction,
+               "a fraction in [0, 1]");
+  }
+  if (!(std::isfinite(min_stddev) && min_stddev >= 0.0)) {
+    ThrowField("MaskedNccOptions.min_stddev", min_stddev, "a finite value >= 0");
+  }
+  if (search_window) {
+    const ShiftWindow& w = *search_window;
+    if (w.min_shift_x > w.max_shift_x) {
+      ThrowField("MaskedNccOptions.search_window.min_shift_x", w.min_shift_x,
+                 "<= search_window.max_shift_x (" + std::to_string(w.max_shift_x) + ")");
+    }
+    if (w.min_shift_y > w.max_shift_y) {
+      ThrowField("MaskedNccOptions.search_window.min_shift_y", w.min_shift_y,
+                 "<= search_window.max_shift_y (" + std::to_string(w.max_shift_y) + ")");
+    }
+  }
+}
+
+bool DirectNccIsCheaper(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
+                        const cv::Mat& moving_mask, const MaskedNccOptions& options) {
+  const Problem p = MakeProblem(fixed, fixed_mask, moving, moving_mask, options);
+  return p.rows > 0 && DirectCost(p) < FftCost(p);
+}
+
+MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
+                           const cv::Mat& moving_mask, const MaskedNccOptions& options) {
+  const Problem p = MakeProblem(fixed, fixed_mask, moving, moving_mask, options);
+  if (p.rows == 0) return EmptySurface(p);
+  switch (options.method) {
+    case NccMethod::kFft:
+      return FftSurface(p);
+    case NccMethod::kDirect:
+      return DirectSurface(p);
+    case NccMethod::kAuto:
+      break;
+  }
+  return DirectCost(p) < FftCost(p) ? DirectSurface(p) : FftSurface(p);
+}
+
+MaskedNccSurface MaskedNccNaive(const cv::Mat& fixed, const cv::Mat& fixed_mask,
+                                const cv::Mat& moving, const cv::Mat& moving_mask,
+                                const MaskedNccOptions& options) {
+  MaskedNccOptions direct = options;
+  direct.method = NccMethod::kDirect;
+  return MaskedNcc(fixed, fixed_mask, moving, moving_mask, direct);
 }
 
 void PeakOptions::Check() const {

@@ -936,7 +936,7 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   out.false_match_probability = significance.false_match_probability;
   // Structured look-alikes: do the template's quadrants fit where the whole does?
   PartConsistency parts;
-  if (options.check_parts) {
+  if (options.check_parts && out.false_match_probability <= options.max_false_match) {
     parts = CheckPartConsistency(
         orbital_pyramid[0], hp_template, cv::Point(fine.shift_x, fine.shift_y),
         static_cast<int>(std::ceil(2.0 * exclusion_px)), options.min_overlap_fraction);

@@ -17,6 +17,13 @@
 namespace areomap {
 namespace {
 
+// The options with the FFT route forced (the cost model would pick direct summation for the
+// small problems these tests compare against it).
+MaskedNccOptions Fft(MaskedNccOptions options) {
+  options.method = NccMethod::kFft;
+  return options;
+}
+
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
 // Uniform noise blurred with a Gaussian of `sigma` [px] (no blur for sigma = 0), scaled to
@@ -107,7 +114,7 @@ TEST(MaskedNcc, FftMatchesNaiveSummationOnRandomMaskedImagesWithNaNHoles) {
     AddNaNHoles(moving, 0.05, rng);
     const cv::Mat fixed_mask = RandomMask(k.fixed_rows, k.fixed_cols, 0.8, rng);
     const cv::Mat moving_mask = RandomMask(k.moving_rows, k.moving_cols, 0.8, rng);
-    const MaskedNccSurface fft = MaskedNcc(fixed, fixed_mask, moving, moving_mask, options);
+    const MaskedNccSurface fft = MaskedNcc(fixed, fixed_mask, moving, moving_mask, Fft(options));
     const MaskedNccSurface naive = MaskedNccNaive(fixed, fixed_mask, moving, moving_mask, options);
     EXPECT_EQ(fft.shift_x0, -(k.moving_cols - 1));
     EXPECT_EQ(fft.shift_y0, -(k.moving_rows - 1));
@@ -116,7 +123,7 @@ TEST(MaskedNcc, FftMatchesNaiveSummationOnRandomMaskedImagesWithNaNHoles) {
     ExpectSurfacesEqual(fft, naive, 1e-4);
     // A fixed image without holes takes a shortcut (integral images for three sums).
     const cv::Mat whole = RandomTexture(k.fixed_rows, k.fixed_cols, 0.0, rng);
-    ExpectSurfacesEqual(MaskedNcc(whole, {}, moving, moving_mask, options),
+    ExpectSurfacesEqual(MaskedNcc(whole, {}, moving, moving_mask, Fft(options)),
                         MaskedNccNaive(whole, {}, moving, moving_mask, options), 1e-4);
   }
 }
@@ -131,7 +138,7 @@ TEST(MaskedNcc, SearchWindowSurfaceMatchesNaiveAndTheFullSurface) {
   options.min_overlap_fraction = 0.2;
   // Clipped to the shifts where the template touches the image: x >= -16, y <= 59.
   options.search_window = ShiftWindow{-25, 9, 40, 70};
-  const MaskedNccSurface window = MaskedNcc(fixed, {}, moving, moving_mask, options);
+  const MaskedNccSurface window = MaskedNcc(fixed, {}, moving, moving_mask, Fft(options));
   EXPECT_EQ(window.shift_x0, -16);
   EXPECT_EQ(window.shift_y0, 40);
   EXPECT_EQ(window.ncc.cols, 9 - (-16) + 1);
@@ -173,12 +180,12 @@ TEST(MaskedNcc, FftMatchesNaiveSummationInRandomSearchWindows) {
     SCOPED_TRACE(::testing::Message() << "window x " << w.min_shift_x << ".." << w.max_shift_x
                                       << ", y " << w.min_shift_y << ".." << w.max_shift_y);
     options.search_window = w;
-    const MaskedNccSurface fft = MaskedNcc(fixed, fixed_mask, moving, moving_mask, options);
+    const MaskedNccSurface fft = MaskedNcc(fixed, fixed_mask, moving, moving_mask, Fft(options));
     const MaskedNccSurface naive = MaskedNccNaive(fixed, fixed_mask, moving, moving_mask, options);
     ASSERT_EQ(fft.empty(), naive.empty());
     if (fft.empty()) continue;
     windows_with_scores += ExpectSurfacesEqual(fft, naive, 1e-4, /*min_finite_fraction=*/0.0) > 0;
-    ExpectSurfacesEqual(MaskedNcc(whole, {}, moving, moving_mask, options),
+    ExpectSurfacesEqual(MaskedNcc(whole, {}, moving, moving_mask, Fft(options)),
                         MaskedNccNaive(whole, {}, moving, moving_mask, options), 1e-4, 0.0);
   }
   EXPECT_GE(windows_with_scores, 8);
@@ -405,6 +412,32 @@ TEST(MaskedNcc, RejectsWrongImageAndMaskTypes) {
   EXPECT_NE(message.find("moving mask"), std::string::npos) << message;
   message = testing::ErrorMessageOf([&] { MaskedNccNaive(image, {}, cv::Mat(), {}); });
   EXPECT_NE(message.find("moving image is empty"), std::string::npos) << message;
+}
+
+TEST(MaskedNcc, PicksDirectSummationForFewShiftsAndFftsForManyWithTheSameSurface) {
+  cv::RNG rng(3);
+  cv::Mat fixed(300, 300, CV_32F);
+  rng.fill(fixed, cv::RNG::UNIFORM, 0.0, 1.0);
+  cv::GaussianBlur(fixed, fixed, cv::Size(), 1.5);
+  const cv::Mat moving = fixed(cv::Rect(100, 90, 64, 48)).clone();
+  MaskedNccOptions few;
+  few.search_window = ShiftWindow::Around(100, 90, 1);
+  EXPECT_TRUE(DirectNccIsCheaper(fixed, {}, moving, {}, few));
+  MaskedNccOptions many;  // Every shift of a 300 px image.
+  EXPECT_FALSE(DirectNccIsCheaper(fixed, {}, moving, {}, many));
+  for (const MaskedNccOptions& options : {few, many}) {
+    MaskedNccOptions fft = options, direct = options;
+    fft.method = NccMethod::kFft;
+    direct.method = NccMethod::kDirect;
+    const MaskedNccSurface picked = MaskedNcc(fixed, {}, moving, {}, options);
+    ExpectSurfacesEqual(picked, MaskedNcc(fixed, {}, moving, {}, fft), 1e-4);
+    ExpectSurfacesEqual(picked, MaskedNcc(fixed, {}, moving, {}, direct), 1e-4);
+  }
+  // No shift to compute: nothing is cheaper, the surface is empty either way.
+  MaskedNccOptions outside;
+  outside.search_window = ShiftWindow::Around(5000, 5000, 1);
+  EXPECT_FALSE(DirectNccIsCheaper(fixed, {}, moving, {}, outside));
+  EXPECT_TRUE(MaskedNcc(fixed, {}, moving, {}, outside).empty());
 }
 
 }  // namespace

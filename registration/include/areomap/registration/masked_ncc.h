@@ -38,6 +38,11 @@ struct ShiftWindow {
   static ShiftWindow Around(int x, int y, int radius);
 };
 
+// How MaskedNcc computes a surface: by FFTs, by direct summation over each shift, or by the one
+// its cost model says is cheaper for the sizes at hand (as cv::matchTemplate picks between its
+// DFT and direct paths). Both give the same surface to ~1e-6.
+enum class NccMethod { kAuto, kFft, kDirect };
+
 struct MaskedNccOptions {
   // Shifts whose overlap has fewer valid pixel pairs than
   // max(min_overlap_pixels, ceil(min_overlap_fraction * valid template pixels)) get NaN.
@@ -50,6 +55,7 @@ struct MaskedNccOptions {
   // When set, only these shifts are computed (a prior position limits the search); the fixed
   // image is cropped to the pixels they can reach, so a small window is also fast.
   std::optional<ShiftWindow> search_window;
+  NccMethod method = NccMethod::kAuto;
 
   // Throws areomap::Error naming the field and the rule it broke.
   void Check() const;
@@ -75,7 +81,8 @@ struct MaskedNccSurface {
 };
 
 // Masked NCC of `moving` (the template, e.g. the rover orthophoto) against `fixed` (e.g. the
-// orbital image) for all shifts, or those of options.search_window. Through FFTs (cv::dft on
+// orbital image) for all shifts, or those of options.search_window. By direct summation where
+// that costs less (options.method, DirectNccIsCheaper), else through FFTs (cv::dft on
 // cv::getOptimalDFTSize sizes, in double precision, run as parallel TBB tasks): six
 // correlations, or three plus integral images where the fixed image has no invalid pixel in
 // reach. Agrees with MaskedNccNaive to ~1e-6 or better. Cost O(P log P) with P the padded
@@ -85,6 +92,12 @@ struct MaskedNccSurface {
 // CV_8UC1 of its image's size, or the options fail Check().
 MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
                            const cv::Mat& moving_mask, const MaskedNccOptions& options = {});
+
+// Whether MaskedNcc's cost model (NccMethod::kAuto) picks direct summation for these inputs:
+// the shifts times the valid template pixels against the FFT route's transforms of its padded
+// size. Same arguments and errors as MaskedNcc; false when no shift is computed.
+bool DirectNccIsCheaper(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
+                        const cv::Mat& moving_mask, const MaskedNccOptions& options = {});
 
 // The same surface by direct summation over each shift: the reference the FFT version is
 // tested and benchmarked against. Cost O(shifts x template pixels): only for small images or

@@ -81,7 +81,8 @@ struct OrbitalMatchOptions {
   double max_false_match = 1e-3;
   // A match far above chance is also refused where a quadrant of the template fits clearly
   // better elsewhere (part_consistency.h: a look-alike of part of the template, such as one
-  // crater wall on another crater). Off only for experiments.
+  // crater wall on another crater); tested only where the false-match probability passes.
+  // Off only for experiments.
   bool check_parts = true;
   double exclusion_radius_m = 3.0;  // Runner-ups lie farther than this [m] and 3 px from the best.
   int min_template_pixels = 400;    // Fewer valid template pixels at full resolution: no match.
