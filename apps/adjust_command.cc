@@ -8,6 +8,17 @@
 
 namespace areomap::cli {
 
+// What `areomap adjust --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kAdjustDetails =
+    "Bundle adjustment of a rover traverse (Ceres): site poses and landmarks from stereo or pixel\n"
+    "tie points, orbital control points, telemetry/VO pose priors and DTM heights, each with its\n"
+    "own covariance; Huber loss, normalized residual tests (rejections with reasons), 6×6\n"
+    "covariance per site; `--rock-tie-variance-factor` scales the rock tie points' covariances.\n"
+    "Writes the traverse in the site frame, MBF and lat/lon/h with 1σ ellipses (CSV, GeoPackage), "
+    "a\n"
+    "per-leg RE table, a traverse map over the orbital image, `adjustment.json` and `report.txt`.\n"
+    "Input format: docs/adjustment-format.md.";
+
 void AddAdjustCommand(CLI::App& app, const GlobalOptions& global) {
   struct Options {
     std::vector<std::string> inputs;
@@ -20,6 +31,7 @@ void AddAdjustCommand(CLI::App& app, const GlobalOptions& global) {
       "adjust",
       "Bundle-adjust a rover traverse (site poses from tie points, orbital control points, pose "
       "priors, heights) and anchor it in Mars body-fixed coordinates with 1-sigma ellipses");
+  cmd->footer(kAdjustDetails);
   cmd->add_option("inputs", o->inputs,
                   "Adjustment input JSON files, merged in order (docs/adjustment-format.md)")
       ->required();

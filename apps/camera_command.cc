@@ -222,10 +222,21 @@ void WriteFootprints(const FootprintOptions& options, const GlobalOptions& globa
 
 }  // namespace
 
+// What `areomap camera --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kCameraDetails =
+    "The CAHV/CAHVOR/CAHVORE camera model of a MER product from its label (C, A, H, V, O, R, E;\n"
+    "principal point, focal lengths, IFOV), in the label's frame or moved to the site frame with\n"
+    "the label's rover→site pose; `linearize` gives the CAHV model that resamples the image "
+    "without\n"
+    "distortion, `footprint` plots the images' ground footprints, `project` maps 3D points on "
+    "stdin\n"
+    "to pixels. `areomap ortho` takes CAHV/CAHVOR frames only (not the CAHVORE Hazcam).";
+
 void AddCameraCommand(CLI::App& app, const GlobalOptions& global) {
   auto options = std::make_shared<CameraOptions>();
   auto* camera = app.add_subcommand(
       "camera", "Camera models of rover products (CAHV, CAHVOR, CAHVORE, pinhole .tsai)");
+  camera->footer(kCameraDetails);
   camera->require_subcommand(1);
   const auto add_common = [&](CLI::App* cmd) {
     cmd->add_option("file", options->file,

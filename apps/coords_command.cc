@@ -102,6 +102,25 @@ int RunCoords(const CoordsOptions& options, bool body_given) {
 
 }  // namespace
 
+// What `areomap coords --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kCoordsDetails =
+    "Converts points read one per line on stdin (GeographicLib-style). Systems: `mbf` (X Y Z m),\n"
+    "`planetocentric[,west][,360]` and `planetographic[,west][,360]` (lat lon [h]), `spherical`\n"
+    "(lat lon radius), `enu` and `site` (MER site frame: X north, Y east, Z down; need `--origin\n"
+    "LAT,LON[,H]`), `raster:FILE` (map x y of a raster's CRS), `pixel:FILE` (col row, pixel "
+    "centres\n"
+    "at +0.5), or any CRS GDAL/PROJ knows such as `IAU_2015:49910` (x/longitude first). `--body\n"
+    "mars2000|mars-sphere|mola-sphere`; without it, latitudes and heights are on the datum of the\n"
+    "raster or CRS on the other side (as `info` lists a raster's corners; a note on stderr says\n"
+    "so), else on the IAU 2000 ellipsoid. Every conversion goes through body-fixed XYZ, so a "
+    "point\n"
+    "keeps its place in space: from a sphere-based CRS to an ellipsoid-based one (e.g.\n"
+    "`IAU_2015:49910` to `49911`) the latitude and height change as the geometry demands, where\n"
+    "PROJ's `cs2cs` keeps the numbers of latitude and longitude (a \"ballpark\" change of datum) "
+    "and\n"
+    "differs from areomap by up to ~20 km in planetographic latitude. A bad line prints `nan nan\n"
+    "nan`, an error naming the line, and the exit status is 1; the other lines are converted.";
+
 void AddCoordsCommand(CLI::App& app, const GlobalOptions& /*global*/) {
   auto options = std::make_shared<CoordsOptions>();
   auto* cmd = app.add_subcommand(
@@ -112,6 +131,7 @@ void AddCoordsCommand(CLI::App& app, const GlobalOptions& /*global*/) {
       "site frame: X north, Y east, Z down; need --origin) | raster:FILE (map x y [h]) | "
       "pixel:FILE (col row [h], pixel centres at +0.5) | any CRS GDAL knows, e.g. "
       "IAU_2015:49910 (x/lon first)");
+  cmd->footer(kCoordsDetails);
   cmd->add_option("--from", options->from, "Input coordinate system")->required();
   cmd->add_option("--to", options->to, "Output coordinate system")->required();
   CLI::Option* body =

@@ -66,10 +66,18 @@ Georeference ReadGeoreference(const DtmCommandOptions& o) {
 
 }  // namespace
 
+// What `areomap dtm --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kDtmDetails =
+    "Grids stereo point clouds (`areomap stereo`) of one or more sites into `dtm.tif` (elevation,\n"
+    "point count, standard deviation, propagated 1σ; nodata NaN) on the mission's local map\n"
+    "(equirectangular on the local-radius sphere at the origin, as HiRISE RDRs) or `--crs` any\n"
+    "projected Mars CRS. `--method tin|mean|max|idw`, `--posting`, `--max-edge` (TIN gaps).";
+
 void AddDtmCommand(CLI::App& app, const GlobalOptions& global) {
   auto o = std::make_shared<DtmCommandOptions>();
   auto* cmd = app.add_subcommand(
       "dtm", "Grid stereo point clouds (areomap stereo) of one or more sites into a DTM GeoTIFF");
+  cmd->footer(kDtmDetails);
   cmd->add_option("clouds", o->clouds, "Point clouds (PLY from areomap stereo), site frames")
       ->required();
   cmd->add_option("--out", o->out, "Output folder (created if needed)")->required();

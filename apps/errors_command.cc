@@ -15,6 +15,14 @@
 
 namespace areomap::cli {
 
+// What `areomap errors simulate --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kErrorsSimulateDetails =
+    "The localization error study of ch. 4.1 (eqs. 4.1–4.9): relative error RE against "
+    "convergence\n"
+    "angle for 2–9 landmarks and traverse lengths 7.5–25 m with Navcam parameters (`--lengths`,\n"
+    "`--landmarks`, `--sigma-p`, `--baseline`, `--focal-px`), as `study.csv`, `summary.json` and\n"
+    "one plot per length (`re_<length>m.png`).";
+
 void AddErrorsCommand(CLI::App& app, const GlobalOptions& global) {
   auto* errors = app.add_subcommand("errors", "Rover localization error analysis (ch. 4.1)");
   errors->require_subcommand(1);
@@ -27,6 +35,7 @@ void AddErrorsCommand(CLI::App& app, const GlobalOptions& global) {
       "simulate",
       "Relative localization error (eq. 4.9) against convergence angle for 2, 3, 4, 6, 9 "
       "landmarks and several traverse lengths (Figs. 4.2-4.5): study.csv, re_<length>m.png");
+  simulate->footer(kErrorsSimulateDetails);
   simulate->add_option("--out", o->out, "Output folder (created if needed)")->required();
   simulate->add_option("--lengths", o->study.traverse_lengths_m, "Traverse lengths [m]")
       ->check(NumberIn(0.0, 1000.0, Bound::kOpen))

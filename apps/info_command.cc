@@ -162,9 +162,19 @@ double ValidFraction(const std::string& file) {
 
 }  // namespace
 
+// What `areomap info --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kInfoDetails =
+    "Size, type, nodata, the share of valid pixels of band 1 (a warning when there is none), the\n"
+    "CRS in Mars terms (body, radii, latitude type, longitude direction, projection), corner\n"
+    "coordinates in planetocentric latitude / east longitude; for MER products the camera model\n"
+    "(CAHV/CAHVOR/CAHVORE components) and the frames named in the label (e.g. `ROVER_FRAME ->\n"
+    "SITE_FRAME` quaternion and offset). `--json` for scripts, `--lon-domain 180|360`. Reads\n"
+    "GeoTIFF, PDS3 `.IMG`, ISIS3 `.cub`, VICAR, JPEG 2000, PNG — anything GDAL reads.";
+
 void AddInfoCommand(CLI::App& app, const GlobalOptions& /*global*/) {
   auto* cmd = app.add_subcommand(
       "info", "Describe rasters: size, type, Mars CRS, corner coordinates, camera and frames");
+  cmd->footer(kInfoDetails);
   auto files = std::make_shared<std::vector<std::string>>();
   auto json = std::make_shared<bool>(false);
   auto domain = std::make_shared<std::string>("360");

@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 
 #include "areomap/map/error.h"
+#include "cli_reference.h"
 #include "commands.h"
 
 namespace {
@@ -44,7 +45,8 @@ int main(int argc, char** argv) {
   // Ceres logs through glog (a failed crater fit, a rank-deficient Jacobian in the adjustment);
   // the commands report what matters in their summaries, so only fatal glog messages reach stderr.
   FLAGS_minloglevel = google::GLOG_FATAL;
-  CLI::App app{"areomap: register Mars rover data to orbital data and make maps from both"};
+  CLI::App app{"areomap: register Mars rover data to orbital data and make maps from both",
+               "areomap"};
   app.set_version_flag("--version", std::string("areomap ") + AREOMAP_VERSION);
   app.require_subcommand(1);
   app.fallthrough();  // Global options (--quiet) may follow the subcommand.
@@ -69,6 +71,7 @@ int main(int argc, char** argv) {
   areomap::cli::AddOrthoCommand(app, global);
   areomap::cli::AddMosaicCommand(app, global);
   areomap::cli::AddRocksCommand(app, global);
+  areomap::cli::AddCliReferenceCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

@@ -12,12 +12,18 @@
 
 namespace areomap::cli {
 
+// What `areomap mosaic --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kMosaicDetails =
+    "Blends per-site orthophotos into `mosaic.tif` with feathered seams (`--feather` m), keeping\n"
+    "mask, resolution and source id.";
+
 void AddMosaicCommand(CLI::App& app, const GlobalOptions& global) {
   auto inputs = std::make_shared<std::vector<std::string>>();
   auto out_dir = std::make_shared<std::string>();
   auto options = std::make_shared<MosaicOptions>();
   auto* cmd = app.add_subcommand(
       "mosaic", "Blend per-site orthophotos (areomap ortho) into one orthomosaic, feathered seams");
+  cmd->footer(kMosaicDetails);
   cmd->add_option("orthophotos", *inputs, "Orthophoto GeoTIFFs on one grid (areomap ortho)")
       ->required();
   cmd->add_option("--out", *out_dir, "Output folder (created if needed)")->required();

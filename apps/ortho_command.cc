@@ -70,10 +70,19 @@ cv::Mat ReadAnyImage(const std::filesystem::path& path) {
 
 }  // namespace
 
+// What `areomap ortho --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kOrthoDetails =
+    "Drapes one site's rover images on a DTM: per cell within `--max-range` of the cameras\n"
+    "(wherever the rover stands in its site frame, e.g. a MER frame tens of metres from its site\n"
+    "origin) the visible image (depth test) with the finest ground sample, bilinear; `ortho.tif`\n"
+    "with the image, a validity mask, the resolution map [m] and the source-image id; a warning\n"
+    "says why when nothing was painted.";
+
 void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
   auto o = std::make_shared<OrthoCommandOptions>();
   auto* cmd = app.add_subcommand(
       "ortho", "Orthophoto of one site's rover images on a DTM (best image per cell, depth test)");
+  cmd->footer(kOrthoDetails);
   cmd->add_option("images", o->images,
                   "Rover images of one site (PNG with a .json label beside it, or MER .IMG)")
       ->required();

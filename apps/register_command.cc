@@ -175,10 +175,35 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
 
 }  // namespace
 
+// What `areomap register --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kRegisterDetails =
+    "Puts a rover orthophoto (any Mars GeoTIFF; nodata or band 2 = validity mask) where it "
+    "belongs\n"
+    "on one or more orbital images: resampled to the orbital GSD (Gaussian low-pass, 80 m "
+    "reliable\n"
+    "range, `--range-m`), masked NCC in the Fourier domain coarse to fine inside the prior's "
+    "window\n"
+    "(`--prior-lat/--prior-lon/--prior-sigma-m`, 3 sigma), optional rotation/scale search\n"
+    "(`--max-rotation-deg`, `--max-scale-change`; the best grid value refined at full "
+    "resolution),\n"
+    "subpixel peak; \"no match\" when the probability that the peak is a chance alignment (the "
+    "peak\n"
+    "against the correlation surface at wrong shifts, random field theory:\n"
+    "`registration/include/areomap/registration/peak_significance.h`) exceeds `--max-false-match`\n"
+    "(default 1e-3), reported per match as `false_match_probability` in `summary.json` and the\n"
+    "control points. Writes the rover's correction (east/north m, 1 sigma; with a rotation, the\n"
+    "template's shift plus its turn about the rover, and the rotation's error times the rover's\n"
+    "lever in the sigma; `rotation_sigma_deg`) and corrected position, CC surface PNGs, "
+    "Canny-edge\n"
+    "verification with Table 3.7 statistics and Fig. 3.15 world-view-vector histograms, the\n"
+    "registered orthophoto, control points (ortho px, orbital px, lat/lon/h from `--orbital-dtm`,\n"
+    "MBF and `--site` frame, covariance) as JSON/CSV, and `summary.json`.";
+
 void AddRegisterCommand(CLI::App& app, const GlobalOptions& global) {
   auto args = std::make_shared<RegisterArgs>();
   auto* cmd = app.add_subcommand(
       "register", "Register a rover orthophoto onto orbital images (masked NCC, edge check)");
+  cmd->footer(kRegisterDetails);
   cmd->add_option("ortho", args->ortho, "Rover orthophoto GeoTIFF (nodata or band 2 = mask)")
       ->required();
   cmd->add_option("orbital", args->orbitals, "Orbital images (any Mars GDAL raster)")->required();

@@ -194,8 +194,31 @@ void AddExtractionOptions(CLI::App* cmd, RockExtractionOptions& o) {
 
 }  // namespace
 
+// What `areomap rocks --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kRocksDetails =
+    "Rock landmarks from a stereo cloud (ch. 2.2.2, 2.3): peaks, background plane, height, "
+    "surface\n"
+    "points and the best of four models, as `rocks.csv`, `rocks.json` and a top-view plot\n"
+    "`rocks.png`; `--image LEFT.png` also paints the rocks over the cloud's left image\n"
+    "(`rocks_image.png`). `match`: cross-site tie points (ch. 3.2) with the Table 4.5 fault "
+    "report;\n"
+    "`--prior-sigma`/`--prior-heading-sigma` bound the search; `--tie-variance-factor` scales the\n"
+    "tie covariances (fit, RE, output); `--min-peak-to-plane` sets the height rule; two rocks are\n"
+    "compared by their measured heights, with `--compare-models` by their models (eq. 3.28) where\n"
+    "both rest on `--min-shape-points` (40) surface points or more; `--low-pair-height` (0.16 m)\n"
+    "the height under which a pair of rocks is matched only between precise peaks, unless the\n"
+    "global pattern vouches for it (its translation within `--pattern-vouch`, 0.2 m, of the\n"
+    "pattern's with `--pattern-vouch-votes`, 3, votes; such a pair is matched whatever its cost,\n"
+    "and a neighbour that would put the translation off the pattern does not make it ambiguous; "
+    "the\n"
+    "pattern's translation and turn, fitted to the rocks, are in `summary.json`'s `pattern`).\n"
+    "Writes `matches.csv`, `tie_points.json`, `faults.json/txt`. Findings on the demo and K10 "
+    "data:\n"
+    "docs/rocks.md.";
+
 void AddRocksCommand(CLI::App& app, const GlobalOptions& global) {
   auto* cmd = app.add_subcommand("rocks", "Rock landmarks from stereo point clouds (PLY)");
+  cmd->footer(kRocksDetails);
   cmd->require_subcommand(1);
 
   auto extract_args = std::make_shared<RocksArgs>();

@@ -125,6 +125,64 @@ void PrintRunSummary(const nlohmann::json& s) {
 
 }  // namespace
 
+// What `areomap run --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kRunDetails =
+    "The end-to-end job on a mission folder: per site dense stereo (`points.ply`; where a more\n"
+    "precise pair, e.g. Pancam over Navcam, sees the same ground only its points are kept,\n"
+    "`--keep-coarse-points` keeps all; each pair's points are kept 2 cm apart on the ground, 1 cm\n"
+    "for pairs whose pixels are finer than 0.5 mrad such as Pancam: `--point-spacing`,\n"
+    "`--fine-point-spacing`, `--fine-pair-ifov`), DTM and orthophoto GeoTIFFs and the "
+    "orthophoto's\n"
+    "registration onto the orbital image (control points); per leg rock extraction, cross-site\n"
+    "matching and the Table 4.5 fault report (tie points; `--rock-min-height` sets the height "
+    "rule,\n"
+    "12 cm of measured height for Table 4.5's 15 cm of rock; rock pairs compared by their "
+    "measured\n"
+    "heights, `--compare-models` by their models' eq. 3.28 with `--min-shape-points`;\n"
+    "`--low-pair-height`, 16 cm: a pair of rocks both lower is matched only between precise "
+    "peaks,\n"
+    "unless the global pattern vouches for it: its translation within `--pattern-vouch` (0.2 m) "
+    "of\n"
+    "the pattern's with `--pattern-vouch-votes` (3) votes, which also overrides the pair cost and\n"
+    "rules out as alternatives the neighbours that would put the translation off the pattern; the\n"
+    "pattern is fitted as a translation and a turn, the prior's heading error as the rocks "
+    "measure\n"
+    "it; docs/rocks.md), with the legs' conformal-fit residuals pooled into the rock ties'\n"
+    "a-posteriori σ0² (summary.json `rock_tie_variance`: how pessimistic the stereo covariances\n"
+    "are), then a second pass that matches every leg again with the tie covariances scaled by "
+    "that\n"
+    "factor's 95 % upper bound, so that fault detection (RE, the outlier test) judges the ties by\n"
+    "the precision the run's own legs show (`applied_factor`; a leg's first pass stays in its\n"
+    "`unit.json` `first_pass`; needs a pooled redundancy of 20; `--no-rock-variance-pass`; the\n"
+    "adjustment keeps the a-priori covariances), and the legs tested against each other (an F "
+    "test\n"
+    "of each leg's fit against the other legs' precision: a leg that fails loses its worst tie\n"
+    "points or is excluded, summary.json `legs[].leg_test`, `adjustment/rock_ties/`;\n"
+    "`--no-leg-test`, `--leg-test-alpha`, docs/rocks.md); craters on the orbital image "
+    "(`craters/`:\n"
+    "CSV, GeoPackage, overlay PNG, scored against `truth/craters.csv` when present); then the\n"
+    "bundle adjustment and anchored traverse (`adjustment/`: CSV, GeoPackage, traverse map), "
+    "after\n"
+    "which sites that did not register are matched again around their adjusted pose, in a window "
+    "of\n"
+    "3× their adjusted 1σ with a chance-level test, and the adjustment repeated (`guided/`,\n"
+    "summary.json `guided_registration`); the whole traverse's DTM and orthomosaic re-made with "
+    "the\n"
+    "adjusted poses (`products/traverse_dtm.tif`, `traverse_ortho.tif`, with their RMS against "
+    "the\n"
+    "orbital DTM for telemetry and adjusted poses); `report.html`; the wall time of each stage in\n"
+    "`summary.json` (`stage_seconds`). Every file the manifest names is checked before work "
+    "starts;\n"
+    "finished sites and legs are reused when the run is repeated or resumed after an "
+    "interruption,\n"
+    "as long as no file the manifest names has changed (size or modification time; any change\n"
+    "reruns every site and leg).";
+
+// What `areomap report --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kReportDetails =
+    "Re-writes `DIR/report.html` (one self-contained page: key figures, traverse map, sites and\n"
+    "legs tables, registration details, fault-detection tables) from a run folder.";
+
 void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
   struct Options {
     std::string mission;
@@ -142,6 +200,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
       "The whole job on a mission folder: stereo, DTM and orthophoto per site, registration onto "
       "the orbital image, rock tie points with fault detection per leg, bundle adjustment, the "
       "anchored traverse and report.html. Finished sites and legs are reused on a re-run.");
+  run->footer(kRunDetails);
   run->add_option("MISSION", o->mission, "Mission folder (or its mission.json)")->required();
   run->add_option("--out", o->out, "Output folder (created if needed)")->required();
   // Beyond the stereo's nearest range, which run does not change.
@@ -235,6 +294,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
 
   auto report_dir = std::make_shared<std::string>();
   auto* report = app.add_subcommand("report", "Writes DIR/report.html from a finished run folder");
+  report->footer(kReportDetails);
   report->add_option("DIR", *report_dir, "The --out folder of `areomap run`")->required();
   report->callback([report_dir, &global] {
     WriteRunReport(*report_dir);

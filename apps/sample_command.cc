@@ -7,11 +7,17 @@
 
 namespace areomap::cli {
 
+// What `areomap sample --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kSampleDetails =
+    "Writes a single small DTM GeoTIFF with one crater (`--seed`, `--size`, `--posting`, `--lat`,\n"
+    "`--lon`, `--crater-diameter`): a fixture for raster and CRS work.";
+
 void AddSampleCommand(CLI::App& app, const GlobalOptions& global) {
   auto options = std::make_shared<SampleTerrainOptions>();
   auto out_dir = std::make_shared<std::string>();
   auto* cmd = app.add_subcommand(
       "sample", "Write the built-in sample: a small Mars DTM GeoTIFF with one fresh crater");
+  cmd->footer(kSampleDetails);
   cmd->add_option("--out", *out_dir, "Output folder (created if needed)")->required();
   auto* group = cmd->add_option_group("Terrain");
   group->add_option("--seed", options->seed, "Seed of the background relief")

@@ -6,6 +6,20 @@
 
 namespace areomap::cli {
 
+// What `areomap simulate --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kSimulateDetails =
+    "Generates a synthetic mission with known truth: fractal terrain, fresh craters (bowl or flat\n"
+    "floor, raised rim), rocks (hemispheroid, semi-ellipsoid, cone, tetrahedron; Golombek–Rapp\n"
+    "size–frequency, k = 0.05 of the Gusev plains or `--rock-abundance K`) along the traverse, a\n"
+    "HiRISE-like orthoimage (Lambertian shading, cast shadows, MTF, noise, 10-bit) and DTM, a\n"
+    "traverse with telemetry errors (5 % leg scale, 2° heading drift per leg by default), a "
+    "Navcam\n"
+    "stereo panorama per site (`--navcam-pairs`, `--navcam-fov`), optionally a Pancam one\n"
+    "(`--pancam-pairs 22`: ~4x more precise stereo, which takes 20–25 m legs from 3 to 12 of 12\n"
+    "with rock tie points, docs/rocks.md) and the truth files. `long` is a ~1.1 km, 46-site\n"
+    "traverse with a second-sun image and a CTX-like 6 m image.\n"
+    "`--lat/--lon/--sites/--min-leg/--max-leg` override the preset.";
+
 void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
   struct Overrides {
     std::string preset = "demo";
@@ -25,6 +39,7 @@ void AddSimulateCommand(CLI::App& app, const GlobalOptions& global) {
       "simulate",
       "Generate a synthetic mission with known truth: terrain with craters and rocks, HiRISE-like "
       "orthoimage and DTM, a rover traverse with telemetry errors (docs/mission-format.md)");
+  cmd->footer(kSimulateDetails);
   cmd->add_option("--preset", o->preset, "demo (small, ~1 min) or long (~1.1 km traverse)")
       ->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of every random choice")

@@ -73,10 +73,24 @@ cv::Mat ReadStereoImage(const std::filesystem::path& path) {
 
 }  // namespace
 
+// What `areomap stereo --help` and docs/cli.md say about the command beyond its options.
+constexpr const char* kStereoDetails =
+    "Dense stereo of one pair (labels beside the images, or `--left-camera`/`--right-camera`\n"
+    "CAHVOR/CAHVORE/`.tsai` files): epipolar rectification, SGBM in both directions with "
+    "left–right\n"
+    "check, triangulation with the eq. 4.3 covariance, a line-of-sight check that drops points\n"
+    "buried under the ground seen in front of them (the rover's own deck) or floating over the\n"
+    "ground seen behind them (`--no-line-of-sight` keeps them; docs/stereo.md), into "
+    "`points.ply`,\n"
+    "`disparity.png`, `summary.json` (valid fraction of the overlap, vertical disparity\n"
+    "before/after the orientation fit). `--tie-points` adds `tie_points.csv`: Förstner interest\n"
+    "points matched by NCC with the Table 4.5 filters (ch. 2.2.2).";
+
 void AddStereoCommand(CLI::App& app, const GlobalOptions& global) {
   auto o = std::make_shared<StereoCommandOptions>();
   auto* cmd = app.add_subcommand(
       "stereo", "Dense stereo of a rectified pair into 3D points with covariance (points.ply)");
+  cmd->footer(kStereoDetails);
   cmd->add_option("left", o->left, "Left image (PNG with a label beside it, or MER .IMG)")
       ->required();
   cmd->add_option("right", o->right, "Right image")->required();
