@@ -35,7 +35,10 @@ std::string OptionName(const CLI::Option& option) {
 // A subcommand inherits its parent's footer (CLI11): printed once, with the parent.
 void AppendCommand(const CLI::App& command, const std::string& path, std::ostringstream& out) {
   out << "## `" << path << "`\n\n";
-  if (!command.get_description().empty()) out << command.get_description() << ".\n\n";
+  const std::string& description = command.get_description();
+  if (!description.empty()) {
+    out << description << (description.back() == '.' ? "" : ".") << "\n\n";
+  }
   const CLI::App* parent = command.get_parent();
   if (!command.get_footer().empty() &&
       (parent == nullptr || parent->get_footer() != command.get_footer())) {
