@@ -1,7 +1,9 @@
 // areomap mosaic ORTHO.tif... --out DIR: per-site orthophotos blended into one orthomosaic with
 // feathered seams (mosaic.tif: image, valid mask, resolution map, source id; Mars CRS, nodata).
+#include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,14 +37,30 @@ void AddMosaicCommand(CLI::App& app, const GlobalOptions& global) {
     OutputFolder out(
         *out_dir, OutputPolicy(global, "mosaic", {"mosaic.tif"}, {inputs->begin(), inputs->end()}));
     const ProgressCallback progress = MakeProgressBar(global, "mosaic");
+    // Each input is read only over its painted cells (its valid band scanned in strips first):
+    // memory by what is painted, not by the raster; an input with none adds nothing.
     std::vector<Orthophoto> orthophotos;
+    std::string first;  // The first input kept.
     for (const std::string& path : *inputs) {
-      orthophotos.push_back(ReadOrthophoto(path));
+      const std::optional<GridSpec> painted = OrthophotoValidWindow(path);
+      if (!painted) {
+        std::fprintf(stderr,
+                     "warning: %s: no painted cell (band 'valid' is 0 everywhere); left out\n",
+                     path.c_str());
+        continue;
+      }
+      orthophotos.push_back(ReadOrthophoto(path, *painted));
+      if (first.empty()) first = path;
       const Orthophoto& o = orthophotos.back();
       Crs::FromWkt(o.crs_wkt, path).RequireMars();
       if (o.crs_wkt != orthophotos.front().crs_wkt) {
-        throw Error(path + ": its CRS differs from " + inputs->front() + "'s");
+        throw Error(path + ": its CRS differs from " + first + "'s");
       }
+    }
+    if (orthophotos.empty()) {
+      throw Error(
+          "no input orthophoto has a painted cell (band 'valid' is 0 everywhere): "
+          "nothing to blend");
     }
     const GridSpec grid = CommonGrid(orthophotos);
     const Orthophoto mosaic =

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,7 @@
 
 #include "areomap/map/cahvor.h"
 #include "areomap/map/crs.h"
+#include "areomap/map/dtm.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "areomap/map/orthophoto.h"
@@ -126,13 +128,24 @@ void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
         Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(RadFromDeg(o->heading_correction_deg),
                                                      Eigen::Vector3d::UnitZ())),
                 Eigen::Vector3d(o->site_position[0], o->site_position[1], o->site_position[2])));
-    const Dtm dtm = ReadDtm(o->dtm);
-    const MapFrame map = MapFrame::FromCrs(body, Crs::FromWkt(dtm.crs_wkt, o->dtm));
     std::vector<OrthoSourceImage> sources;
     for (size_t i = 0; i < o->images.size(); ++i) {
       sources.push_back(
           {static_cast<int>(i), ReadAnyImage(o->images[i]), CameraInSite(o->images[i])});
     }
+    // Only the DTM's cells within reach of the cameras are read (a DTM may be a whole orbital
+    // product): its metadata first, then that window.
+    const RasterInfo dtm_info = RasterDataset::Open(o->dtm).info();
+    if (dtm_info.crs_wkt.empty()) throw Error(o->dtm + ": the DTM has no CRS");
+    const MapFrame map = MapFrame::FromCrs(body, Crs::FromWkt(dtm_info.crs_wkt, o->dtm));
+    const std::optional<GridSpec> reach =
+        OrthophotoWindow(GridOfRaster(dtm_info, o->dtm), site, map, sources, o->ortho);
+    if (!reach) {
+      throw Error(o->dtm +
+                  ": the DTM does not reach the cameras (no cell within --max-range of "
+                  "them)");
+    }
+    const Dtm dtm = ReadDtm(o->dtm, *reach);
     const Orthophoto ortho = MakeOrthophoto(dtm, site, map, sources, o->ortho, progress);
     WriteOrthophoto(out / "ortho.tif", ortho);
     const std::filesystem::path path = out.final_dir() / "ortho.tif";

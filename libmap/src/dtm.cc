@@ -172,22 +172,23 @@ GridSpec GridOfRaster(const RasterInfo& info, const std::string& source) {
   return grid;
 }
 
-Dtm ReadDtm(const std::filesystem::path& path) {
-  const RasterDataset dataset = RasterDataset::Open(path);
+namespace {
+
+// The DTM's bands over `cells` (pixels of the raster) on `grid` (their grid).
+Dtm ReadDtmCells(const RasterDataset& dataset, const PixelWindow& cells, const GridSpec& grid) {
   const RasterInfo& info = dataset.info();
-  if (info.crs_wkt.empty()) throw Error(path.string() + ": the DTM has no CRS");
   Dtm dtm;
   dtm.crs_wkt = info.crs_wkt;
   GriddedLayers& l = dtm.layers;
-  l.grid = GridOfRaster(info, path.string());
-  l.elevation = dataset.ReadWindowFloat(1, dataset.FullWindow());
+  l.grid = grid;
+  l.elevation = dataset.ReadWindowFloat(1, cells);
   const bool layered = info.band_count >= 4;
   l.count = cv::Mat(l.grid.height, l.grid.width, CV_32S, cv::Scalar(0));
-  if (layered) dataset.ReadWindowFloat(2, dataset.FullWindow()).convertTo(l.count, CV_32S);
-  l.stddev = layered ? dataset.ReadWindowFloat(3, dataset.FullWindow())
+  if (layered) dataset.ReadWindowFloat(2, cells).convertTo(l.count, CV_32S);
+  l.stddev = layered ? dataset.ReadWindowFloat(3, cells)
                      : cv::Mat(l.grid.height, l.grid.width, CV_32F,
                                cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-  l.sigma = layered ? dataset.ReadWindowFloat(4, dataset.FullWindow())
+  l.sigma = layered ? dataset.ReadWindowFloat(4, cells)
                     : cv::Mat(l.grid.height, l.grid.width, CV_32F,
                               cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   for (int row = 0; row < l.grid.height; ++row) {
@@ -196,6 +197,32 @@ Dtm ReadDtm(const std::filesystem::path& path) {
     }
   }
   return dtm;
+}
+
+RasterDataset OpenDtm(const std::filesystem::path& path) {
+  RasterDataset dataset = RasterDataset::Open(path);
+  if (dataset.info().crs_wkt.empty()) throw Error(path.string() + ": the DTM has no CRS");
+  return dataset;
+}
+
+}  // namespace
+
+Dtm ReadDtm(const std::filesystem::path& path) {
+  const RasterDataset dataset = OpenDtm(path);
+  return ReadDtmCells(dataset, dataset.FullWindow(), GridOfRaster(dataset.info(), path.string()));
+}
+
+Dtm ReadDtm(const std::filesystem::path& path, const GridSpec& window) {
+  const RasterDataset dataset = OpenDtm(path);
+  const GridSpec whole = GridOfRaster(dataset.info(), path.string());
+  Eigen::Vector2i offset;
+  try {
+    offset = window.OffsetIn(whole);
+  } catch (const Error&) {
+    throw Error(path.string() + ": the window asked for is not a window of the DTM's grid");
+  }
+  return ReadDtmCells(dataset, PixelWindow{offset.x(), offset.y(), window.width, window.height},
+                      window);
 }
 
 }  // namespace areomap

@@ -184,6 +184,29 @@ GeoRaster Orthophoto::ToGeoRaster() const {
   return raster;
 }
 
+std::optional<GridSpec> OrthophotoWindow(const GridSpec& dtm_grid, const SiteGeoreference& site,
+                                         const MapFrame& map,
+                                         const std::vector<OrthoSourceImage>& images,
+                                         const OrthoOptions& options) {
+  // The cameras, not the site origin: a MER rover works tens of metres from its site's origin.
+  // Map scale differs from 1 by < 2 %.
+  Eigen::Vector2d low = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d high = -low;
+  for (const OrthoSourceImage& source : images) {
+    const Eigen::Vector2d camera =
+        map.MapFromMbf(site.mbf_from_site * source.camera_in_site.c).head<2>();
+    if (!camera.allFinite()) {
+      throw Error("orthophoto: image " + std::to_string(source.id) +
+                  ": the camera is outside the map's CRS domain");
+    }
+    low = low.cwiseMin(camera);
+    high = high.cwiseMax(camera);
+  }
+  if (images.empty()) return std::nullopt;
+  const Eigen::Vector2d reach = Eigen::Vector2d::Constant(1.02 * options.max_range_m + 2.0);
+  return dtm_grid.Window(low - reach, high + reach);
+}
+
 Orthophoto MakeOrthophoto(const Dtm& dtm, const SiteGeoreference& site, const MapFrame& map,
                           const std::vector<OrthoSourceImage>& images, const OrthoOptions& options,
                           const ProgressCallback& progress) {
@@ -198,24 +221,10 @@ Orthophoto MakeOrthophoto(const Dtm& dtm, const SiteGeoreference& site, const Ma
     source.image.convertTo(f, CV_32F);
     float_images.push_back(f);
   }
-  // The window of the DTM within reach of the cameras (map scale differs from 1 by < 2 %). The
-  // cameras, not the site origin: a MER rover works tens of metres from its site's origin.
-  Eigen::Vector2d low = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector2d high = -low;
-  for (const OrthoSourceImage& source : images) {
-    const Eigen::Vector2d camera =
-        map.MapFromMbf(site.mbf_from_site * source.camera_in_site.c).head<2>();
-    if (!camera.allFinite()) {
-      throw Error("orthophoto: image " + std::to_string(source.id) +
-                  ": the camera is outside the map's CRS domain");
-    }
-    low = low.cwiseMin(camera);
-    high = high.cwiseMax(camera);
-  }
-  const Eigen::Vector2d reach = Eigen::Vector2d::Constant(1.02 * options.max_range_m + 2.0);
   Orthophoto ortho;
   ortho.crs_wkt = dtm.crs_wkt;
-  const std::optional<GridSpec> window = dtm.layers.grid.Window(low - reach, high + reach);
+  const std::optional<GridSpec> window =
+      OrthophotoWindow(dtm.layers.grid, site, map, images, options);
   if (!window) throw Error("orthophoto: the DTM does not reach the cameras");
   ortho.grid = *window;
   const int w = window->width, h = window->height;
@@ -288,8 +297,11 @@ void WriteOrthophoto(const std::filesystem::path& path, const Orthophoto& ortho)
   WriteGeoTiff(path, ortho.ToGeoRaster());
 }
 
-Orthophoto ReadOrthophoto(const std::filesystem::path& path) {
-  const RasterDataset dataset = RasterDataset::Open(path);
+namespace {
+
+// Opens an orthophoto written by WriteOrthophoto, its layout checked (ReadOrthophoto's errors).
+RasterDataset OpenOrthophoto(const std::filesystem::path& path) {
+  RasterDataset dataset = RasterDataset::Open(path);
   const RasterInfo& info = dataset.info();
   if (info.band_count != static_cast<int>(kOrthophotoBands.size())) {
     throw Error(path.string() +
@@ -307,15 +319,65 @@ Orthophoto ReadOrthophoto(const std::filesystem::path& path) {
                   "'");
     }
   }
+  return dataset;
+}
+
+// Rows of the valid band read at a time by OrthophotoValidWindow.
+constexpr int kScanRows = 256;
+
+}  // namespace
+
+std::optional<GridSpec> OrthophotoValidWindow(const std::filesystem::path& path) {
+  const RasterDataset dataset = OpenOrthophoto(path);
+  const RasterInfo& info = dataset.info();
+  const GridSpec grid = GridOfRaster(info, path.string());
+  int col0 = info.width, col1 = -1, row0 = info.height, row1 = -1;
+  for (int row = 0; row < info.height; row += kScanRows) {
+    const int rows = std::min(kScanRows, info.height - row);
+    const cv::Mat valid = dataset.ReadWindowFloat(2, PixelWindow{0, row, info.width, rows});
+    for (int r = 0; r < rows; ++r) {
+      const float* v = valid.ptr<float>(r);
+      for (int c = 0; c < info.width; ++c) {
+        if (!(v[c] > 0.0f)) continue;  // 0 and NaN: not painted.
+        col0 = std::min(col0, c);
+        col1 = std::max(col1, c);
+        row0 = std::min(row0, row + r);
+        row1 = std::max(row1, row + r);
+      }
+    }
+  }
+  if (col1 < 0) return std::nullopt;
+  GridSpec window = grid;
+  window.x_left = grid.x_left + col0 * grid.posting;
+  window.y_top = grid.y_top - row0 * grid.posting;
+  window.width = col1 - col0 + 1;
+  window.height = row1 - row0 + 1;
+  return window;
+}
+
+Orthophoto ReadOrthophoto(const std::filesystem::path& path) {
+  const RasterDataset dataset = OpenOrthophoto(path);
+  return ReadOrthophoto(path, GridOfRaster(dataset.info(), path.string()));
+}
+
+Orthophoto ReadOrthophoto(const std::filesystem::path& path, const GridSpec& window) {
+  const RasterDataset dataset = OpenOrthophoto(path);
+  const RasterInfo& info = dataset.info();
+  Eigen::Vector2i offset;
+  try {
+    offset = window.OffsetIn(GridOfRaster(info, path.string()));
+  } catch (const Error&) {
+    throw Error(path.string() + ": the window asked for is not a window of the orthophoto's grid");
+  }
   Orthophoto ortho;
-  ortho.grid = GridOfRaster(info, path.string());
+  ortho.grid = window;
   ortho.crs_wkt = info.crs_wkt;
-  const PixelWindow all = dataset.FullWindow();
-  ortho.image = dataset.ReadWindowFloat(1, all);
-  cv::Mat valid = dataset.ReadWindowFloat(2, all), id = dataset.ReadWindowFloat(4, all);
+  const PixelWindow cells{offset.x(), offset.y(), window.width, window.height};
+  ortho.image = dataset.ReadWindowFloat(1, cells);
+  cv::Mat valid = dataset.ReadWindowFloat(2, cells), id = dataset.ReadWindowFloat(4, cells);
   valid.convertTo(ortho.valid, CV_8U);
   id.convertTo(ortho.source_id, CV_32S);
-  ortho.resolution = dataset.ReadWindowFloat(3, all);
+  ortho.resolution = dataset.ReadWindowFloat(3, cells);
   ortho.valid_cells = cv::countNonZero(ortho.valid);
   return ortho;
 }

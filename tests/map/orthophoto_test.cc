@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -289,6 +290,63 @@ TEST(Orthophoto, RejectsBadInput) {
   const Orthophoto ortho = MakeOrthophoto(f.dtm, f.site, f.map, {f.images[0]}, OrthoOptions{});
   WriteOrthophoto(dir.path() / "ortho.tif", ortho);
   EXPECT_EQ(ReadOrthophoto(dir.path() / "ortho.tif").valid_cells, ortho.valid_cells);
+}
+
+}  // namespace
+}  // namespace areomap
+
+namespace areomap {
+namespace {
+
+// Large rasters are read by window: the DTM only within reach of the cameras, an orthophoto only
+// over its painted cells; each window read equals that crop of the whole read.
+TEST(Orthophoto, ReadsOnlyTheWindowsItNeeds) {
+  const OrthoFixture& f = Fixture();
+  testing::TempDir dir;
+  WriteDtm(dir.path() / "dtm.tif", f.dtm);
+  const std::optional<GridSpec> reach =
+      OrthophotoWindow(f.dtm.layers.grid, f.site, f.map, {f.images[0]}, OrthoOptions{});
+  ASSERT_TRUE(reach.has_value());
+  const Dtm part = ReadDtm(dir.path() / "dtm.tif", *reach);
+  const Eigen::Vector2i at = reach->OffsetIn(f.dtm.layers.grid);
+  const cv::Rect crop(at.x(), at.y(), reach->width, reach->height);
+  cv::Mat got = part.layers.elevation.clone(), want = f.dtm.layers.elevation(crop).clone();
+  cv::patchNaNs(got, -1e9);
+  cv::patchNaNs(want, -1e9);
+  EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0.0);
+  // The orthophoto from the window equals the one from the whole DTM.
+  const Orthophoto whole = MakeOrthophoto(f.dtm, f.site, f.map, {f.images[0]}, OrthoOptions{});
+  const Orthophoto windowed = MakeOrthophoto(part, f.site, f.map, {f.images[0]}, OrthoOptions{});
+  EXPECT_EQ(windowed.valid_cells, whole.valid_cells);
+  EXPECT_EQ(windowed.grid.width, whole.grid.width);
+  EXPECT_NEAR(windowed.grid.x_left, whole.grid.x_left, 1e-9);
+  // A window off the DTM's grid is an error naming the file.
+  GridSpec shifted = *reach;
+  shifted.x_left += 0.37 * shifted.posting;
+  EXPECT_NE(testing::ErrorMessageOf([&] {
+              ReadDtm(dir.path() / "dtm.tif", shifted);
+            }).find("dtm.tif: the window asked for is not a window of the DTM's grid"),
+            std::string::npos);
+
+  // The painted cells' window of the orthophoto, and the read over it.
+  WriteOrthophoto(dir.path() / "ortho.tif", whole);
+  const std::optional<GridSpec> painted = OrthophotoValidWindow(dir.path() / "ortho.tif");
+  ASSERT_TRUE(painted.has_value());
+  const Orthophoto read = ReadOrthophoto(dir.path() / "ortho.tif", *painted);
+  EXPECT_EQ(read.valid_cells, whole.valid_cells);
+  EXPECT_LE(painted->width, whole.grid.width);
+  const Eigen::Vector2i p = painted->OffsetIn(whole.grid);
+  const cv::Mat inside = whole.valid(cv::Rect(p.x(), p.y(), painted->width, painted->height));
+  EXPECT_EQ(cv::countNonZero(inside), whole.valid_cells);
+  // Its edge rows and columns hold painted cells (the window is the smallest).
+  EXPECT_GT(cv::countNonZero(read.valid.row(0)), 0);
+  EXPECT_GT(cv::countNonZero(read.valid.col(read.valid.cols - 1)), 0);
+  // An orthophoto with no painted cell has no window.
+  Orthophoto blank = whole;
+  blank.valid.setTo(0);
+  blank.valid_cells = 0;
+  WriteOrthophoto(dir.path() / "blank.tif", blank);
+  EXPECT_FALSE(OrthophotoValidWindow(dir.path() / "blank.tif").has_value());
 }
 
 }  // namespace

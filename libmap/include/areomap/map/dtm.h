@@ -67,6 +67,9 @@ void WriteDtm(const std::filesystem::path& path, const Dtm& dtm);
 // layout are read when present (else 0 / NaN). Throws areomap::Error naming the file when it is
 // not a north-up raster with square cells and a CRS.
 Dtm ReadDtm(const std::filesystem::path& path);
+// The same, only the cells of `window` (a window of the file's grid, GridSpec::Window): memory
+// by the window, not the raster. Throws areomap::Error naming the file when `window` is not one.
+Dtm ReadDtm(const std::filesystem::path& path, const GridSpec& window);
 
 // The grid of a north-up raster with square cells; throws areomap::Error naming `source`.
 GridSpec GridOfRaster(const RasterInfo& info, const std::string& source);

@@ -21,6 +21,7 @@
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -67,6 +68,15 @@ struct Orthophoto {
   GeoRaster ToGeoRaster() const;
 };
 
+// The window of `dtm_grid` within options.max_range_m of the cameras (which may stand far from
+// the site's origin), or std::nullopt when the grid does not reach them: what MakeOrthophoto
+// paints, so a caller can read just that window of a large DTM (ReadDtm). Throws
+// areomap::Error when a camera lies outside the map's CRS domain.
+std::optional<GridSpec> OrthophotoWindow(const GridSpec& dtm_grid, const SiteGeoreference& site,
+                                         const MapFrame& map,
+                                         const std::vector<OrthoSourceImage>& images,
+                                         const OrthoOptions& options);
+
 // The orthophoto of one site's images on the window of `dtm` within max_range_m of their
 // cameras (which may stand far from the site's origin). Throws areomap::Error when the DTM does
 // not reach the cameras, or for bad images or options.
@@ -80,5 +90,12 @@ void WriteOrthophoto(const std::filesystem::path& path, const Orthophoto& ortho)
 // Reads a GeoTIFF written by WriteOrthophoto. Throws areomap::Error naming the file when it does
 // not have that layout (4 bands: image, valid, resolution_m, source_id) on a north-up grid.
 Orthophoto ReadOrthophoto(const std::filesystem::path& path);
+// The same, only the cells of `window` (a window of the file's grid): memory by the window.
+Orthophoto ReadOrthophoto(const std::filesystem::path& path, const GridSpec& window);
+
+// The smallest window of an orthophoto's grid that holds all its painted cells (band "valid"
+// nonzero), found by reading that band in strips (memory by a strip, not the raster);
+// std::nullopt when no cell is painted. Same layout errors as ReadOrthophoto.
+std::optional<GridSpec> OrthophotoValidWindow(const std::filesystem::path& path);
 
 }  // namespace areomap
