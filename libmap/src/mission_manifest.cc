@@ -197,7 +197,8 @@ MissionManifest ReadMissionManifest(std::istream& in, const fs::path& manifest) 
   }
   MissionManifest mission;
   mission.root = manifest.parent_path();
-  mission.name = root_json.value("name", std::string());
+  // Optional, but text when given (json::value would throw its own type_error).
+  if (root_json.contains("name")) mission.name = Get<std::string>(root_json, "name", "", manifest);
   const json& body = Get<json>(root_json, "body", "", manifest);
   mission.body.name = Get<std::string>(body, "name", "body.", manifest);
   constexpr double kHuge = 1e12;  // [m], any body's radius is below it
