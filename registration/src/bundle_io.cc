@@ -124,7 +124,7 @@ json ReadJson(const std::filesystem::path& path) {
   if (!in) throw Error(path.string() + ": no such file or not readable");
   try {
     return json::parse(in);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, or out_of_range for a number like 1e99999.
     throw Error(path.string() + ": not valid JSON: " + e.what());
   }
 }

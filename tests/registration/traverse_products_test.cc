@@ -125,6 +125,18 @@ TEST(BundleIo, SiteIndexBeyondIntIsAnErrorNotAWrappedSite) {
   std::filesystem::remove_all(dir);
 }
 
+// Found by fuzz/adjust_json_fuzzer: a number beyond double escaped as json::out_of_range.
+TEST(BundleIo, NumberBeyondDoubleIsNotValidJson) {
+  const std::filesystem::path dir = TempDir("overflow");
+  WriteFileAtomically(dir / "net.json", R"({"origin": {"lat_deg": 1e99999}})");
+  const std::string message = testing::ErrorMessageOf([&] { ReadBundleInput({dir / "net.json"}); });
+  EXPECT_NE(message.find("net.json: not valid JSON: "), std::string::npos) << message;
+  EXPECT_NE(
+      testing::ErrorMessageOf([&] { ReadTiePoints(dir / "net.json"); }).find("not valid JSON"),
+      std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
 // An orbital image around the origin: equirectangular on the local sphere, 2 m pixels.
 std::filesystem::path WriteOrbitalImage(const BundleInput& input,
                                         const std::filesystem::path& dir) {
