@@ -21,9 +21,10 @@ if [ ${#targets[@]} -eq 0 ]; then
   for seeds in fuzz/corpus/*/; do targets+=("$(basename "$seeds")"); done
 fi
 
-# Reports are findings: stop at the first UBSan report too, and keep LSan's known library leaks out.
+# Reports are findings: stop at the first UBSan report; keep other libraries' known leaks out
+# (fuzz/lsan.supp).
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
-export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$PWD/tests/lsan.supp}"
+export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$PWD/fuzz/lsan.supp}"
 
 failed=()
 for target in "${targets[@]}"; do
