@@ -1,7 +1,6 @@
 // areomap coords --from A --to B: converts points read one per line on stdin.
 #include <cstdio>
 #include <iostream>
-#include <sstream>
 #include <string>
 
 #include "areomap/map/coordinate_system.h"
