@@ -1,7 +1,6 @@
 // areomap coords --from A --to B: converts points read one per line on stdin.
 #include <cstdio>
 #include <iostream>
-#include <sstream>
 #include <string>
 
 #include "areomap/map/coordinate_system.h"
@@ -18,35 +17,11 @@ struct CoordsOptions {
   std::string origin;  // "LAT,LON[,H]", planetocentric degrees and metres.
 };
 
-// Parses 2 or 3 numbers separated by blanks or commas; `#` starts a comment.
-Eigen::Vector3d ParseLine(const std::string& line) {
-  std::string cleaned = line.substr(0, line.find('#'));
-  for (char& c : cleaned) {
-    if (c == ',' || c == '\t') c = ' ';
-  }
-  std::istringstream in(cleaned);
-  std::vector<double> values;
-  std::string token;
-  while (in >> token) {
-    try {
-      size_t used = 0;
-      values.push_back(std::stod(token, &used));
-      if (used != token.size()) throw std::invalid_argument(token);
-    } catch (const std::exception&) {
-      throw Error("'" + token + "' is not a number");
-    }
-  }
-  if (values.size() < 2 || values.size() > 3) {
-    throw Error("expected 2 or 3 numbers, got " + std::to_string(values.size()));
-  }
-  return {values[0], values[1], values.size() == 3 ? values[2] : 0.0};
-}
-
 std::optional<Geographic> ParseOrigin(const std::string& text) {
   if (text.empty()) return std::nullopt;
   Eigen::Vector3d v;
   try {
-    v = ParseLine(text);
+    v = ParsePointLine(text);
   } catch (const Error& e) {
     throw Error("--origin '" + text + "': " + e.what() + ": expected LAT,LON[,H]");
   }
@@ -87,7 +62,7 @@ int RunCoords(const CoordsOptions& options, bool body_given) {
     ++line_number;
     if (line.find_first_not_of(" \t\r") == std::string::npos || line.front() == '#') continue;
     try {
-      const Eigen::Vector3d out = to.FromMbf(from.ToMbf(ParseLine(line)));
+      const Eigen::Vector3d out = to.FromMbf(from.ToMbf(ParsePointLine(line)));
       std::printf("%.*f %.*f %.*f\n", to.Decimals(0), out.x(), to.Decimals(1), out.y(),
                   to.Decimals(2), out.z());
     } catch (const Error& e) {

@@ -8,6 +8,17 @@ target_compile_options(areomap_build_flags INTERFACE
   $<$<BOOL:${AREOMAP_SANITIZE}>:-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined>)
 target_link_options(areomap_build_flags INTERFACE
   $<$<BOOL:${AREOMAP_SANITIZE}>:-fsanitize=address,undefined>)
+# Fuzzing: coverage feedback for libFuzzer in every areomap object; the fuzz targets add the
+# libFuzzer driver (-fsanitize=fuzzer) at link time (fuzz/CMakeLists.txt).
+if(AREOMAP_FUZZ)
+  if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
+    message(FATAL_ERROR "AREOMAP_FUZZ needs clang (libFuzzer); use the `fuzz` preset")
+  endif()
+  target_compile_options(areomap_build_flags INTERFACE
+    -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined
+    -fno-omit-frame-pointer)
+  target_link_options(areomap_build_flags INTERFACE -fsanitize=address,undefined)
+endif()
 
 # areomap_add_library(NAME <module> ALIAS <alias> SOURCES ... PUBLIC_LINK_LIBS ... PRIVATE_LINK_LIBS ...)
 # Creates a static library with public headers in <dir>/include, visible layering through

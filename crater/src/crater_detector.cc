@@ -924,7 +924,9 @@ std::vector<CraterDetection> Detect(const cv::Mat& raster, RimSource source,
   std::vector<CraterDetection> candidates;
   for (size_t li = 0; li < levels.size(); ++li) {
     Level& level = levels[li];
-    const auto [r_lo, r_hi] = radius_band(li);
+    // Plain variables, not a structured binding: the lambdas below capture them (clang < 16).
+    const std::pair<double, double> band = radius_band(li);
+    const double r_lo = band.first, r_hi = band.second;
     if (r_hi < r_lo * 0.8) continue;  // no crater of the asked sizes at this level
     if (!level.has_edges) {
       level.edges = EdgesOf(level.image, source, o, level.scale);

@@ -104,8 +104,12 @@ CraterScore ScoreCraters(const std::vector<CraterCircle>& truth,
 std::vector<CraterCircle> ReadCraterCsv(const std::filesystem::path& path) {
   std::ifstream in(path);
   if (!in) throw Error(path.string() + ": cannot open crater CSV");
+  return ReadCraterCsv(in, path.string());
+}
+
+std::vector<CraterCircle> ReadCraterCsv(std::istream& in, const std::string& source) {
   std::string line;
-  if (!std::getline(in, line)) throw Error(path.string() + ": empty file, expected a CSV header");
+  if (!std::getline(in, line)) throw Error(source + ": empty file, expected a CSV header");
   std::vector<std::string> header = SplitCsvLine(line);
   for (std::string& cell : header) {
     cell.erase(std::remove_if(cell.begin(), cell.end(), ::isspace), cell.end());
@@ -113,7 +117,7 @@ std::vector<CraterCircle> ReadCraterCsv(const std::filesystem::path& path) {
   const auto column = [&](const std::string& name) {
     const auto it = std::find(header.begin(), header.end(), name);
     if (it == header.end()) {
-      throw Error(path.string() + ": header has no column '" + name +
+      throw Error(source + ": header has no column '" + name +
                   "' (expected x_px, y_px, diameter_px)");
     }
     return static_cast<size_t>(it - header.begin());
@@ -127,7 +131,7 @@ std::vector<CraterCircle> ReadCraterCsv(const std::filesystem::path& path) {
     const std::vector<std::string> cells = SplitCsvLine(line);
     const auto value = [&](size_t i) {
       if (i >= cells.size()) {
-        throw Error(path.string() + " line " + std::to_string(line_number) + ": too few columns");
+        throw Error(source + " line " + std::to_string(line_number) + ": too few columns");
       }
       try {
         size_t used = 0;
@@ -135,13 +139,12 @@ std::vector<CraterCircle> ReadCraterCsv(const std::filesystem::path& path) {
         if (std::isfinite(v)) return v;
       } catch (const std::exception&) {
       }
-      throw Error(path.string() + " line " + std::to_string(line_number) + ": '" + cells[i] +
+      throw Error(source + " line " + std::to_string(line_number) + ": '" + cells[i] +
                   "' is not a finite number");
     };
     CraterCircle c{{value(cx), value(cy)}, value(cd)};
     if (!(c.diameter > 0.0)) {
-      throw Error(path.string() + " line " + std::to_string(line_number) +
-                  ": diameter_px must be > 0");
+      throw Error(source + " line " + std::to_string(line_number) + ": diameter_px must be > 0");
     }
     craters.push_back(c);
   }

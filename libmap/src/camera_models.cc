@@ -14,6 +14,9 @@ template <typename... Ts>
 struct Overloaded : Ts... {
   using Ts::operator()...;
 };
+// Spelled out for compilers without aggregate deduction (clang < 17, the fuzz preset).
+template <typename... Ts>
+Overloaded(Ts...) -> Overloaded<Ts...>;
 
 nlohmann::json JsonVector(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 

@@ -48,9 +48,12 @@ PinholeModel PinholeModel::Transformed(const Rigid3d& b_from_a) const {
 }
 
 PinholeModel ReadTsai(const std::filesystem::path& path) {
-  const std::string source = path.string();
   std::ifstream in(path);
-  if (!in) throw Error(source + ": cannot open the .tsai camera file");
+  if (!in) throw Error(path.string() + ": cannot open the .tsai camera file");
+  return ReadTsai(in, path.string());
+}
+
+PinholeModel ReadTsai(std::istream& in, const std::string& source) {
   std::map<std::string, std::vector<double>> values;
   std::string line;
   int number = 0;

@@ -205,4 +205,27 @@ int CoordinateSystem::Decimals(int component) const {
   return (angular && component < 2) ? 12 : 6;
 }
 
+Eigen::Vector3d ParsePointLine(const std::string& line) {
+  std::string cleaned = line.substr(0, line.find('#'));
+  for (char& c : cleaned) {
+    if (c == ',' || c == '\t') c = ' ';
+  }
+  std::istringstream in(cleaned);
+  std::vector<double> values;
+  std::string token;
+  while (in >> token) {
+    try {
+      size_t used = 0;
+      values.push_back(std::stod(token, &used));
+      if (used != token.size()) throw std::invalid_argument(token);
+    } catch (const std::exception&) {
+      throw Error("'" + token + "' is not a number");
+    }
+  }
+  if (values.size() < 2 || values.size() > 3) {
+    throw Error("expected 2 or 3 numbers, got " + std::to_string(values.size()));
+  }
+  return {values[0], values[1], values.size() == 3 ? values[2] : 0.0};
+}
+
 }  // namespace areomap

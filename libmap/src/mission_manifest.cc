@@ -137,6 +137,10 @@ const MissionOrbitalProduct* MissionManifest::FirstOrbital(const std::string& ki
 std::vector<MissionSitePose> ReadSitePosesCsv(const fs::path& csv) {
   std::ifstream in(csv);
   if (!in) throw Error(csv.string() + ": cannot open the site poses CSV");
+  return ReadSitePosesCsv(in, csv);
+}
+
+std::vector<MissionSitePose> ReadSitePosesCsv(std::istream& in, const fs::path& csv) {
   std::string line;
   if (!std::getline(in, line)) throw Error(csv.string() + ": empty; expected a header row");
   const std::vector<std::string> header = SplitCsvLine(line);
@@ -177,23 +181,29 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
   const fs::path manifest = fs::is_directory(path) ? path / "mission.json" : path;
   std::ifstream in(manifest);
   if (!in) throw Error(manifest.string() + ": cannot open the mission manifest");
+  return ReadMissionManifest(in, manifest);
+}
+
+MissionManifest ReadMissionManifest(std::istream& in, const fs::path& manifest) {
   const json root_json = json::parse(in, nullptr, false);
   if (root_json.is_discarded()) throw Error(manifest.string() + ": not valid JSON");
   if (Get<std::string>(root_json, "format", "", manifest) != "areomap-mission") {
     throw Error(manifest.string() + ": \"format\" is not \"areomap-mission\"");
   }
-  if (const int version = GetInteger(root_json, "version", "", manifest, 0, 1000000); version != 1) {
+  if (const int version = GetInteger(root_json, "version", "", manifest, 0, 1000000);
+      version != 1) {
     throw Error(manifest.string() + ": version " + std::to_string(version) +
                 " is not supported; expected 1");
   }
   MissionManifest mission;
   mission.root = manifest.parent_path();
-  mission.name = root_json.value("name", std::string());
+  // Optional, but text when given (json::value would throw its own type_error).
+  if (root_json.contains("name")) mission.name = Get<std::string>(root_json, "name", "", manifest);
   const json& body = Get<json>(root_json, "body", "", manifest);
   mission.body.name = Get<std::string>(body, "name", "body.", manifest);
   constexpr double kHuge = 1e12;  // [m], any body's radius is below it
-  mission.body.a = GetNumber(body, "a_m", "body.", manifest, 1.0, kHuge,
-                             "a finite equatorial radius > 0 [m]");
+  mission.body.a =
+      GetNumber(body, "a_m", "body.", manifest, 1.0, kHuge, "a finite equatorial radius > 0 [m]");
   mission.body.b = GetNumber(body, "b_m", "body.", manifest, 1.0, mission.body.a,
                              "a finite polar radius in (0, a_m] [m]");
   const json& origin = Get<json>(root_json, "origin", "", manifest);

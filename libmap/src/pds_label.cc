@@ -1,5 +1,7 @@
 #include "areomap/map/pds_label.h"
 
+#include <limits>
+
 #include "areomap/map/error.h"
 #include "areomap/map/raster.h"
 
@@ -30,6 +32,22 @@ std::vector<double> NumberList(const nlohmann::json& value, std::string_view sou
     out.push_back(item.get<double>());
   }
   return out;
+}
+
+// An index of COORDINATE_SYSTEM_INDEX as an int; throws naming the keyword when it does not fit
+// (get<int> would wrap 4294967297 to site 1).
+int FrameIndex(const nlohmann::json& value, std::string_view source, const std::string& group) {
+  const bool fits = value.is_number_unsigned()
+                        ? value.get<unsigned long long>() <=
+                              static_cast<unsigned long long>(std::numeric_limits<int>::max())
+                        : value.get<long long>() >= std::numeric_limits<int>::min() &&
+                              value.get<long long>() <= std::numeric_limits<int>::max();
+  if (!fits) {
+    throw Error(std::string(source) + ": label keyword " + group +
+                ".COORDINATE_SYSTEM_INDEX holds " + value.dump() +
+                ": expected indices in int range");
+  }
+  return value.get<int>();
 }
 
 std::string StringOr(const nlohmann::json& group, const std::string& key, std::string fallback) {
@@ -90,10 +108,10 @@ ProductGeometry ParseProductGeometry(const nlohmann::json& label, std::string_vi
     if (const auto idx = value.find("COORDINATE_SYSTEM_INDEX"); idx != value.end()) {
       if (idx->is_array()) {
         for (const auto& i : *idx) {
-          if (i.is_number_integer()) frame.index.push_back(i.get<int>());
+          if (i.is_number_integer()) frame.index.push_back(FrameIndex(i, source, group));
         }
       } else if (idx->is_number_integer()) {
-        frame.index.push_back(idx->get<int>());
+        frame.index.push_back(FrameIndex(*idx, source, group));
       }
     }
     const auto offset = NumberList(RequireKey(value, "ORIGIN_OFFSET_VECTOR", source, group), source,

@@ -219,9 +219,12 @@ void WritePointCloudPly(const PointCloud& cloud, const std::filesystem::path& pa
 }
 
 PointCloud ReadPointCloudPly(const std::filesystem::path& path) {
-  const std::string source = path.string();
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(source + ": cannot open the point cloud file");
+  if (!in) throw Error(path.string() + ": cannot open the point cloud file");
+  return ReadPointCloudPly(in, path.string());
+}
+
+PointCloud ReadPointCloudPly(std::istream& in, const std::string& source) {
   const PlyHeader header = ParseHeader(in, source);
 
   PointCloud cloud;

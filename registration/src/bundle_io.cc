@@ -1,6 +1,7 @@
 #include "areomap/registration/bundle_io.h"
 
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <string>
@@ -35,8 +36,15 @@ double Number(const json& j, const Where& where) {
   return j.get<double>();
 }
 
+// An int, also in range: get<int>() would wrap 4294967296 to site 0.
 int Integer(const json& j, const Where& where) {
-  if (!j.is_number_integer()) where.Fail("an integer");
+  constexpr long long kMin = std::numeric_limits<int>::min();
+  constexpr long long kMax = std::numeric_limits<int>::max();
+  if (!j.is_number_integer() ||
+      (j.is_number_unsigned() ? j.get<unsigned long long>() > static_cast<unsigned long long>(kMax)
+                              : j.get<long long>() < kMin || j.get<long long>() > kMax)) {
+    where.Fail("an integer in [" + std::to_string(kMin) + ", " + std::to_string(kMax) + "]");
+  }
   return j.get<int>();
 }
 
@@ -116,7 +124,7 @@ json ReadJson(const std::filesystem::path& path) {
   if (!in) throw Error(path.string() + ": no such file or not readable");
   try {
     return json::parse(in);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, or out_of_range for a number like 1e99999.
     throw Error(path.string() + ": not valid JSON: " + e.what());
   }
 }

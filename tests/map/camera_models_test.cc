@@ -3,6 +3,7 @@
 #include <cmath>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <vector>
 
 #include <ceres/jet.h>
@@ -127,6 +128,12 @@ PinholeModel K10Left() {
   m.p1 = -0.000432605884270742;
   m.p2 = 0.00110327918082476;
   return m;
+}
+
+TEST(Pinhole, TsaiFromAStreamNamesTheSourceAndLine) {
+  std::istringstream in("VERSION_3\nfu = \nfv = 1\n");
+  const std::string message = testing::ErrorMessageOf([&] { ReadTsai(in, "cam.tsai"); });
+  EXPECT_EQ(message, "cam.tsai: line 2: key 'fu' has no numbers");
 }
 
 TEST(Pinhole, ProjectionMatchesOpenCv) {

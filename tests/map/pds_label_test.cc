@@ -32,6 +32,18 @@ TEST(PdsLabel, MissingOrMalformedKeywordsAreNamed) {
       << ErrorOf(frame);
 }
 
+TEST(PdsLabel, FrameIndexBeyondIntIsNamedNotWrapped) {
+  const nlohmann::json label = {{"ROVER_COORDINATE_SYSTEM",
+                                 {{"COORDINATE_SYSTEM_INDEX", {4294967297LL, 973}},
+                                  {"ORIGIN_OFFSET_VECTOR", {1, 2, 3}},
+                                  {"ORIGIN_ROTATION_QUATERNION", {1, 0, 0, 0}}}}};
+  EXPECT_NE(ErrorOf(label).find("label.IMG: label keyword ROVER_COORDINATE_SYSTEM."
+                                "COORDINATE_SYSTEM_INDEX holds 4294967297: expected indices in int "
+                                "range"),
+            std::string::npos)
+      << ErrorOf(label);
+}
+
 TEST(PdsLabel, FrameQuaternionIsScalarFirstAndMapsFrameToReference) {
   // 90 degrees about z: the frame's x axis is the reference's y axis.
   const double s = std::sqrt(0.5);

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <limits>
 #include <random>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -57,6 +58,14 @@ TEST(PointCloudPly, RoundTripIsExact) {
   }
   // Binary size: header + 9 doubles + 3 floats + 1 ushort per point.
   EXPECT_GT(std::filesystem::file_size(path), 1000u * (9 * 8 + 3 * 4 + 2));
+}
+
+TEST(PointCloudPly, StreamReaderNamesTheSourceAndHeaderLine) {
+  std::istringstream in("ply\nformat ascii 1.0\nend_header\n", std::ios::binary);
+  const std::string message = testing::ErrorMessageOf([&] { ReadPointCloudPly(in, "x.ply"); });
+  EXPECT_EQ(message,
+            "x.ply: PLY header line 2: format 'ascii' is not supported; expected "
+            "binary_little_endian");
 }
 
 TEST(PointCloudPly, EmptyCloudRoundTrips) {

@@ -112,6 +112,31 @@ TEST(BundleIo, JsonRoundTripGivesTheSameAdjustment) {
   std::filesystem::remove_all(dir);
 }
 
+// Integers outside int are errors naming the field, not wrapped (4294967297 read as site 1).
+TEST(BundleIo, SiteIndexBeyondIntIsAnErrorNotAWrappedSite) {
+  const std::filesystem::path dir = TempDir("int_range");
+  WriteFileAtomically(dir / "net.json", R"({"origin": {"lat_deg": 0, "lon_deg": 0, "h_m": 0},
+      "sites": [{"site": 0, "position_m": [0, 0, 0]}, {"site": 4294967297, "position_m": [1, 0, 0]}]})");
+  const std::string message = testing::ErrorMessageOf([&] { ReadBundleInput({dir / "net.json"}); });
+  EXPECT_NE(
+      message.find("net.json: sites[1].site: expected an integer in [-2147483648, 2147483647]"),
+      std::string::npos)
+      << message;
+  std::filesystem::remove_all(dir);
+}
+
+// Found by fuzz/adjust_json_fuzzer: a number beyond double escaped as json::out_of_range.
+TEST(BundleIo, NumberBeyondDoubleIsNotValidJson) {
+  const std::filesystem::path dir = TempDir("overflow");
+  WriteFileAtomically(dir / "net.json", R"({"origin": {"lat_deg": 1e99999}})");
+  const std::string message = testing::ErrorMessageOf([&] { ReadBundleInput({dir / "net.json"}); });
+  EXPECT_NE(message.find("net.json: not valid JSON: "), std::string::npos) << message;
+  EXPECT_NE(
+      testing::ErrorMessageOf([&] { ReadTiePoints(dir / "net.json"); }).find("not valid JSON"),
+      std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
 // An orbital image around the origin: equirectangular on the local sphere, 2 m pixels.
 std::filesystem::path WriteOrbitalImage(const BundleInput& input,
                                         const std::filesystem::path& dir) {

@@ -422,6 +422,11 @@ TEST(MissionManifest, NamesTheKeyOfAnOutOfRangeOrMistypedValue) {
        "\"orbital[].gsd_m\" is -1; expected a ground sample distance in (0, 1e6] m"},
       {[](nlohmann::json& j) { j["origin"]["h_m"] = 1e300; },
        "\"origin.h_m\" is 1e+300; expected a height in [-100000, 100000] m"},
+      // Found by fuzz/mission_manifest_fuzzer: an object as "name" escaped as json::type_error.
+      {[](nlohmann::json& j) {
+         j["name"] = {{"a_m", 3396190.0}};
+       },
+       "\"name\" has the wrong type"},
   };
   for (const auto& [edit, expected] : cases) {
     const std::string message = message_with(edit);

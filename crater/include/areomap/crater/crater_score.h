@@ -8,6 +8,7 @@
 #pragma once
 
 #include <filesystem>
+#include <iosfwd>
 #include <string>
 #include <vector>
 
@@ -57,5 +58,7 @@ std::vector<CraterCircle> CirclesOf(const std::vector<CraterDetection>& detectio
 // Reads a CSV with a header holding columns x_px, y_px and diameter_px (other columns are
 // ignored; areomap's craters.csv qualifies). Throws areomap::Error naming the file and line.
 std::vector<CraterCircle> ReadCraterCsv(const std::filesystem::path& path);
+// Same from a stream; `source` names it in errors.
+std::vector<CraterCircle> ReadCraterCsv(std::istream& in, const std::string& source);
 
 }  // namespace areomap

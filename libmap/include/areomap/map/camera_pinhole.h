@@ -15,6 +15,7 @@
 #pragma once
 
 #include <filesystem>
+#include <iosfwd>
 #include <optional>
 #include <string>
 
@@ -49,7 +50,9 @@ struct PinholeModel {
 
 // Reads / writes ASP's `.tsai` text format (keys fu fv cu cv u_direction v_direction w_direction
 // C R k1 k2 p1 p2 [pitch], optionally preceded by VERSION_n and PINHOLE lines and a TSAI line).
+// Throws areomap::Error naming the file (`source` for the stream overload), the line or the key.
 PinholeModel ReadTsai(const std::filesystem::path& path);
+PinholeModel ReadTsai(std::istream& in, const std::string& source);
 std::string FormatTsai(const PinholeModel& model);
 void WriteTsai(const PinholeModel& model, const std::filesystem::path& path);  // Atomic.
 

@@ -64,4 +64,10 @@ class CoordinateSystem {
   std::string spec_;
 };
 
+// One point of a point list (`areomap coords` stdin, --origin): 2 or 3 numbers separated by
+// blanks, tabs or commas; `#` starts a comment; a missing third number is 0. Throws
+// areomap::Error naming the token that is not a number, or the count when it is not 2 or 3.
+// Values are returned as written (they may be inf or NaN; ToMbf rejects those).
+Eigen::Vector3d ParsePointLine(const std::string& line);
+
 }  // namespace areomap

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <filesystem>
+#include <iosfwd>
 #include <optional>
 #include <string>
 #include <vector>
@@ -68,8 +69,12 @@ struct MissionManifest {
 
 // `path` is the mission folder or its mission.json.
 MissionManifest ReadMissionManifest(const std::filesystem::path& path);
+// The manifest's text from `in`; `manifest` names it in errors and the files it refers to are
+// looked up beside it.
+MissionManifest ReadMissionManifest(std::istream& in, const std::filesystem::path& manifest);
 
 // Reads `site, north_m, east_m, down_m, heading_deg` rows (telemetry/sites.csv, truth/sites.csv).
 std::vector<MissionSitePose> ReadSitePosesCsv(const std::filesystem::path& csv);
+std::vector<MissionSitePose> ReadSitePosesCsv(std::istream& in, const std::filesystem::path& csv);
 
 }  // namespace areomap

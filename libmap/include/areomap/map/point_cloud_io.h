@@ -17,6 +17,8 @@
 #pragma once
 
 #include <filesystem>
+#include <iosfwd>
+#include <string>
 
 #include "areomap/map/point_cloud.h"
 
@@ -32,5 +34,7 @@ void WritePointCloudPly(const PointCloud& cloud, const std::filesystem::path& pa
 // (header line, property, vertex index) when the file is missing, not binary little-endian PLY,
 // lacks a property or the metadata comments, is truncated, or holds a non-finite point.
 PointCloud ReadPointCloudPly(const std::filesystem::path& path);
+// Same from a seekable binary stream; `source` names it in errors.
+PointCloud ReadPointCloudPly(std::istream& in, const std::string& source);
 
 }  // namespace areomap
