@@ -153,7 +153,7 @@ struct RockMatchingOptions {
   // where the turn exceeds three sigmas of the prior's heading. On six generated Navcam missions
   // the legs up to 25 m with three tie points or more rise from 116 to 119 of 126 (two held-out
   // missions 55 to 56 of 60), tie points 1,310 -> 1,423, wrong by the sight ray 7 -> 8
-  // (docs/rocks.md, "The pattern's turn"). False: the translation alone (before 2026-12-05).
+  // (docs/rocks.md, "The pattern's turn"). False: the translation alone.
   bool consensus_turn = true;
   double consensus_turn_trim_m = 0.3;  // [m], > 0.
   double ambiguity_sigmas = 1.0;       // Neighbour within epsilon + this many sigmas: ambiguous.
@@ -177,11 +177,11 @@ struct RockMatchingOptions {
   // peaks' largest horizontal sigma is at most `low_rock_max_peak_sigma_m` [m]. Low rocks are the
   // commonest (the size-frequency law), and many of a far peak's look-alike neighbours are
   // measured too low to be extracted at all, so the ambiguity test cannot see them (docs/rocks.md,
-  // "The height rule at 12 cm"); 0.3 m is the peak-sigma limit before 2026-12-01 (~12 m from a
-  // Navcam). A pair with one rock measured from 16 cm up is a rock that stands out at one site at
+  // "The height rule at 12 cm"); a peak sigma of 0.3 m is reached ~12 m from a
+  // Navcam. A pair with one rock measured from 16 cm up is a rock that stands out at one site at
   // least, the measured height running 2-6 cm under the true one: on six generated Navcam
-  // missions exempting such pairs (the limit applied before 2026-12-05 to a pair with either
-  // rock under 15 cm) accepted 104 legs up to 25 m of 126 instead of 97, with 999 of 1,002 tie
+  // missions exempting such pairs (rather than limiting every pair with either rock under
+  // 15 cm) accepted 104 legs up to 25 m of 126 instead of 97, with 999 of 1,002 tie
   // points right by the sight ray (908 of 910 before), while a 15 cm bound let more wrong ones
   // through (docs/rocks.md, "Low pairs").
   double low_rock_max_peak_sigma_m = 0.3;
@@ -197,7 +197,7 @@ struct RockMatchingOptions {
   // and 1 wrong; the missions' legs up to 25 m with three tie points or more rise from 104 to 111
   // of 126 with the low pairs vouched for and to 112 with the pair costs too, no tie point more
   // wrong (docs/rocks.md, "Pairs the pattern vouches for"). A lone rock's V is the global V,
-  // hence the votes. 0 m: no pair is vouched for (as before 2026-12-05).
+  // hence the votes. 0 m: no pair is vouched for.
   double pattern_vouch_deviation_m = 0.2;
   int pattern_vouch_votes = 3;
   // A rock that, put in the place of either rock of a pair the pattern vouches for, would move V
@@ -211,7 +211,7 @@ struct RockMatchingOptions {
   // with three tie points or more rise from 112 to 116 of 126 and on two held-out ones from 54 to
   // 55 of 60; the six's tie points from 1,178 to 1,310, wrong by the sight ray 5 -> 7 (pairs the
   // legs' outlier test dropped before; docs/rocks.md, "Alternatives the pattern rules out").
-  // False: as before (2026-12-05).
+  // False: such a rock counts as an alternative like any other.
   bool pattern_vouch_rules_out_alternatives = true;
   FaultDetectionOptions fault_detection;
   void Check() const;  // Throws areomap::Error naming the field.
