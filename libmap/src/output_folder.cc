@@ -142,7 +142,8 @@ bool OutputNameMatches(const std::string& relative, const std::string& pattern) 
   if (relative.size() < head.size() + tail.size()) return false;
   if (!relative.starts_with(head) || !relative.ends_with(tail)) return false;
   // '*' stays within one path component.
-  const std::string middle = relative.substr(head.size(), relative.size() - head.size() - tail.size());
+  const std::string middle =
+      relative.substr(head.size(), relative.size() - head.size() - tail.size());
   return middle.find('/') == std::string::npos;
 }
 
@@ -162,7 +163,8 @@ OutputFolder::OutputFolder(fs::path dir, OutputFolderOptions options)
   std::error_code ec;
   const bool exists = fs::exists(final_dir_, ec);
   if (exists && !fs::is_directory(final_dir_, ec)) {
-    throw Error(Quote(dir) + ": --out names a file that is not a folder; expected an output folder");
+    throw Error(Quote(dir) +
+                ": --out names a file that is not a folder; expected an output folder");
   }
   CheckInputs();
   if (exists) {
@@ -258,8 +260,10 @@ void OutputFolder::AdoptEarlierVersionsOutputs() {
   std::error_code ec;
   for (const std::string& pattern : options_.outputs) {
     if (pattern.find('*') != std::string::npos) continue;  // Only names it surely wrote.
-    const std::string name = pattern.ends_with('/') ? pattern.substr(0, pattern.size() - 1) : pattern;
-    if (fs::exists(fs::symlink_status(final_dir_ / name, ec))) manifest_[pattern] = options_.command;
+    const std::string name =
+        pattern.ends_with('/') ? pattern.substr(0, pattern.size() - 1) : pattern;
+    if (fs::exists(fs::symlink_status(final_dir_ / name, ec)))
+      manifest_[pattern] = options_.command;
   }
 }
 
@@ -280,7 +284,8 @@ void OutputFolder::Lock() {
     }
     // The holder before us may have removed the file after we opened it: lock the file that is
     // there now (a lock on a removed file protects nothing).
-    struct stat held {}, current {};
+    struct stat held {
+    }, current{};
     if (::fstat(fd, &held) == 0 && ::stat(path.c_str(), &current) == 0 &&
         held.st_ino == current.st_ino && held.st_dev == current.st_dev) {
       const std::string pid = std::to_string(::getpid()) + "\n";
@@ -316,8 +321,8 @@ void OutputFolder::CheckInputs() const {
     for (const std::string& pattern : options_.outputs) {
       if (OutputNameMatches(relative, pattern)) {
         throw Error(Quote(input) + ": this input is in --out " + Quote(final_dir_) +
-                    " under a name `" + options_.command +
-                    "` writes (" + pattern + "); move it, or choose another --out");
+                    " under a name `" + options_.command + "` writes (" + pattern +
+                    "); move it, or choose another --out");
       }
     }
   }
@@ -363,8 +368,8 @@ void OutputFolder::CheckCollisions() const {
         continue;
       // Fixed names only: which names a pattern ("cc_surface_*.png") takes is known once the
       // files are written, and Commit() checks those before it moves any.
-      const bool output = std::any_of(
-          options_.outputs.begin(), options_.outputs.end(), [&](const std::string& p) {
+      const bool output =
+          std::any_of(options_.outputs.begin(), options_.outputs.end(), [&](const std::string& p) {
             return p.find('*') == std::string::npos &&
                    (OutputNameMatches(relative, p) || OutputNameMatches(relative + "/", p));
           });
@@ -411,7 +416,8 @@ void OutputFolder::Commit() {
     for (const auto& entry : fs::recursive_directory_iterator(staging_dir_, ec)) {
       if (!entry.is_directory()) written.push_back(Relative(entry.path(), staging_dir_));
     }
-    if (ec) throw Error(staging_dir_.string() + ": cannot list the staged outputs: " + ec.message());
+    if (ec)
+      throw Error(staging_dir_.string() + ": cannot list the staged outputs: " + ec.message());
     std::sort(written.begin(), written.end());
     // Every check first: either all files move in, or none.
     for (const std::string& name : written) {
@@ -431,12 +437,15 @@ void OutputFolder::Commit() {
       const fs::path target = final_dir_ / name;
       fs::create_directories(target.parent_path(), ec);
       fs::rename(staging_dir_ / name, target, ec);
-      if (ec) throw Error(target.string() + ": cannot move the finished file into place: " + ec.message());
+      if (ec)
+        throw Error(target.string() +
+                    ": cannot move the finished file into place: " + ec.message());
     }
   } else {
     for (const std::string& pattern : options_.outputs) {
       if (pattern.find('*') != std::string::npos) continue;
-      const std::string name = pattern.ends_with('/') ? pattern.substr(0, pattern.size() - 1) : pattern;
+      const std::string name =
+          pattern.ends_with('/') ? pattern.substr(0, pattern.size() - 1) : pattern;
       if (fs::exists(final_dir_ / name, ec)) written.push_back(pattern);
     }
   }
