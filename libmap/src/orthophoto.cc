@@ -355,24 +355,15 @@ std::optional<GridSpec> OrthophotoValidWindow(const std::filesystem::path& path)
   return window;
 }
 
-Orthophoto ReadOrthophoto(const std::filesystem::path& path) {
-  const RasterDataset dataset = OpenOrthophoto(path);
-  return ReadOrthophoto(path, GridOfRaster(dataset.info(), path.string()));
-}
+namespace {
 
-Orthophoto ReadOrthophoto(const std::filesystem::path& path, const GridSpec& window) {
-  const RasterDataset dataset = OpenOrthophoto(path);
+// The orthophoto's cells `cells` of an opened file, on `window` (their grid).
+Orthophoto ReadOrthophotoCells(const RasterDataset& dataset, const PixelWindow& cells,
+                               const GridSpec& window) {
   const RasterInfo& info = dataset.info();
-  Eigen::Vector2i offset;
-  try {
-    offset = window.OffsetIn(GridOfRaster(info, path.string()));
-  } catch (const Error&) {
-    throw Error(path.string() + ": the window asked for is not a window of the orthophoto's grid");
-  }
   Orthophoto ortho;
   ortho.grid = window;
   ortho.crs_wkt = info.crs_wkt;
-  const PixelWindow cells{offset.x(), offset.y(), window.width, window.height};
   ortho.image = dataset.ReadWindowFloat(1, cells);
   cv::Mat valid = dataset.ReadWindowFloat(2, cells), id = dataset.ReadWindowFloat(4, cells);
   valid.convertTo(ortho.valid, CV_8U);
@@ -380,6 +371,26 @@ Orthophoto ReadOrthophoto(const std::filesystem::path& path, const GridSpec& win
   ortho.resolution = dataset.ReadWindowFloat(3, cells);
   ortho.valid_cells = cv::countNonZero(ortho.valid);
   return ortho;
+}
+
+}  // namespace
+
+Orthophoto ReadOrthophoto(const std::filesystem::path& path) {
+  const RasterDataset dataset = OpenOrthophoto(path);
+  return ReadOrthophotoCells(dataset, dataset.FullWindow(),
+                             GridOfRaster(dataset.info(), path.string()));
+}
+
+Orthophoto ReadOrthophoto(const std::filesystem::path& path, const GridSpec& window) {
+  const RasterDataset dataset = OpenOrthophoto(path);
+  Eigen::Vector2i offset;
+  try {
+    offset = window.OffsetIn(GridOfRaster(dataset.info(), path.string()));
+  } catch (const Error&) {
+    throw Error(path.string() + ": the window asked for is not a window of the orthophoto's grid");
+  }
+  return ReadOrthophotoCells(
+      dataset, PixelWindow{offset.x(), offset.y(), window.width, window.height}, window);
 }
 
 }  // namespace areomap

@@ -182,23 +182,35 @@ MaskedNccSurface EmptySurface(const Problem& p) {
   return s;
 }
 
+// Where the fixed crop sits in the FFT route's padded buffers: at offset o = -(first shift
+// relative to the crop) >= 0, the template at 0, so that circular correlation index s is
+// surface index s.
+cv::Point FixedOffset(const Problem& p) {
+  return cv::Point(p.crop_x - p.shift_x0, p.crop_y - p.shift_y0);
+}
+
+// The FFT route's padded size. An index x + s (template pixel x) past the buffer end P wraps to
+// x + s - P; that must land in the zeros before the crop (< o), which needs P >= template +
+// shifts - 1 - o; the crop must fit, P >= o + crop. For all shifts this is the usual crop +
+// template - 1; for shifts where the template lies inside the image it is just the image size.
+cv::Size PaddedSize(const Problem& p) {
+  const cv::Size crop = p.fixed.value.size();
+  const cv::Size tmpl = p.moving.value.size();
+  const cv::Point o = FixedOffset(p);
+  return cv::Size(
+      cv::getOptimalDFTSize(std::max(o.x + crop.width, tmpl.width + p.cols - 1 - o.x)),
+      cv::getOptimalDFTSize(std::max(o.y + crop.height, tmpl.height + p.rows - 1 - o.y)));
+}
+
 // The surface by FFTs (MaskedNcc's header); `p` has at least one shift.
 MaskedNccSurface FftSurface(const Problem& p) {
   MaskedNccSurface surface = EmptySurface(p);
 
   const cv::Size crop = p.fixed.value.size();
   const cv::Size tmpl = p.moving.value.size();
-  // The fixed arrays sit at offset o = -(first shift relative to the crop) >= 0 in the padded
-  // buffer, the template at 0, so that circular correlation index s is surface index s. An
-  // index x + s (template pixel x) past the buffer end P wraps to x + s - P; that must land in
-  // the zeros before the crop (< o), which needs P >= template + shifts - 1 - o; the crop must
-  // fit, P >= o + crop. For all shifts this is the usual crop + template - 1; for shifts where
-  // the template lies inside the image it is just the image size.
-  const cv::Point fixed_offset(p.crop_x - p.shift_x0, p.crop_y - p.shift_y0);
-  const int dft_rows = cv::getOptimalDFTSize(
-      std::max(fixed_offset.y + crop.height, tmpl.height + p.rows - 1 - fixed_offset.y));
-  const int dft_cols = cv::getOptimalDFTSize(
-      std::max(fixed_offset.x + crop.width, tmpl.width + p.cols - 1 - fixed_offset.x));
+  const cv::Point fixed_offset = FixedOffset(p);
+  const cv::Size padded = PaddedSize(p);
+  const int dft_rows = padded.height, dft_cols = padded.width;
 
   // Forward real DFTs (CCS-packed, in place) and corr(a, b)(s) = sum_x a(x + s) b(x) as the
   // spectrum product with b conjugated, inverse DFT in place (only the first p.rows output
@@ -333,18 +345,13 @@ MaskedNccSurface DirectSurface(const Problem& p) {
 constexpr double kDirectNsPerPair = 1.6;
 constexpr double kFftNsPerPoint = 0.8;
 
-// The FFT route's padded size (MaskedNcc's, FftSurface) and transform count.
+// The FFT route's cost: its transforms (FftSurface's count) of the padded size.
 double FftCost(const Problem& p) {
-  const cv::Size crop = p.fixed.value.size();
-  const cv::Size tmpl = p.moving.value.size();
-  const cv::Point offset(p.crop_x - p.shift_x0, p.crop_y - p.shift_y0);
-  const double rows =
-      cv::getOptimalDFTSize(std::max(offset.y + crop.height, tmpl.height + p.rows - 1 - offset.y));
-  const double cols =
-      cv::getOptimalDFTSize(std::max(offset.x + crop.width, tmpl.width + p.cols - 1 - offset.x));
-  const bool fixed_all_valid = p.fixed.valid_count == crop.area();
+  const cv::Size padded = PaddedSize(p);
+  const double points = static_cast<double>(padded.area());
+  const bool fixed_all_valid = p.fixed.valid_count == p.fixed.value.size().area();
   const double transforms = fixed_all_valid ? 7.0 : 12.0;
-  return kFftNsPerPoint * transforms * rows * cols * std::log2(rows * cols);
+  return kFftNsPerPoint * transforms * points * std::log2(points);
 }
 
 double DirectCost(const Problem& p) {
