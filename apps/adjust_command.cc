@@ -2,8 +2,8 @@
 // from tie points, control points, pose priors and heights (docs/adjustment-format.md).
 #include <iostream>
 
-#include "areomap/registration/bundle_io.h"
-#include "areomap/registration/traverse_adjustment.h"
+#include "areomap/adjustment/bundle_io.h"
+#include "areomap/adjustment/traverse_adjustment.h"
 #include "commands.h"
 
 namespace areomap::cli {

@@ -10,7 +10,7 @@
 
 #include "areomap/map/output_folder.h"
 #include "areomap/map/progress.h"
-#include "areomap/registration/rock_matching.h"
+#include "areomap/landmarks/rock_matching.h"
 
 namespace areomap::cli {
 

@@ -9,8 +9,8 @@
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
-#include "areomap/registration/localization_error.h"
-#include "areomap/registration/localization_error_plot.h"
+#include "areomap/landmarks/localization_error.h"
+#include "areomap/landmarks/localization_error_plot.h"
 #include "commands.h"
 
 namespace areomap::cli {

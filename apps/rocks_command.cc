@@ -11,8 +11,8 @@
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "areomap/map/point_cloud_io.h"
-#include "areomap/registration/bundle_io.h"
-#include "areomap/registration/rock_output.h"
+#include "areomap/adjustment/bundle_io.h"
+#include "areomap/landmarks/rock_output.h"
 #include "commands.h"
 
 namespace areomap::cli {

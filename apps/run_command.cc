@@ -6,8 +6,8 @@
 #include <sstream>
 
 #include "areomap/map/mission_manifest.h"
-#include "areomap/registration/mission_run.h"
-#include "areomap/registration/run_report.h"
+#include "areomap/pipeline/mission_run.h"
+#include "areomap/pipeline/run_report.h"
 #include "commands.h"
 
 namespace areomap::cli {

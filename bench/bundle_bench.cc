@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "areomap/registration/bundle_adjustment.h"
-#include "areomap/registration/traverse_anchoring.h"
+#include "areomap/adjustment/bundle_adjustment.h"
+#include "areomap/adjustment/traverse_anchoring.h"
 #include "bundle_simulation.h"
 
 namespace areomap {

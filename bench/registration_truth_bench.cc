@@ -24,7 +24,7 @@
 #include "areomap/map/mission_manifest.h"
 #include "areomap/map/orthophoto.h"
 #include "areomap/map/site_georeference.h"
-#include "areomap/registration/mission_run.h"
+#include "areomap/pipeline/mission_run.h"
 #include "areomap/registration/orbital_image.h"
 #include "areomap/registration/orbital_match.h"
 #include "mission_truth.h"

@@ -59,11 +59,11 @@
 #include "areomap/map/error.h"
 #include "areomap/map/mission_manifest.h"
 #include "areomap/map/point_cloud_io.h"
-#include "areomap/registration/bundle_io.h"
-#include "areomap/registration/leg_consistency.h"
-#include "areomap/registration/localization_error.h"
-#include "areomap/registration/mission_run.h"
-#include "areomap/registration/rock_matching.h"
+#include "areomap/adjustment/bundle_io.h"
+#include "areomap/landmarks/leg_consistency.h"
+#include "areomap/landmarks/localization_error.h"
+#include "areomap/pipeline/mission_run.h"
+#include "areomap/landmarks/rock_matching.h"
 #include "rock_truth.h"
 
 namespace areomap {

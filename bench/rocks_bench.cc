@@ -17,8 +17,8 @@
 
 #include <tbb/global_control.h>
 
-#include "areomap/registration/rock_extraction.h"
-#include "areomap/registration/rock_matching.h"
+#include "areomap/landmarks/rock_extraction.h"
+#include "areomap/landmarks/rock_matching.h"
 #include "areomap/samples/simulated_points.h"
 
 namespace areomap {

@@ -2,7 +2,7 @@
 // and ReadTiePoints, the readers behind `areomap adjust`. They take paths: the bytes go to a
 // scratch file. Expected: areomap::Error.
 #include "areomap/map/error.h"
-#include "areomap/registration/bundle_io.h"
+#include "areomap/adjustment/bundle_io.h"
 #include "fuzz_support.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

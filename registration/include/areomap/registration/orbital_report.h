@@ -16,7 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
-#include "areomap/registration/landmark_links.h"
+#include "areomap/map/landmark_links.h"
 #include "areomap/registration/orbital_image.h"
 #include "areomap/registration/orbital_match.h"
 

@@ -1,0 +1,651 @@
+#include "areomap/pipeline/mission_run.h"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <mutex>
+#include <numbers>
+
+#include <tbb/parallel_for.h>
+
+#include "areomap/map/atomic_file.h"
+#include "areomap/map/error.h"
+#include "areomap/adjustment/bundle_io.h"
+#include "areomap/landmarks/localization_error.h"
+#include "areomap/adjustment/traverse_adjustment.h"
+#include "mission_units.h"
+
+namespace areomap {
+namespace mission_run {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string ThreeDigits(int n) {
+  char text[16];
+  std::snprintf(text, sizeof(text), "%03d", n);
+  return text;
+}
+
+// The identity of the mission's input files: the path, size and modification time of each file
+// the manifest names, hashed (FNV-1a, 64 bits). A changed input (a label edited, a mission
+// simulated again into the same folder) changes it, and so every finished unit's fingerprint.
+// Size and time rather than content, as make does: a stat per file, even for gigabytes of images.
+std::string InputFilesIdentity(const MissionManifest& mission) {
+  uint64_t hash = 14695981039346656037ull;
+  const auto add = [&hash](const std::string& text) {
+    for (const unsigned char c : text) {
+      hash ^= c;
+      hash *= 1099511628211ull;
+    }
+  };
+  for (const fs::path& file : mission.files) {
+    if (file.empty()) continue;
+    std::error_code ec;
+    const uintmax_t size = fs::file_size(file, ec);
+    const auto time = fs::last_write_time(file, ec);
+    add(file.lexically_relative(mission.root).string() + '\n' + std::to_string(size) + ' ' +
+        std::to_string(time.time_since_epoch().count()) + '\n');
+  }
+  char text[17];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(hash));
+  return text;
+}
+
+json ReadJsonFile(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) return nullptr;
+  json parsed = json::parse(in, nullptr, false);
+  return parsed.is_discarded() ? json(nullptr) : parsed;
+}
+
+}  // namespace
+
+RunContext::RunContext(const MissionManifest& mission_in, const MissionRunOptions& options_in,
+                       fs::path out_dir_in)
+    : mission(&mission_in),
+      options(&options_in),
+      out_dir(std::move(out_dir_in)),
+      fingerprint(json{{"mission", fs::absolute(mission_in.root).lexically_normal().string()},
+                       {"inputs", InputFilesIdentity(mission_in)},
+                       {"options", options_in.ToJson()}}
+                      .dump()),
+      map(MapFrame::LocalEquirectangular(mission_in.body, mission_in.origin)) {}
+
+fs::path SiteDir(const RunContext& run, int site) {
+  return run.out_dir / "sites" / ("site_" + ThreeDigits(site));
+}
+
+fs::path LegDir(const RunContext& run, int site_a, int site_b) {
+  return run.out_dir / "legs" / ("leg_" + ThreeDigits(site_a) + "_" + ThreeDigits(site_b));
+}
+
+json FinishedUnit(const RunContext& run, const fs::path& unit_dir) {
+  const json unit = ReadJsonFile(unit_dir / "unit.json");
+  if (!unit.is_object() || unit.value("fingerprint", "") != run.fingerprint) return nullptr;
+  return unit.value("summary", json(nullptr));
+}
+
+void FinishUnit(const RunContext& run, const fs::path& unit_dir, const json& summary) {
+  WriteFileAtomically(unit_dir / "unit.json",
+                      json{{"fingerprint", run.fingerprint}, {"summary", summary}}.dump(2));
+}
+
+Rigid3d TelemetryTraverseFromSite(const MissionSitePose& pose) {
+  // Site frames are level and north-up as the rover believes: a pure translation.
+  return Rigid3d(Eigen::Quaterniond::Identity(), pose.position);
+}
+
+double DrivenDistance(const MissionManifest& mission, size_t site_index) {
+  double distance = 0.0;
+  for (size_t i = 1; i <= site_index && i < mission.telemetry.size(); ++i) {
+    distance +=
+        (mission.telemetry[i].position - mission.telemetry[i - 1].position).head<2>().norm();
+  }
+  return distance;
+}
+
+namespace {
+
+// network.json in the adjustment format (docs/adjustment-format.md): the sites at their
+// telemetry poses, a dead-reckoning prior per leg and, when the mission has it, the truth.
+json NetworkJson(const MissionManifest& mission, const MissionRunOptions& options) {
+  BundleInput network;
+  network.body = mission.body;
+  network.origin = mission.origin;
+  network.site_count = static_cast<int>(mission.sites.size());
+  const double heading_sigma = options.leg_heading_sigma_deg * std::numbers::pi / 180.0;
+  Vector6d floor;
+  floor << 1e-3, 1e-3, 1e-3, 0.02, 0.02, 0.02;
+  for (size_t i = 0; i < mission.sites.size(); ++i) {
+    network.initial_poses.push_back(TelemetryTraverseFromSite(mission.telemetry[i]));
+    if (i == 0) continue;
+    RelativePosePrior prior;
+    prior.site_a = static_cast<int>(i - 1);
+    prior.site_b = static_cast<int>(i);
+    prior.a_from_b = network.initial_poses[i - 1].Inverse() * network.initial_poses[i];
+    prior.covariance = DeadReckoningCovariance(prior.a_from_b.translation, options.leg_scale_sigma,
+                                               heading_sigma, floor);
+    network.priors.push_back(prior);
+  }
+  std::vector<Eigen::Vector3d> truth;
+  for (const MissionSitePose& pose : mission.truth_sites) truth.push_back(pose.position);
+  if (truth.size() != mission.sites.size()) truth.clear();
+  return BundleInputToJson(network, truth);
+}
+
+// The adjusted site poses (traverse_from_site) from adjustment.json (BundleResult's JSON).
+std::vector<Rigid3d> AdjustedPoses(const fs::path& adjustment_json, size_t site_count) {
+  const json result = ReadJsonFile(adjustment_json);
+  const json sites = result.is_object() ? result.value("sites", json()) : json();
+  if (!sites.is_array() || sites.size() != site_count) {
+    throw Error(adjustment_json.string() + ": expected \"sites\" with " +
+                std::to_string(site_count) + " adjusted poses");
+  }
+  std::vector<Rigid3d> poses;
+  for (const json& site : sites) {
+    try {
+      const auto p = site.at("adjusted").at("position_m").get<std::vector<double>>();
+      const auto q = site.at("adjusted").at("rotation_wxyz").get<std::vector<double>>();
+      if (p.size() != 3 || q.size() != 4) throw Error("");
+      poses.emplace_back(Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized(),
+                         Eigen::Vector3d(p[0], p[1], p[2]));
+    } catch (const std::exception&) {
+      throw Error(adjustment_json.string() + ": sites[" + std::to_string(poses.size()) +
+                  "].adjusted: expected position_m [3] and rotation_wxyz [4]");
+    }
+  }
+  return poses;
+}
+
+// A leg's first-pass figures: "first_pass" after the second pass matched it again, else the leg.
+const json& FirstPass(const json& leg) {
+  const auto found = leg.find("first_pass");
+  return found != leg.end() && found->is_object() ? *found : leg;
+}
+
+// The rock tie points' a-posteriori variance factor over the run's legs: their first-pass
+// conformal fits' chi2 (recorded at the pass's tie_variance_factor, scaled back to the a-priori
+// covariances) and redundancy, pooled (PoolVarianceFactor).
+PooledVarianceFactor FirstPassTieVariance(const std::vector<json>& legs) {
+  std::vector<SitePairError> fits;
+  for (const json& leg : legs) {
+    const json& first = FirstPass(leg);
+    const json chi2 = first.value("conformal_chi2", json());
+    if (!chi2.is_number() || !std::isfinite(chi2.get<double>())) continue;  // null when resumed
+    SitePairError fit;
+    fit.chi2 = chi2.get<double>() * first.value("tie_variance_factor", 1.0);
+    fit.redundancy = first.value("conformal_redundancy", 0);
+    fits.push_back(fit);
+  }
+  return PoolVarianceFactor(fits);
+}
+
+// summary.json's "rock_tie_variance": the pooled figures (null when no leg had redundancy) and
+// the factor the second pass applied (null when it did not run).
+json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional<double> applied) {
+  const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(); };
+  return {{"legs", pooled.fits},
+          {"chi2", pooled.chi2},
+          {"redundancy", pooled.redundancy},
+          {"sigma0_squared", number(pooled.estimate)},
+          {"sigma0_squared_upper_95", number(pooled.upper_95)},
+          {"applied_factor", applied ? json(*applied) : json()}};
+}
+
+// The first-pass figures a leg keeps when the second pass matches it again.
+json FirstPassRecord(const json& leg) {
+  const json& first = FirstPass(leg);
+  json record = json::object();
+  for (const char* key :
+       {"outcome", "tie_points", "rock_matches", "relative_error_percent", "conformal_chi2",
+        "conformal_redundancy", "tie_variance_factor", "seconds"}) {
+    if (first.contains(key)) record[key] = first[key];
+  }
+  return record;
+}
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+}  // namespace mission_run
+
+std::optional<double> MissionRunOptions::RockVariancePassFactor(
+    const PooledVarianceFactor& first_pass) const {
+  if (!rock_variance_pass || first_pass.redundancy < rock_variance_pass_min_redundancy ||
+      !std::isfinite(first_pass.upper_95) || first_pass.upper_95 <= 0.0) {
+    return std::nullopt;
+  }
+  return first_pass.upper_95;
+}
+
+void MissionRunOptions::Check() const {
+  stereo.Check();
+  dtm.Check();
+  ortho.Check();
+  match.Check();
+  control.Check();
+  rocks.Check();
+  matching.Check();
+  bundle.Check();
+  RequireOption(point_spacing_m > 0.0, "MissionRunOptions.point_spacing_m",
+                "a positive ground spacing in metres");
+  RequireOption(fine_pair_point_spacing_m > 0.0, "MissionRunOptions.fine_pair_point_spacing_m",
+                "a positive ground spacing in metres");
+  RequireOption(fine_pair_max_ifov_mrad >= 0.0, "MissionRunOptions.fine_pair_max_ifov_mrad",
+                "a non-negative angular resolution in mrad per pixel (0: no pair is fine)");
+  precise_pairs.Check();
+  RequireOption(prior_sigma_floor_m > 0.0, "MissionRunOptions.prior_sigma_floor_m",
+                "a positive sigma in metres");
+  RequireOption(prior_sigma_per_m >= 0.0 && prior_sigma_per_m <= 1.0,
+                "MissionRunOptions.prior_sigma_per_m",
+                "a fraction of the distance driven in [0, 1]");
+  CheckModelsCoverHeightRule(rocks, matching);
+  RequireOption(leg_scale_sigma > 0.0, "MissionRunOptions.leg_scale_sigma",
+                "a positive relative leg-length sigma");
+  craters.Check();
+  mosaic.Check();
+  RequireOption(crater_min_diameter_m > 0.0, "MissionRunOptions.crater_min_diameter_m",
+                "a positive rim diameter in metres");
+  RequireOption(traverse_posting_m > 0.0, "MissionRunOptions.traverse_posting_m",
+                "a positive posting in metres");
+  RequireOption(leg_heading_sigma_deg > 0.0, "MissionRunOptions.leg_heading_sigma_deg",
+                "a positive heading drift sigma in degrees");
+  RequireOption(leg_test_alpha > 0.0 && leg_test_alpha < 1.0, "MissionRunOptions.leg_test_alpha",
+                "a false alarm rate in (0, 1)");
+  RequireOption(rock_variance_pass_min_redundancy >= 1,
+                "MissionRunOptions.rock_variance_pass_min_redundancy", ">= 1");
+  RequireOption(guided_passes >= 0, "MissionRunOptions.guided_passes", ">= 0");
+  RequireOption(guided_sigma_floor_m > 0.0, "MissionRunOptions.guided_sigma_floor_m",
+                "a positive sigma in metres");
+  RequireOption(guided_null_windows >= 8, "MissionRunOptions.guided_null_windows",
+                ">= 8 windows for a chance level");
+}
+
+LegConsistencyOptions MissionRunOptions::LegTestOptions() const {
+  LegConsistencyOptions test;
+  test.alpha = leg_test_alpha;
+  test.max_residual_chi2 = matching.max_residual_chi2;
+  test.min_tie_points = matching.fault_detection.min_tie_points;
+  return test;
+}
+
+nlohmann::json MissionRunOptions::ToJson() const {
+  // The figures a user changes from the CLI; the fingerprint only needs to change with them.
+  nlohmann::json figures = {
+      {"stereo_max_range_m", stereo.max_range_m},
+      {"point_spacing_m", point_spacing_m},
+      {"fine_pair_point_spacing_m", fine_pair_point_spacing_m},
+      {"fine_pair_max_ifov_mrad", fine_pair_max_ifov_mrad},
+      {"precise_pair_ratio", prefer_precise_pairs ? precise_pairs.sigma_ratio : 0.0},
+      {"precise_pair_cell_m", precise_pairs.cell_m},
+      {"stereo_block_size", stereo.block_size},
+      {"dtm_posting_m", dtm.posting_m},
+      {"dtm_method", ToString(dtm.gridding.method)},
+      {"ortho_max_range_m", ortho.max_range_m},
+      {"match_max_false_match", match.max_false_match},
+      {"match_max_rotation_deg", match.max_rotation_deg},
+      {"match_subpixel_floor_px", match.subpixel_floor_px},
+      // Not on the CLI, but they set the sites' rotation sigmas; runs made before the floor grew
+      // at low correlation (2026-12-04) lack them and are recomputed rather than reused.
+      {"match_rotation_floor_deg", match.rotation_floor_deg},
+      {"match_rotation_floor_correlation", match.rotation_floor_correlation},
+      {"control_spacing_m", control.spacing_m},
+      {"control_site_sigma_m", control.site_sigma_m},
+      {"prior_sigma_floor_m", prior_sigma_floor_m},
+      {"prior_sigma_per_m", prior_sigma_per_m},
+      {"rocks_min_height_m", rocks.min_height_m},
+      // Not on the CLI, but they decide which legs' rocks are ambiguous; runs made before
+      // similar low neighbours counted (2026-12-04) lack them and are recomputed, not reused.
+      {"rock_ambiguity_similar_min_height_m", matching.ambiguity_similar_min_height_m},
+      {"rock_ambiguity_similar_height_difference", matching.ambiguity_similar_height_difference},
+      {"leg_scale_sigma", leg_scale_sigma},
+      {"leg_heading_sigma_deg", leg_heading_sigma_deg},
+      {"bundle_huber_scale", bundle.huber_scale},
+      {"bundle_rejection_alpha", bundle.rejection_alpha},
+      {"detect_craters", detect_craters},
+      {"crater_min_diameter_m", crater_min_diameter_m},
+      {"traverse_products", traverse_products},
+      {"traverse_posting_m", traverse_posting_m},
+      {"mosaic_feather_m", mosaic.feather_m}};
+  // The height rule (run --rock-min-height) decides which rocks are modeled and eligible, the
+  // low rocks' sigma limit which of them are matched; runs made before the rule became 12 cm
+  // (2026-12-04) lack them and are recomputed rather than reused with 15 cm.
+  figures["rocks_model_min_height_m"] = rocks.model_min_height_m;
+  figures["rock_min_peak_to_plane_m"] = matching.fault_detection.min_peak_to_plane_m;
+  figures["rock_low_rock_max_peak_sigma_m"] = matching.low_rock_max_peak_sigma_m;
+  // Since 2026-12-05 the limit holds for pairs of two low rocks only (one before).
+  figures["rock_low_pair_max_height_m"] = matching.low_pair_max_height_m;
+  // Since 2026-12-05 the pattern vouches for pairs against the low-pair limit and the pair cost
+  // (no exemption before).
+  figures["rock_pattern_vouch_deviation_m"] = matching.pattern_vouch_deviation_m;
+  figures["rock_pattern_vouch_votes"] = matching.pattern_vouch_votes;
+  // Since 2026-12-05 (second change) a vouched pair's off-pattern alternatives are ruled out.
+  figures["rock_pattern_vouch_rules_out_alternatives"] =
+      matching.pattern_vouch_rules_out_alternatives;
+  // Three significant rocks per cell since 2026-12-04 (one before): legs made with one are
+  // recomputed.
+  figures["rock_significant_per_cell"] = matching.significant_per_cell;
+  // The pattern settles the methods' disagreements since 2026-12-04: legs matched before are
+  // recomputed.
+  figures["rock_pattern_settles_disagreement"] = matching.pattern_settles_disagreement;
+  // Since 2026-12-04 (the consensus translation, models compared from min_shape_points up).
+  figures["rock_consensus_translation"] = matching.consensus_translation;
+  // Since 2026-12-05 the pattern's turn is fitted with its translation.
+  figures["rock_consensus_turn"] = matching.consensus_turn;
+  figures["rock_consensus_turn_trim_m"] = matching.consensus_turn_trim_m;
+  figures["rock_min_shape_points"] = matching.min_shape_points;
+  // Since 2026-12-05 pairs are compared by their measured heights (by their models before).
+  figures["rock_compare_models"] = matching.compare_models;
+  // Library callers may change the rock ties' variance factor: legs made with another are not
+  // reused. Left out at its default, so that earlier runs keep their fingerprint.
+  if (matching.tie_variance_factor != 1.0) {
+    figures["rock_tie_variance_factor"] = matching.tie_variance_factor;
+  }
+  return figures;
+}
+
+MissionRunSummary RunMission(const MissionManifest& mission, const std::filesystem::path& out_dir,
+                             const MissionRunOptions& options, const ProgressCallback& progress) {
+  using namespace mission_run;
+  options.Check();
+  const auto start = std::chrono::steady_clock::now();
+  fs::create_directories(out_dir);
+  const RunContext run(mission, options, out_dir);
+
+  // One bar for the run: sites 60 %, legs 15 %, craters 3 %, the adjustment 5 %, products 17 %.
+  constexpr double kSites = 0.6, kLegs = 0.75, kCraters = 0.78, kAdjustment = 0.83;
+  const size_t site_count = mission.sites.size();
+  const size_t leg_count = site_count > 0 ? site_count - 1 : 0;
+  std::mutex progress_mutex;
+  std::vector<double> site_done(site_count, 0.0);
+  std::atomic<bool> cancelled = false;
+  const auto report = [&](double fraction, std::string_view stage) {
+    if (!progress) return true;
+    std::lock_guard lock(progress_mutex);
+    const bool go = progress(fraction, stage);
+    if (!go) cancelled = true;
+    return go;
+  };
+  const auto sites_fraction = [&] {
+    double sum = 0.0;
+    for (double d : site_done) sum += d;
+    return kSites * sum / static_cast<double>(std::max<size_t>(1, site_count));
+  };
+  const auto span = [&](double from, double to) -> ProgressCallback {
+    return [&report, from, to](double f, std::string_view stage) {
+      return report(from + (to - from) * f, stage);
+    };
+  };
+  // Wall time of each stage of this invocation [s] (reused units cost ~0).
+  json stage_seconds = json::object();
+  auto clock = std::chrono::steady_clock::now();
+  const auto lap = [&](const char* stage) {
+    stage_seconds[stage] = SecondsSince(clock);
+    clock = std::chrono::steady_clock::now();
+  };
+
+  MissionRunSummary summary;
+  std::vector<json> site_summaries(site_count);
+  std::vector<bool> reused(site_count, false);
+  tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
+    if (cancelled) return;
+    const fs::path dir = SiteDir(run, mission.sites[i].site);
+    json done = FinishedUnit(run, dir);
+    if (done.is_null()) {
+      done = RunSiteUnit(run, i, [&](double f, std::string_view stage) {
+        {
+          std::lock_guard lock(progress_mutex);
+          site_done[i] = f;
+        }
+        return report(sites_fraction(), stage);
+      });
+      FinishUnit(run, dir, done);
+    } else {
+      reused[i] = true;
+    }
+    site_summaries[i] = done;
+    std::lock_guard lock(progress_mutex);
+    site_done[i] = 1.0;
+  });
+  if (cancelled) throw Error("cancelled during the site units");
+  for (bool r : reused) (r ? summary.sites_reused : summary.sites_computed)++;
+  lap("sites");
+  // The legs: the first pass with the run's matching options, then the second with the first
+  // pass's pooled variance factor (MissionRunOptions::rock_variance_pass). A leg is matched
+  // again only when the factor it was matched with is not the one wanted.
+  constexpr double kFirstPass = kSites + 0.8 * (kLegs - kSites);
+  SiteRocksCache site_rocks(run);
+  const auto match_leg = [&](size_t i, const RockMatchingOptions& matching, double from,
+                             double to) {
+    const auto leg_start = std::chrono::steady_clock::now();
+    json done = RunLegUnit(run, i, i + 1, site_rocks, matching, [&](double f, std::string_view s) {
+      const double n = static_cast<double>(leg_count);
+      return report(from + (to - from) * (static_cast<double>(i) + f) / n, s);
+    });
+    done["seconds"] = SecondsSince(leg_start);
+    return done;
+  };
+  std::vector<json> leg_summaries(leg_count);
+  for (size_t i = 0; i < leg_count; ++i) {
+    const fs::path dir = LegDir(run, mission.sites[i].site, mission.sites[i + 1].site);
+    json done = FinishedUnit(run, dir);
+    if (done.is_null()) {
+      done = match_leg(i, options.matching, kSites, kFirstPass);
+      FinishUnit(run, dir, done);
+      ++summary.legs_computed;
+    } else {
+      ++summary.legs_reused;
+    }
+    leg_summaries[i] = done;
+  }
+  const PooledVarianceFactor first_pass = FirstPassTieVariance(leg_summaries);
+  const std::optional<double> variance_pass = options.RockVariancePassFactor(first_pass);
+  RockMatchingOptions final_matching = options.matching;
+  if (variance_pass) final_matching.tie_variance_factor = *variance_pass;
+  for (size_t i = 0; i < leg_count; ++i) {
+    const double recorded = leg_summaries[i].value("tie_variance_factor", 1.0);
+    const double wanted = final_matching.tie_variance_factor;
+    if (std::abs(recorded - wanted) <= 1e-12 * wanted) continue;
+    const json first = FirstPassRecord(leg_summaries[i]);
+    json done = match_leg(i, final_matching, kFirstPass, kLegs);
+    if (variance_pass) {
+      done["first_pass"] = first;
+      done["seconds"] = done["seconds"].get<double>() + first.value("seconds", 0.0);
+    }
+    FinishUnit(run, LegDir(run, mission.sites[i].site, mission.sites[i + 1].site), done);
+    leg_summaries[i] = done;
+    ++summary.legs_rematched;
+  }
+  // The legs tested against each other: a leg the test changed is read from rock_ties/.
+  const fs::path adjustment_dir = out_dir / "adjustment";
+  const std::vector<fs::path> leg_tie_files =
+      TestLegsAgainstEachOther(run, leg_summaries, adjustment_dir / "rock_ties");
+  lap("legs");
+
+  // How the whole-run units went: "computed", "reused" or "off".
+  std::string craters_unit = "off", products_unit = "off";
+  json craters;
+  if (options.detect_craters) {
+    const fs::path dir = out_dir / "craters";
+    craters = FinishedUnit(run, dir);
+    craters_unit = craters.is_null() ? "computed" : "reused";
+    if (craters.is_null()) {
+      craters = RunCratersUnit(run, span(kLegs, kCraters));
+      craters["seconds"] = SecondsSince(clock);  // Since the legs' lap.
+      if (fs::exists(dir)) FinishUnit(run, dir, craters);
+    }
+  }
+  lap("craters");
+
+  // The adjustment reads everything the units wrote: the network, every site's control
+  // points and every leg's tie points.
+  fs::create_directories(adjustment_dir);
+  WriteFileAtomically(adjustment_dir / "network.json", NetworkJson(mission, options).dump(2));
+  // Each site's control points: its own registration's, or a guided one's (below).
+  std::vector<fs::path> site_controls;
+  for (const MissionSite& site : mission.sites) {
+    site_controls.push_back(SiteDir(run, site.site) / "control_points.json");
+  }
+  const auto inputs = [&] {
+    std::vector<fs::path> files = {adjustment_dir / "network.json"};
+    files.insert(files.end(), site_controls.begin(), site_controls.end());
+    files.insert(files.end(), leg_tie_files.begin(), leg_tie_files.end());
+    return files;
+  };
+  TraverseAdjustmentOptions adjustment;
+  adjustment.bundle = options.bundle;
+  // The second pass's variance factor decides which legs fault detection accepts; the
+  // adjustment weighs their tie points by the a-priori covariances: scaling the rock ties there
+  // left the site errors as they were and made their sigmas less honest on three generated
+  // traverses (docs/rocks.md).
+  if (variance_pass) adjustment.rock_tie_variance_factor = 1.0 / *variance_pass;
+  const json tie_variance = TieVarianceJson(first_pass, variance_pass);
+  if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
+    adjustment.orbital_image = image->path;
+  }
+  json adjusted = AdjustTraverse(inputs(), adjustment_dir, adjustment, span(kCraters, kAdjustment));
+  lap("adjustment");
+
+  // Guided re-registration: sites that did not register, again around their adjusted poses.
+  // Sites whose orthophoto had too few valid template pixels are not tried again: a prior
+  // does not change the template. Sites whose first match turned the orthophoto by the most
+  // the rotation grid allows (the true turn may lie beyond it; their control points are then
+  // turned too little) are matched again too in the first guided pass, and a guided match
+  // replaces their control points.
+  std::vector<bool> registered(site_count, false), eligible(site_count, false),
+      turn_at_edge(site_count, false);
+  json first_pass_sites = json::array();
+  for (size_t i = 0; i < site_count; ++i) {
+    const json& r = site_summaries[i].value("registration", json::object());
+    registered[i] = r.value("matched", false) && r.value("control_points", 0) > 0;
+    eligible[i] = r.value("template_pixels", 0) >= options.match.min_template_pixels;
+    const double turn = std::abs(r.value("rotation_deg", 0.0));
+    turn_at_edge[i] =
+        registered[i] && options.match.max_rotation_deg > 0.0 &&
+        turn >= options.match.max_rotation_deg - 0.5 * options.match.rotation_step_deg;
+    if (registered[i]) first_pass_sites.push_back(mission.sites[i].site);
+  }
+  json guided = {{"registered_first_pass", first_pass_sites},
+                 {"first_adjustment", adjusted},
+                 {"passes", json::array()}};
+  for (int pass = 1; pass <= options.guided_passes; ++pass) {
+    std::vector<size_t> todo;
+    for (size_t i = 0; i < site_count; ++i) {
+      if ((!registered[i] && eligible[i]) || (pass == 1 && turn_at_edge[i])) todo.push_back(i);
+    }
+    if (todo.empty() || !mission.FirstOrbital("image")) break;
+    report(kAdjustment, "guided registration");
+    const json sites = ReadJsonFile(adjustment_dir / "adjustment.json").value("sites", json());
+    if (!sites.is_array() || sites.size() != site_count) {
+      throw Error((adjustment_dir / "adjustment.json").string() + ": expected " +
+                  std::to_string(site_count) + " sites");
+    }
+    std::vector<json> results(todo.size());
+    tbb::parallel_for(size_t{0}, todo.size(), [&](size_t k) {
+      const GuidedPrior prior =
+          GuidedPriorFromAdjustment(sites[todo[k]], options.guided_sigma_floor_m);
+      results[k] = RunGuidedRegistrationUnit(run, todo[k], pass, prior);
+    });
+    json record = {{"pass", pass},
+                   {"attempted", json::array()},
+                   {"registered", json::array()},
+                   {"replaced", json::array()}};
+    for (size_t k = 0; k < todo.size(); ++k) {
+      const int site = mission.sites[todo[k]].site;
+      const json& r = results[k]["registration"];
+      record["attempted"].push_back(
+          {{"site", site},
+           {"prior", results[k]["prior"]},
+           {"matched", r.value("matched", false)},
+           {"reason", r.value("reason", "")},
+           {"correlation", r.value("correlation", json())},
+           {"null_highest_correlation", r.value("null_highest_correlation", json())},
+           {"search_radius_px", r.value("search_radius_px", 0)},
+           {"control_points", r.value("control_points", 0)},
+           {"turn_at_edge", turn_at_edge[todo[k]]}});
+      if (r.value("matched", false) && r.value("control_points", 0) > 0) {
+        record[registered[todo[k]] ? "replaced" : "registered"].push_back(site);
+        registered[todo[k]] = true;
+        site_controls[todo[k]] = GuidedDir(run, pass, site) / "control_points.json";
+      }
+      turn_at_edge[todo[k]] = false;
+    }
+    const bool any = !record["registered"].empty() || !record["replaced"].empty();
+    if (any) {
+      adjusted = AdjustTraverse(inputs(), adjustment_dir, adjustment);
+      record["adjustment"] = adjusted;
+    }
+    guided["passes"].push_back(record);
+    if (!any) break;
+  }
+  lap("guided_registration");
+
+  json products;
+  if (options.traverse_products && site_count > 0) {
+    const std::vector<Rigid3d> poses =
+        AdjustedPoses(adjustment_dir / "adjustment.json", site_count);
+    const fs::path dir = out_dir / "products";
+    products = FinishedUnit(run, dir);
+    products_unit = "reused";
+    if (products.is_null() || !SamePoses(products.value("poses", json()), poses)) {
+      products_unit = "computed";
+      products = RunProductsUnit(run, poses, span(kAdjustment, 1.0));
+      FinishUnit(run, dir, products);
+    }
+    products.erase("poses");  // In products/unit.json; summary.json keeps the figures.
+  }
+  lap("products");
+  report(1.0, "done");
+
+  // What each stage cost when its units were computed (this run or an earlier one), from the
+  // units' records: per-site stages and legs summed (sites ran two or more at a time).
+  json computed = {{"stereo", 0.0}, {"dtm", 0.0}, {"ortho", 0.0}, {"registration", 0.0}};
+  for (const json& site : site_summaries) {
+    for (auto& [stage, value] : computed.items()) {
+      value = value.get<double>() + site.value("seconds", json::object()).value(stage, 0.0);
+    }
+  }
+  double legs_seconds = 0.0;
+  for (const json& leg : leg_summaries) legs_seconds += leg.value("seconds", 0.0);
+  computed["legs"] = legs_seconds;
+  computed["craters"] = craters.is_object() ? craters.value("seconds", 0.0) : 0.0;
+  computed["adjustment"] = stage_seconds["adjustment"];
+  double products_seconds = 0.0;
+  if (products.is_object()) {
+    const json parts = products.value("seconds", json::object());
+    for (const auto& [part, value] : parts.items()) products_seconds += value.get<double>();
+  }
+  computed["products"] = products_seconds;
+  summary.json = {{"mission", mission.root.string()},
+                  {"name", mission.name},
+                  {"sites", site_summaries},
+                  {"legs", leg_summaries},
+                  {"rock_tie_variance", tie_variance},
+                  {"craters", craters},
+                  {"adjustment", adjusted},
+                  {"guided_registration", guided},
+                  {"products", products},
+                  {"units",
+                   {{"sites_computed", summary.sites_computed},
+                    {"sites_reused", summary.sites_reused},
+                    {"legs_computed", summary.legs_computed},
+                    {"legs_reused", summary.legs_reused},
+                    {"legs_rematched", summary.legs_rematched},
+                    {"craters", craters_unit},
+                    {"products", products_unit}}},
+                  {"stage_seconds", stage_seconds},
+                  {"computed_seconds", computed},
+                  {"seconds", SecondsSince(start)}};
+  return summary;
+}
+
+}  // namespace areomap

@@ -1,0 +1,125 @@
+// Private plumbing of RunMission (mission_run.h): the unit folders, their completion markers, and
+// the per-unit stages. Each stage reads its inputs from the mission or from earlier units' files
+// and writes its products atomically, its unit.json last.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "areomap/map/dtm.h"
+#include "areomap/map/mission_manifest.h"
+#include "areomap/map/orthophoto.h"
+#include "areomap/map/rigid3d.h"
+#include "areomap/map/site_georeference.h"
+#include "areomap/pipeline/mission_run.h"
+#include "areomap/landmarks/rock_extraction.h"
+#include "areomap/landmarks/rock_matching.h"
+
+namespace areomap::mission_run {
+
+// The shared context of one run.
+struct RunContext {
+  const MissionManifest* mission;
+  const MissionRunOptions* options;
+  std::filesystem::path out_dir;
+  std::string fingerprint;  // Options + mission, recorded in every unit.json.
+  MapFrame map;             // The mission map (equirectangular at the origin).
+
+  RunContext(const MissionManifest& mission_in, const MissionRunOptions& options_in,
+             std::filesystem::path out_dir_in);
+};
+
+std::filesystem::path SiteDir(const RunContext& run, int site);
+std::filesystem::path LegDir(const RunContext& run, int site_a, int site_b);
+
+// The unit's recorded summary when it finished with this run's fingerprint, else null.
+nlohmann::json FinishedUnit(const RunContext& run, const std::filesystem::path& unit_dir);
+// Marks the unit finished: writes unit.json = {fingerprint, summary} atomically.
+void FinishUnit(const RunContext& run, const std::filesystem::path& unit_dir,
+                const nlohmann::json& summary);
+
+// Where telemetry puts a site: traverse_from_site with the believed (level, north-up) frame.
+Rigid3d TelemetryTraverseFromSite(const MissionSitePose& pose);
+// Distance driven from site 0 to `site_index` along the telemetry traverse [m].
+double DrivenDistance(const MissionManifest& mission, size_t site_index);
+
+// Stage of one site (index into mission.sites): stereo, DTM, orthophoto, orbital registration.
+nlohmann::json RunSiteUnit(const RunContext& run, size_t site_index,
+                           const ProgressCallback& progress);
+// Each site's rocks (ExtractRocks on its points.ply with the run's options), extracted on first
+// use and kept for the rest of the run: a site is shared by two legs, and a second pass over the
+// legs (MissionRunOptions::rock_variance_pass) matches them again. A site's rocks are a few
+// hundred peaks with their models, small beside its cloud, which is not kept. Not thread-safe.
+class SiteRocksCache {
+ public:
+  struct Entry {
+    SiteRocks rocks;
+    RockExtractionSummary summary;
+  };
+  explicit SiteRocksCache(const RunContext& run) : run_(&run) {}
+  // Throws areomap::Error (from the PLY reader) naming the file when it cannot be read.
+  const Entry& Get(size_t site_index);
+
+ private:
+  const RunContext* run_;
+  std::map<size_t, Entry> entries_;
+};
+
+// Stage of one leg (consecutive site indices): rocks, matching with `matching` (the run's
+// options, or the second pass's with its variance factor), fault detection, tie points. Writes
+// the leg's folder (LegDir) except unit.json.
+nlohmann::json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
+                          SiteRocksCache& rocks, const RockMatchingOptions& matching,
+                          const ProgressCallback& progress);
+
+// The legs' tie points tested against each other (MissionRunOptions::leg_test, leg_consistency.h)
+// once every leg unit has finished. Each leg's summary in `legs` (one per consecutive pair, as
+// RunLegUnit returned it) gains "leg_test" (the verdict; "dropped_ids") and the test's rule in
+// "faults"; a leg the test changed gets its remaining tie points in
+// `ties_dir`/leg_NNN_MMM.json, its RE re-evaluated (eq. 4.9, a rule too) and, if excluded, the
+// outcome "excluded by fault detection". Returns each leg's tie point file for the adjustment.
+std::vector<std::filesystem::path> TestLegsAgainstEachOther(const RunContext& run,
+                                                            std::vector<nlohmann::json>& legs,
+                                                            const std::filesystem::path& ties_dir);
+// Orbital registration of a site's orthophoto (`ortho`, read from or written to `ortho_path`, at
+// its telemetry georeference) around `prior` with `options`; writes registration.json,
+// correlation_surface.png and control_points.json (BA input format, ids "site<N>-...") into
+// `dir` and returns the registration report. Without an orbital image: {"status": "skipped"}.
+nlohmann::json RegisterSiteOrtho(const RunContext& run, const Orthophoto& ortho,
+                                 const std::filesystem::path& ortho_path, int site,
+                                 const OrbitalPrior& prior, const OrbitalMatchOptions& options,
+                                 const std::filesystem::path& dir);
+
+// The guided prior of a site from its entry of adjustment.json (BundleResult's JSON: initial
+// and adjusted poses, 6 x 6 covariance); throws areomap::Error naming the site and field.
+GuidedPrior GuidedPriorFromAdjustment(const nlohmann::json& adjusted_site, double sigma_floor_m);
+// guided/pass_P/site_NNN/: registration.json, control_points.json, unit.json (the summary
+// records the prior; a finished unit is reused only when the prior and guided settings match).
+std::filesystem::path GuidedDir(const RunContext& run, int pass, int site);
+nlohmann::json RunGuidedRegistrationUnit(const RunContext& run, size_t site_index, int pass,
+                                         const GuidedPrior& prior);
+
+// The left image of every stereo pair of a site with its camera in the site frame, the
+// orthophoto's sources; ids are first_id, first_id + 1, ...
+std::vector<OrthoSourceImage> SiteOrthoImages(const MissionSite& site, int first_id);
+
+// Stage of the whole traverse (products/): every site's points.ply gridded into one DTM with the
+// adjusted poses (`traverse_from_site`, one per mission site), each site's images draped on it
+// and blended into one orthomosaic; both also compared with the orbital DTM, and the DTM made
+// with the telemetry poses too, to show what the adjustment changed.
+// Whether a finished products unit's recorded "poses" are `traverse_from_site` (to 0.1 mm /
+// 1e-4 in the quaternion: above solver round-off, far below the products' posting).
+bool SamePoses(const nlohmann::json& recorded, const std::vector<Rigid3d>& traverse_from_site);
+nlohmann::json RunProductsUnit(const RunContext& run,
+                               const std::vector<Rigid3d>& traverse_from_site,
+                               const ProgressCallback& progress);
+
+// Stage of the orbital image (craters/): crater detection, catalogue files, overlay PNG, and the
+// score against truth/craters.csv when the mission has it.
+nlohmann::json RunCratersUnit(const RunContext& run, const ProgressCallback& progress);
+
+}  // namespace areomap::mission_run
