@@ -134,9 +134,8 @@ PartConsistency CheckPartConsistency(const MaskedImage& fixed, const MaskedImage
     const cv::Point corner = part.region.tl();
     MaskedNccOptions options;
     options.min_overlap_fraction = min_overlap_fraction;
-    options.search_window =
-        ShiftWindow{local.min_shift_x + corner.x, local.max_shift_x + corner.x,
-                    local.min_shift_y + corner.y, local.max_shift_y + corner.y};
+    options.search_window = ShiftWindow{local.min_shift_x + corner.x, local.max_shift_x + corner.x,
+                                        local.min_shift_y + corner.y, local.max_shift_y + corner.y};
     const MaskedNccSurface s =
         MaskedNcc(hp.image, hp.mask, hp_template.image(part.region), mask, options);
     MeasurePart(s, match + corner, radius, &part);
