@@ -4,13 +4,14 @@
 // (TM_CCOEFF_NORMED) brute force at full resolution over the same search window, on the same
 // resampled template, in this process. Both must find the same shift (to 1 px).
 //
-// Run: build/release/bench/areomap_bench_register [repetitions]
+// Run: build/release/bench/areomap_bench_register [repetitions] [largest search radius, px]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -69,6 +70,8 @@ Baseline MatchTemplateBaseline(const OrbitalMatch& m, int radius, bool use_mask)
 
 int Main(int argc, char** argv) {
   const int repetitions = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
+  // Cases whose search radius is over this are skipped (to profile the small windows alone).
+  const int largest_radius = argc > 2 ? std::atoi(argv[2]) : std::numeric_limits<int>::max();
   std::printf("%-46s %6s %10s %10s %10s %8s %8s %s\n", "case", "search", "register", "matching",
               "baseline", "ratio", "ratio m.", "same answer");
   struct Case {
@@ -84,6 +87,8 @@ int Main(int argc, char** argv) {
     o.decoy = false;
     testing::Trial trial = testing::MakeTrial(o);
     trial.prior.sigma_m = c.prior_sigma_m;
+    const double radius_estimate = 3.0 * c.prior_sigma_m / 0.25;
+    if (radius_estimate > largest_radius + 1) continue;
     OrbitalMatch match;
     const double ours = MedianSeconds(repetitions, [&] {
       match = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);

@@ -345,13 +345,16 @@ MaskedNccSurface DirectSurface(const Problem& p) {
 constexpr double kDirectNsPerPair = 1.6;
 constexpr double kFftNsPerPoint = 0.8;
 
-// The FFT route's cost: its transforms (FftSurface's count) of the padded size.
-double FftCost(const Problem& p) {
-  const cv::Size padded = PaddedSize(p);
+// The FFT route's cost for buffers of `padded` size: its transforms (FftSurface's count: 7 with
+// an all-valid fixed crop, else 12).
+double FftCostOfPadded(cv::Size padded, bool fixed_all_valid) {
   const double points = static_cast<double>(padded.area());
-  const bool fixed_all_valid = p.fixed.valid_count == p.fixed.value.size().area();
   const double transforms = fixed_all_valid ? 7.0 : 12.0;
   return kFftNsPerPoint * transforms * points * std::log2(points);
+}
+
+double FftCost(const Problem& p) {
+  return FftCostOfPadded(PaddedSize(p), p.fixed.valid_count == p.fixed.value.size().area());
 }
 
 double DirectCost(const Problem& p) {
@@ -393,6 +396,15 @@ bool DirectNccIsCheaper(const cv::Mat& fixed, const cv::Mat& fixed_mask, const c
                         const cv::Mat& moving_mask, const MaskedNccOptions& options) {
   const Problem p = MakeProblem(fixed, fixed_mask, moving, moving_mask, options);
   return p.rows > 0 && DirectCost(p) < FftCost(p);
+}
+
+double FftNccCostNs(cv::Size moving, const ShiftWindow& shifts) {
+  const int cols = shifts.max_shift_x - shifts.min_shift_x + 1;
+  const int rows = shifts.max_shift_y - shifts.min_shift_y + 1;
+  if (moving.area() <= 0 || cols <= 0 || rows <= 0) return 0.0;
+  const cv::Size padded(cv::getOptimalDFTSize(moving.width + cols - 1),
+                        cv::getOptimalDFTSize(moving.height + rows - 1));
+  return FftCostOfPadded(padded, /*fixed_all_valid=*/true);
 }
 
 MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,

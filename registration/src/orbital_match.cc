@@ -417,18 +417,28 @@ void RefineWarpAtFullResolution(const PyramidSearch& search, const WarpAt& warp_
 // The null's spread is its largest over blocks of this many shifts a side (MeasureSurfaceNull).
 constexpr int kNullBlock = 24;
 
+// The NCC surface of `t` (high-passed) over `shifts` on `fixed` (raw; high-passed here where
+// the shifts reach), its shifts in `fixed`'s frame; empty if they reach no pixel.
+MaskedNccSurface HighPassedSurface(const MaskedImage& fixed, const MaskedImage& t,
+                                   const ShiftWindow& shifts, double min_overlap_fraction) {
+  ShiftWindow local;
+  const MaskedImage hp = HighPassReach(fixed, shifts, t.image.size(), &local);
+  if (hp.image.empty()) return {};
+  MaskedNccOptions options;
+  options.min_overlap_fraction = min_overlap_fraction;
+  options.search_window = local;
+  MaskedNccSurface s = MaskedNcc(hp.image, hp.mask, t.image, t.mask, options);
+  s.shift_x0 += shifts.min_shift_x - local.min_shift_x;
+  s.shift_y0 += shifts.min_shift_y - local.min_shift_y;
+  return s;
+}
+
 // The highest NCC of `t` (high-passed) on `fixed` (raw; high-passed here where `t` reaches) at
 // shifts within 1 px of `shift`; NaN if none is defined.
 double PeakNear(const MaskedImage& fixed, const MaskedImage& t, cv::Point shift,
                 double min_overlap_fraction) {
-  MaskedNccOptions options;
-  options.min_overlap_fraction = min_overlap_fraction;
-  ShiftWindow local;
-  const MaskedImage hp =
-      HighPassReach(fixed, ShiftWindow::Around(shift.x, shift.y, 1), t.image.size(), &local);
-  if (hp.image.empty()) return std::numeric_limits<double>::quiet_NaN();
-  options.search_window = local;
-  const MaskedNccSurface s = MaskedNccNaive(hp.image, hp.mask, t.image, t.mask, options);
+  const MaskedNccSurface s =
+      HighPassedSurface(fixed, t, ShiftWindow::Around(shift.x, shift.y, 1), min_overlap_fraction);
   double best = std::numeric_limits<double>::quiet_NaN();
   for (auto it = s.ncc.begin<float>(); it != s.ncc.end<float>(); ++it) {
     if (std::isfinite(*it) && !(best >= *it)) best = *it;
@@ -544,32 +554,38 @@ SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t,
     if (ar < 0 || ac < 0 || ar >= acf.ncc.rows || ac >= acf.ncc.cols) return false;
     return acf.ncc.at<float>(ar, ac) >= kPeakLobe;
   };
-  tbb::parallel_for(0, n * n, [&](int k) {
+  const auto tile_at = [&](int k) {
     const double step = n > 1 ? 1.0 / (n - 1.0) : 0.0;
     const int x0 =
         window.min_shift_x + static_cast<int>(std::lround((k % n) * (side - tile_w) * step));
     const int y0 =
         window.min_shift_y + static_cast<int>(std::lround((k / n) * (height - tile_h) * step));
-    MaskedNccOptions options;
-    options.min_overlap_fraction = min_overlap_fraction;
-    ShiftWindow local;
-    const MaskedImage hp = HighPassReach(
-        fixed, ShiftWindow{x0, x0 + tile_w - 1, y0, y0 + tile_h - 1}, t.image.size(), &local);
-    if (hp.image.empty()) return;
-    options.search_window = local;
-    const MaskedNccSurface s = MaskedNcc(hp.image, hp.mask, t.image, t.mask, options);
-    // Back from the crop's shifts to the window's.
-    const int dx = x0 - local.min_shift_x, dy = y0 - local.min_shift_y;
-    for (int r = 0; r < s.ncc.rows; ++r) {
-      for (int c = 0; c < s.ncc.cols; ++c) {
-        const int sx = s.shift_x0 + c + dx, sy = s.shift_y0 + r + dy;
+    return ShiftWindow{x0, x0 + tile_w - 1, y0, y0 + tile_h - 1};
+  };
+  // Copies the shifts of `tile` that `s` holds into `all`, and marks those off the peak's lobe.
+  const auto sample = [&](const MaskedNccSurface& s, const ShiftWindow& tile) {
+    for (int sy = tile.min_shift_y; sy <= tile.max_shift_y; ++sy) {
+      for (int sx = tile.min_shift_x; sx <= tile.max_shift_x; ++sx) {
+        const int c = sx - s.shift_x0, r = sy - s.shift_y0;
+        if (c < 0 || r < 0 || c >= s.ncc.cols || r >= s.ncc.rows) continue;
         const int px = sx - window.min_shift_x, py = sy - window.min_shift_y;
-        if (px < 0 || py < 0 || px >= side || py >= height) continue;
         all.at<float>(py, px) = s.ncc.at<float>(r, c);
         if (!in_lobe(sx - peak.x, sy - peak.y)) null_mask.at<uchar>(py, px) = 255;
       }
     }
-  });
+  };
+  // A small window's tiles reach nearly the same pixels: one surface over all of it costs less
+  // than one per tile; the tiles' shifts are sampled either way.
+  const double tiles_cost = n * n * FftNccCostNs(t.image.size(), tile_at(0));
+  if (n > 1 && FftNccCostNs(t.image.size(), window) < tiles_cost) {
+    const MaskedNccSurface s = HighPassedSurface(fixed, t, window, min_overlap_fraction);
+    for (int k = 0; k < n * n; ++k) sample(s, tile_at(k));
+  } else {
+    tbb::parallel_for(0, n * n, [&](int k) {
+      const ShiftWindow tile = tile_at(k);
+      sample(HighPassedSurface(fixed, t, tile, min_overlap_fraction), tile);
+    });
+  }
   return MeasureSurfaceNull(all, null_mask, kNullBlock);
 }
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <sstream>
 
+#include <tbb/parallel_for.h>
+
 #include "areomap/registration/masked_ncc.h"
 #include "high_pass.h"
 
@@ -122,17 +124,22 @@ PartConsistency CheckPartConsistency(const MaskedImage& fixed, const MaskedImage
   if (hp.image.empty()) return out;
   // The match's shift on the crop.
   const cv::Point match(local.min_shift_x + radius, local.min_shift_y + radius);
-  for (PartFit& part : out.parts) {
-    cv::Mat mask(size, CV_8U, cv::Scalar(0));
-    valid(part.region).copyTo(mask(part.region));
+  // Each quadrant is correlated as a template of its own: at template shift s its top-left
+  // pixel lies at s + region.tl(), so its shifts are the template's moved by that corner.
+  tbb::parallel_for(0, static_cast<int>(out.parts.size()), [&](int k) {
+    PartFit& part = out.parts[k];
+    const cv::Mat mask = valid(part.region);
     part.pixels = cv::countNonZero(mask);
-    if (part.pixels < kMinPartShare * total || part.pixels < 2) continue;
+    if (part.pixels < kMinPartShare * total || part.pixels < 2) return;
+    const cv::Point corner = part.region.tl();
     MaskedNccOptions options;
     options.min_overlap_fraction = min_overlap_fraction;
-    options.search_window = local;
-    const MaskedNccSurface s = MaskedNcc(hp.image, hp.mask, hp_template.image, mask, options);
-    MeasurePart(s, match, radius, &part);
-  }
+    options.search_window = ShiftWindow{local.min_shift_x + corner.x, local.max_shift_x + corner.x,
+                                        local.min_shift_y + corner.y, local.max_shift_y + corner.y};
+    const MaskedNccSurface s =
+        MaskedNcc(hp.image, hp.mask, hp_template.image(part.region), mask, options);
+    MeasurePart(s, match + corner, radius, &part);
+  });
   for (int k = 0; k < static_cast<int>(out.parts.size()); ++k) {
     const PartFit& p = out.parts[k];
     if (p.contradicts() &&

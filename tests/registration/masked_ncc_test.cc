@@ -440,5 +440,19 @@ TEST(MaskedNcc, PicksDirectSummationForFewShiftsAndFftsForManyWithTheSameSurface
   EXPECT_TRUE(MaskedNcc(fixed, {}, moving, {}, outside).empty());
 }
 
+// The FFT cost estimate that cuts a search into one window or several: four corner tiles of a
+// small window reach nearly the same pixels as the whole (one window is cheaper), those of a
+// large window a small part of them (the tiles are cheaper).
+TEST(MaskedNcc, FftCostEstimateTellsOneWindowFromCornerTiles) {
+  const cv::Size templ(155, 85);
+  // Four 48 x 48 corner tiles, whatever the window.
+  const double tiles = 4.0 * FftNccCostNs(templ, ShiftWindow{0, 47, 0, 47});
+  EXPECT_LT(FftNccCostNs(templ, ShiftWindow::Around(0, 0, 60)), tiles);
+  EXPECT_GT(FftNccCostNs(templ, ShiftWindow::Around(0, 0, 600)), tiles);
+  EXPECT_GT(FftNccCostNs(templ, ShiftWindow::Around(0, 0, 2)), 0.0);
+  EXPECT_EQ(FftNccCostNs(templ, ShiftWindow{1, 0, 0, 0}), 0.0);
+  EXPECT_EQ(FftNccCostNs(cv::Size(0, 0), ShiftWindow::Around(0, 0, 2)), 0.0);
+}
+
 }  // namespace
 }  // namespace areomap

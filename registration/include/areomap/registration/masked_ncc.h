@@ -99,6 +99,11 @@ MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, cons
 bool DirectNccIsCheaper(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
                         const cv::Mat& moving_mask, const MaskedNccOptions& options = {});
 
+// The cost model's estimate [ns] of MaskedNcc by FFTs over `shifts` for a template of size
+// `moving` on a fixed image with no invalid pixel in their reach: for choosing how to cut a
+// search (one window or several) before any image is cropped. 0 for an empty window.
+double FftNccCostNs(cv::Size moving, const ShiftWindow& shifts);
+
 // The same surface by direct summation over each shift: the reference the FFT version is
 // tested and benchmarked against. Cost O(shifts x template pixels): only for small images or
 // small search windows. Same arguments, conventions and errors as MaskedNcc.
