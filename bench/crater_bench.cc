@@ -198,6 +198,16 @@ int CompareWithHough(int argc, char** argv) {
   const double learned_s = Seconds(start);
   const double learned_cpu = CpuSeconds() - cpu_start;
 
+  // The default of `areomap craters` on images (--method combined): both of the above, merged.
+  cpu_start = CpuSeconds();
+  start = std::chrono::steady_clock::now();
+  areomap::CraterDetectorOptions combined_options = BenchOptions(upsample, shading);
+  combined_options.method = areomap::CraterMethod::kCombined;
+  const auto combined_found = areomap::DetectCratersInRaster(
+      areomap::RasterDataset::Open(path), areomap::RimSource::kImage, combined_options);
+  const double combined_s = Seconds(start);
+  const double combined_cpu = CpuSeconds() - cpu_start;
+
   // The upsampled level searched everywhere (the default options before it was searched only
   // around small arcs), on the same file.
   double whole_level_s = 0.0, whole_level_cpu = 0.0;
@@ -241,6 +251,8 @@ int CompareWithHough(int argc, char** argv) {
                 megapixels / wall, cpu, megapixels / cpu, score.all.precision, score.all.recall,
                 score.all.f1, count);
   };
+  row("areomap combined", combined_s, combined_cpu, ScoreDetections(truth, combined_found),
+      combined_found.size());
   row("areomap learned", learned_s, learned_cpu, ScoreDetections(truth, learned_found),
       learned_found.size());
   row("areomap edges", ours_s, ours_cpu, ours_score, found.size());
@@ -253,6 +265,8 @@ int CompareWithHough(int argc, char** argv) {
               ours_cpu / hough_cpu);
   std::printf("time ratio areomap learned / HoughCircles: wall %.2f, cpu %.2f\n",
               learned_s / hough_s, learned_cpu / hough_cpu);
+  std::printf("time ratio areomap combined / HoughCircles: wall %.2f, cpu %.2f\n",
+              combined_s / hough_s, combined_cpu / hough_cpu);
   if (upsample == 1) {
     std::printf("time ratio upsampled around small arcs / everywhere: wall %.2f, cpu %.2f\n",
                 ours_s / whole_level_s, ours_cpu / whole_level_cpu);

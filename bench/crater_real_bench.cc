@@ -1,6 +1,7 @@
-// Crater detection quality on real labelled images, three detectors in one run, each with its
-// default options and no per-image flags: the learned default, the edge detector (the sun
-// estimated from the image as `areomap craters --method edges` does) and OpenCV's HoughCircles.
+// Crater detection quality on real labelled images, four detectors in one run, each with its
+// default options and no per-image flags: the combined default of `areomap craters`, the learned
+// detector alone, the edge detector alone (the sun estimated from the image as `areomap craters`
+// does for both that use it) and OpenCV's HoughCircles.
 // Usage:
 //   areomap_bench_crater_real [DATA_DIR]     (default ../shared/data)
 // Images: craters/ (HRSC north half, never trained on), each hrsc-bandeira crop (HRSC, measured
@@ -86,13 +87,24 @@ std::vector<CraterCircle> Learned(const areomap::RasterDataset& dataset) {
       areomap::DetectCratersInRaster(dataset, areomap::RimSource::kImage, options));
 }
 
-std::vector<CraterCircle> Edges(const areomap::RasterDataset& dataset) {
+// `method` with the sun estimated as `areomap craters` does for the edge detector.
+std::vector<CraterCircle> WithEstimatedSun(const areomap::RasterDataset& dataset,
+                                           areomap::CraterMethod method) {
   areomap::CraterDetectorOptions options;
-  options.method = areomap::CraterMethod::kEdges;
+  options.method = method;
   const areomap::SunAzimuthEstimate sun = areomap::EstimateSunAzimuthInRaster(dataset, options);
   if (sun.reliable) options.sun_azimuth_deg = sun.azimuth_deg;
   return areomap::CirclesOf(
       areomap::DetectCratersInRaster(dataset, areomap::RimSource::kImage, options));
+}
+
+std::vector<CraterCircle> Edges(const areomap::RasterDataset& dataset) {
+  return WithEstimatedSun(dataset, areomap::CraterMethod::kEdges);
+}
+
+// The default of `areomap craters` on images.
+std::vector<CraterCircle> Combined(const areomap::RasterDataset& dataset) {
+  return WithEstimatedSun(dataset, areomap::CraterMethod::kCombined);
 }
 
 // HoughCircles on the 8-bit image after a 1 px Gaussian blur, for 8-200 px rims.
@@ -133,7 +145,7 @@ int main(int argc, char** argv) {
     const std::vector<double> bins = {8.0, 16.0, 32.0, 64.0, 1e9};
     using Detector = std::vector<CraterCircle> (*)(const areomap::RasterDataset&);
     const std::vector<std::pair<const char*, Detector>> detectors = {
-        {"learned", Learned}, {"edges", Edges}, {"hough", Hough}};
+        {"combined", Combined}, {"learned", Learned}, {"edges", Edges}, {"hough", Hough}};
     std::printf("craters >= 8 px; match: centre < 0.5 x true radius, diameter within 30 %%\n");
     std::printf("%-14s %-16s %-8s %6s %6s %7s %7s %7s %8s\n", "set", "image", "method", "truth",
                 "det", "P", "R", "F1", "wall_s");

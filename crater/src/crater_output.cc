@@ -48,6 +48,7 @@ std::vector<std::pair<std::string, double>> Attributes(const CatalogCrater& c) {
       // 1: the rim was fitted as an ellipse; 0: the learned detector's circle (no rim edges)
       {"rim_fitted", d.rim_fitted ? 1.0 : 0.0},
       {"model_score", d.model_score},
+      {"edge_detected", d.edge_detected ? 1.0 : 0.0},
       {"map_x", c.map_center ? c.map_center->x() : kNaN},
       {"map_y", c.map_center ? c.map_center->y() : kNaN},
       {"semi_major_m", c.semi_major_m},

@@ -35,6 +35,18 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
   if (source == RimSource::kImage && o.method == CraterMethod::kLearned) {
     return DetectCratersLearned(dataset, o, o.learned, progress);
   }
+  if (source == RimSource::kImage && o.method == CraterMethod::kCombined) {
+    CraterDetectorOptions edges = o;
+    edges.method = CraterMethod::kEdges;
+    std::vector<CraterDetection> rims =
+        DetectCratersInRaster(dataset, source, edges, SubProgress(progress, 0.0, 0.3));
+    // The network's rim fits run as with --method learned: without the shading checks.
+    CraterDetectorOptions learned = o;
+    learned.sun_azimuth_deg.reset();
+    return MergeEdgeAndLearnedCraters(
+        std::move(rims),
+        DetectCratersLearned(dataset, learned, o.learned, SubProgress(progress, 0.3, 1.0)));
+  }
   const int width = dataset.info().width, height = dataset.info().height;
   const int padded = o.tile_size + 2 * o.tile_overlap;
   if (width <= padded && height <= padded) {

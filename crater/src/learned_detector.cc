@@ -201,6 +201,7 @@ CraterDetection CircleDetection(const Peak& p, int width, int height) {
   d.model_score = p.score;
   d.pyramid_level = p.level;
   d.rim_fitted = false;
+  d.edge_detected = false;
   const double r = 0.5 * p.diameter;
   d.partial = p.x - r < 0.0 || p.y - r < 0.0 || p.x + r > width || p.y + r > height;
   return d;
@@ -244,6 +245,7 @@ std::optional<CraterDetection> FitRim(const LevelReader& read, const Pyramid& py
   d.model_score = circle.model_score;
   d.pyramid_level = circle.pyramid_level;
   d.rim_fitted = true;
+  d.edge_detected = false;
   d.partial = d.partial || circle.partial;
   return d;
 }
@@ -297,13 +299,22 @@ std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, i
 }  // namespace
 
 std::string ToString(CraterMethod method) {
-  return method == CraterMethod::kLearned ? "learned" : "edges";
+  switch (method) {
+    case CraterMethod::kCombined:
+      return "combined";
+    case CraterMethod::kLearned:
+      return "learned";
+    case CraterMethod::kEdges:
+      break;
+  }
+  return "edges";
 }
 
 CraterMethod CraterMethodFromString(const std::string& name) {
+  if (name == "combined") return CraterMethod::kCombined;
   if (name == "learned") return CraterMethod::kLearned;
   if (name == "edges") return CraterMethod::kEdges;
-  throw Error("crater method: '" + name + "' is not one of learned, edges");
+  throw Error("crater method: '" + name + "' is not one of combined, learned, edges");
 }
 
 void LearnedDetectorOptions::Check() const {

@@ -77,9 +77,9 @@ json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
   options.sun_azimuth_deg = image->sun_azimuth_deg;  // North-up: clockwise from image up.
   options.Check();
   // A manifest without the image's sun: estimated from its craters' shading (sun_azimuth.h) for
-  // the edge detector; the learned one needs none.
+  // the edge detector (alone or combined with the network); the network alone needs none.
   json sun = {{"sun_azimuth_source", options.sun_azimuth_deg ? "manifest" : "none"}};
-  if (!options.sun_azimuth_deg && options.method == CraterMethod::kEdges) {
+  if (!options.sun_azimuth_deg && options.method != CraterMethod::kLearned) {
     const SunAzimuthEstimate e = EstimateSunAzimuthInRaster(dataset, options);
     sun = {{"sun_azimuth_source", e.reliable ? "estimated" : "none"},
            {"sun_azimuth_estimate", SunAzimuthEstimateJson(e)}};

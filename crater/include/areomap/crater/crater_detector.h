@@ -42,6 +42,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "areomap/crater/crater_detection.h"
 #include "areomap/crater/ellipse.h"
 #include "areomap/crater/learned_options.h"
 #include "areomap/crater/rim_edges.h"
@@ -53,39 +54,6 @@ namespace areomap {
 enum class RimSource {
   kImage,  // brightness: Canny edges, shading signature when the sun azimuth is known
   kDtm,    // heights: curvature crests, depth signature
-};
-
-struct CraterDetection {
-  Ellipse ellipse;  // rim crest [px]
-  // 1-sigma from the geometric fit's covariance [px, rad] (the fit uses at most 128 rim edges,
-  // evenly spread); NaN where not available.
-  double center_x_sigma = 0.0;
-  double center_y_sigma = 0.0;
-  double semi_major_sigma = 0.0;
-  double semi_minor_sigma = 0.0;
-  double angle_sigma = 0.0;
-  double rms_residual = 0.0;  // RMS orthogonal distance of the rim edges [px]
-  double efs = 0.0;           // Ellipse-Fit-Similarity, eq. 2.1
-  double coverage = 0.0;      // fraction of 36 rim sectors holding an edge near the rim
-  // Image: (inner wall facing the sun - wall facing away) / surroundings' std; DTM: (mean rim
-  // height - mean height inside half the radius) / diameter [height unit per px]. NaN for an
-  // image without sun azimuth.
-  double signature = 0.0;
-  // Image with sun: correlation of the interior brightness with a bowl's shading pattern
-  // (-cos of the angle to the sun) in [-1, 1]; NaN otherwise.
-  double shading_correlation = 0.0;
-  double confidence = 0.0;  // in [0, 1]: coverage x signature strength x fit quality
-  bool partial = false;     // coverage < 0.6 or the rim leaves the raster
-  int num_edge_points = 0;
-  double edge_contrast = 0.0;  // mean strength of the rim edges / the high Canny threshold  //
-                               // edges used by the final fit
-  int pyramid_level = 0;       // level where the crater was found (0 = full resolution)
-  // false: the learned detector's circle, kept because the rim showed too few edges for an
-  // ellipse fit; the sigmas then are the network's measured errors (learned_detector.h).
-  bool rim_fitted = true;
-  double model_score = std::numeric_limits<double>::quiet_NaN();  // learned heat-map peak
-
-  double Diameter() const { return ellipse.semi_major + ellipse.semi_minor; }  // [px]
 };
 
 struct CraterDetectorOptions {
@@ -130,7 +98,7 @@ struct CraterDetectorOptions {
   // DetectCratersInRaster on an image: the edge pipeline above (default) or the learned detector
   // (learned_detector.h; docs/crater-model.md says where each is better); DTMs and DetectCraters
   // always use the edges.
-  CraterMethod method = CraterMethod::kEdges;
+  CraterMethod method = CraterMethod::kCombined;
   LearnedDetectorOptions learned;
 
   void Check() const;  // throws areomap::Error naming the bad field

@@ -7,10 +7,14 @@
 namespace areomap {
 
 enum class CraterMethod {
+  // Images: both detectors, every edge-detector rim plus each network crater it did not find
+  // (MergeEdgeAndLearnedCraters, learned_detector.h); DTMs use the edges.
+  kCombined,
   kLearned,  // images: the trained network, rims refined by ellipse fits (learned_detector.h)
   kEdges,    // rim edges -> arcs -> ellipses (crater_detector.h); DTMs always use this
 };
-// "learned" / "edges"; CraterMethodFromString throws areomap::Error for another name.
+// "combined" / "learned" / "edges"; CraterMethodFromString throws areomap::Error for another
+// name.
 std::string ToString(CraterMethod method);
 CraterMethod CraterMethodFromString(const std::string& name);
 

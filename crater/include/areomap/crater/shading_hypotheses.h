@@ -33,7 +33,7 @@
 
 namespace areomap {
 
-struct CraterDetection;  // crater_detector.h
+struct CraterDetection;  // crater_detection.h
 
 struct ShadingTemplateOptions {
   // Run the shading-template hypotheses in DetectCraters (image with a sun azimuth only).

@@ -10,4 +10,13 @@ namespace areomap {
 // operation to stop early; it then throws areomap::Error("cancelled ...").
 using ProgressCallback = std::function<bool(double fraction, std::string_view stage)>;
 
+// `progress` for one part of a longer operation: fraction f of the part is reported as
+// begin + f (end - begin). Empty when `progress` is.
+inline ProgressCallback SubProgress(const ProgressCallback& progress, double begin, double end) {
+  if (!progress) return nullptr;
+  return [progress, begin, end](double fraction, std::string_view stage) {
+    return progress(begin + fraction * (end - begin), stage);
+  };
+}
+
 }  // namespace areomap
