@@ -661,7 +661,7 @@ double DistanceOutside(const cv::Rect2d* core, const Eigen::Vector2d& p) {
 // upsampled pixels inside `area`, one per run of marked blocks along a block row. Against round
 // 10's rule (every block with >= 2 strong edge points, and its neighbours) the area of the bench's
 // 10000^2 tile falls from 38 to 13 M upsampled px: the rims of larger craters and straight edges no
-// longer count (docs/benchmarks.md, round 12).
+// longer count (docs/notes/benchmarks-history.md, round 12).
 std::vector<cv::Rect> UpsampledSearchRegions(const std::vector<Arc>& full_resolution_arcs,
                                              const RimEdges& full_resolution, double min_strength,
                                              const cv::Rect& area) {

@@ -643,8 +643,9 @@ RimEdges CannyEdges(const ImageGradients& g, double high, double low) {
 // (OpenCV's filter set-up: as much as filtering some 2000 px), and the upsampled crater level's
 // regions are runs of 8 px tall blocks: one window per region spent more on the calls and on
 // the 4 px margins (1.6x the regions' area) than on the regions. Bands of 64 rows joined across
-// 64 px: measured against 16-128 rows and 0-256 px on the bench tile (docs/benchmarks.md, crater
-// speed round 10). A cut between bands also cuts hysteresis 4 px beyond it.
+// 64 px: measured against 16-128 rows and 0-256 px on the bench tile
+// (docs/notes/benchmarks-history.md, crater speed round 10). A cut between bands also cuts
+// hysteresis 4 px beyond it.
 constexpr int kBandRows = 64;
 constexpr int kJoinGap = 64;
 

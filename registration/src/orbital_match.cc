@@ -372,7 +372,7 @@ CoarseResult CoarseGridSearch(const PyramidSearch& search, const std::vector<dou
 // the three samples, kept if its peak is at least as high. `*peak` and `*warped` follow
 // `*value`. Before the walk, the vertex came from samples half a step apart scaled as if they
 // were a step apart (twice the parabola's offset), and such overshoots failed the last test:
-// most rotations stayed on the half-step grid (docs/benchmarks.md, registration).
+// most rotations stayed on the half-step grid (docs/notes/benchmarks-history.md, registration).
 template <class WarpAt>
 void RefineWarpAtFullResolution(const PyramidSearch& search, const WarpAt& warp_at, double delta,
                                 double lowest, double highest, double* value, NccPeak* peak,

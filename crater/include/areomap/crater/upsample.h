@@ -15,9 +15,9 @@ namespace areomap {
 // replicated, a non-finite input pixel spreading to the output pixels whose two-by-two taps
 // include it (with weight 0 at the left column). Output rows are written with streaming stores:
 // on one core about twice as fast as cv::resize on the detector's tiles (85 MB written per
-// 2304^2 tile, never read back before it leaves the cache; docs/benchmarks.md, crater speed
-// round 13). Rows in parallel (TBB). Throws areomap::Error for another image type; an image under
-// 2 x 2 px goes to cv::resize.
+// 2304^2 tile, never read back before it leaves the cache; docs/notes/benchmarks-history.md,
+// crater speed round 13). Rows in parallel (TBB). Throws areomap::Error for another image type;
+// an image under 2 x 2 px goes to cv::resize.
 void UpsampleTwice(const cv::Mat& image, cv::Mat* out);
 
 }  // namespace areomap

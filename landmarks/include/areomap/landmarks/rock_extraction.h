@@ -48,7 +48,7 @@ struct RockExtractionOptions {
   double plane_radius_m = 0.7;      // Background plane neighbourhood [m] ...
   // ... without the points within k x window relief of the peak (0: all points, the default;
   // 1 lowers the ground's bias under far rocks but admits more borderline rocks, which costs
-  // tie-point precision on the long preset: docs/rocks.md).
+  // tie-point precision on the long preset: docs/notes/rocks-history.md).
   double plane_exclusion_k = 0.0;
   double min_height_m = 0.10;       // Rocks lower than this above their plane are dropped [m].
   double surface_k_min = 0.3;       // Surface search starts within k_min H of the peak ...

@@ -73,7 +73,7 @@ struct MissionRunOptions {
   // Pairs whose pixels are finer than fine_pair_max_ifov_mrad (Pancam: 0.28 mrad/px; Navcam
   // 0.76, Hazcam 2.1) keep their points fine_pair_point_spacing_m apart instead: on 20-25 m legs
   // 1 cm Pancam points accept 12 of 12 legs against 8 at 2 cm, while 1 cm Navcam points make
-  // noise peaks that end as wrong tie points (docs/rocks.md) [m, mrad/px].
+  // noise peaks that end as wrong tie points (docs/notes/rocks-history.md) [m, mrad/px].
   double fine_pair_point_spacing_m = 0.01;
   double fine_pair_max_ifov_mrad = 0.5;
   // The spacing for a pair whose rectified focal length is `focal_px`.

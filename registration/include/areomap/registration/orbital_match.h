@@ -103,7 +103,7 @@ struct OrbitalMatchOptions {
   // g(rotation_floor_correlation))^2 (0.28 deg at CC 0.5, 0.87 deg at 0.4). The trials above
   // had CC 0.6-0.98; rover orthophotos of generated traverses match at 0.30-0.69, and below
   // 0.5 their rotations err by up to 1.4 deg. The square was chosen on two traverses (67
-  // matches; areomap_bench_registration_truth, docs/benchmarks.md "Registration"): mean
+  // matches; areomap_bench_registration_truth, docs/notes/benchmarks-history.md): mean
   // (rotation error / sigma)^2 4.2 with the constant floor, 0.72 with this one. Checked on two
   // others (37 and 16 matches): 11.2 -> 1.69 and 11.0 -> 0.97.
   double rotation_floor_correlation = 0.6;  // In (0, 1).
