@@ -8,9 +8,9 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "areomap/landmarks/rock_matching.h"
 #include "areomap/map/output_folder.h"
 #include "areomap/map/progress.h"
-#include "areomap/landmarks/rock_matching.h"
 
 namespace areomap::cli {
 

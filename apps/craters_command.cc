@@ -201,8 +201,8 @@ void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
 // What `areomap craters --help` and docs/cli.md say about the command beyond its options.
 constexpr const char* kCratersDetails =
     "Crater rims as ellipses with 1σ. Images, default `--method combined`: both detectors below,\n"
-    "every edge rim plus each crater only the network found (`edge_detected` 0), F1 0.72 on\n"
-    "held-out CTX and 0.53 on HRSC against 0.32 and 0.44 for the edges alone. `--method edges`\n"
+    "every edge rim plus each crater only the network found (`edge_detected` 0), F1 0.73 on\n"
+    "held-out CTX and 0.54 on HRSC against 0.32 and 0.44 for the edges alone. `--method edges`\n"
     "(DTMs always): sub-pixel Canny edges (curvature crests with `--dtm`), arcs, ellipse\n"
     "hypotheses, validation by edge support and the bowl's shading under the sun\n"
     "(`--sun-azimuth`, or estimated; `--no-sun-estimate`), a 2× upsampled level for craters under\n"

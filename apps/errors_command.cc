@@ -6,11 +6,11 @@
 #include <map>
 #include <sstream>
 
+#include "areomap/landmarks/localization_error.h"
+#include "areomap/landmarks/localization_error_plot.h"
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
-#include "areomap/landmarks/localization_error.h"
-#include "areomap/landmarks/localization_error_plot.h"
 #include "commands.h"
 
 namespace areomap::cli {

@@ -7,12 +7,12 @@
 #include <numbers>
 #include <sstream>
 
+#include "areomap/adjustment/bundle_io.h"
+#include "areomap/landmarks/rock_output.h"
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "areomap/map/point_cloud_io.h"
-#include "areomap/adjustment/bundle_io.h"
-#include "areomap/landmarks/rock_output.h"
 #include "commands.h"
 
 namespace areomap::cli {

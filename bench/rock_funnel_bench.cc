@@ -55,15 +55,15 @@
 #include <Eigen/Eigenvalues>
 #include <nlohmann/json.hpp>
 
+#include "areomap/adjustment/bundle_io.h"
+#include "areomap/landmarks/leg_consistency.h"
+#include "areomap/landmarks/localization_error.h"
+#include "areomap/landmarks/rock_matching.h"
 #include "areomap/map/csv.h"
 #include "areomap/map/error.h"
 #include "areomap/map/mission_manifest.h"
 #include "areomap/map/point_cloud_io.h"
-#include "areomap/adjustment/bundle_io.h"
-#include "areomap/landmarks/leg_consistency.h"
-#include "areomap/landmarks/localization_error.h"
 #include "areomap/pipeline/mission_run.h"
-#include "areomap/landmarks/rock_matching.h"
 #include "rock_truth.h"
 
 namespace areomap {

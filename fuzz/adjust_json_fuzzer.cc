@@ -1,8 +1,8 @@
 // Feeds the input as an adjustment network JSON (docs/adjustment-format.md) to ReadBundleInput
 // and ReadTiePoints, the readers behind `areomap adjust`. They take paths: the bytes go to a
 // scratch file. Expected: areomap::Error.
-#include "areomap/map/error.h"
 #include "areomap/adjustment/bundle_io.h"
+#include "areomap/map/error.h"
 #include "fuzz_support.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

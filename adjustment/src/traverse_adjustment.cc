@@ -4,9 +4,9 @@
 #include <cmath>
 #include <cstdio>
 
+#include "areomap/adjustment/bundle_io.h"
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
-#include "areomap/adjustment/bundle_io.h"
 
 namespace areomap {
 namespace {

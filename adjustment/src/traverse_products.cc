@@ -17,8 +17,8 @@
 #include "areomap/map/crs.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
-#include "areomap/map/raster.h"
 #include "areomap/map/plot_marks.h"
+#include "areomap/map/raster.h"
 
 namespace areomap {
 namespace {

@@ -19,6 +19,17 @@ bool SameCrater(const CraterDetection& edge, const CraterDetection& found) {
          ratio >= 0.7 && ratio <= 1.3;
 }
 
+// Inner structure of a fitted rim: a smaller find (under 0.7 of its diameter) centred within
+// three quarters of its radius. The network fires on floors, shadows and wall slumps of large
+// craters, as the edge detector's concentric duplicates (SuppressDuplicateCraters); dropping
+// them raises F1 on the held-out CTX images (0.722 -> 0.725) and on generated scenes removes
+// every addition inside a true crater (docs/crater-model.md).
+bool InsideRim(const CraterDetection& edge, const CraterDetection& found) {
+  const double de = edge.Diameter();
+  return (edge.ellipse.center - found.ellipse.center).norm() < 0.375 * de &&
+         found.Diameter() < 0.7 * de;
+}
+
 }  // namespace
 
 std::vector<CraterDetection> MergeEdgeAndLearnedCraters(
@@ -27,9 +38,12 @@ std::vector<CraterDetection> MergeEdgeAndLearnedCraters(
   for (const CraterDetection& found : learned) {
     bool known = false;
     for (size_t k = 0; k < edge_count && !known; ++k) {
-      if (!SameCrater(edges[k], found)) continue;
-      known = true;
-      if (!(edges[k].model_score >= found.model_score)) edges[k].model_score = found.model_score;
+      if (SameCrater(edges[k], found)) {
+        known = true;
+        if (!(edges[k].model_score >= found.model_score)) edges[k].model_score = found.model_score;
+      } else {
+        known = InsideRim(edges[k], found);
+      }
     }
     if (!known) edges.push_back(found);
   }

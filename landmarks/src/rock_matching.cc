@@ -12,8 +12,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
-#include "areomap/map/error.h"
 #include "areomap/landmarks/leg_consistency.h"
+#include "areomap/map/error.h"
 #include "rock_point_grid.h"
 
 namespace areomap {

@@ -6,8 +6,8 @@
 #include <ceres/ceres.h>
 #include <Eigen/Dense>
 
-#include "areomap/map/error.h"
 #include "areomap/landmarks/rock_model.h"
+#include "areomap/map/error.h"
 #include "rock_model_frame.h"
 
 namespace areomap {

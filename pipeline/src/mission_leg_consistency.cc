@@ -2,11 +2,11 @@
 #include <cmath>
 #include <string>
 
-#include "areomap/map/atomic_file.h"
 #include "areomap/adjustment/bundle_io.h"
 #include "areomap/landmarks/fault_detection.h"
 #include "areomap/landmarks/leg_consistency.h"
 #include "areomap/landmarks/localization_error.h"
+#include "areomap/map/atomic_file.h"
 #include "mission_units.h"
 
 namespace areomap::mission_run {

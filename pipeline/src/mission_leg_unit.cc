@@ -7,12 +7,12 @@
 #include <optional>
 #include <string>
 
-#include "areomap/map/atomic_file.h"
-#include "areomap/map/error.h"
-#include "areomap/map/point_cloud_io.h"
 #include "areomap/adjustment/bundle_io.h"
 #include "areomap/landmarks/rock_matching.h"
 #include "areomap/landmarks/rock_output.h"
+#include "areomap/map/atomic_file.h"
+#include "areomap/map/error.h"
+#include "areomap/map/point_cloud_io.h"
 #include "mission_units.h"
 
 namespace areomap::mission_run {

@@ -12,11 +12,11 @@
 
 #include <tbb/parallel_for.h>
 
+#include "areomap/adjustment/bundle_io.h"
+#include "areomap/adjustment/traverse_adjustment.h"
+#include "areomap/landmarks/localization_error.h"
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
-#include "areomap/adjustment/bundle_io.h"
-#include "areomap/landmarks/localization_error.h"
-#include "areomap/adjustment/traverse_adjustment.h"
 #include "mission_units.h"
 
 namespace areomap {

@@ -9,13 +9,13 @@
 
 #include <opencv2/core.hpp>
 
+#include "areomap/adjustment/bundle_io.h"
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/camera_models.h"
 #include "areomap/map/dense_stereo.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "areomap/map/point_cloud_io.h"
-#include "areomap/adjustment/bundle_io.h"
 #include "areomap/registration/orbital_image.h"
 #include "mission_units.h"
 

@@ -10,14 +10,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "areomap/landmarks/rock_extraction.h"
+#include "areomap/landmarks/rock_matching.h"
 #include "areomap/map/dtm.h"
 #include "areomap/map/mission_manifest.h"
 #include "areomap/map/orthophoto.h"
 #include "areomap/map/rigid3d.h"
 #include "areomap/map/site_georeference.h"
 #include "areomap/pipeline/mission_run.h"
-#include "areomap/landmarks/rock_extraction.h"
-#include "areomap/landmarks/rock_matching.h"
 
 namespace areomap::mission_run {
 

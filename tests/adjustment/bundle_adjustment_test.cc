@@ -6,8 +6,8 @@
 #include <ceres/ceres.h>
 #include <gtest/gtest.h>
 
-#include "areomap/map/error.h"
 #include "areomap/adjustment/traverse_anchoring.h"
+#include "areomap/map/error.h"
 #include "bundle_simulation.h"
 
 namespace areomap {

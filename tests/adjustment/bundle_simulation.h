@@ -12,8 +12,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "areomap/map/stereo_error.h"
 #include "areomap/adjustment/bundle_adjustment.h"
+#include "areomap/map/stereo_error.h"
 #include "areomap/samples/mission.h"
 
 namespace areomap::testing {

@@ -8,13 +8,13 @@
 #include <gtest/gtest.h>
 #include <ogrsf_frmts.h>
 
+#include "areomap/adjustment/bundle_io.h"
+#include "areomap/adjustment/traverse_adjustment.h"
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "areomap/map/projection.h"
 #include "areomap/map/raster.h"
-#include "areomap/adjustment/bundle_io.h"
-#include "areomap/adjustment/traverse_adjustment.h"
 #include "bundle_simulation.h"
 #include "test_support.h"
 

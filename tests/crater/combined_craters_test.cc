@@ -40,9 +40,11 @@ TEST(MergeEdgeAndLearnedCraters, AddsTheNetworksOwnFindsAndKeepsTheEdgeRims) {
       Found(103, 101, 22, 0.8),   // the first rim: within a quarter diameter and 30 %
       Found(500, 500, 16, 0.6),   // a crater the edges missed
       Found(300, 300, 80, 0.7),   // concentric but twice the size: another crater
-      Found(311, 300, 40, 0.9)};  // 11 px off a 40 px rim: a quarter is 10 px, another crater
+      Found(311, 300, 40, 0.9),   // 11 px off a 40 px rim: a quarter is 10 px, another crater
+      Found(310, 295, 20, 0.7),   // inside the 40 px rim, half its size: its floor or shadow
+      Found(316, 300, 20, 0.7)};  // 16 px off: beyond 3/4 of the radius, a crater of its own
   const std::vector<CraterDetection> merged = MergeEdgeAndLearnedCraters(edges, learned);
-  ASSERT_EQ(merged.size(), 5u);
+  ASSERT_EQ(merged.size(), 6u);
   EXPECT_TRUE(merged[0].edge_detected);
   EXPECT_DOUBLE_EQ(merged[0].model_score, 0.8);
   EXPECT_DOUBLE_EQ(merged[0].Diameter(), 20.0);  // the rim's ellipse, not the network's circle
@@ -84,8 +86,8 @@ TEST(DetectCratersInRaster, CombinedKeepsTheEdgeDetectorsAccuracyOnGeneratedCrat
   const CraterScore score = ScoreCraters(CirclesOf(scene.truth_px), CirclesOf(found), {10.0, 1e9});
   RecordProperty("precision", std::to_string(score.all.precision));
   RecordProperty("recall", std::to_string(score.all.recall));
-  EXPECT_GE(score.all.precision, 0.95);
-  EXPECT_GE(score.all.recall, 0.95);
+  EXPECT_GE(score.all.precision, 0.95);  // measured 1.00
+  EXPECT_GE(score.all.recall, 0.95);     // measured 1.00
   for (const auto& [t, d] : score.matches) {
     const CraterDetection& det = found[static_cast<size_t>(d)];
     if (!det.edge_detected) continue;
@@ -94,7 +96,7 @@ TEST(DetectCratersInRaster, CombinedKeepsTheEdgeDetectorsAccuracyOnGeneratedCrat
 }
 
 // The real HRSC image (never trained on), default options with no sun given: F1 >= 8 px measured
-// 0.529 against 0.444 for the edge detector alone and 0.496 for the network alone.
+// 0.537 against 0.444 for the edge detector alone and 0.496 for the network alone.
 TEST(DetectCratersInRaster, CombinedOnTheHrscImageBeatsEitherDetectorAlone) {
   SKIP_WITHOUT_SHARED_DATA();
   const auto dir = testing::SharedDataDir() / "craters";
@@ -103,11 +105,10 @@ TEST(DetectCratersInRaster, CombinedOnTheHrscImageBeatsEitherDetectorAlone) {
   CraterDetectorOptions options;
   const SunAzimuthEstimate sun = EstimateSunAzimuthInRaster(dataset, options);
   if (sun.reliable) options.sun_azimuth_deg = sun.azimuth_deg;
-  const CraterScore score =
-      ScoreCraters(truth, CirclesOf(DetectCratersInRaster(dataset, RimSource::kImage, options)),
-                   {8.0, 1e9});
+  const CraterScore score = ScoreCraters(
+      truth, CirclesOf(DetectCratersInRaster(dataset, RimSource::kImage, options)), {8.0, 1e9});
   RecordProperty("f1_ge_8px", std::to_string(score.all.f1));
-  EXPECT_GE(score.all.f1, 0.5);
+  EXPECT_GE(score.all.f1, 0.52);
 }
 
 }  // namespace

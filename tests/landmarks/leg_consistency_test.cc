@@ -10,9 +10,9 @@
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
 
+#include "areomap/adjustment/bundle_io.h"
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
-#include "areomap/adjustment/bundle_io.h"
 #include "mission_units.h"
 #include "test_support.h"
 

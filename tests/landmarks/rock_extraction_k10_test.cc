@@ -9,11 +9,11 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include "areomap/landmarks/rock_extraction.h"
+#include "areomap/landmarks/rock_output.h"
 #include "areomap/map/camera_models.h"
 #include "areomap/map/dense_stereo.h"
 #include "areomap/map/image_io.h"
-#include "areomap/landmarks/rock_extraction.h"
-#include "areomap/landmarks/rock_output.h"
 #include "test_support.h"
 
 namespace areomap {

@@ -13,9 +13,9 @@
 #include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
+#include "areomap/landmarks/rock_output.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
-#include "areomap/landmarks/rock_output.h"
 #include "areomap/samples/simulated_points.h"
 #include "test_support.h"
 

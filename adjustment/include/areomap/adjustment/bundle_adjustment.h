@@ -42,9 +42,9 @@
 #include "areomap/map/body.h"
 #include "areomap/map/cahvor.h"
 #include "areomap/map/geodesy.h"
+#include "areomap/map/landmark_links.h"
 #include "areomap/map/progress.h"
 #include "areomap/map/rigid3d.h"
-#include "areomap/map/landmark_links.h"
 
 namespace areomap {
 

@@ -14,11 +14,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "areomap/map/progress.h"
 #include "areomap/adjustment/bundle_adjustment.h"
 #include "areomap/adjustment/bundle_io.h"
 #include "areomap/adjustment/traverse_anchoring.h"
 #include "areomap/adjustment/traverse_products.h"
+#include "areomap/map/progress.h"
 
 namespace areomap {
 

@@ -14,8 +14,8 @@
 
 #include <Eigen/Core>
 
-#include "areomap/map/geodesy.h"
 #include "areomap/adjustment/bundle_adjustment.h"
+#include "areomap/map/geodesy.h"
 
 namespace areomap {
 

@@ -9,8 +9,8 @@
 
 #include <vector>
 
-#include "areomap/map/rigid3d.h"
 #include "areomap/adjustment/bundle_adjustment.h"
+#include "areomap/map/rigid3d.h"
 
 namespace areomap {
 

@@ -8,8 +8,8 @@
 
 #include <filesystem>
 
-#include "areomap/map/body.h"
 #include "areomap/adjustment/traverse_anchoring.h"
+#include "areomap/map/body.h"
 
 namespace areomap {
 

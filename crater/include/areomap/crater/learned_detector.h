@@ -70,12 +70,14 @@ std::vector<CraterDetection> DetectCratersLearned(const RasterDataset& dataset,
 
 // The combined detector's result (CraterMethod::kCombined): every rim of the edge detector, plus
 // each of the network's craters that is not one of them (centres closer than a quarter of the
-// larger diameter and diameters within 30 %: the scoring rule's tolerance, crater_score.h). An
-// edge rim the network also found takes its model_score. The edge detector's rims come first
+// larger diameter and diameters within 30 %: the scoring rule's tolerance, crater_score.h) nor
+// inside one (under 0.7 of its diameter, centred within 3/4 of its radius: a floor, shadow or
+// slump the network took for a crater). An edge rim the network also found takes its
+// model_score. The edge detector's rims come first
 // (their ellipses and sigmas are fitted on the rim edges), then the network's own finds, each in
 // its input order. Rationale and scores: docs/crater-model.md.
-std::vector<CraterDetection> MergeEdgeAndLearnedCraters(std::vector<CraterDetection> edges,
-                                                         const std::vector<CraterDetection>& learned);
+std::vector<CraterDetection> MergeEdgeAndLearnedCraters(
+    std::vector<CraterDetection> edges, const std::vector<CraterDetection>& learned);
 
 // The same on an in-memory image (single band, any depth, NaN = nodata).
 std::vector<CraterDetection> DetectCratersLearned(const cv::Mat& image,

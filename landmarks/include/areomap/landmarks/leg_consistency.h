@@ -29,8 +29,8 @@
 
 #include <nlohmann/json_fwd.hpp>
 
-#include "areomap/map/landmark_links.h"
 #include "areomap/landmarks/localization_error.h"
+#include "areomap/map/landmark_links.h"
 
 namespace areomap {
 

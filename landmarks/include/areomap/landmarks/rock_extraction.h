@@ -33,10 +33,10 @@
 
 #include <Eigen/Core>
 
+#include "areomap/landmarks/rock_model.h"
 #include "areomap/map/point_cloud.h"
 #include "areomap/map/progress.h"
 #include "areomap/map/rigid3d.h"
-#include "areomap/landmarks/rock_model.h"
 
 namespace areomap {
 

@@ -55,11 +55,11 @@
 
 #include <Eigen/Core>
 
-#include "areomap/map/rigid3d.h"
 #include "areomap/landmarks/fault_detection.h"
-#include "areomap/map/landmark_links.h"
 #include "areomap/landmarks/localization_error.h"
 #include "areomap/landmarks/rock_extraction.h"
+#include "areomap/map/landmark_links.h"
+#include "areomap/map/rigid3d.h"
 
 namespace areomap {
 

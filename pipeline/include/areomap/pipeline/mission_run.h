@@ -47,7 +47,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "areomap/adjustment/bundle_adjustment.h"
 #include "areomap/crater/crater_detector.h"
+#include "areomap/landmarks/leg_consistency.h"
+#include "areomap/landmarks/localization_error.h"
+#include "areomap/landmarks/rock_extraction.h"
+#include "areomap/landmarks/rock_matching.h"
 #include "areomap/map/dense_stereo.h"
 #include "areomap/map/dtm.h"
 #include "areomap/map/mission_manifest.h"
@@ -55,13 +60,8 @@
 #include "areomap/map/orthophoto.h"
 #include "areomap/map/progress.h"
 #include "areomap/map/rigid3d.h"
-#include "areomap/adjustment/bundle_adjustment.h"
-#include "areomap/landmarks/leg_consistency.h"
-#include "areomap/landmarks/localization_error.h"
 #include "areomap/registration/orbital_match.h"
 #include "areomap/registration/orbital_report.h"
-#include "areomap/landmarks/rock_extraction.h"
-#include "areomap/landmarks/rock_matching.h"
 
 namespace areomap {
 
