@@ -27,8 +27,9 @@ from . import _areomap
 
 __all__ = [
     "Body", "CameraFile", "CameraModel", "Conversion", "CoordinateSystem",
-    "CraterDetectorOptions", "Error", "Raster", "Rigid3d", "convert", "craters_frame",
-    "adjust", "detect_craters", "estimate_sun_azimuth", "read_camera", "read_raster", "register",
+    "CraterDetectorOptions", "Error", "Raster", "Rigid3d", "adjust", "convert", "craters_frame",
+    "detect_craters", "estimate_sun_azimuth", "read_camera", "read_raster", "register",
+    "run_mission",
 ]
 
 
@@ -152,3 +153,19 @@ def adjust(networks, out_dir, orbital=None, huber=None, alpha=None, rejection_ro
         [os.fspath(n) for n in networks], os.fspath(out_dir),
         None if orbital is None else os.fspath(orbital), huber, alpha, rejection_rounds,
         rock_tie_variance_factor, ellipse_scale, progress)
+
+
+def run_mission(mission, out_dir, craters=None, products=None, crater_min_diameter_m=None,
+                overwrite=False, progress=None):
+    """Runs (or resumes) the whole job on a mission folder, as `areomap run MISSION --out DIR`.
+
+    Stereo, DTM and orthophoto per site, registration onto the orbital image, rock tie points,
+    craters, the bundle adjustment and the traverse products, written into out_dir under the
+    CLI's output-folder rules (in place, resumable units, a lock; overwrite as --overwrite),
+    with summary.json and report.html. craters / products: False skips them (--no-craters,
+    --no-products); crater_min_diameter_m as --crater-min-diameter [m]; None keeps the library's
+    default. Returns the summary (summary.json's content). Ctrl-C or progress returning False
+    stops it; finished site and leg units stay for the next run to resume from.
+    """
+    return _areomap._run_mission(os.fspath(mission), os.fspath(out_dir), craters, products,
+                                 crater_min_diameter_m, overwrite, progress)

@@ -1,6 +1,7 @@
 // Orthophoto-to-orbital registration (RegisterOrtho): the match with its sigma and the control
 // points, as `areomap register` computes them; the bundle adjustment of a traverse network
-// (AdjustTraverse), as `areomap adjust` runs it.
+// (AdjustTraverse), as `areomap adjust` runs it; the mission run (RunMissionFolder), as `areomap
+// run`.
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -9,6 +10,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include "areomap/registration/mission_run.h"
 #include "areomap/registration/orbital_report.h"
 #include "areomap/registration/ortho_registration.h"
 #include "areomap/registration/traverse_adjustment.h"
@@ -86,6 +88,27 @@ void BindRegistration(py::module_& m) {
       },
       py::arg("inputs"), py::arg("out_dir"), py::arg("orbital"), py::arg("huber"), py::arg("alpha"),
       py::arg("rejection_rounds"), py::arg("rock_tie_variance_factor"), py::arg("ellipse_scale"),
+      py::arg("progress"));
+
+  m.def(
+      "_run_mission",
+      [](const std::filesystem::path& mission, const std::filesystem::path& out_dir,
+         std::optional<bool> detect_craters, std::optional<bool> traverse_products,
+         std::optional<double> crater_min_diameter_m, bool overwrite, const py::object& progress) {
+        // Options left None keep the library's defaults.
+        MissionRunOptions options;
+        options.detect_craters = detect_craters.value_or(options.detect_craters);
+        options.traverse_products = traverse_products.value_or(options.traverse_products);
+        options.crater_min_diameter_m =
+            crater_min_diameter_m.value_or(options.crater_min_diameter_m);
+        ProgressBridge bridge(progress);
+        const MissionRunSummary summary = bridge.Run([&](const ProgressCallback& callback) {
+          return RunMissionFolder(mission, out_dir, options, overwrite, callback);
+        });
+        return FromJson(summary.json);
+      },
+      py::arg("mission"), py::arg("out_dir"), py::arg("detect_craters"),
+      py::arg("traverse_products"), py::arg("crater_min_diameter_m"), py::arg("overwrite"),
       py::arg("progress"));
 }
 

@@ -1,5 +1,6 @@
 #include "convert.h"
 
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -129,8 +130,11 @@ py::object FromJson(const nlohmann::json& json) {
       return py::int_(json.get<int64_t>());
     case nlohmann::json::value_t::number_unsigned:
       return py::int_(json.get<uint64_t>());
-    case nlohmann::json::value_t::number_float:
-      return py::float_(json.get<double>());
+    case nlohmann::json::value_t::number_float: {
+      // As the JSON files have it: nlohmann::json writes a NaN or an infinity as null.
+      const double value = json.get<double>();
+      return std::isfinite(value) ? py::object(py::float_(value)) : py::none();
+    }
     case nlohmann::json::value_t::string:
       return py::str(json.get<std::string>());
     case nlohmann::json::value_t::array: {

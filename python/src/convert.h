@@ -40,7 +40,8 @@ std::vector<Eigen::Matrix<double, K, 1>> PointsFromArray(const py::handle& array
 template <int K>
 py::array ArrayFromPoints(const std::vector<Eigen::Matrix<double, K, 1>>& points, bool single);
 
-// JSON as Python objects: objects -> dict, arrays -> list, null -> None.
+// JSON as Python objects as its file would read back: objects -> dict, arrays -> list, null and
+// non-finite numbers -> None.
 py::object FromJson(const nlohmann::json& json);
 
 // Runs a long library call without the GIL. `progress`, when not None, is called as
