@@ -81,6 +81,22 @@ def test_ctrl_c_stops_a_long_call(shared_data):
     assert elapsed < 20.0
 
 
+def test_the_gil_is_released_during_detection(shared_data):
+    image = np.tile(areomap.Raster(shared_data / HRSC).read(), (2, 2))
+    worker = threading.Thread(target=areomap.detect_craters, args=(image,),
+                              kwargs={"sun_azimuth_deg": 270.0})
+    start = time.monotonic()
+    worker.start()
+    last, longest_gap = start, 0.0
+    while worker.is_alive():  # Python keeps running here while C++ works in the thread
+        now = time.monotonic()
+        longest_gap, last = max(longest_gap, now - last), now
+    elapsed = time.monotonic() - start
+    worker.join()
+    print(f"detection {elapsed:.2f} s, longest pause of this thread {longest_gap * 1e3:.0f} ms")
+    assert elapsed > 0.5 and longest_gap < 0.25 * elapsed
+
+
 def test_errors_have_the_clis_messages(cli, tmp_path):
     missing = tmp_path / "missing.tif"
     message = cli_error(cli("craters", missing, "--out", tmp_path / "out"))
