@@ -8,6 +8,7 @@ run without the GIL, take an optional progress(fraction, stage) callable (return
 cancel) and stop on Ctrl-C with KeyboardInterrupt.
 """
 
+import copy
 import os
 
 from ._areomap import (  # noqa: F401  (re-exported)
@@ -63,7 +64,8 @@ def detect_craters(image, dtm=False, options=None, progress=None, as_frame=False
     image: a path to any GDAL raster (read by tiles; any size), or a 2-D NumPy array (a
     C-contiguous float32 array is read in place, without a copy; NaN = nodata). dtm: the input
     holds heights (rims from curvature crests). options: a CraterDetectorOptions; keyword
-    arguments set its fields, e.g. min_diameter_px=8, sun_azimuth_deg=270, method='learned'.
+    arguments set its fields on a copy, e.g. min_diameter_px=8, sun_azimuth_deg=270,
+    method='learned'.
     The sun azimuth is not estimated here: pass one (estimate_sun_azimuth(path) gives it, the
     CLI uses it when 'reliable') or leave the shading checks off.
 
@@ -73,7 +75,7 @@ def detect_craters(image, dtm=False, options=None, progress=None, as_frame=False
     lon [deg]). With as_frame=True: a pandas DataFrame, or a geopandas GeoDataFrame (rim centre
     points in the raster's Mars CRS) when geopandas is installed.
     """
-    options = CraterDetectorOptions() if options is None else options
+    options = CraterDetectorOptions() if options is None else copy.copy(options)
     for name, value in option_values.items():
         if not hasattr(options, name):
             raise TypeError(f"detect_craters: unknown option '{name}'")

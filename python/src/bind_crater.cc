@@ -37,6 +37,7 @@ void BindCrater(py::module_& m) {
       "same with their CLI names). Lengths in pixels of the input; the sun azimuth in degrees "
       "clockwise from the image's up direction, towards the sun.")
       .def(py::init<>())
+      .def("__copy__", [](const Options& o) { return o; })
       .def_readwrite("min_diameter_px", &Options::min_diameter_px,
                      "Smallest rim diameter a + b reported [px], >= 4.")
       .def_readwrite("max_diameter_px", &Options::max_diameter_px,

@@ -111,6 +111,13 @@ def test_errors_have_the_clis_messages(cli, tmp_path):
         areomap.detect_craters(np.zeros((4, 64, 64), np.float32))
 
 
+def test_keyword_options_leave_the_callers_options_alone():
+    options = areomap.CraterDetectorOptions()
+    assert areomap.detect_craters(np.zeros((64, 64), np.float32), options=options,
+                                  min_diameter_px=12.0) == []
+    assert options.min_diameter_px == 8.0
+
+
 def test_frames_only_where_pandas_is_installed(monkeypatch):
     records = [{"id": 1, "x_px": 2.5, "y_px": 3.5}]
     catalog = {"georeferenced": False, "craters": records}
