@@ -39,22 +39,16 @@ int RunCoords(const CoordsOptions& options, bool body_given) {
   CoordinateSystemContext context;
   context.body = Body::FromName(options.body);
   context.origin = ParseOrigin(options.origin);
-  CoordinateSystem from = CoordinateSystem::Parse(options.from, context);
-  CoordinateSystem to = CoordinateSystem::Parse(options.to, context);
-  // Without --body, geographic and local systems take the datum of a raster or CRS on the other
-  // side, so that a raster's pixels come out in the latitudes its own CRS (and `info`) gives.
-  const std::optional<Body> datum = from.DatumBody() ? from.DatumBody() : to.DatumBody();
-  if (!body_given && datum && (from.UsesBody() || to.UsesBody()) &&
-      (datum->a != context.body.a || datum->b != context.body.b)) {
-    context.body = *datum;
-    // Only the systems shaped by the body change (no raster is opened again).
-    if (from.UsesBody()) from = CoordinateSystem::Parse(options.from, context);
-    if (to.UsesBody()) to = CoordinateSystem::Parse(options.to, context);
+  const CoordinateConversion conversion =
+      CoordinateConversion::Make(options.from, options.to, context, body_given);
+  if (conversion.datum_body) {
     std::fprintf(stderr,
                  "note: geographic and local coordinates on the datum of %s (a = %.0f m, b = %.0f "
                  "m); --body mars2000 puts them on the IAU 2000 ellipsoid\n",
-                 (from.DatumBody() ? from.spec() : to.spec()).c_str(), datum->a, datum->b);
+                 conversion.datum_source.c_str(), conversion.datum_body->a,
+                 conversion.datum_body->b);
   }
+  const CoordinateSystem& to = conversion.to;
   std::string line;
   int line_number = 0;
   int failures = 0;
@@ -62,7 +56,7 @@ int RunCoords(const CoordsOptions& options, bool body_given) {
     ++line_number;
     if (line.find_first_not_of(" \t\r") == std::string::npos || line.front() == '#') continue;
     try {
-      const Eigen::Vector3d out = to.FromMbf(from.ToMbf(ParsePointLine(line)));
+      const Eigen::Vector3d out = conversion.Convert(ParsePointLine(line));
       std::printf("%.*f %.*f %.*f\n", to.Decimals(0), out.x(), to.Decimals(1), out.y(),
                   to.Decimals(2), out.z());
     } catch (const Error& e) {

@@ -13,9 +13,9 @@
 #include "areomap/map/image_io.h"
 #include "areomap/registration/edge_histogram.h"
 #include "areomap/registration/edge_verify.h"
-#include "areomap/registration/orbital_grid.h"
 #include "areomap/registration/orbital_match.h"
 #include "areomap/registration/orbital_report.h"
+#include "areomap/registration/ortho_registration.h"
 #include "commands.h"
 
 namespace areomap::cli {
@@ -33,13 +33,8 @@ struct RegisterArgs {
   std::string out_dir;
   std::optional<double> prior_lat_deg;
   std::optional<double> prior_lon_deg;
-  double prior_height_m = 0.0;
-  double prior_sigma_m = 10.0;
   std::string orbital_dtm;
-  std::optional<int> site;
-  bool similarity = false;
-  OrbitalMatchOptions match;
-  ControlPointOptions control;
+  OrthoRegistrationOptions options;
 };
 
 constexpr double kNoData = -3.4028227e+38;
@@ -58,99 +53,47 @@ void WriteRegisteredOrtho(const std::filesystem::path& path, const OrthoImage& o
 }
 
 void Run(RegisterArgs& args, const GlobalOptions& global) {
-  args.match.Check();
-  args.control.Check();
   RequireOption(args.prior_lat_deg.has_value() == args.prior_lon_deg.has_value(),
                 "--prior-lat/--prior-lon", "both or neither");
+  if (args.prior_lat_deg) {
+    args.options.prior_position =
+        Geographic{RadFromDeg(*args.prior_lat_deg), RadFromDeg(*args.prior_lon_deg),
+                   args.options.prior_height_m};
+  }
+  args.options.Check();
   std::vector<std::filesystem::path> inputs = {args.ortho, args.orbital_dtm};
   inputs.insert(inputs.end(), args.orbitals.begin(), args.orbitals.end());
   OutputFolder out(args.out_dir, OutputPolicy(global, "register", kOutputs, inputs));
-  OrthoImage ortho = ReadOrthoImage(args.ortho);
-  const PixelGrid ortho_grid(ortho.geotransform, ortho.crs_wkt, ortho.source);
-  OrbitalPrior prior;
-  prior.sigma_m = args.prior_sigma_m;
-  if (args.prior_lat_deg) {
-    prior.position = {RadFromDeg(*args.prior_lat_deg), RadFromDeg(*args.prior_lon_deg),
-                      args.prior_height_m};
-  } else {
-    // Without telemetry: the orthophoto's centre as its georeference has it, the point of that
-    // pixel's radial line at the given height.
-    const auto centre =
-        ortho_grid.PixelToGeographic({ortho.image.cols / 2.0, ortho.image.rows / 2.0});
-    if (!centre) throw Error(args.ortho + ": its centre lies outside its CRS's domain");
-    prior.position = GeographicFromMbf(
-        prior.body, MbfOnRadialLine(prior.body, centre->lat, centre->lon, args.prior_height_m));
-  }
-  if (args.site) {
-    ortho.site = *args.site;
-    ortho.site_origin = prior.position;
-  }
-  std::vector<OrbitalImage> orbitals;
-  for (const std::string& path : args.orbitals) orbitals.push_back(OrbitalImage::Open(path));
-  std::optional<OrbitalImage> dtm;
-  if (!args.orbital_dtm.empty()) dtm = OrbitalImage::Open(args.orbital_dtm);
 
   const ProgressCallback progress = MakeProgressBar(global, "register");
-  const MultiOrbitalMatch result = MatchOrthoToOrbitals(
-      ortho, orbitals, prior, args.match,
+  const OrthoRegistration registration = RegisterOrtho(
+      args.ortho, {args.orbitals.begin(), args.orbitals.end()},
+      args.orbital_dtm.empty() ? std::nullopt
+                               : std::optional<std::filesystem::path>(args.orbital_dtm),
+      args.options,
       [&](double fraction, std::string_view stage) { return progress(0.9 * fraction, stage); });
-  bool any_overlap = false;
-  for (const OrbitalMatch& m : result.matches) any_overlap = any_overlap || m.overlaps;
-  if (!any_overlap) {
-    char where[160];  // %.0f: a radius beyond int (--prior-sigma-m 1e9) printed as it is
-    std::snprintf(where, sizeof(where), "%.0f m around latitude %.6f, longitude %.6f deg",
-                  args.match.search_sigmas * prior.sigma_m, DegFromRad(prior.position.lat),
-                  DegFromRad(prior.position.lon));
-    throw Error(std::string("no orbital image overlaps the search window: ") + where);
-  }
+  const MultiOrbitalMatch& result = registration.result;
 
-  nlohmann::json summary = {{"command", "register"},
-                            {"ortho", args.ortho},
-                            {"prior",
-                             {{"lat_deg", DegFromRad(prior.position.lat)},
-                              {"lon_deg", DegFromRad(prior.position.lon)},
-                              {"sigma_m", prior.sigma_m}}},
-                            {"matches", nlohmann::json::array()}};
+  nlohmann::json summary = OrthoRegistrationJson(registration);
+  summary["command"] = "register";
+  summary["ortho"] = args.ortho;
   for (size_t k = 0; k < result.matches.size(); ++k) {
     const OrbitalMatch& m = result.matches[k];
-    nlohmann::json j = MatchJson(m);
     if (!m.surface.empty()) {
       const std::string name = "cc_surface_" + std::to_string(k) + ".png";
       WriteImage(out / name, CorrelationSurfaceImage(m));
-      j["cc_surface_png"] = name;
+      summary["matches"][k]["cc_surface_png"] = name;
     }
-    summary["matches"].push_back(j);
   }
-  summary["matched"] = result.best >= 0;
   if (result.best >= 0) {
-    const OrbitalMatch& best = result.matches[result.best];
-    const OrbitalImage& orbital = orbitals[result.best];
-    summary["best"] = result.best;
-    EdgeVerificationOptions edge_options;
-    edge_options.fit_similarity = args.similarity;
-    const EdgeVerification edges = VerifyMatchWithEdges(best, edge_options);
+    const EdgeVerification& edges = *registration.edges;
     WriteImage(out / "wvv_histograms.png", WorldViewVectorHistogramImage(edges));
-    summary["edges"] = {
-        {"ortho_edges", edges.ortho_edges},
-        {"orbital_edges", edges.orbital_edges},
-        {"pairs_per_group_0_1_2_3_px", edges.pairs_per_group},
-        {"ortho_rate", edges.ortho_rate},
-        {"orbital_rate", edges.orbital_rate},
-        {"world_view_vector_matches", edges.pattern_pairs},
-        {"fitted", edges.fitted},
-        {"residual_shift_px", {edges.shift_px.x(), edges.shift_px.y()}},
-        {"residual_rotation_deg", DegFromRad(edges.rotation_rad)},
-        {"residual_scale", edges.scale},
-        {"inliers", edges.inliers},
-        {"rms_px", std::isfinite(edges.rms_px) ? nlohmann::json(edges.rms_px) : nlohmann::json()},
-        {"consistent", edges.consistent},
-        {"histograms_png", "wvv_histograms.png"}};
-    const std::vector<OrbitalControlPoint> points =
-        MakeControlPoints(best, ortho, orbital, prior, dtm, args.control);
+    summary["edges"]["histograms_png"] = "wvv_histograms.png";
+    const std::vector<OrbitalControlPoint>& points = registration.control_points;
     WriteFileAtomically(out / "control_points.json", ControlPointsJson(points).dump(2) + "\n");
     WriteFileAtomically(out / "control_points.csv", ControlPointsCsv(points));
-    WriteRegisteredOrtho(out / "registered_ortho.tif", ortho,
-                         CorrectedGeoTransform(best, ortho, orbital));
+    WriteRegisteredOrtho(out / "registered_ortho.tif", registration.ortho,
+                         *registration.corrected_geotransform);
     summary["control_points"] = points.size();
     summary["control_points_json"] = "control_points.json";
     summary["control_points_csv"] = "control_points.csv";
@@ -216,41 +159,42 @@ void AddRegisterCommand(CLI::App& app, const GlobalOptions& global) {
   prior->add_option("--prior-lon", args->prior_lon_deg, "Rover east longitude [deg]")
       ->check(Longitude());
   prior
-      ->add_option("--prior-height", args->prior_height_m,
+      ->add_option("--prior-height", args->options.prior_height_m,
                    "Height above the ellipsoid used without a DTM [m]")
       ->check(FiniteNumber())
       ->capture_default_str();
   prior
-      ->add_option("--prior-sigma-m", args->prior_sigma_m,
+      ->add_option("--prior-sigma-m", args->options.prior_sigma_m,
                    "Horizontal 1-sigma of the prior [m]; the search covers 3 sigma")
       ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_option("--orbital-dtm", args->orbital_dtm, "Orbital DTM for control point heights");
-  cmd->add_option("--site", args->site,
+  cmd->add_option("--site", args->options.site,
                   "MER site index: control points also in its site frame (origin: the prior)")
       ->check(IntegerAtLeast(0));
   auto* matching = cmd->add_option_group("Matching");
   matching
-      ->add_option("--range-m", args->match.template_options.reliable_range_m,
+      ->add_option("--range-m", args->options.match.template_options.reliable_range_m,
                    "Reliable range kept around the rover [m] (0 = all)")
       ->check(NonNegativeNumber())
       ->capture_default_str();
   matching
-      ->add_option("--max-rotation-deg", args->match.max_rotation_deg,
+      ->add_option("--max-rotation-deg", args->options.match.max_rotation_deg,
                    "Rotation (heading error) searched: +-this [deg]")
       ->check(NumberIn(0.0, 45.0))
       ->capture_default_str();
   matching
-      ->add_option("--max-scale-change", args->match.max_scale_change, "Scale searched: 1 +- this")
+      ->add_option("--max-scale-change", args->options.match.max_scale_change,
+                   "Scale searched: 1 +- this")
       ->check(NumberIn(0.0, 0.5, Bound::kClosed, Bound::kOpen))
       ->capture_default_str();
   matching
-      ->add_option("--max-false-match", args->match.max_false_match,
+      ->add_option("--max-false-match", args->options.match.max_false_match,
                    "Accept a match only if the probability that its peak is a chance alignment "
                    "is at most this (the false-accept rate)")
       ->check(NumberIn(0.0, 1.0, Bound::kOpen, Bound::kClosed))
       ->capture_default_str();
-  matching->add_flag("--similarity", args->similarity,
+  matching->add_flag("--similarity", args->options.similarity,
                      "Edge refinement fits a similarity instead of a translation");
   cmd->callback([args, &global] { Run(*args, global); });
 }

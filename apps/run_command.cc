@@ -268,24 +268,9 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     if (o->no_leg_test) o->run.leg_test = false;
     if (o->no_rock_variance_pass) o->run.rock_variance_pass = false;
     o->run.rocks.model_min_height_m = o->run.matching.fault_detection.min_peak_to_plane_m;
-    o->run.Check();  // Bad options fail before the mission is read.
-    // In place: the run's units are files under --out that a later run resumes from. The lock
-    // keeps a second run on the same --out from computing them all again at the same time.
-    OutputFolderOptions policy = OutputPolicy(
-        global, "run",
-        {"sites/", "legs/", "guided/", "adjustment/", "craters/", "products/", "report.html"},
-        {o->mission});
-    policy.in_place = true;
-    OutputFolder out(o->out, std::move(policy));
-    // Every file the manifest names is checked before any work starts.
-    const MissionManifest mission = ReadMissionManifest(o->mission);
-    const MissionRunSummary summary =
-        RunMission(mission, out.dir(), o->run, MakeProgressBar(global, "run"));
-    nlohmann::json json = summary.json;
-    json["command"] = "run";
-    WriteSummary(out.dir(), json);
-    WriteRunReport(out.dir());
-    out.Commit();
+    const MissionRunSummary summary = RunMissionFolder(o->mission, o->out, o->run, global.overwrite,
+                                                       MakeProgressBar(global, "run"));
+    const nlohmann::json& json = summary.json;
     if (!global.quiet) {
       PrintRunSummary(json);
       std::printf("report: %s/report.html\n", o->out.c_str());

@@ -26,6 +26,8 @@ endif()
 function(areomap_add_library)
   cmake_parse_arguments(ARG "" "NAME;ALIAS" "SOURCES;PUBLIC_LINK_LIBS;PRIVATE_LINK_LIBS" ${ARGN})
   add_library(${ARG_NAME} STATIC ${ARG_SOURCES})
+  # Linked into the Python module's shared object too (cmake/Python.cmake).
+  set_target_properties(${ARG_NAME} PROPERTIES POSITION_INDEPENDENT_CODE ${AREOMAP_PYTHON})
   add_library(${ARG_ALIAS} ALIAS ${ARG_NAME})
   target_include_directories(${ARG_NAME} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
   target_link_libraries(${ARG_NAME}

@@ -8,7 +8,10 @@ export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}"
 
 bash scripts/install-deps.sh
 cmake --preset release >/dev/null
-cmake --build --preset release --target areomap
+# The CLI, and the Python module where it is configured (docs/python.md).
+targets=(areomap)
+grep -q '^AREOMAP_PYTHON:BOOL=ON' build/release/CMakeCache.txt && targets+=(_areomap)
+cmake --build --preset release --target "${targets[@]}"
 areomap=./build/release/apps/areomap
 
 echo "== areomap simulate: the demo mission (terrain, craters, rocks, HiRISE-like products, traverse)"

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages areomap needs to build, test and run.
+# Installs the Debian 12 packages areomap needs to build, test and run (the Python module
+# included: python3-dev, python3-numpy, pybind11-dev, and python3-pytest for its tests).
 # Installs only what is missing; runs `apt-get update` at most once.
 # Must run as root (or with sudo available). Safe to run repeatedly.
 #   bash scripts/install-deps.sh              build, test and run
@@ -21,9 +22,10 @@ packages=(
   nlohmann-json3-dev
   libgtest-dev libgmock-dev
   libbenchmark-dev
+  python3-dev python3-numpy pybind11-dev python3-pytest
 )
 if [ "${1:-}" = "--training" ]; then
-  packages+=(python3-torch python3-opencv python3-numpy)
+  packages+=(python3-torch python3-opencv)
 elif [ $# -gt 0 ]; then
   echo "error: install-deps: unknown option '$1' (expected --training or nothing)" >&2
   exit 2

@@ -205,6 +205,30 @@ int CoordinateSystem::Decimals(int component) const {
   return (angular && component < 2) ? 12 : 6;
 }
 
+CoordinateConversion CoordinateConversion::Make(std::string_view from_spec,
+                                                std::string_view to_spec,
+                                                CoordinateSystemContext context, bool body_given) {
+  CoordinateConversion conversion{CoordinateSystem::Parse(from_spec, context),
+                                  CoordinateSystem::Parse(to_spec, context), std::nullopt, ""};
+  CoordinateSystem& from = conversion.from;
+  CoordinateSystem& to = conversion.to;
+  const std::optional<Body> datum = from.DatumBody() ? from.DatumBody() : to.DatumBody();
+  if (!body_given && datum && (from.UsesBody() || to.UsesBody()) &&
+      (datum->a != context.body.a || datum->b != context.body.b)) {
+    context.body = *datum;
+    // Only the systems shaped by the body change (no raster is opened again).
+    if (from.UsesBody()) from = CoordinateSystem::Parse(from_spec, context);
+    if (to.UsesBody()) to = CoordinateSystem::Parse(to_spec, context);
+    conversion.datum_body = datum;
+    conversion.datum_source = from.DatumBody() ? from.spec() : to.spec();
+  }
+  return conversion;
+}
+
+Eigen::Vector3d CoordinateConversion::Convert(const Eigen::Vector3d& value) const {
+  return to.FromMbf(from.ToMbf(value));
+}
+
 Eigen::Vector3d ParsePointLine(const std::string& line) {
   std::string cleaned = line.substr(0, line.find('#'));
   for (char& c : cleaned) {

@@ -17,6 +17,8 @@
 #include "areomap/landmarks/localization_error.h"
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
+#include "areomap/map/output_folder.h"
+#include "areomap/pipeline/run_report.h"
 #include "mission_units.h"
 
 namespace areomap {
@@ -645,6 +647,31 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
                   {"stage_seconds", stage_seconds},
                   {"computed_seconds", computed},
                   {"seconds", SecondsSince(start)}};
+  return summary;
+}
+
+MissionRunSummary RunMissionFolder(const std::filesystem::path& mission,
+                                   const std::filesystem::path& out_dir,
+                                   const MissionRunOptions& options, bool overwrite,
+                                   const ProgressCallback& progress) {
+  options.Check();  // Bad options fail before the mission is read.
+  // In place: the run's units are files under out_dir that a later run resumes from. The lock
+  // keeps a second run on the same out_dir from computing them all again at the same time.
+  OutputFolderOptions policy;
+  policy.command = "run";
+  policy.outputs = {"sites/",   "legs/",     "guided/",     "adjustment/",
+                    "craters/", "products/", "report.html", "summary.json"};
+  policy.inputs = {mission};
+  policy.overwrite = overwrite;
+  policy.in_place = true;
+  OutputFolder out(out_dir, std::move(policy));
+  // Every file the manifest names is checked before any work starts.
+  const MissionManifest manifest = ReadMissionManifest(mission);
+  MissionRunSummary summary = RunMission(manifest, out.dir(), options, progress);
+  summary.json["command"] = "run";
+  WriteFileAtomically(out.dir() / "summary.json", summary.json.dump(2) + "\n");
+  WriteRunReport(out.dir());
+  out.Commit();
   return summary;
 }
 

@@ -1,5 +1,7 @@
 #include "areomap/map/coordinate_system.h"
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "areomap/map/error.h"
@@ -98,4 +100,28 @@ TEST(CoordinateSystem, DatumBodyIsTheCrsEllipsoid) {
 }
 
 }  // namespace
+// A conversion takes the CRS's datum for the geographic side unless a body is given, and keeps
+// the point where it is in space either way (the same MBF point).
+TEST(CoordinateConversion, TakesTheCrsDatumUnlessABodyIsGiven) {
+  const CoordinateSystemContext context;  // IAU 2000 ellipsoid
+  const CoordinateConversion on_datum =
+      CoordinateConversion::Make("IAU_2015:49910", "planetocentric", context, false);
+  ASSERT_TRUE(on_datum.datum_body.has_value());
+  EXPECT_EQ(on_datum.datum_body->a, 3396190.0);
+  EXPECT_EQ(on_datum.datum_body->b, 3396190.0);
+  EXPECT_EQ(on_datum.datum_source, "IAU_2015:49910");
+  const CoordinateConversion on_body =
+      CoordinateConversion::Make("IAU_2015:49910", "planetocentric", context, true);
+  EXPECT_FALSE(on_body.datum_body.has_value());
+  const Eigen::Vector3d xy_h(1.0e5, 8.0e5, -1500.0);  // equirectangular x, y [m], h [m]
+  const Eigen::Vector3d sphere = on_datum.Convert(xy_h);
+  const Eigen::Vector3d ellipsoid = on_body.Convert(xy_h);
+  // The same longitude; latitude and height differ by the two surfaces' separation.
+  EXPECT_NEAR(sphere.y(), ellipsoid.y(), 1e-9);
+  EXPECT_GT(std::abs(sphere.z() - ellipsoid.z()), 1.0);
+  // A system without a datum on either side leaves the context's body.
+  EXPECT_FALSE(
+      CoordinateConversion::Make("mbf", "planetocentric", context, false).datum_body.has_value());
+}
+
 }  // namespace areomap

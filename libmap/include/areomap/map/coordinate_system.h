@@ -64,6 +64,25 @@ class CoordinateSystem {
   std::string spec_;
 };
 
+// The two systems `areomap coords --from --to` converts between (and the Python module's
+// convert()). Without `body_given`, geographic and local systems take the datum of a raster:,
+// pixel: or CRS system on the other side (`from`'s first), so that a raster's pixels come out in
+// the latitudes its own CRS (and `info`) gives; `datum_body` then says which body that was and
+// `datum_source` the spec it came from. With `body_given`, or when no side has a datum or no side
+// uses the body, `context.body` stays and datum_body is nullopt. Throws as
+// CoordinateSystem::Parse.
+struct CoordinateConversion {
+  CoordinateSystem from;
+  CoordinateSystem to;
+  std::optional<Body> datum_body;
+  std::string datum_source;
+
+  static CoordinateConversion Make(std::string_view from_spec, std::string_view to_spec,
+                                   CoordinateSystemContext context, bool body_given);
+  // to.FromMbf(from.ToMbf(value)); throws as they do.
+  Eigen::Vector3d Convert(const Eigen::Vector3d& value) const;
+};
+
 // One point of a point list (`areomap coords` stdin, --origin): 2 or 3 numbers separated by
 // blanks, tabs or commas; `#` starts a comment; a missing third number is 0. Throws
 // areomap::Error naming the token that is not a number, or the count when it is not 2 or 3.

@@ -188,4 +188,16 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
                              const MissionRunOptions& options,
                              const ProgressCallback& progress = nullptr);
 
+// The job `areomap run MISSION --out DIR` is, as the CLI and the Python module call it: checks
+// `options`, takes `out_dir` under the output-folder policy (output_folder.h: in place, the run's
+// own folders and files, a lock; `overwrite` replaces foreign files that carry an output's name),
+// reads the manifest of the mission folder `mission` (every file it names checked before any
+// work), runs or resumes the mission (RunMission), writes out_dir/summary.json (the summary's
+// JSON with "command": "run") and out_dir/report.html, and records the outputs. Throws
+// areomap::Error as those steps do (nothing is recorded then; finished units stay for a resume).
+MissionRunSummary RunMissionFolder(const std::filesystem::path& mission,
+                                   const std::filesystem::path& out_dir,
+                                   const MissionRunOptions& options, bool overwrite = false,
+                                   const ProgressCallback& progress = nullptr);
+
 }  // namespace areomap
