@@ -11,6 +11,7 @@
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
+#include "areomap/map/raster.h"
 #include "areomap/registration/edge_histogram.h"
 #include "areomap/registration/edge_verify.h"
 #include "areomap/registration/orbital_grid.h"
@@ -57,6 +58,15 @@ void WriteRegisteredOrtho(const std::filesystem::path& path, const OrthoImage& o
   WriteGeoTiff(path, raster);
 }
 
+// The centre of the whole orthophoto file in pixels of `ortho` (ReadOrthoImage keeps only the
+// window of its valid pixels): the default prior stays the file's centre, read from its metadata.
+Eigen::Vector2d FileCentreInOrtho(const std::string& path, const OrthoImage& ortho) {
+  const RasterInfo info = RasterDataset::Open(path).info();
+  const Eigen::Vector2d centre =
+      info.geotransform.value().PixelToMap(info.width / 2.0, info.height / 2.0);
+  return ortho.geotransform.MapToPixel(centre.x(), centre.y());
+}
+
 void Run(RegisterArgs& args, const GlobalOptions& global) {
   args.match.Check();
   args.control.Check();
@@ -75,8 +85,7 @@ void Run(RegisterArgs& args, const GlobalOptions& global) {
   } else {
     // Without telemetry: the orthophoto's centre as its georeference has it, the point of that
     // pixel's radial line at the given height.
-    const auto centre =
-        ortho_grid.PixelToGeographic({ortho.image.cols / 2.0, ortho.image.rows / 2.0});
+    const auto centre = ortho_grid.PixelToGeographic(FileCentreInOrtho(args.ortho, ortho));
     if (!centre) throw Error(args.ortho + ": its centre lies outside its CRS's domain");
     prior.position = GeographicFromMbf(
         prior.body, MbfOnRadialLine(prior.body, centre->lat, centre->lon, args.prior_height_m));
@@ -196,8 +205,9 @@ constexpr const char* kRegisterDetails =
     "lever in the sigma; `rotation_sigma_deg`) and corrected position, CC surface PNGs, "
     "Canny-edge\n"
     "verification with Table 3.7 statistics and Fig. 3.15 world-view-vector histograms, the\n"
-    "registered orthophoto, control points (ortho px, orbital px, lat/lon/h from `--orbital-dtm`,\n"
-    "MBF and `--site` frame, covariance) as JSON/CSV, and `summary.json`.";
+    "registered orthophoto (only the window of its valid pixels is read and written; one without\n"
+    "valid pixels is refused), control points (ortho px, orbital px, lat/lon/h from\n"
+    "`--orbital-dtm`, MBF and `--site` frame, covariance) as JSON/CSV, and `summary.json`.";
 
 void AddRegisterCommand(CLI::App& app, const GlobalOptions& global) {
   auto args = std::make_shared<RegisterArgs>();
