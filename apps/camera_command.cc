@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <variant>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "areomap/map/camera_footprint.h"
 #include "areomap/map/camera_linearize.h"
 #include "areomap/map/camera_models.h"
+#include "areomap/map/coordinate_system.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "commands.h"
@@ -53,6 +55,20 @@ Eigen::Vector2i ParseSize(const std::string& text, const char* option) {
                 "' is invalid: expected WIDTHxHEIGHT, e.g. 1024x1024");
   }
   return {w, h};
+}
+
+// One `camera project` stdin line: x y z [m], finite. Prints the error naming the line and what
+// was expected, and returns nothing, when the line is not that.
+std::optional<Eigen::Vector3d> ReadProjectPoint(const std::string& line, int number) {
+  try {
+    const Eigen::Vector3d p = ParsePointLine(line, 3);
+    if (p.allFinite()) return p;
+    std::fprintf(stderr, "error: stdin line %d: expected finite numbers (x y z in metres)\n",
+                 number);
+  } catch (const Error& e) {
+    std::fprintf(stderr, "error: stdin line %d: %s (x y z in metres)\n", number, e.what());
+  }
+  return std::nullopt;
 }
 
 void PrintVector(const char* name, const Eigen::Vector3d& v) {
@@ -312,17 +328,14 @@ void AddCameraCommand(CLI::App& app, const GlobalOptions& global) {
     int number = 0, failures = 0;
     while (std::getline(std::cin, line)) {
       ++number;
-      std::istringstream in(line);
-      Eigen::Vector3d p;
-      if (!(in >> p.x() >> p.y() >> p.z())) {
-        if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+      if (PointLineIsEmpty(line)) continue;
+      const std::optional<Eigen::Vector3d> p = ReadProjectPoint(line, number);
+      if (!p) {
         std::printf("nan nan\n");
-        std::fprintf(stderr, "error: stdin line %d: expected 3 numbers (x y z in metres)\n",
-                     number);
         ++failures;
         continue;
       }
-      const auto pixel = m.Project(p);
+      const auto pixel = m.Project(*p);
       if (!pixel) {
         std::printf("nan nan\n");
         std::fprintf(stderr,

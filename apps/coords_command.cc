@@ -54,7 +54,7 @@ int RunCoords(const CoordsOptions& options, bool body_given) {
   int failures = 0;
   while (std::getline(std::cin, line)) {
     ++line_number;
-    if (line.find_first_not_of(" \t\r") == std::string::npos || line.front() == '#') continue;
+    if (PointLineIsEmpty(line)) continue;
     try {
       const Eigen::Vector3d out = conversion.Convert(ParsePointLine(line));
       std::printf("%.*f %.*f %.*f\n", to.Decimals(0), out.x(), to.Decimals(1), out.y(),

@@ -11,6 +11,7 @@
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
+#include "areomap/map/raster.h"
 #include "areomap/registration/edge_histogram.h"
 #include "areomap/registration/edge_verify.h"
 #include "areomap/registration/orbital_match.h"
@@ -139,8 +140,9 @@ constexpr const char* kRegisterDetails =
     "lever in the sigma; `rotation_sigma_deg`) and corrected position, CC surface PNGs, "
     "Canny-edge\n"
     "verification with Table 3.7 statistics and Fig. 3.15 world-view-vector histograms, the\n"
-    "registered orthophoto, control points (ortho px, orbital px, lat/lon/h from `--orbital-dtm`,\n"
-    "MBF and `--site` frame, covariance) as JSON/CSV, and `summary.json`.";
+    "registered orthophoto (only the window of its valid pixels is read and written; one without\n"
+    "valid pixels is refused), control points (ortho px, orbital px, lat/lon/h from\n"
+    "`--orbital-dtm`, MBF and `--site` frame, covariance) as JSON/CSV, and `summary.json`.";
 
 void AddRegisterCommand(CLI::App& app, const GlobalOptions& global) {
   auto args = std::make_shared<RegisterArgs>();

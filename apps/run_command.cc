@@ -176,7 +176,8 @@ constexpr const char* kRunDetails =
     "finished sites and legs are reused when the run is repeated or resumed after an "
     "interruption,\n"
     "as long as no file the manifest names has changed (size or modification time; any change\n"
-    "reruns every site and leg).";
+    "reruns every site and leg). A unit one of whose files was deleted (a site's `points.ply`)\n"
+    "runs again.";
 
 // What `areomap report --help` and docs/cli.md say about the command beyond its options.
 constexpr const char* kReportDetails =

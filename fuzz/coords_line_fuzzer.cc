@@ -1,6 +1,7 @@
 // Feeds each input line to ParsePointLine (what `areomap coords` reads per stdin line and for
-// --origin) and converts the point as `coords` would: planetocentric → MBF → site frame, and
-// back. Expected: areomap::Error (not a number, wrong count, a value out of range).
+// --origin, and `camera project` with 3 numbers) and converts the point as `coords` would:
+// planetocentric → MBF → site frame, and back. Expected: areomap::Error (not a number, wrong
+// count, a value out of range).
 #include <sstream>
 #include <string>
 
@@ -33,6 +34,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const Systems& s = GetSystems();
   std::istringstream lines{std::string(areomap::fuzz::AsText(data, size))};
   for (std::string line; std::getline(lines, line);) {
+    if (areomap::PointLineIsEmpty(line)) continue;
+    try {
+      (void)areomap::ParsePointLine(line, 3);
+    } catch (const areomap::Error&) {
+    }
     try {
       const Eigen::Vector3d point = areomap::ParsePointLine(line);
       const Eigen::Vector3d mbf = s.planetocentric.ToMbf(point);

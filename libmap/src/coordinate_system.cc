@@ -1,5 +1,6 @@
 #include "areomap/map/coordinate_system.h"
 
+#include <cassert>
 #include <cmath>
 #include <sstream>
 #include <vector>
@@ -229,12 +230,26 @@ Eigen::Vector3d CoordinateConversion::Convert(const Eigen::Vector3d& value) cons
   return to.FromMbf(from.ToMbf(value));
 }
 
-Eigen::Vector3d ParsePointLine(const std::string& line) {
+namespace {
+
+// The line before its `#` comment, with commas and tabs turned into blanks.
+std::string PointLineFields(const std::string& line) {
   std::string cleaned = line.substr(0, line.find('#'));
   for (char& c : cleaned) {
     if (c == ',' || c == '\t') c = ' ';
   }
-  std::istringstream in(cleaned);
+  return cleaned;
+}
+
+}  // namespace
+
+bool PointLineIsEmpty(const std::string& line) {
+  return PointLineFields(line).find_first_not_of(" \r") == std::string::npos;
+}
+
+Eigen::Vector3d ParsePointLine(const std::string& line, int min_numbers) {
+  assert(min_numbers == 2 || min_numbers == 3);
+  std::istringstream in(PointLineFields(line));
   std::vector<double> values;
   std::string token;
   while (in >> token) {
@@ -246,10 +261,12 @@ Eigen::Vector3d ParsePointLine(const std::string& line) {
       throw Error("'" + token + "' is not a number");
     }
   }
-  if (values.size() < 2 || values.size() > 3) {
-    throw Error("expected 2 or 3 numbers, got " + std::to_string(values.size()));
+  const int count = static_cast<int>(values.size());
+  if (count < min_numbers || count > 3) {
+    throw Error(std::string(min_numbers == 3 ? "expected 3 numbers" : "expected 2 or 3 numbers") +
+                ", got " + std::to_string(count));
   }
-  return {values[0], values[1], values.size() == 3 ? values[2] : 0.0};
+  return {values[0], values[1], count == 3 ? values[2] : 0.0};
 }
 
 }  // namespace areomap

@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "areomap/map/error.h"
+#include "areomap/map/raster_window.h"
 
 namespace areomap {
 namespace {
@@ -322,36 +323,18 @@ RasterDataset OpenOrthophoto(const std::filesystem::path& path) {
   return dataset;
 }
 
-// Rows of the valid band read at a time by OrthophotoValidWindow.
-constexpr int kScanRows = 256;
-
 }  // namespace
 
 std::optional<GridSpec> OrthophotoValidWindow(const std::filesystem::path& path) {
   const RasterDataset dataset = OpenOrthophoto(path);
-  const RasterInfo& info = dataset.info();
-  const GridSpec grid = GridOfRaster(info, path.string());
-  int col0 = info.width, col1 = -1, row0 = info.height, row1 = -1;
-  for (int row = 0; row < info.height; row += kScanRows) {
-    const int rows = std::min(kScanRows, info.height - row);
-    const cv::Mat valid = dataset.ReadWindowFloat(2, PixelWindow{0, row, info.width, rows});
-    for (int r = 0; r < rows; ++r) {
-      const float* v = valid.ptr<float>(r);
-      for (int c = 0; c < info.width; ++c) {
-        if (!(v[c] > 0.0f)) continue;  // 0 and NaN: not painted.
-        col0 = std::min(col0, c);
-        col1 = std::max(col1, c);
-        row0 = std::min(row0, row + r);
-        row1 = std::max(row1, row + r);
-      }
-    }
-  }
-  if (col1 < 0) return std::nullopt;
+  const GridSpec grid = GridOfRaster(dataset.info(), path.string());
+  const std::optional<PixelWindow> painted = ValidPixelWindow(dataset, 2, ValidCells::kPositive);
+  if (!painted) return std::nullopt;
   GridSpec window = grid;
-  window.x_left = grid.x_left + col0 * grid.posting;
-  window.y_top = grid.y_top - row0 * grid.posting;
-  window.width = col1 - col0 + 1;
-  window.height = row1 - row0 + 1;
+  window.x_left = grid.x_left + painted->col0 * grid.posting;
+  window.y_top = grid.y_top - painted->row0 * grid.posting;
+  window.width = painted->width;
+  window.height = painted->height;
   return window;
 }
 

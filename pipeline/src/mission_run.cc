@@ -1,5 +1,6 @@
 #include "areomap/pipeline/mission_run.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -9,6 +10,8 @@
 #include <functional>
 #include <mutex>
 #include <numbers>
+#include <string>
+#include <vector>
 
 #include <tbb/parallel_for.h>
 
@@ -88,15 +91,50 @@ fs::path LegDir(const RunContext& run, int site_a, int site_b) {
   return run.out_dir / "legs" / ("leg_" + ThreeDigits(site_a) + "_" + ThreeDigits(site_b));
 }
 
+namespace {
+
+// The unit's products: the names of the regular files in its folder, sorted, but unit.json and
+// hidden files (AtomicFile's temporaries).
+std::vector<std::string> UnitOutputFiles(const fs::path& unit_dir) {
+  std::vector<std::string> names;
+  for (const fs::directory_entry& entry : fs::directory_iterator(unit_dir)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.is_regular_file() && name != "unit.json" && !name.starts_with('.')) {
+      names.push_back(name);
+    }
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// Whether every file unit.json lists ("files") is still in the unit's folder.
+bool UnitOutputFilesExist(const json& unit, const fs::path& unit_dir) {
+  const json files = unit.value("files", json());
+  if (!files.is_array()) return false;
+  for (const json& name : files) {
+    if (!name.is_string() || !fs::is_regular_file(unit_dir / name.get<std::string>())) {
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
 json FinishedUnit(const RunContext& run, const fs::path& unit_dir) {
   const json unit = ReadJsonFile(unit_dir / "unit.json");
-  if (!unit.is_object() || unit.value("fingerprint", "") != run.fingerprint) return nullptr;
+  if (!unit.is_object() || unit.value("fingerprint", "") != run.fingerprint ||
+      !UnitOutputFilesExist(unit, unit_dir)) {
+    return nullptr;
+  }
   return unit.value("summary", json(nullptr));
 }
 
 void FinishUnit(const RunContext& run, const fs::path& unit_dir, const json& summary) {
-  WriteFileAtomically(unit_dir / "unit.json",
-                      json{{"fingerprint", run.fingerprint}, {"summary", summary}}.dump(2));
+  WriteFileAtomically(unit_dir / "unit.json", json{{"fingerprint", run.fingerprint},
+                                                   {"files", UnitOutputFiles(unit_dir)},
+                                                   {"summary", summary}}
+                                                  .dump(2));
 }
 
 Rigid3d TelemetryTraverseFromSite(const MissionSitePose& pose) {

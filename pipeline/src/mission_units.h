@@ -36,9 +36,11 @@ struct RunContext {
 std::filesystem::path SiteDir(const RunContext& run, int site);
 std::filesystem::path LegDir(const RunContext& run, int site_a, int site_b);
 
-// The unit's recorded summary when it finished with this run's fingerprint, else null.
+// The unit's recorded summary when it finished with this run's fingerprint and every file it
+// wrote is still in its folder (a deleted points.ply makes the unit run again), else null.
 nlohmann::json FinishedUnit(const RunContext& run, const std::filesystem::path& unit_dir);
-// Marks the unit finished: writes unit.json = {fingerprint, summary} atomically.
+// Marks the unit finished: writes unit.json = {fingerprint, files, summary} atomically, where
+// files names the unit's products (the files now in its folder, but unit.json and hidden ones).
 void FinishUnit(const RunContext& run, const std::filesystem::path& unit_dir,
                 const nlohmann::json& summary);
 

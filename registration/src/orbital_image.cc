@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "areomap/map/error.h"
+#include "areomap/map/raster_window.h"
 
 namespace areomap {
 namespace {
@@ -34,13 +35,21 @@ OrthoImage ReadOrthoImage(const std::filesystem::path& path) {
   const RasterDataset dataset = RasterDataset::Open(path);
   const RasterInfo& info = dataset.info();
   RequireGeoreference(info);
+  // A pixel whose value is not finite is invalid whatever the mask says: only the window of
+  // band 1's finite values is read.
+  const std::optional<PixelWindow> window = ValidPixelWindow(dataset, 1, ValidCells::kFinite);
+  if (!window) {
+    throw Error(path.string() +
+                ": band 1 has no valid pixel (every value is nodata or not finite): expected "
+                "an orthophoto with image values");
+  }
   OrthoImage ortho;
-  ortho.image = dataset.ReadWindowFloat(1, dataset.FullWindow());
+  ortho.image = dataset.ReadWindowFloat(1, *window);
   if (info.band_count >= 2) {
-    cv::Mat mask = dataset.ReadWindow(2, dataset.FullWindow());
+    cv::Mat mask = dataset.ReadWindow(2, *window);
     ortho.mask = mask != 0;
   }
-  ortho.geotransform = *info.geotransform;
+  ortho.geotransform = WindowTransform(*info.geotransform, *window);
   ortho.crs_wkt = info.crs_wkt;
   ortho.source = path.string();
   return ortho;

@@ -5,9 +5,22 @@
 #include <string>
 
 #include "areomap/map/error.h"
+#include "areomap/map/raster.h"
 #include "areomap/registration/orbital_grid.h"
 
 namespace areomap {
+namespace {
+
+// The centre of the whole orthophoto file in pixels of `ortho` (ReadOrthoImage keeps only the
+// window of its valid pixels): the default prior stays the file's centre, read from its metadata.
+Eigen::Vector2d FileCentreInOrtho(const std::filesystem::path& path, const OrthoImage& ortho) {
+  const RasterInfo info = RasterDataset::Open(path).info();
+  const Eigen::Vector2d centre =
+      info.geotransform.value().PixelToMap(info.width / 2.0, info.height / 2.0);
+  return ortho.geotransform.MapToPixel(centre.x(), centre.y());
+}
+
+}  // namespace
 
 void OrthoRegistrationOptions::Check() const {
   RequireOption(std::isfinite(prior_height_m), "OrthoRegistrationOptions.prior_height_m",
@@ -39,8 +52,7 @@ OrthoRegistration RegisterOrtho(const std::filesystem::path& ortho_path,
     // Without telemetry: the orthophoto's centre as its georeference has it, the point of that
     // pixel's radial line at the given height.
     const PixelGrid ortho_grid(ortho.geotransform, ortho.crs_wkt, ortho.source);
-    const auto centre =
-        ortho_grid.PixelToGeographic({ortho.image.cols / 2.0, ortho.image.rows / 2.0});
+    const auto centre = ortho_grid.PixelToGeographic(FileCentreInOrtho(ortho_path, ortho));
     if (!centre) throw Error(ortho_path.string() + ": its centre lies outside its CRS's domain");
     prior.position = GeographicFromMbf(
         prior.body, MbfOnRadialLine(prior.body, centre->lat, centre->lon, options.prior_height_m));

@@ -59,6 +59,25 @@ TEST(CoordinateSystem, RejectsBadLinesAndNames) {
             std::string::npos);
 }
 
+TEST(PointLine, ExtraTokensAreAnErrorNamingTheCountNotIgnored) {
+  EXPECT_EQ(ParsePointLine("1, 2\t3 # note"), Eigen::Vector3d(1.0, 2.0, 3.0));
+  EXPECT_EQ(ParsePointLine("1 2"), Eigen::Vector3d(1.0, 2.0, 0.0));
+  EXPECT_EQ(testing::ErrorMessageOf([] { ParsePointLine("1 2 3 4"); }),
+            "expected 2 or 3 numbers, got 4");
+  EXPECT_EQ(ParsePointLine("1 2 3", 3), Eigen::Vector3d(1.0, 2.0, 3.0));
+  EXPECT_EQ(testing::ErrorMessageOf([] { ParsePointLine("1 2 3 4", 3); }),
+            "expected 3 numbers, got 4");
+  EXPECT_EQ(testing::ErrorMessageOf([] { ParsePointLine("1 2", 3); }), "expected 3 numbers, got 2");
+  EXPECT_EQ(testing::ErrorMessageOf([] { ParsePointLine("1 2 3 x", 3); }), "'x' is not a number");
+}
+
+TEST(PointLine, BlankAndCommentLinesAreEmpty) {
+  EXPECT_TRUE(PointLineIsEmpty(""));
+  EXPECT_TRUE(PointLineIsEmpty(" \t,\r"));
+  EXPECT_TRUE(PointLineIsEmpty("  # a comment 1 2 3"));
+  EXPECT_FALSE(PointLineIsEmpty("1 # a comment"));
+}
+
 TEST(CoordinateSystem, PixelAndRasterSystemsFollowTheFilesGeoreference) {
   testing::TempDir dir;
   const MapProjection projection =

@@ -146,6 +146,15 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   // A resumed run still reports what its reused units cost when they were computed.
   EXPECT_DOUBLE_EQ(second.json["computed_seconds"]["stereo"].get<double>(),
                    first.json["computed_seconds"]["stereo"].get<double>());
+  // A finished site whose points.ply the user deleted runs again, alone, rather than failing
+  // the legs and products that read it.
+  const std::string points_before = ReadText(out / "sites" / "site_000" / "points.ply");
+  ASSERT_TRUE(fs::remove(out / "sites" / "site_000" / "points.ply"));
+  const MissionRunSummary recomputed = RunMission(mission, out, options);
+  EXPECT_EQ(recomputed.sites_computed, 1);
+  EXPECT_EQ(recomputed.sites_reused, 1);
+  EXPECT_EQ(recomputed.legs_reused, 1);
+  EXPECT_EQ(ReadText(out / "sites" / "site_000" / "points.ply"), points_before);
   fs::remove(out / "sites" / "site_001" / "unit.json");
   // Products made with other poses (here: recorded 1 cm off) are made again.
   nlohmann::json products_unit = nlohmann::json::parse(ReadText(out / "products" / "unit.json"));

@@ -1,14 +1,18 @@
 #include "areomap/registration/orbital_match.h"
 
 #include <cmath>
+#include <filesystem>
+#include <limits>
 #include <numbers>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "areomap/map/crs.h"
 #include "areomap/map/geodesy.h"
 #include "areomap/map/raster.h"
+#include "areomap/map/raster_window.h"
 #include "orbital_trial.h"
 #include "test_support.h"
 
@@ -268,6 +272,60 @@ TEST(OrbitalMatchOptions, CheckNamesTheField) {
   message = areomap::testing::ErrorMessageOf([&] { options.Check(); });
   EXPECT_NE(message.find("OrbitalMatchOptions.rotation_floor_correlation"), std::string::npos)
       << message;
+}
+
+// The orthophoto as a single-band Float32 GeoTIFF inside a nodata margin of `margin` pixels on
+// every side (NaN nodata, as a georeferencing tool writes it).
+void WriteWithNodataMargin(const OrthoImage& ortho, int margin, const std::filesystem::path& path) {
+  cv::Mat values(ortho.image.rows + 2 * margin, ortho.image.cols + 2 * margin, CV_32F,
+                 cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  cv::Mat inner = values(cv::Rect(margin, margin, ortho.image.cols, ortho.image.rows));
+  ortho.image.copyTo(inner, ortho.ValidMask());
+  GeoRaster raster;
+  raster.bands = {values};
+  raster.geotransform =
+      WindowTransform(ortho.geotransform, PixelWindow{-margin, -margin, values.cols, values.rows});
+  raster.crs_wkt = ortho.crs_wkt;
+  raster.nodata = std::numeric_limits<double>::quiet_NaN();
+  WriteGeoTiff(path, raster);
+}
+
+// Only the window of the valid pixels is read (memory by the data, not the raster), and the match
+// is the one of the whole orthophoto.
+TEST(OrbitalMatch, ReadsOnlyTheValidWindowAndMatchesAsTheWholeOrtho) {
+  const Trial trial = MakeTrial(SmallTrial(7));
+  const areomap::testing::TempDir dir;
+  WriteWithNodataMargin(trial.ortho, 300, dir.path() / "padded.tif");
+  const OrthoImage read = ReadOrthoImage(dir.path() / "padded.tif");
+  std::vector<cv::Point> valid;
+  cv::findNonZero(trial.ortho.ValidMask(), valid);
+  const cv::Rect box = cv::boundingRect(valid);
+  EXPECT_EQ(read.image.size(), box.size());
+  const Eigen::Vector2d origin = trial.ortho.geotransform.PixelToMap(box.x, box.y);
+  EXPECT_NEAR(read.geotransform.c[0], origin.x(), 1e-6);
+  EXPECT_NEAR(read.geotransform.c[3], origin.y(), 1e-6);
+
+  const OrbitalMatch whole = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);
+  const OrbitalMatch window = MatchOrthoToOrbital(read, *trial.orbital, trial.prior);
+  ASSERT_TRUE(whole.matched) << whole.BriefReport();
+  ASSERT_TRUE(window.matched) << window.BriefReport();
+  EXPECT_LT((window.shift_px - whole.shift_px).norm(), 1e-3) << window.BriefReport();
+  EXPECT_NEAR(window.rotation_rad, whole.rotation_rad, 1e-6);
+}
+
+// An orthophoto with no valid pixel is refused, naming the file, once band 1 has been scanned.
+TEST(OrbitalMatch, AllNodataOrthoIsRefusedNamingTheFile) {
+  const areomap::testing::TempDir dir;
+  GeoRaster raster;
+  raster.bands = {cv::Mat(64, 96, CV_32F, cv::Scalar(-9999.0f))};
+  raster.geotransform = GeoTransform::NorthUp(1000.0, 2000.0, 0.25, -0.25);
+  raster.crs_wkt = Crs::FromUserInput("+proj=eqc +R=3396190 +units=m +no_defs").Wkt();
+  raster.nodata = -9999.0;
+  WriteGeoTiff(dir.path() / "nodata.tif", raster);
+  EXPECT_EQ(testing::ErrorMessageOf([&] { ReadOrthoImage(dir.path() / "nodata.tif"); }),
+            (dir.path() / "nodata.tif").string() +
+                ": band 1 has no valid pixel (every value is nodata or not finite): expected an "
+                "orthophoto with image values");
 }
 
 }  // namespace

@@ -83,10 +83,15 @@ struct CoordinateConversion {
   Eigen::Vector3d Convert(const Eigen::Vector3d& value) const;
 };
 
-// One point of a point list (`areomap coords` stdin, --origin): 2 or 3 numbers separated by
-// blanks, tabs or commas; `#` starts a comment; a missing third number is 0. Throws
-// areomap::Error naming the token that is not a number, or the count when it is not 2 or 3.
+// One point of a point list (`areomap coords` stdin and --origin, `areomap camera project` stdin):
+// `min_numbers` (2 or 3) to 3 numbers separated by blanks, tabs or commas; `#` starts a comment;
+// a missing third number is 0. Throws areomap::Error naming the token that is not a number, or
+// the count when it is outside [min_numbers, 3] (extra tokens are an error, never ignored).
 // Values are returned as written (they may be inf or NaN; ToMbf rejects those).
-Eigen::Vector3d ParsePointLine(const std::string& line);
+Eigen::Vector3d ParsePointLine(const std::string& line, int min_numbers = 2);
+
+// True when a point-list line holds nothing but blanks, separators and a `#` comment: a line
+// that readers skip rather than pass to ParsePointLine.
+bool PointLineIsEmpty(const std::string& line);
 
 }  // namespace areomap

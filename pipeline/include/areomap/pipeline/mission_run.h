@@ -29,7 +29,8 @@
 //                     folder by WriteRunReport.
 // A unit is finished when its `unit.json` exists (written last, atomically) and records the
 // same fingerprint as this run: the mission folder, the options, and the path, size and
-// modification time of every file the manifest names (products/: and the same adjusted poses);
+// modification time of every file the manifest names (products/: and the same adjusted poses),
+// and every file the unit wrote is still there (a deleted points.ply makes its site run again);
 // finished units are skipped, so an interrupted run resumes where it stopped, and any changed
 // input file makes every unit run again. Site units run in parallel (TBB).
 //

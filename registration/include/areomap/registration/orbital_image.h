@@ -39,8 +39,11 @@ struct OrthoImage {
 
 // Reads an orthophoto GeoTIFF (any GDAL raster with a geotransform and a CRS): band 1 holds
 // the values (its nodata and non-finite values are invalid); a second band, if present, is a
-// validity mask (nonzero = valid). Throws areomap::Error naming the file for a missing or
-// unreadable file, no georeference or no CRS; the CRS is checked to be on Mars by the matcher.
+// validity mask (nonzero = valid). Only the smallest window holding every finite value of band 1
+// is kept (ValidPixelWindow: band 1 is scanned in strips first), `geotransform` being that
+// window's: memory by the valid window, not the raster. Throws areomap::Error naming the file
+// for a missing or unreadable file, no georeference or no CRS, or no valid pixel at all (found
+// by the scan, before any window is read); the CRS is checked to be on Mars by the matcher.
 OrthoImage ReadOrthoImage(const std::filesystem::path& path);
 
 // The orthophoto libmap makes (orthophoto.h, mosaic.h) as a matching input: its image and
