@@ -88,7 +88,7 @@ int Main(int argc, char** argv) {
     testing::Trial trial = testing::MakeTrial(o);
     trial.prior.sigma_m = c.prior_sigma_m;
     const double radius_estimate = 3.0 * c.prior_sigma_m / 0.25;
-    if (radius_estimate > largest_radius + 1) continue;
+    if (radius_estimate > largest_radius + 1.0) continue;
     OrbitalMatch match;
     const double ours = MedianSeconds(repetitions, [&] {
       match = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);
