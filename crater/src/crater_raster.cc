@@ -26,7 +26,38 @@ void Report(const ProgressCallback& progress, double fraction, std::string_view 
   if (progress && !progress(fraction, stage)) throw Error("crater detection cancelled");
 }
 
+// The combined detector's two halves: the edge detector with every option, the network with
+// its rim fits run as with --method learned, without the shading checks.
+CraterDetectorOptions EdgeDetectorHalf(const CraterDetectorOptions& o) {
+  CraterDetectorOptions edges = o;
+  edges.method = CraterMethod::kEdges;
+  return edges;
+}
+
+CraterDetectorOptions NetworkHalf(const CraterDetectorOptions& o) {
+  CraterDetectorOptions learned = o;
+  learned.method = CraterMethod::kLearned;
+  learned.sun_azimuth_deg.reset();
+  return learned;
+}
+
 }  // namespace
+
+std::vector<CraterDetection> DetectCratersInImage(const cv::Mat& image, RimSource source,
+                                                  const CraterDetectorOptions& o,
+                                                  const ProgressCallback& progress) {
+  o.Check();
+  if (source == RimSource::kDtm || o.method == CraterMethod::kEdges) {
+    return DetectCraters(image, source, o, progress);
+  }
+  if (o.method == CraterMethod::kLearned)
+    return DetectCratersLearned(image, o, o.learned, progress);
+  std::vector<CraterDetection> rims =
+      DetectCraters(image, source, EdgeDetectorHalf(o), SubProgress(progress, 0.0, 0.3));
+  return MergeEdgeAndLearnedCraters(
+      std::move(rims),
+      DetectCratersLearned(image, NetworkHalf(o), o.learned, SubProgress(progress, 0.3, 1.0)));
+}
 
 std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset, RimSource source,
                                                    const CraterDetectorOptions& o,
@@ -36,16 +67,11 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
     return DetectCratersLearned(dataset, o, o.learned, progress);
   }
   if (source == RimSource::kImage && o.method == CraterMethod::kCombined) {
-    CraterDetectorOptions edges = o;
-    edges.method = CraterMethod::kEdges;
-    std::vector<CraterDetection> rims =
-        DetectCratersInRaster(dataset, source, edges, SubProgress(progress, 0.0, 0.3));
-    // The network's rim fits run as with --method learned: without the shading checks.
-    CraterDetectorOptions learned = o;
-    learned.sun_azimuth_deg.reset();
+    std::vector<CraterDetection> rims = DetectCratersInRaster(dataset, source, EdgeDetectorHalf(o),
+                                                              SubProgress(progress, 0.0, 0.3));
     return MergeEdgeAndLearnedCraters(
         std::move(rims),
-        DetectCratersLearned(dataset, learned, o.learned, SubProgress(progress, 0.3, 1.0)));
+        DetectCratersLearned(dataset, NetworkHalf(o), o.learned, SubProgress(progress, 0.3, 1.0)));
   }
   const int width = dataset.info().width, height = dataset.info().height;
   const int padded = o.tile_size + 2 * o.tile_overlap;

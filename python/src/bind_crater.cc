@@ -96,7 +96,7 @@ void BindCrater(py::module_& m) {
           info.width = view.cols;
           info.height = view.rows;
           const CraterCatalog catalog = bridge.Run([&](const ProgressCallback& callback) {
-            return MakeCraterCatalog(DetectCraters(view, source, options, callback), info);
+            return MakeCraterCatalog(DetectCratersInImage(view, source, options, callback), info);
           });
           return CatalogDict(catalog);
         }

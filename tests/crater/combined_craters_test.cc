@@ -88,6 +88,14 @@ TEST(DetectCratersInRaster, CombinedKeepsTheEdgeDetectorsAccuracyOnGeneratedCrat
   RecordProperty("recall", std::to_string(score.all.recall));
   EXPECT_GE(score.all.precision, 0.95);  // measured 1.00
   EXPECT_GE(score.all.recall, 0.95);     // measured 1.00
+  // The same craters from the image in memory.
+  const std::vector<CraterDetection> in_memory =
+      DetectCratersInImage(image, RimSource::kImage, options);
+  ASSERT_EQ(in_memory.size(), found.size());
+  for (size_t k = 0; k < found.size(); ++k) {
+    EXPECT_LT((in_memory[k].ellipse.center - found[k].ellipse.center).norm(), 1e-6) << k;
+    EXPECT_EQ(in_memory[k].edge_detected, found[k].edge_detected) << k;
+  }
   for (const auto& [t, d] : score.matches) {
     const CraterDetection& det = found[static_cast<size_t>(d)];
     if (!det.edge_detected) continue;

@@ -20,9 +20,10 @@ HRSC = "craters/hrsc_nanedi_north.png"
 
 @pytest.fixture(scope="module")
 def cli_run(cli, shared_data, tmp_path_factory):
-    """`areomap craters HRSC --out DIR` with the sun estimated (the CLI's default)."""
+    """`areomap craters HRSC --out DIR` with the sun estimated and the combined detector (the
+    CLI's defaults)."""
     out = tmp_path_factory.mktemp("craters")
-    result = cli("craters", shared_data / HRSC, "--method", "edges", "--out", out)
+    result = cli("craters", shared_data / HRSC, "--out", out)
     assert result.returncode == 0, result.stderr
     summary = json.loads((out / "summary.json").read_text())
     craters = json.loads((out / "craters.json").read_text())["craters"]

@@ -23,4 +23,12 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
                                                    const CraterDetectorOptions& options = {},
                                                    const ProgressCallback& progress = nullptr);
 
+// The same choice of detector (options.method) on an image already in memory (single band,
+// CV_32F or any depth DetectCraters takes, NaN = nodata): DetectCraters for a DTM or kEdges,
+// DetectCratersLearned for kLearned, both merged for kCombined. Gives the craters
+// DetectCratersInRaster finds on the same pixels.
+std::vector<CraterDetection> DetectCratersInImage(const cv::Mat& image, RimSource source,
+                                                  const CraterDetectorOptions& options = {},
+                                                  const ProgressCallback& progress = nullptr);
+
 }  // namespace areomap
