@@ -6,6 +6,9 @@
 #   bash scripts/install-deps.sh              build, test and run
 #   bash scripts/install-deps.sh --training   also what retraining the crater model needs
 #                                             (scripts/crater_model/train.py: PyTorch on the CPU)
+#   bash scripts/install-deps.sh --fuzz       also what the libFuzzer targets need (clang and its
+#                                             libFuzzer / sanitizer runtimes; scripts/fuzz.sh)
+# The options combine.
 set -euo pipefail
 
 packages=(
@@ -24,12 +27,17 @@ packages=(
   libbenchmark-dev
   python3-dev python3-numpy pybind11-dev python3-pytest
 )
-if [ "${1:-}" = "--training" ]; then
-  packages+=(python3-torch python3-opencv)
-elif [ $# -gt 0 ]; then
-  echo "error: install-deps: unknown option '$1' (expected --training or nothing)" >&2
-  exit 2
-fi
+for option in "$@"; do
+  case "$option" in
+    --training) packages+=(python3-torch python3-opencv) ;;
+    # libFuzzer's runtime is only a Recommends of clang, which --no-install-recommends skips.
+    --fuzz) packages+=(clang libclang-rt-14-dev) ;;
+    *)
+      echo "error: install-deps: unknown option '$option' (expected --training, --fuzz or nothing)" >&2
+      exit 2
+      ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do
