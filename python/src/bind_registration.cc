@@ -10,10 +10,10 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include "areomap/adjustment/traverse_adjustment.h"
 #include "areomap/pipeline/mission_run.h"
 #include "areomap/registration/orbital_report.h"
 #include "areomap/registration/ortho_registration.h"
-#include "areomap/adjustment/traverse_adjustment.h"
 #include "bindings.h"
 #include "convert.h"
 
