@@ -22,6 +22,7 @@
 #include "areomap/map/error.h"
 #include "areomap/map/output_folder.h"
 #include "areomap/pipeline/run_report.h"
+#include "areomap/pipeline/work_plan.h"
 #include "mission_units.h"
 
 namespace areomap {
@@ -82,6 +83,19 @@ RunContext::RunContext(const MissionManifest& mission_in, const MissionRunOption
                        {"options", options_in.ToJson()}}
                       .dump()),
       map(MapFrame::LocalEquirectangular(mission_in.body, mission_in.origin)) {}
+
+OutputFolderOptions RunFolderPolicy(const fs::path& mission, bool overwrite) {
+  OutputFolderOptions policy;
+  policy.command = "run";
+  // The plan's claims and done records (.areomap-units/) are areomap's own dot files.
+  policy.outputs = {"sites/",    "legs/",     "guided/",     "adjustment/",
+                    "craters/",  "products/", "report.html", "summary.json",
+                    "plan.json", "error.txt", "slurm/",      "parallel/"};
+  policy.inputs = {mission};
+  policy.overwrite = overwrite;
+  policy.in_place = true;
+  return policy;
+}
 
 fs::path SiteDir(const RunContext& run, int site) {
   return run.out_dir / "sites" / ("site_" + ThreeDigits(site));
@@ -202,57 +216,6 @@ std::vector<Rigid3d> AdjustedPoses(const fs::path& adjustment_json, size_t site_
     }
   }
   return poses;
-}
-
-// A leg's first-pass figures: "first_pass" after the second pass matched it again, else the leg.
-const json& FirstPass(const json& leg) {
-  const auto found = leg.find("first_pass");
-  return found != leg.end() && found->is_object() ? *found : leg;
-}
-
-// The rock tie points' a-posteriori variance factor over the run's legs: their first-pass
-// conformal fits' chi2 (recorded at the pass's tie_variance_factor, scaled back to the a-priori
-// covariances) and redundancy, pooled (PoolVarianceFactor).
-PooledVarianceFactor FirstPassTieVariance(const std::vector<json>& legs) {
-  std::vector<SitePairError> fits;
-  for (const json& leg : legs) {
-    const json& first = FirstPass(leg);
-    const json chi2 = first.value("conformal_chi2", json());
-    if (!chi2.is_number() || !std::isfinite(chi2.get<double>())) continue;  // null when resumed
-    SitePairError fit;
-    fit.chi2 = chi2.get<double>() * first.value("tie_variance_factor", 1.0);
-    fit.redundancy = first.value("conformal_redundancy", 0);
-    fits.push_back(fit);
-  }
-  return PoolVarianceFactor(fits);
-}
-
-// summary.json's "rock_tie_variance": the pooled figures (null when no leg had redundancy) and
-// the factor the second pass applied (null when it did not run).
-json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional<double> applied) {
-  const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(); };
-  return {{"legs", pooled.fits},
-          {"chi2", pooled.chi2},
-          {"redundancy", pooled.redundancy},
-          {"sigma0_squared", number(pooled.estimate)},
-          {"sigma0_squared_upper_95", number(pooled.upper_95)},
-          {"applied_factor", applied ? json(*applied) : json()}};
-}
-
-// The first-pass figures a leg keeps when the second pass matches it again.
-json FirstPassRecord(const json& leg) {
-  const json& first = FirstPass(leg);
-  json record = json::object();
-  for (const char* key :
-       {"outcome", "tie_points", "rock_matches", "relative_error_percent", "conformal_chi2",
-        "conformal_redundancy", "tie_variance_factor", "seconds"}) {
-    if (first.contains(key)) record[key] = first[key];
-  }
-  return record;
-}
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace
@@ -435,75 +398,54 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
 
   MissionRunSummary summary;
   std::vector<json> site_summaries(site_count);
-  std::vector<bool> reused(site_count, false);
+  std::vector<char> reused(site_count, 0);  // Not vector<bool>: written from parallel tasks.
   tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
     if (cancelled) return;
-    const fs::path dir = SiteDir(run, mission.sites[i].site);
-    json done = FinishedUnit(run, dir);
-    if (done.is_null()) {
-      done = RunSiteUnit(run, i, [&](double f, std::string_view stage) {
-        {
-          std::lock_guard lock(progress_mutex);
-          site_done[i] = f;
-        }
-        return report(sites_fraction(), stage);
-      });
-      FinishUnit(run, dir, done);
-    } else {
-      reused[i] = true;
-    }
-    site_summaries[i] = done;
+    bool was_reused = false;
+    site_summaries[i] = EnsureSiteUnit(
+        run, i,
+        [&](double f, std::string_view stage) {
+          {
+            std::lock_guard lock(progress_mutex);
+            site_done[i] = f;
+          }
+          return report(sites_fraction(), stage);
+        },
+        &was_reused);
+    reused[i] = was_reused;
     std::lock_guard lock(progress_mutex);
     site_done[i] = 1.0;
   });
   if (cancelled) throw Error("cancelled during the site units");
-  for (bool r : reused) (r ? summary.sites_reused : summary.sites_computed)++;
+  for (const char r : reused) (r ? summary.sites_reused : summary.sites_computed)++;
   lap("sites");
   // The legs: the first pass with the run's matching options, then the second with the first
   // pass's pooled variance factor (MissionRunOptions::rock_variance_pass). A leg is matched
   // again only when the factor it was matched with is not the one wanted.
   constexpr double kFirstPass = kSites + 0.8 * (kLegs - kSites);
   SiteRocksCache site_rocks(run);
-  const auto match_leg = [&](size_t i, const RockMatchingOptions& matching, double from,
-                             double to) {
-    const auto leg_start = std::chrono::steady_clock::now();
-    json done = RunLegUnit(run, i, i + 1, site_rocks, matching, [&](double f, std::string_view s) {
+  const auto leg_span = [&](size_t i, double from, double to) -> ProgressCallback {
+    return [&report, i, from, to, leg_count](double f, std::string_view s) {
       const double n = static_cast<double>(leg_count);
       return report(from + (to - from) * (static_cast<double>(i) + f) / n, s);
-    });
-    done["seconds"] = SecondsSince(leg_start);
-    return done;
+    };
   };
   std::vector<json> leg_summaries(leg_count);
   for (size_t i = 0; i < leg_count; ++i) {
-    const fs::path dir = LegDir(run, mission.sites[i].site, mission.sites[i + 1].site);
-    json done = FinishedUnit(run, dir);
-    if (done.is_null()) {
-      done = match_leg(i, options.matching, kSites, kFirstPass);
-      FinishUnit(run, dir, done);
-      ++summary.legs_computed;
-    } else {
-      ++summary.legs_reused;
-    }
-    leg_summaries[i] = done;
+    bool was_reused = false;
+    leg_summaries[i] =
+        EnsureLegUnit(run, i, site_rocks, leg_span(i, kSites, kFirstPass), &was_reused);
+    ++(was_reused ? summary.legs_reused : summary.legs_computed);
   }
+  std::optional<double> variance_pass;
   const PooledVarianceFactor first_pass = FirstPassTieVariance(leg_summaries);
-  const std::optional<double> variance_pass = options.RockVariancePassFactor(first_pass);
-  RockMatchingOptions final_matching = options.matching;
-  if (variance_pass) final_matching.tie_variance_factor = *variance_pass;
+  const RockMatchingOptions final_matching =
+      SecondPassMatching(run, leg_summaries, &variance_pass);
   for (size_t i = 0; i < leg_count; ++i) {
-    const double recorded = leg_summaries[i].value("tie_variance_factor", 1.0);
-    const double wanted = final_matching.tie_variance_factor;
-    if (std::abs(recorded - wanted) <= 1e-12 * wanted) continue;
-    const json first = FirstPassRecord(leg_summaries[i]);
-    json done = match_leg(i, final_matching, kFirstPass, kLegs);
-    if (variance_pass) {
-      done["first_pass"] = first;
-      done["seconds"] = done["seconds"].get<double>() + first.value("seconds", 0.0);
+    if (EnsureLegSecondPass(run, i, site_rocks, final_matching, variance_pass, leg_summaries[i],
+                            leg_span(i, kFirstPass, kLegs))) {
+      ++summary.legs_rematched;
     }
-    FinishUnit(run, LegDir(run, mission.sites[i].site, mission.sites[i + 1].site), done);
-    leg_summaries[i] = done;
-    ++summary.legs_rematched;
   }
   // The legs tested against each other: a leg the test changed is read from rock_ties/.
   const fs::path adjustment_dir = out_dir / "adjustment";
@@ -515,14 +457,9 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   std::string craters_unit = "off", products_unit = "off";
   json craters;
   if (options.detect_craters) {
-    const fs::path dir = out_dir / "craters";
-    craters = FinishedUnit(run, dir);
-    craters_unit = craters.is_null() ? "computed" : "reused";
-    if (craters.is_null()) {
-      craters = RunCratersUnit(run, span(kLegs, kCraters));
-      craters["seconds"] = SecondsSince(clock);  // Since the legs' lap.
-      if (fs::exists(dir)) FinishUnit(run, dir, craters);
-    }
+    bool was_reused = false;
+    craters = EnsureCratersUnit(run, span(kLegs, kCraters), &was_reused);
+    craters_unit = was_reused ? "reused" : "computed";
   }
   lap("craters");
 
@@ -695,14 +632,7 @@ MissionRunSummary RunMissionFolder(const std::filesystem::path& mission,
   options.Check();  // Bad options fail before the mission is read.
   // In place: the run's units are files under out_dir that a later run resumes from. The lock
   // keeps a second run on the same out_dir from computing them all again at the same time.
-  OutputFolderOptions policy;
-  policy.command = "run";
-  policy.outputs = {"sites/",   "legs/",     "guided/",     "adjustment/",
-                    "craters/", "products/", "report.html", "summary.json"};
-  policy.inputs = {mission};
-  policy.overwrite = overwrite;
-  policy.in_place = true;
-  OutputFolder out(out_dir, std::move(policy));
+  OutputFolder out(out_dir, mission_run::RunFolderPolicy(mission, overwrite));
   // Every file the manifest names is checked before any work starts.
   const MissionManifest manifest = ReadMissionManifest(mission);
   MissionRunSummary summary = RunMission(manifest, out.dir(), options, progress);
