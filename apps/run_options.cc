@@ -73,17 +73,18 @@ bool RunPlan(const fs::path& dir, const WorkPlan& plan, const ExecutorArguments&
     SlurmOptions slurm;
     slurm.executor = executor;
     slurm.sbatch_arguments = SplitArguments(arguments.slurm_args);
-    slurm.wait = arguments.wait;
     const SlurmSubmission submission = SubmitPlanToSlurm(dir, plan, slurm);
     if (!global.quiet) {
       for (const auto& [stage, id] : submission.jobs) {
         std::printf("slurm job %s: stage %s (%zu tasks)\n", id.c_str(), stage.c_str(),
                     plan.Stage(stage).units.size());
       }
-      if (!arguments.wait) {
-        std::printf("follow with `areomap run-status %s`\n", dir.c_str());
-      }
+      std::printf("%s `areomap run-status %s`\n",
+                  arguments.wait ? "waiting for the jobs; follow with" : "follow with",
+                  dir.c_str());
+      std::fflush(stdout);
     }
+    if (arguments.wait) WaitForSlurmJobs(dir, plan, submission);
     return arguments.wait;
   }
   ParallelOptions parallel;

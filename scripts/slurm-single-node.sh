@@ -7,6 +7,7 @@
 # not come up within 60 s.
 set -euo pipefail
 if [ "$(id -u)" != 0 ]; then
+  command -v sudo >/dev/null && exec sudo bash "$0" "$@"
   echo "slurm-single-node.sh: run as root (it writes /etc/slurm and starts daemons)" >&2
   exit 2
 fi

@@ -186,7 +186,10 @@ SlurmSubmission SubmitPlanToSlurm(const fs::path& dir_in, const WorkPlan& plan,
     std::string command = "exec " + ShellQuote(executable) + " run-unit " +
                           ShellQuote(dir.string()) + " --stage " + ShellQuote(stage.name) +
                           " --task-index \"$SLURM_ARRAY_TASK_ID\"";
-    for (const std::string& a : options.executor.run_unit_arguments) command += " " + ShellQuote(a);
+    for (const std::string& a : options.executor.run_unit_arguments) {
+      command += ' ';
+      command += ShellQuote(a);
+    }
     WriteFileAtomically(script, "#!/bin/sh\n# areomap: stage \"" + stage.name + "\" of " +
                                     (dir / kPlanFileName).string() +
                                     ", one array task per unit (docs/cluster.md).\n" + command +
@@ -216,7 +219,12 @@ SlurmSubmission SubmitPlanToSlurm(const fs::path& dir_in, const WorkPlan& plan,
     job_of_stage[stage.name] = id;
     submission.jobs.emplace_back(stage.name, id);
   }
-  if (!options.wait) return submission;
+  return submission;
+}
+
+void WaitForSlurmJobs(const fs::path& dir_in, const WorkPlan& plan,
+                      const SlurmSubmission& submission, double poll_s) {
+  const fs::path dir = fs::absolute(dir_in).lexically_normal();
   std::vector<std::string> ids;
   for (const auto& [stage, id] : submission.jobs) ids.push_back(id);
   while (true) {
@@ -225,14 +233,13 @@ SlurmSubmission SubmitPlanToSlurm(const fs::path& dir_in, const WorkPlan& plan,
     if (queued.exit_code != 0 || queued.output.find_first_not_of(" \n") == std::string::npos) {
       break;  // squeue refuses ids that have all left the queue.
     }
-    std::this_thread::sleep_for(std::chrono::duration<double>(options.poll_s));
+    std::this_thread::sleep_for(std::chrono::duration<double>(poll_s));
   }
   const std::string missing = NotDone(dir, plan, {});
   if (!missing.empty()) {
     throw Error("the Slurm jobs ended with units not done (their error.txt, DIR/slurm/*.out):" +
                 missing);
   }
-  return submission;
 }
 
 void RunPlanWithGnuParallel(const fs::path& dir_in, const WorkPlan& plan,

@@ -4,7 +4,8 @@
 # with SIGKILL halfway, with two executors started on one plan at once (each unit computed
 # exactly once), and, with --slurm, through a Slurm cluster (`--executor slurm --wait`). Each
 # run's summary figures and files must equal the local run's (scripts/compare_runs.sh).
-#   executors_test.sh AREOMAP WORK [--slurm] [--mission DIR] [--only parallel|kill|twice|slurm]
+#   executors_test.sh AREOMAP WORK [--slurm] [--mission DIR] [--only STEP[,STEP...]]
+# STEP: parallel, kill, twice, slurm (all by default; slurm only with --slurm).
 # Without --mission, a three-site mission is generated into WORK. Exits non-zero on the first
 # difference or failure.
 set -euo pipefail
@@ -24,7 +25,7 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
-wanted() { [ -z "$only" ] || [ "$only" = "$1" ]; }
+wanted() { [ -z "$only" ] || [[ ",$only," == *",$1,"* ]]; }
 rm -rf "$work"
 mkdir -p "$work"
 if [ -z "$mission" ]; then

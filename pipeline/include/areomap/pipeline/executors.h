@@ -51,8 +51,6 @@ struct ExecutorOptions {
 struct SlurmOptions {
   ExecutorOptions executor;
   std::vector<std::string> sbatch_arguments;  // Added to every sbatch call (--partition=x ...).
-  bool wait = false;    // Return only when every job has left the queue.
-  double poll_s = 5.0;  // How often squeue is asked while waiting [s].
 };
 
 // The job ids of a submission, per stage, in plan order.
@@ -60,11 +58,14 @@ struct SlurmSubmission {
   std::vector<std::pair<std::string, std::string>> jobs;  // (stage, job id)
 };
 
-// Submits every stage with units as a job array (see above). With `wait`, returns when no job
-// of the submission is queued or running any more and throws areomap::Error listing the units
-// that are not done (their error.txt) if any.
+// Submits every stage with units as a job array (see above) and returns at once.
 SlurmSubmission SubmitPlanToSlurm(const std::filesystem::path& dir, const WorkPlan& plan,
                                   const SlurmOptions& options);
+// Returns when no job of `submission` is queued or running any more (squeue asked every
+// `poll_s`); throws areomap::Error listing the plan's units that are not done then (with their
+// error.txt's message).
+void WaitForSlurmJobs(const std::filesystem::path& dir, const WorkPlan& plan,
+                      const SlurmSubmission& submission, double poll_s = 5.0);
 
 struct ParallelOptions {
   ExecutorOptions executor;
