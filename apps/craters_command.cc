@@ -64,9 +64,14 @@ constexpr const char* kCratersDetails =
     "docs/crater-model.md. All: Ceres orthogonal-distance fits, tiles read in windows (bounded\n"
     "memory, TBB). Writes `craters.csv`, `craters.json`, `craters.gpkg` (Mars "
     "CRS,\n"
-    "when georeferenced), `overlay.png`, `summary.json`. `craters score DETECTIONS.csv TRUTH.csv\n"
-    "[--image IMAGE --out DIR]`: precision, recall, F1 by diameter bin. Speed and accuracy:\n"
-    "docs/benchmarks.md (Craters).";
+    "when georeferenced), `overlay.png`, `summary.json`. Two or more images, or `--list FILE`: a\n"
+    "catalogue; each image (georeferenced, projected Mars CRS) into `images/<NNN>_<stem>/` as\n"
+    "above plus `image.json`, one after the other, then one `craters.gpkg` and `craters.csv` in\n"
+    "the first image's CRS (or `--crs`) with each crater once where images overlap (the better-\n"
+    "fitted rim kept) and `images.csv`, a row per image; an image that fails is a row, the others\n"
+    "go on, the exit status is non-zero (docs/crater-catalogue.md). `craters score DETECTIONS.csv\n"
+    "TRUTH.csv [--image IMAGE --out DIR]`: precision, recall, F1 by diameter bin. Speed and\n"
+    "accuracy: docs/benchmarks.md (Craters).";
 
 void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
   auto args = std::make_shared<CratersArgs>();

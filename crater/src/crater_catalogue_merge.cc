@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numeric>
+#include <optional>
 
 #include <cpl_quad_tree.h>
 
@@ -38,7 +40,7 @@ bool BetterFitted(const Candidate& a, const Candidate& b) {
   return a.fid < b.fid;
 }
 
-// The craters of one image's catalogue moved into the common CRS (transform null: already in it).
+// The craters of one image's catalogue, moved into the common CRS.
 void ReadCandidates(CatalogueLayer& source, const CommonCrs& common, int image,
                     std::vector<Candidate>* out) {
   const CraterFieldIndex f(source);
@@ -67,13 +69,17 @@ void ReadCandidates(CatalogueLayer& source, const CommonCrs& common, int image,
   const auto transform = common.TransformFrom(source);
   if (!transform) return;
   // Centre and two points half a diameter east and north of it: the transformation's Jacobian,
-  // whose determinant's root is the local scale of lengths (exact for a conformal change).
+  // whose determinant's root is the local scale of lengths (exact for a conformal change, the
+  // geometric mean of the two directions' scales otherwise).
   const size_t n = out->size() - first;
+  const auto half = [](const Candidate& c) {
+    return std::isfinite(c.diameter) && c.diameter > 0.0 ? 0.5 * c.diameter : 1.0;
+  };
   x.resize(3 * n);
   y.resize(3 * n);
   for (size_t i = 0; i < n; ++i) {
     const Candidate& c = (*out)[first + i];
-    const double h = std::isfinite(c.diameter) && c.diameter > 0.0 ? 0.5 * c.diameter : 1.0;
+    const double h = half(c);
     x[3 * i] = c.center.x(), y[3 * i] = c.center.y();
     x[3 * i + 1] = c.center.x() + h, y[3 * i + 1] = c.center.y();
     x[3 * i + 2] = c.center.x(), y[3 * i + 2] = c.center.y() + h;
@@ -86,7 +92,7 @@ void ReadCandidates(CatalogueLayer& source, const CommonCrs& common, int image,
       throw Error(source.path.string() + ": crater fid " + std::to_string(c.fid) +
                   " cannot be moved into " + common.name);
     }
-    const double h = std::isfinite(c.diameter) && c.diameter > 0.0 ? 0.5 * c.diameter : 1.0;
+    const double h = half(c);
     const Eigen::Vector2d p0(x[3 * i], y[3 * i]);
     const Eigen::Vector2d e = Eigen::Vector2d(x[3 * i + 1], y[3 * i + 1]) - p0;
     const Eigen::Vector2d nn = Eigen::Vector2d(x[3 * i + 2], y[3 * i + 2]) - p0;

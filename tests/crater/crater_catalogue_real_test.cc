@@ -187,7 +187,10 @@ TEST(CtxCatalogue, TwelveImagesOnAnOverlappingGridGiveOneGeoPackageWithoutDuplic
   RecordProperty("seconds", std::to_string(seconds));
   RecordProperty("merge_seconds", std::to_string(s.seconds));
   EXPECT_EQ(s.images_ok, 12);
-  EXPECT_GT(s.kept, 12 * 300);
+  EXPECT_GT(s.detected, 12 * 100);
+  // Unrelated images under the made-up overlaps: only chance coincidences there, and the images'
+  // own near-duplicates, are the same crater.
+  EXPECT_LT(s.duplicates_removed, 0.05 * s.detected);
   const Merged merged = ReadMergedGeoPackage(dir.path() / "craters.gpkg");
   ASSERT_EQ(static_cast<int>(merged.craters.size()), s.kept);
   EXPECT_TRUE(Crs::FromWkt(merged.crs_wkt, "craters.gpkg").Describe().is_mars);

@@ -7,8 +7,8 @@
 // their metres scaled by the transformation's local area scale at the centre.
 // Same crater: SameCraterEitherWay (same_crater.h) on centres and rim diameters in metres of
 // the common CRS, over every pair of craters (across and within images), found through a
-// quadtree on the centres (GDAL's CPLQuadTree): O(n log n) for n craters; memory about 64 bytes
-// a crater plus one image's features at a time.
+// quadtree on the centres (GDAL's CPLQuadTree): O(n log n) for n craters; memory about 100
+// bytes a crater plus one image's features at a time (docs/crater-catalogue.md).
 // Which of two is kept, the better-fitted rim, in this order:
 //  1. a complete rim over a partial one (under 60 % of the rim's sectors hold edges, or the rim
 //     leaves its image): where images overlap, a crater cut by one image's edge lies whole in
