@@ -8,6 +8,7 @@
 #include "areomap/crater/crater_catalogue.h"
 #include "areomap/crater/crater_catalogue_merge.h"
 #include "areomap/map/error.h"
+#include "areomap/pipeline/catalogue_plan.h"
 #include "craters_args.h"
 
 namespace areomap::cli {
@@ -45,6 +46,35 @@ std::string FailedImages(const CatalogueMergeSummary& s) {
 
 }  // namespace
 
+nlohmann::json CatalogueSummaryHead(const CratersArgs& a) {
+  return {{"command", "craters"},
+          {"mode", "catalogue"},
+          {"list", a.list.empty() ? nlohmann::json() : nlohmann::json(a.list)},
+          {"method", a.image.dtm ? "edges" : a.method},
+          {"source", a.image.dtm ? "dtm" : "image"},
+          {"files", {"craters.gpkg", "craters.csv", "images.csv", "images/"}}};
+}
+
+void RunPlannedCraterCatalogue(const CratersArgs& a, const std::vector<std::string>& arguments,
+                               const GlobalOptions& global) {
+  const std::vector<fs::path> images = CatalogueImages(a);
+  CraterImageOptions options = ImageOptions(a);
+  options.require_ground = true;
+  CheckCraterModel(options);
+  std::vector<fs::path> inputs = images;
+  if (!a.list.empty()) inputs.emplace_back(a.list);
+  const WorkPlan plan =
+      PlanCraterCatalogueFolder(images, inputs, a.out_dir, arguments, global.overwrite);
+  if (RunPlan(a.out_dir, plan, a.executor, global) && !global.quiet) {
+    const nlohmann::json s = ReadJsonFile(fs::path(a.out_dir) / "summary.json");
+    std::cout << "catalogue of " << s.value("images", 0) << " images ("
+              << s.value("images_failed", 0) << " failed): " << s.value("craters_detected", 0)
+              << " craters detected, " << s.value("craters_kept", 0) << " kept, "
+              << s.value("duplicates_removed", 0) << " duplicates removed; wrote " << a.out_dir
+              << "\n";
+  }
+}
+
 void RunCraterCatalogue(const CratersArgs& a, const GlobalOptions& global) {
   const std::vector<fs::path> images = CatalogueImages(a);
   CraterImageOptions options = ImageOptions(a);
@@ -75,12 +105,7 @@ void RunCraterCatalogue(const CratersArgs& a, const GlobalOptions& global) {
   merge.crs = a.crs;
   const CatalogueMergeSummary s =
       MergeCraterCatalogues(dirs, folder.dir(), merge, MakeProgressBar(global, "merge"));
-  nlohmann::json summary = {{"command", "craters"},
-                            {"mode", "catalogue"},
-                            {"list", a.list.empty() ? nlohmann::json() : nlohmann::json(a.list)},
-                            {"method", a.image.dtm ? "edges" : a.method},
-                            {"source", a.image.dtm ? "dtm" : "image"},
-                            {"files", {"craters.gpkg", "craters.csv", "images.csv", "images/"}}};
+  nlohmann::json summary = CatalogueSummaryHead(a);
   summary.update(CatalogueMergeSummaryJson(s));
   WriteSummary(folder.dir(), summary);
   folder.Commit();

@@ -73,22 +73,10 @@ constexpr const char* kCratersDetails =
     "TRUTH.csv [--image IMAGE --out DIR]`: precision, recall, F1 by diameter bin. Speed and\n"
     "accuracy: docs/benchmarks.md (Craters).";
 
-void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
-  auto args = std::make_shared<CratersArgs>();
-  auto* cmd = app.add_subcommand(
-      "craters", "Detect crater rims in an image or DTM: ellipses, uncertainties, models");
-  cmd->footer(kCratersDetails);
-  cmd->require_subcommand(0, 1);
-  cmd->add_option("input", args->inputs,
-                  "Image or DTM raster (GeoTIFF, PNG, ISIS3, PDS...); two or more: a catalogue "
-                  "(georeferenced, projected Mars CRS) merged in DIR");
-  cmd->add_option("--list", args->list,
-                  "Catalogue: also the images listed in FILE, one path a line (blank lines and "
-                  "# comments skipped)");
+void AddCraterDetectionOptions(CLI::App* cmd, CratersArgs* args) {
   cmd->add_option("--crs", args->crs,
                   "Catalogue: CRS of the merged catalogue, a projected Mars CRS in metres "
                   "(IAU_2015:49910, WKT, PROJ); default: the first image's");
-  cmd->add_option("--out", args->out_dir, "Output folder (created if needed)");
   cmd->add_flag("--dtm", args->image.dtm, "The input holds heights: rims from curvature crests");
   cmd->add_option("--method", args->method,
                   "Image detector: combined (both below, the network's finds added to the edge "
@@ -151,6 +139,38 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
   cmd->add_flag("--shading-templates", args->image.detector.shading_template.enabled,
                 "Also seek small degraded bowls by their shading (needs a sun azimuth, given or "
                 "estimated; ~1.35x time)");
+}
+
+CratersArgs ParseCratersArguments(const std::vector<std::string>& arguments) {
+  CLI::App app("areomap craters options");
+  CratersArgs parsed;
+  AddCraterDetectionOptions(app.add_option_group("detection"), &parsed);
+  std::vector<std::string> reversed(arguments.rbegin(), arguments.rend());
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    throw Error(std::string("the plan's craters options cannot be read (") + e.what() + ")");
+  }
+  return parsed;
+}
+
+void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
+  auto args = std::make_shared<CratersArgs>();
+  CLI::App* detection_group = nullptr;
+  auto* cmd = app.add_subcommand(
+      "craters", "Detect crater rims in an image or DTM: ellipses, uncertainties, models");
+  cmd->footer(kCratersDetails);
+  cmd->require_subcommand(0, 1);
+  cmd->add_option("input", args->inputs,
+                  "Image or DTM raster (GeoTIFF, PNG, ISIS3, PDS...); two or more: a catalogue "
+                  "(georeferenced, projected Mars CRS) merged in DIR");
+  cmd->add_option("--list", args->list,
+                  "Catalogue: also the images listed in FILE, one path a line (blank lines and "
+                  "# comments skipped)");
+  cmd->add_option("--out", args->out_dir, "Output folder (created if needed)");
+  detection_group = cmd->add_option_group("Detection options");
+  AddCraterDetectionOptions(detection_group, args.get());
+  AddExecutorOptions(cmd, &args->executor);
 
   auto score_args = std::make_shared<std::array<std::string, 4>>();
   auto min_score_diameter = std::make_shared<double>(8.0);
@@ -213,16 +233,25 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
     line(s.all);
     (void)global;
   });
-  cmd->callback([cmd, args, &global] {
+  cmd->callback([cmd, args, detection_group, &global] {
     if (!cmd->get_subcommands().empty()) return;  // `craters score` ran
     if (args->inputs.empty() && args->list.empty()) {
       throw Error("craters: missing INPUT raster (or use 'craters score')");
     }
     if (args->out_dir.empty()) throw Error("craters: --out DIR is required");
     ImageOptions(*args).Check();
+    const bool planned = args->executor.plan_only || args->executor.executor != "local";
     if (args->inputs.size() > 1 || !args->list.empty()) {
-      RunCraterCatalogue(*args, global);
+      if (planned) {
+        RunPlannedCraterCatalogue(*args, ArgumentsGiven(*detection_group), global);
+      } else {
+        RunCraterCatalogue(*args, global);
+      }
       return;
+    }
+    if (planned) {
+      throw Error("craters: --plan and --executor belong to a catalogue (two or more images, or "
+                  "--list)");
     }
     if (!args->crs.empty()) {
       throw Error("craters: --crs belongs to a catalogue (two or more images, or --list)");

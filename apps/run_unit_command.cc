@@ -5,9 +5,11 @@
 #include <map>
 
 #include "areomap/map/error.h"
+#include "areomap/pipeline/catalogue_plan.h"
 #include "areomap/pipeline/executors.h"
 #include "areomap/pipeline/mission_plan.h"
 #include "commands.h"
+#include "craters_args.h"
 #include "run_options.h"
 
 namespace areomap::cli {
@@ -16,7 +18,8 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kRunUnitDetails =
-    "Runs units of the plan in DIR/plan.json (written by `areomap run ... --plan`), in the order\n"
+    "Runs units of the plan in DIR/plan.json (written by `areomap run ... --plan` or `areomap\n"
+    "craters IMAGE... --plan`), in the order\n"
     "given: by id (`areomap run-status DIR` lists them), or the one at --task-index in --stage\n"
     "(a Slurm array task). Safe to run in many processes on many hosts at once over a shared\n"
     "filesystem: each unit is claimed (DIR/.areomap-units/ID.claim, kept fresh by a heartbeat);\n"
@@ -99,9 +102,16 @@ void AddRunUnitCommands(CLI::App& app, const GlobalOptions& global) {
     if (plan.job == "run") {
       records = RunMissionPlanUnits(o->dir, plan, ParseMissionRunArguments(plan.arguments), ids,
                                     o->claims, MakeProgressBar(global, "run-unit"));
+    } else if (plan.job == "craters") {
+      const CratersArgs args = ParseCratersArguments(plan.arguments);
+      CatalogueMergeOptions merge;
+      merge.crs = args.crs;
+      records = RunCataloguePlanUnits(o->dir, plan, ImageOptions(args), merge,
+                                      CatalogueSummaryHead(args), ids, o->claims,
+                                      MakeProgressBar(global, "run-unit"));
     } else {
       throw Error((fs::path(o->dir) / kPlanFileName).string() + ": unknown job \"" + plan.job +
-                  "\" (expected run)");
+                  "\" (expected run or craters)");
     }
     if (!global.quiet) PrintRecords(records);
     std::string failed;

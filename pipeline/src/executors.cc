@@ -6,6 +6,7 @@
 
 #include <cerrno>
 #include <chrono>
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -205,7 +206,10 @@ SlurmSubmission SubmitPlanToSlurm(const fs::path& dir_in, const WorkPlan& plan,
     for (const std::string& name : stage.after) {
       if (job_of_stage.count(name)) after.push_back(job_of_stage[name]);
     }
-    if (!after.empty()) argv.push_back("--dependency=afterok:" + Join(after, ":"));
+    if (!after.empty()) {
+      argv.push_back(std::string("--dependency=") +
+                     (stage.tolerates_failures ? "afterany:" : "afterok:") + Join(after, ":"));
+    }
     argv.insert(argv.end(), options.sbatch_arguments.begin(), options.sbatch_arguments.end());
     argv.push_back(script.string());
     const ProgramResult result = RunProgram(argv, /*capture=*/true);
@@ -248,8 +252,16 @@ void RunPlanWithGnuParallel(const fs::path& dir_in, const WorkPlan& plan,
   const fs::path dir = fs::absolute(dir_in).lexically_normal();
   const std::string executable = Executable(options.executor);
   fs::create_directories(dir / "parallel");
+  std::vector<std::string> failed_stages;  // Stages that ended with units not done.
   for (const PlannedStage& stage : plan.stages) {
     if (stage.units.empty()) continue;
+    const bool blocked = std::any_of(stage.after.begin(), stage.after.end(), [&](const auto& s) {
+      return std::find(failed_stages.begin(), failed_stages.end(), s) != failed_stages.end();
+    });
+    if (blocked && !stage.tolerates_failures) {
+      failed_stages.push_back(stage.name);  // Not run: what it needs failed.
+      continue;
+    }
     const fs::path list = dir / "parallel" / (stage.name + ".units");
     std::string ids;
     for (const PlannedUnit& unit : stage.units) ids += unit.id + "\n";
@@ -264,14 +276,18 @@ void RunPlanWithGnuParallel(const fs::path& dir_in, const WorkPlan& plan,
                              "{}"});
     argv.insert(argv.end(), options.executor.run_unit_arguments.begin(),
                 options.executor.run_unit_arguments.end());
-    const ProgramResult result = RunProgram(argv, /*capture=*/false);
-    const std::string missing = NotDone(dir, plan, {stage.name});
-    if (!missing.empty()) {
-      throw Error("stage \"" + stage.name + "\" ended with units not done (parallel exit " +
-                  std::to_string(result.exit_code) + "; their error.txt); later stages not run:" +
-                  missing);
+    RunProgram(argv, /*capture=*/false);
+    if (!NotDone(dir, plan, {stage.name}).empty()) {
+      failed_stages.push_back(stage.name);
+    } else if (stage_done) {
+      stage_done(stage.name);
     }
-    if (stage_done) stage_done(stage.name);
+  }
+  const std::string missing = NotDone(dir, plan, {});
+  if (!missing.empty()) {
+    throw Error("GNU parallel ended with units not done (their error.txt; stages after a failed "
+                "one are not run):" +
+                missing);
   }
 }
 

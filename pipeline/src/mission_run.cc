@@ -39,31 +39,6 @@ std::string ThreeDigits(int n) {
   return text;
 }
 
-// The identity of the mission's input files: the path, size and modification time of each file
-// the manifest names, hashed (FNV-1a, 64 bits). A changed input (a label edited, a mission
-// simulated again into the same folder) changes it, and so every finished unit's fingerprint.
-// Size and time rather than content, as make does: a stat per file, even for gigabytes of images.
-std::string InputFilesIdentity(const MissionManifest& mission) {
-  uint64_t hash = 14695981039346656037ull;
-  const auto add = [&hash](const std::string& text) {
-    for (const unsigned char c : text) {
-      hash ^= c;
-      hash *= 1099511628211ull;
-    }
-  };
-  for (const fs::path& file : mission.files) {
-    if (file.empty()) continue;
-    std::error_code ec;
-    const uintmax_t size = fs::file_size(file, ec);
-    const auto time = fs::last_write_time(file, ec);
-    add(file.lexically_relative(mission.root).string() + '\n' + std::to_string(size) + ' ' +
-        std::to_string(time.time_since_epoch().count()) + '\n');
-  }
-  char text[17];
-  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(hash));
-  return text;
-}
-
 json ReadJsonFile(const fs::path& path) {
   std::ifstream in(path);
   if (!in) return nullptr;
@@ -79,7 +54,7 @@ RunContext::RunContext(const MissionManifest& mission_in, const MissionRunOption
       options(&options_in),
       out_dir(std::move(out_dir_in)),
       fingerprint(json{{"mission", fs::absolute(mission_in.root).lexically_normal().string()},
-                       {"inputs", InputFilesIdentity(mission_in)},
+                       {"inputs", FilesIdentity(mission_in.files, mission_in.root)},
                        {"options", options_in.ToJson()}}
                       .dump()),
       map(MapFrame::LocalEquirectangular(mission_in.body, mission_in.origin)) {}

@@ -1,5 +1,7 @@
 #include "areomap/pipeline/work_plan.h"
 
+#include <cstdint>
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -54,7 +56,9 @@ json WorkPlan::ToJson() const {
                        {"after", unit.after},
                        {"description", unit.description}});
     }
-    stages_json.push_back({{"name", stage.name}, {"after", stage.after}, {"units", units}});
+    json stage_json = {{"name", stage.name}, {"after", stage.after}, {"units", units}};
+    if (stage.tolerates_failures) stage_json["tolerates_failures"] = true;
+    stages_json.push_back(stage_json);
   }
   return {{"format", "areomap-plan"},
           {"version", 1},
@@ -99,6 +103,7 @@ WorkPlan WorkPlan::FromJson(const json& plan_json, const std::string& source) {
     PlannedStage stage;
     stage.name = Field<std::string>(stages[s], "name", where);
     stage.after = Field<std::vector<std::string>>(stages[s], "after", where);
+    stage.tolerates_failures = stages[s].value("tolerates_failures", false);
     const json units = Field<json>(stages[s], "units", where);
     if (!units.is_array()) throw Error(where + ": \"units\" must be an array");
     for (size_t u = 0; u < units.size(); ++u) {
@@ -140,6 +145,27 @@ WorkPlan ReadWorkPlan(const fs::path& dir) {
   const json parsed = json::parse(in, nullptr, false);
   if (parsed.is_discarded()) throw Error(file.string() + ": not valid JSON");
   return WorkPlan::FromJson(parsed, file.string());
+}
+
+std::string FilesIdentity(const std::vector<fs::path>& files, const fs::path& root) {
+  uint64_t hash = 14695981039346656037ull;
+  const auto add = [&hash](const std::string& text) {
+    for (const unsigned char c : text) {
+      hash ^= c;
+      hash *= 1099511628211ull;
+    }
+  };
+  for (const fs::path& file : files) {
+    if (file.empty()) continue;
+    std::error_code ec;
+    const uintmax_t size = fs::file_size(file, ec);
+    const auto time = fs::last_write_time(file, ec);
+    add((root.empty() ? file : file.lexically_relative(root)).string() + '\n' +
+        std::to_string(size) + ' ' + std::to_string(time.time_since_epoch().count()) + '\n');
+  }
+  char text[17];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(hash));
+  return text;
 }
 
 fs::path ClaimFile(const fs::path& dir, const std::string& unit_id) {

@@ -2,12 +2,14 @@
 // schedules nothing itself. Each unit is one `areomap run-unit DIR --stage NAME --task-index I`
 // process; units claim themselves (unit_claim.h), so executors may overlap.
 //  - Slurm: one job array per stage (task i = the stage's unit i), each submitted with
-//    --dependency=afterok on the arrays of the stages it waits for and --kill-on-invalid-dep=yes
-//    (a failed unit cancels what depends on it rather than leaving it pending). The batch scripts
+//    --dependency=afterok on the arrays of the stages it waits for (afterany for a stage that
+//    tolerates failures) and --kill-on-invalid-dep=yes (a failed unit cancels what depends on
+//    it rather than leaving it pending). The batch scripts
 //    are written to DIR/slurm/ (STAGE.sbatch) and each task's output to DIR/slurm/STAGE-JOB_TASK.out.
 //  - GNU parallel: stage by stage, the stage's units through `parallel` on local job slots or
 //    over ssh hosts (--sshloginfile, ASP's parallel_stereo model), DIR/parallel/STAGE.units
-//    the list it reads; a stage whose units failed stops the stages after it.
+//    the list it reads; a stage whose units failed stops the stages that wait for it (unless
+//    they tolerate failures).
 // The areomap executable must be reachable at the same path on every host (a shared install).
 // Failure: a missing engine (sbatch, parallel), a refused submission or a failed unit throws
 // areomap::Error naming the command or the units and their error.txt.
@@ -75,8 +77,7 @@ struct ParallelOptions {
 };
 
 // Runs the plan's stages in order through GNU parallel; `stage_done` (optional) hears each stage
-// as it ends. Throws areomap::Error listing the failed units when any unit is not done at the
-// end.
+// that ended with every unit done. Throws areomap::Error listing the units not done at the end.
 void RunPlanWithGnuParallel(const std::filesystem::path& dir, const WorkPlan& plan,
                             const ParallelOptions& options,
                             const std::function<void(const std::string&)>& stage_done = nullptr);

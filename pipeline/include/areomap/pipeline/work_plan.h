@@ -32,6 +32,9 @@ struct PlannedStage {
   std::string name;                // "sites", "legs", ...
   std::vector<std::string> after;  // Stages whose units some of its units wait for.
   std::vector<PlannedUnit> units;
+  // Its units start once those they wait for have ended, done or failed (a catalogue's merge
+  // keeps the images that failed as rows); false: only once they are done.
+  bool tolerates_failures = false;
 };
 
 struct WorkPlan {
@@ -63,6 +66,12 @@ WorkPlan ReadWorkPlan(const std::filesystem::path& dir);
 std::filesystem::path ClaimFile(const std::filesystem::path& dir, const std::string& unit_id);
 std::filesystem::path DoneFile(const std::filesystem::path& dir, const std::string& unit_id);
 std::filesystem::path ErrorFile(const std::filesystem::path& dir, const PlannedUnit& unit);
+
+// The identity of input files: the path (relative to `root` when given), size and modification
+// time of each, hashed (FNV-1a, 64 bits, hex). A changed input changes it. Size and time rather
+// than content, as make does: a stat per file, even for gigabytes of images.
+std::string FilesIdentity(const std::vector<std::filesystem::path>& files,
+                          const std::filesystem::path& root = {});
 
 // Units without a unit.json of their own (whole-job steps) record being done in DoneFile.
 bool DoneFileMatches(const std::filesystem::path& dir, const std::string& unit_id,
