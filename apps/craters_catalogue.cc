@@ -35,6 +35,25 @@ std::vector<fs::path> CatalogueImages(const CratersArgs& a) {
   return images;
 }
 
+// The images, the files the command reads (the images and the list) and the options, checked
+// (the model loaded) before any output.
+struct CatalogueInputs {
+  std::vector<fs::path> images;
+  std::vector<fs::path> inputs;
+  CraterImageOptions options;
+};
+
+CatalogueInputs PrepareCatalogue(const CratersArgs& a) {
+  CatalogueInputs c;
+  c.images = CatalogueImages(a);
+  c.options = ImageOptions(a);
+  c.options.require_ground = true;
+  CheckCraterModel(c.options);
+  c.inputs = c.images;
+  if (!a.list.empty()) c.inputs.emplace_back(a.list);
+  return c;
+}
+
 std::string FailedImages(const CatalogueMergeSummary& s) {
   std::ostringstream text;
   for (const CatalogueImageRow& row : s.images) {
@@ -57,12 +76,9 @@ nlohmann::json CatalogueSummaryHead(const CratersArgs& a) {
 
 void RunPlannedCraterCatalogue(const CratersArgs& a, const std::vector<std::string>& arguments,
                                const GlobalOptions& global) {
-  const std::vector<fs::path> images = CatalogueImages(a);
-  CraterImageOptions options = ImageOptions(a);
-  options.require_ground = true;
-  CheckCraterModel(options);
-  std::vector<fs::path> inputs = images;
-  if (!a.list.empty()) inputs.emplace_back(a.list);
+  const CatalogueInputs c = PrepareCatalogue(a);
+  const std::vector<fs::path>& images = c.images;
+  const std::vector<fs::path>& inputs = c.inputs;
   const WorkPlan plan =
       PlanCraterCatalogueFolder(images, inputs, a.out_dir, arguments, global.overwrite);
   if (RunPlan(a.out_dir, plan, a.executor, global) && !global.quiet) {
@@ -76,15 +92,12 @@ void RunPlannedCraterCatalogue(const CratersArgs& a, const std::vector<std::stri
 }
 
 void RunCraterCatalogue(const CratersArgs& a, const GlobalOptions& global) {
-  const std::vector<fs::path> images = CatalogueImages(a);
-  CraterImageOptions options = ImageOptions(a);
-  options.require_ground = true;
-  CheckCraterModel(options);
-  std::vector<fs::path> inputs = images;
-  if (!a.list.empty()) inputs.emplace_back(a.list);
+  const CatalogueInputs c = PrepareCatalogue(a);
+  const std::vector<fs::path>& images = c.images;
+  const CraterImageOptions& options = c.options;
   OutputFolder folder(
       a.out_dir, OutputPolicy(global, "craters",
-                              {"images/", "craters.csv", "craters.gpkg", "images.csv"}, inputs));
+                              {"images/", "craters.csv", "craters.gpkg", "images.csv"}, c.inputs));
   std::vector<fs::path> dirs;
   for (size_t i = 0; i < images.size(); ++i) {
     const std::string name = CatalogueImageFolderName(static_cast<int>(i + 1), images[i]);

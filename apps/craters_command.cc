@@ -250,8 +250,9 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
       return;
     }
     if (planned) {
-      throw Error("craters: --plan and --executor belong to a catalogue (two or more images, or "
-                  "--list)");
+      throw Error(
+          "craters: --plan and --executor belong to a catalogue (two or more images, or "
+          "--list)");
     }
     if (!args->crs.empty()) {
       throw Error("craters: --crs belongs to a catalogue (two or more images, or --list)");

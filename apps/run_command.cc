@@ -308,9 +308,8 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
       }
       return;
     }
-    const MissionRunSummary summary = RunMissionFolder(o->mission, o->out, options,
-                                                       global.overwrite,
-                                                       MakeProgressBar(global, "run"));
+    const MissionRunSummary summary = RunMissionFolder(
+        o->mission, o->out, options, global.overwrite, MakeProgressBar(global, "run"));
     if (!global.quiet) {
       PrintRunSummary(summary.json);
       std::printf("report: %s/report.html\n", o->out.c_str());

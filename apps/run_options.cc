@@ -32,13 +32,15 @@ void AddExecutorOptions(CLI::App* command, ExecutorArguments* o) {
       "Cluster options", "Plan the job and run it on many processes or hosts (docs/cluster.md)");
   group->add_flag("--plan", o->plan_only,
                   "Only write DIR/plan.json: the units and their order, for `areomap run-unit`");
-  group->add_option("--executor", o->executor,
-                    "Who runs the units: this process (local), Slurm job arrays (slurm) or GNU "
-                    "parallel on local cores or --hosts (parallel)")
+  group
+      ->add_option("--executor", o->executor,
+                   "Who runs the units: this process (local), Slurm job arrays (slurm) or GNU "
+                   "parallel on local cores or --hosts (parallel)")
       ->check(CLI::IsMember({"local", "slurm", "parallel"}))
       ->capture_default_str();
-  group->add_option("--slurm-args", o->slurm_args,
-                    "Options added to every sbatch call, e.g. \"--partition=short --time=1:00:00\"");
+  group->add_option(
+      "--slurm-args", o->slurm_args,
+      "Options added to every sbatch call, e.g. \"--partition=short --time=1:00:00\"");
   group->add_flag("--wait", o->wait, "With slurm: return when the jobs have finished");
   group->add_option("--hosts", o->hosts,
                     "With parallel: GNU parallel's --sshloginfile (one ssh login per line, ':' "
@@ -48,8 +50,9 @@ void AddExecutorOptions(CLI::App* command, ExecutorArguments* o) {
       ->capture_default_str();
   group->add_option("--parallel-args", o->parallel_args,
                     "Options added to every parallel call, e.g. \"--ssh 'ssh -p 2222'\"");
-  group->add_option("--stale-after", o->stale_after_s,
-                    "A unit's claim untouched this long is taken over (its holder died) [s]")
+  group
+      ->add_option("--stale-after", o->stale_after_s,
+                   "A unit's claim untouched this long is taken over (its holder died) [s]")
       ->check(CLI::Range(20.0, 86400.0))
       ->capture_default_str();
 }
@@ -63,9 +66,9 @@ bool RunPlan(const fs::path& dir, const WorkPlan& plan, const ExecutorArguments&
   if (global.quiet) executor.run_unit_arguments.push_back("--quiet");
   if (arguments.plan_only || arguments.executor == "local") {
     if (!global.quiet) {
-      std::printf("plan: %s (%zu units in %zu stages); run them with `areomap run-unit %s UNIT...`\n",
-                  (dir / kPlanFileName).c_str(), plan.UnitCount(), plan.stages.size(),
-                  dir.c_str());
+      std::printf(
+          "plan: %s (%zu units in %zu stages); run them with `areomap run-unit %s UNIT...`\n",
+          (dir / kPlanFileName).c_str(), plan.UnitCount(), plan.stages.size(), dir.c_str());
     }
     return false;
   }

@@ -19,14 +19,14 @@ namespace fs = std::filesystem;
 
 constexpr const char* kRunUnitDetails =
     "Runs units of the plan in DIR/plan.json (written by `areomap run ... --plan` or `areomap\n"
-    "craters IMAGE... --plan`), in the order\n"
-    "given: by id (`areomap run-status DIR` lists them), or the one at --task-index in --stage\n"
-    "(a Slurm array task). Safe to run in many processes on many hosts at once over a shared\n"
-    "filesystem: each unit is claimed (DIR/.areomap-units/ID.claim, kept fresh by a heartbeat);\n"
-    "a unit already done with the plan's fingerprint is skipped; a unit another live process\n"
-    "holds is waited for; a claim whose holder died (on this host at once, elsewhere after\n"
-    "--stale-after seconds) is taken over. A unit that fails writes error.txt in its folder and\n"
-    "the next named units still run; the command then exits non-zero naming the failed units.";
+    "craters IMAGE... --plan`) in the order given: by id (`areomap run-status DIR` lists them),\n"
+    "or the one at --task-index in --stage (a Slurm array task). Safe to run in many processes\n"
+    "on many hosts at once over a shared filesystem: each unit is claimed\n"
+    "(DIR/.areomap-units/ID.claim, kept fresh by a heartbeat); a unit already done with the\n"
+    "plan's fingerprint is skipped; a unit another live process holds is waited for; a claim\n"
+    "whose holder died (on this host at once, elsewhere after --stale-after seconds) is taken\n"
+    "over. A unit that fails writes error.txt in its folder and the next named units still run;\n"
+    "the command then exits non-zero naming the failed units (docs/cluster.md).";
 
 constexpr const char* kRunStatusDetails =
     "Counts a plan's units per stage as done, running (a live claim: host, pid), failed\n"
@@ -39,8 +39,7 @@ void PrintRecords(const std::vector<UnitRunRecord>& records) {
   }
 }
 
-void PrintStatus(const fs::path& dir, const WorkPlan& plan,
-                 const std::vector<UnitStatus>& status) {
+void PrintStatus(const fs::path& dir, const WorkPlan& plan, const std::vector<UnitStatus>& status) {
   std::printf("plan: %s (job %s, %zu units)\n", (dir / kPlanFileName).c_str(), plan.job.c_str(),
               plan.UnitCount());
   std::printf("%-18s %6s %8s %7s %8s\n", "stage", "done", "running", "failed", "pending");
@@ -106,9 +105,9 @@ void AddRunUnitCommands(CLI::App& app, const GlobalOptions& global) {
       const CratersArgs args = ParseCratersArguments(plan.arguments);
       CatalogueMergeOptions merge;
       merge.crs = args.crs;
-      records = RunCataloguePlanUnits(o->dir, plan, ImageOptions(args), merge,
-                                      CatalogueSummaryHead(args), ids, o->claims,
-                                      MakeProgressBar(global, "run-unit"));
+      records =
+          RunCataloguePlanUnits(o->dir, plan, ImageOptions(args), merge, CatalogueSummaryHead(args),
+                                ids, o->claims, MakeProgressBar(global, "run-unit"));
     } else {
       throw Error((fs::path(o->dir) / kPlanFileName).string() + ": unknown job \"" + plan.job +
                   "\" (expected run or craters)");
@@ -135,8 +134,10 @@ void AddRunUnitCommands(CLI::App& app, const GlobalOptions& global) {
     if (*json_output) {
       nlohmann::json out = nlohmann::json::array();
       for (const UnitStatus& s : units) {
-        out.push_back(
-            {{"stage", s.stage}, {"unit", s.id}, {"state", ToString(s.state)}, {"detail", s.detail}});
+        out.push_back({{"stage", s.stage},
+                       {"unit", s.id},
+                       {"state", ToString(s.state)},
+                       {"detail", s.detail}});
       }
       std::printf("%s\n", out.dump(2).c_str());
     } else {

@@ -48,7 +48,9 @@ WorkPlan PlanCraterCatalogue(const std::vector<fs::path>& images_in, const fs::p
   for (size_t i = 0; i < images.size(); ++i) {
     const std::string id = "image_" + Digits(i + 1);
     stage_images.units.push_back(
-        {id, "images/" + CatalogueImageFolderName(static_cast<int>(i + 1), images[i]), {},
+        {id,
+         "images/" + CatalogueImageFolderName(static_cast<int>(i + 1), images[i]),
+         {},
          "craters on " + images[i].string()});
     merge.after.push_back(id);
   }
@@ -98,7 +100,8 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 void MergeUnit(const fs::path& dir, const WorkPlan& plan, const CatalogueMergeOptions& options,
                const json& summary_head, const ProgressCallback& progress) {
   std::vector<fs::path> image_dirs;
-  for (const PlannedUnit& unit : plan.Stage("images").units) image_dirs.push_back(dir / unit.folder);
+  for (const PlannedUnit& unit : plan.Stage("images").units)
+    image_dirs.push_back(dir / unit.folder);
   std::vector<fs::path> inputs = PlanImages(plan);
   OutputFolder out(dir, CataloguePlanFolderPolicy(inputs, /*overwrite=*/false));
   const CatalogueMergeSummary s = MergeCraterCatalogues(image_dirs, out.dir(), options, progress);
@@ -109,7 +112,8 @@ void MergeUnit(const fs::path& dir, const WorkPlan& plan, const CatalogueMergeOp
   if (s.images_failed > 0) {
     std::ostringstream failed;
     for (const CatalogueImageRow& row : s.images) {
-      if (!row.ok) failed << (failed.tellp() > 0 ? "; " : "") << row.image << " (" << row.error << ")";
+      if (!row.ok)
+        failed << (failed.tellp() > 0 ? "; " : "") << row.image << " (" << row.error << ")";
     }
     throw Error(std::to_string(s.images_failed) + " of " + std::to_string(s.images.size()) +
                 " images failed: " + failed.str() + "; the others are merged (images.csv)");

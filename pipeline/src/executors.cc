@@ -4,9 +4,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
-#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -108,7 +108,8 @@ ProgramResult RunProgram(const std::vector<std::string>& argv, bool capture) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   if (capture) {
-    if (::pipe(pipe_fds) != 0) throw Error("cannot make a pipe: " + std::string(std::strerror(errno)));
+    if (::pipe(pipe_fds) != 0)
+      throw Error("cannot make a pipe: " + std::string(std::strerror(errno)));
     posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDOUT_FILENO);
     posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
   }
@@ -217,8 +218,8 @@ SlurmSubmission SubmitPlanToSlurm(const fs::path& dir_in, const WorkPlan& plan,
     if (result.exit_code != 0 || id.empty() ||
         id.find_first_not_of("0123456789") != std::string::npos) {
       throw Error("sbatch refused the stage \"" + stage.name + "\" (exit " +
-                  std::to_string(result.exit_code) + ", output \"" + result.output + "\"): " +
-                  Join(argv, " "));
+                  std::to_string(result.exit_code) + ", output \"" + result.output +
+                  "\"): " + Join(argv, " "));
     }
     job_of_stage[stage.name] = id;
     submission.jobs.emplace_back(stage.name, id);
@@ -272,8 +273,8 @@ void RunPlanWithGnuParallel(const fs::path& dir_in, const WorkPlan& plan,
       argv.insert(argv.end(), {"--sshloginfile", fs::absolute(options.hosts_file).string()});
     }
     argv.insert(argv.end(), options.parallel_arguments.begin(), options.parallel_arguments.end());
-    argv.insert(argv.end(), {"--arg-file", list.string(), executable, "run-unit", dir.string(),
-                             "{}"});
+    argv.insert(argv.end(),
+                {"--arg-file", list.string(), executable, "run-unit", dir.string(), "{}"});
     argv.insert(argv.end(), options.executor.run_unit_arguments.begin(),
                 options.executor.run_unit_arguments.end());
     RunProgram(argv, /*capture=*/false);
@@ -285,9 +286,10 @@ void RunPlanWithGnuParallel(const fs::path& dir_in, const WorkPlan& plan,
   }
   const std::string missing = NotDone(dir, plan, {});
   if (!missing.empty()) {
-    throw Error("GNU parallel ended with units not done (their error.txt; stages after a failed "
-                "one are not run):" +
-                missing);
+    throw Error(
+        "GNU parallel ended with units not done (their error.txt; stages after a failed "
+        "one are not run):" +
+        missing);
   }
 }
 

@@ -33,9 +33,11 @@ WorkPlan PlanMission(const MissionManifest& mission, const fs::path& out_dir,
 
   PlannedStage sites{"sites", {}, {}};
   for (const MissionSite& site : mission.sites) {
-    sites.units.push_back({SiteUnitId(site.site), Relative(SiteDir(run, site.site), dir), {},
-                           "stereo, DTM, orthophoto and orbital registration of site " +
-                               std::to_string(site.site)});
+    sites.units.push_back(
+        {SiteUnitId(site.site),
+         Relative(SiteDir(run, site.site), dir),
+         {},
+         "stereo, DTM, orthophoto and orbital registration of site " + std::to_string(site.site)});
   }
   PlannedStage legs{"legs", {"sites"}, {}};
   PlannedStage second{"legs_second_pass", {"legs"}, {}};
@@ -126,9 +128,8 @@ size_t SiteIndex(const MissionManifest& mission, int site) {
 
 // Runs one planned unit of the run, under its claim; true when it was already done. Throws
 // areomap::Error on failure.
-bool RunOneMissionUnit(const RunContext& run, const fs::path& mission_folder,
-                       const std::string& id, SiteRocksCache& rocks,
-                       const ProgressCallback& progress) {
+bool RunOneMissionUnit(const RunContext& run, const fs::path& mission_folder, const std::string& id,
+                       SiteRocksCache& rocks, const ProgressCallback& progress) {
   const MissionManifest& mission = *run.mission;
   int a = -1, b = -1;
   char tail[8] = {};

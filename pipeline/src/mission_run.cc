@@ -33,12 +33,6 @@ using nlohmann::json;
 
 namespace {
 
-std::string ThreeDigits(int n) {
-  char text[16];
-  std::snprintf(text, sizeof(text), "%03d", n);
-  return text;
-}
-
 json ReadJsonFile(const fs::path& path) {
   std::ifstream in(path);
   if (!in) return nullptr;
@@ -73,11 +67,11 @@ OutputFolderOptions RunFolderPolicy(const fs::path& mission, bool overwrite) {
 }
 
 fs::path SiteDir(const RunContext& run, int site) {
-  return run.out_dir / "sites" / ("site_" + ThreeDigits(site));
+  return run.out_dir / "sites" / SiteUnitId(site);
 }
 
 fs::path LegDir(const RunContext& run, int site_a, int site_b) {
-  return run.out_dir / "legs" / ("leg_" + ThreeDigits(site_a) + "_" + ThreeDigits(site_b));
+  return run.out_dir / "legs" / LegUnitId(site_a, site_b);
 }
 
 namespace {
@@ -414,8 +408,7 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   }
   std::optional<double> variance_pass;
   const PooledVarianceFactor first_pass = FirstPassTieVariance(leg_summaries);
-  const RockMatchingOptions final_matching =
-      SecondPassMatching(run, leg_summaries, &variance_pass);
+  const RockMatchingOptions final_matching = SecondPassMatching(run, leg_summaries, &variance_pass);
   for (size_t i = 0; i < leg_count; ++i) {
     if (EnsureLegSecondPass(run, i, site_rocks, final_matching, variance_pass, leg_summaries[i],
                             leg_span(i, kFirstPass, kLegs))) {

@@ -53,7 +53,9 @@ std::string SiteUnitId(int site) { return "site_" + Digits(site); }
 std::string LegUnitId(int site_a, int site_b) {
   return "leg_" + Digits(site_a) + "_" + Digits(site_b);
 }
-std::string SecondPassUnitId(int site_a, int site_b) { return LegUnitId(site_a, site_b) + "_pass2"; }
+std::string SecondPassUnitId(int site_a, int site_b) {
+  return LegUnitId(site_a, site_b) + "_pass2";
+}
 
 json EnsureSiteUnit(const RunContext& run, size_t site_index, const ProgressCallback& progress,
                     bool* reused) {

@@ -6,8 +6,8 @@
 #include <chrono>
 #include <filesystem>
 #include <functional>
-#include <optional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -65,7 +65,8 @@ nlohmann::json EnsureUnit(const RunContext& run, const std::string& unit_id,
                           const std::function<nlohmann::json()>& compute, bool* reused = nullptr,
                           const std::function<bool(const nlohmann::json&)>& accept = nullptr);
 
-// Unit ids of the plan (mission_plan.h): "site_NNN", "leg_NNN_MMM", "leg_NNN_MMM_pass2".
+// Unit ids of the plan (mission_plan.h): "site_NNN", "leg_NNN_MMM", "leg_NNN_MMM_pass2"; the
+// first two name the units' folders too (SiteDir, LegDir).
 std::string SiteUnitId(int site);
 std::string LegUnitId(int site_a, int site_b);
 std::string SecondPassUnitId(int site_a, int site_b);
@@ -85,7 +86,8 @@ nlohmann::json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional
 // The matching options of the legs' second pass given every leg's summary (first pass or
 // after): the run's, with the pooled factor (MissionRunOptions::RockVariancePassFactor) when
 // the pass applies; `*factor` is that factor or nullopt.
-RockMatchingOptions SecondPassMatching(const RunContext& run, const std::vector<nlohmann::json>& legs,
+RockMatchingOptions SecondPassMatching(const RunContext& run,
+                                       const std::vector<nlohmann::json>& legs,
                                        std::optional<double>* factor);
 // The second pass of leg `index_a` (its summary in `leg`, updated): matched again with `matching`
 // unless it already was with that variance factor. Returns whether it was matched again.

@@ -102,9 +102,9 @@ std::optional<std::string> ReadText(const fs::path& path) {
 
 // Seconds since `path` was last modified; nullopt when it does not exist.
 std::optional<double> AgeSeconds(const fs::path& path) {
-  struct stat info{};
+  struct stat info {};
   if (::stat(path.c_str(), &info) != 0) return std::nullopt;
-  struct timespec now{};
+  struct timespec now {};
   ::clock_gettime(CLOCK_REALTIME, &now);
   return static_cast<double>(now.tv_sec - info.st_mtim.tv_sec) +
          1e-9 * static_cast<double>(now.tv_nsec - info.st_mtim.tv_nsec);
@@ -150,8 +150,8 @@ std::unique_ptr<UnitClaim> UnitClaim::TryClaim(const fs::path& claim_file,
   std::error_code ec;
   fs::create_directories(claim_file.parent_path(), ec);
   if (ec) {
-    throw Error(claim_file.parent_path().string() + ": cannot create the claims folder: " +
-                ec.message());
+    throw Error(claim_file.parent_path().string() +
+                ": cannot create the claims folder: " + ec.message());
   }
   const std::string token = RandomToken();
   const std::string content = nlohmann::json{{"host", HostName()},
@@ -172,8 +172,8 @@ std::unique_ptr<UnitClaim> UnitClaim::TryClaim(const fs::path& claim_file,
     std::optional<ClaimHolder> holder = ParseHolder(*held);
     // A claim that cannot be parsed is being written, or was left half-written by a holder that
     // died: stale only by its age.
-    const bool stale = holder ? (holder->age_s = *age, IsStale(*holder, options))
-                              : *age > options.stale_after_s;
+    const bool stale =
+        holder ? (holder->age_s = *age, IsStale(*holder, options)) : *age > options.stale_after_s;
     if (!stale) return nullptr;
     if (!CreateExclusive(takeover, content)) {
       const std::optional<double> takeover_age = AgeSeconds(takeover);

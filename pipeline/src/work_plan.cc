@@ -60,12 +60,8 @@ json WorkPlan::ToJson() const {
     if (stage.tolerates_failures) stage_json["tolerates_failures"] = true;
     stages_json.push_back(stage_json);
   }
-  return {{"format", "areomap-plan"},
-          {"version", 1},
-          {"job", job},
-          {"inputs", inputs},
-          {"arguments", arguments},
-          {"fingerprint", fingerprint},
+  return {{"format", "areomap-plan"}, {"version", 1},           {"job", job},
+          {"inputs", inputs},         {"arguments", arguments}, {"fingerprint", fingerprint},
           {"stages", stages_json}};
 }
 
@@ -113,8 +109,8 @@ WorkPlan WorkPlan::FromJson(const json& plan_json, const std::string& source) {
       unit.folder = Field<std::string>(units[u], "folder", unit_where);
       unit.after = Field<std::vector<std::string>>(units[u], "after", unit_where);
       unit.description = units[u].value("description", "");
-      if (unit.id.empty() || unit.id.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") !=
-                                 std::string::npos) {
+      if (unit.id.empty() ||
+          unit.id.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") != std::string::npos) {
         throw Error(unit_where + ": unit id \"" + unit.id + "\" must be [a-z0-9_]+");
       }
       if (fs::path(unit.folder).is_absolute() || unit.folder.find("..") != std::string::npos) {

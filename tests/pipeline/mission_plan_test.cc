@@ -170,8 +170,7 @@ TEST_F(MissionPlanTest, RefusesAPlanWhoseOptionsChangedAndUnitsItLacks) {
     RunMissionPlanUnits(out, plan, other, {"site_000"}, {});
     FAIL() << "no error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("changed since this plan was written"),
-              std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("changed since this plan was written"), std::string::npos)
         << e.what();
   }
   try {

@@ -43,9 +43,9 @@ std::string ReadText(const fs::path& path) {
 void WriteForeignClaim(const fs::path& file, double age_s) {
   fs::create_directories(file.parent_path());
   std::ofstream(file) << R"({"host":"node-elsewhere","pid":12345,"process_start":1,"token":"t"})";
-  const auto when = fs::file_time_type::clock::now() -
-                    std::chrono::duration_cast<fs::file_time_type::duration>(
-                        std::chrono::duration<double>(age_s));
+  const auto when =
+      fs::file_time_type::clock::now() - std::chrono::duration_cast<fs::file_time_type::duration>(
+                                             std::chrono::duration<double>(age_s));
   fs::last_write_time(file, when);
 }
 
@@ -149,10 +149,10 @@ TEST(UnitClaim, FailedUnitLeavesItsErrorAndASuccessRemovesIt) {
   EXPECT_NE(text.find("unit: u\n"), std::string::npos) << text;
   EXPECT_NE(text.find("error: points.ply: cannot be written"), std::string::npos) << text;
   EXPECT_FALSE(fs::exists(claim));  // Released.
-  EXPECT_EQ(RunClaimedUnit(
-                claim, error, "u", [&] { return done; }, [&] { done = true; }, Fast(), true,
-                &message),
-            UnitOutcome::kComputed);
+  EXPECT_EQ(
+      RunClaimedUnit(
+          claim, error, "u", [&] { return done; }, [&] { done = true; }, Fast(), true, &message),
+      UnitOutcome::kComputed);
   EXPECT_FALSE(fs::exists(error));
   EXPECT_EQ(RunClaimedUnit(
                 claim, error, "u", [&] { return done; }, [] { FAIL() << "ran twice"; }, Fast(),

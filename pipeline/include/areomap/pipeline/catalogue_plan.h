@@ -54,13 +54,10 @@ WorkPlan PlanCraterCatalogueFolder(const std::vector<std::filesystem::path>& ima
 // arguments); summary.json of the merge is `summary_head` (the command's own fields) updated
 // with the merge's figures. Throws areomap::Error before any unit for an id the plan lacks or a
 // plan whose images or options changed.
-std::vector<UnitRunRecord> RunCataloguePlanUnits(const std::filesystem::path& out_dir,
-                                                 const WorkPlan& plan,
-                                                 const CraterImageOptions& image,
-                                                 const CatalogueMergeOptions& merge,
-                                                 const nlohmann::json& summary_head,
-                                                 const std::vector<std::string>& unit_ids,
-                                                 const UnitClaimOptions& claims,
-                                                 const ProgressCallback& progress = nullptr);
+std::vector<UnitRunRecord> RunCataloguePlanUnits(
+    const std::filesystem::path& out_dir, const WorkPlan& plan, const CraterImageOptions& image,
+    const CatalogueMergeOptions& merge, const nlohmann::json& summary_head,
+    const std::vector<std::string>& unit_ids, const UnitClaimOptions& claims,
+    const ProgressCallback& progress = nullptr);
 
 }  // namespace areomap

@@ -5,7 +5,8 @@
 //    --dependency=afterok on the arrays of the stages it waits for (afterany for a stage that
 //    tolerates failures) and --kill-on-invalid-dep=yes (a failed unit cancels what depends on
 //    it rather than leaving it pending). The batch scripts
-//    are written to DIR/slurm/ (STAGE.sbatch) and each task's output to DIR/slurm/STAGE-JOB_TASK.out.
+//    are written to DIR/slurm/ (STAGE.sbatch) and each task's output to
+//    DIR/slurm/STAGE-JOB_TASK.out.
 //  - GNU parallel: stage by stage, the stage's units through `parallel` on local job slots or
 //    over ssh hosts (--sshloginfile, ASP's parallel_stereo model), DIR/parallel/STAGE.units
 //    the list it reads; a stage whose units failed stops the stages that wait for it (unless
@@ -71,8 +72,8 @@ void WaitForSlurmJobs(const std::filesystem::path& dir, const WorkPlan& plan,
 
 struct ParallelOptions {
   ExecutorOptions executor;
-  int jobs = 0;                           // Job slots per host; 0: parallel's default (cores).
-  std::filesystem::path hosts_file;       // --sshloginfile; empty: this machine only.
+  int jobs = 0;                      // Job slots per host; 0: parallel's default (cores).
+  std::filesystem::path hosts_file;  // --sshloginfile; empty: this machine only.
   std::vector<std::string> parallel_arguments;  // Added to every parallel call (--ssh CMD ...).
 };
 

@@ -43,7 +43,7 @@ struct ClaimHolder {
   long pid = 0;
   long long process_start = 0;  // The holder's start time (clock ticks after boot), 0 if unknown.
   std::string token;
-  double age_s = 0.0;  // Since the file was last touched [s].
+  double age_s = 0.0;            // Since the file was last touched [s].
   std::string ToString() const;  // "host:pid (touched 3 s ago)".
 };
 
