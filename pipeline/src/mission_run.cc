@@ -31,16 +31,12 @@ namespace mission_run {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-namespace {
-
-json ReadJsonFile(const fs::path& path) {
+json ReadJsonOrNull(const fs::path& path) {
   std::ifstream in(path);
   if (!in) return nullptr;
   json parsed = json::parse(in, nullptr, false);
   return parsed.is_discarded() ? json(nullptr) : parsed;
 }
-
-}  // namespace
 
 RunContext::RunContext(const MissionManifest& mission_in, const MissionRunOptions& options_in,
                        fs::path out_dir_in)
@@ -105,7 +101,7 @@ bool UnitOutputFilesExist(const json& unit, const fs::path& unit_dir) {
 }  // namespace
 
 json FinishedUnit(const RunContext& run, const fs::path& unit_dir) {
-  const json unit = ReadJsonFile(unit_dir / "unit.json");
+  const json unit = ReadJsonOrNull(unit_dir / "unit.json");
   if (!unit.is_object() || unit.value("fingerprint", "") != run.fingerprint ||
       !UnitOutputFilesExist(unit, unit_dir)) {
     return nullptr;
@@ -165,7 +161,7 @@ json NetworkJson(const MissionManifest& mission, const MissionRunOptions& option
 
 // The adjusted site poses (traverse_from_site) from adjustment.json (BundleResult's JSON).
 std::vector<Rigid3d> AdjustedPoses(const fs::path& adjustment_json, size_t site_count) {
-  const json result = ReadJsonFile(adjustment_json);
+  const json result = ReadJsonOrNull(adjustment_json);
   const json sites = result.is_object() ? result.value("sites", json()) : json();
   if (!sites.is_array() || sites.size() != site_count) {
     throw Error(adjustment_json.string() + ": expected \"sites\" with " +
@@ -325,6 +321,190 @@ nlohmann::json MissionRunOptions::ToJson() const {
   return figures;
 }
 
+namespace mission_run {
+namespace {
+
+// One progress bar for the whole run, shared by the site units running in parallel: sites 60 %,
+// legs 15 % (the first pass 80 % of it), craters 3 %, the adjustment 5 %, products 17 %. A
+// callback that answers false cancels the run.
+class RunProgress {
+ public:
+  static constexpr double kSites = 0.6, kLegs = 0.75, kCraters = 0.78, kAdjustment = 0.83;
+  static constexpr double kFirstPass = kSites + 0.8 * (kLegs - kSites);
+
+  RunProgress(const ProgressCallback& progress, size_t site_count)
+      : progress_(progress), site_done_(site_count, 0.0) {}
+
+  bool Report(double fraction, std::string_view stage) {
+    if (!progress_) return true;
+    std::lock_guard lock(mutex_);
+    const bool go = progress_(fraction, stage);
+    if (!go) cancelled_ = true;
+    return go;
+  }
+  ProgressCallback Span(double from, double to) {
+    return [this, from, to](double f, std::string_view stage) {
+      return Report(from + (to - from) * f, stage);
+    };
+  }
+  // Site i's own fraction, shown as the sites' share done.
+  ProgressCallback Site(size_t i) {
+    return [this, i](double f, std::string_view stage) {
+      double sum = 0.0;
+      {
+        std::lock_guard lock(mutex_);
+        site_done_[i] = f;
+        for (double d : site_done_) sum += d;
+      }
+      return Report(kSites * sum / static_cast<double>(site_done_.size()), stage);
+    };
+  }
+  void SiteDone(size_t i) {
+    std::lock_guard lock(mutex_);
+    site_done_[i] = 1.0;
+  }
+  // Leg i of `count` within [from, to].
+  ProgressCallback Leg(size_t i, size_t count, double from, double to) {
+    return [this, i, count, from, to](double f, std::string_view stage) {
+      const double n = static_cast<double>(count);
+      return Report(from + (to - from) * (static_cast<double>(i) + f) / n, stage);
+    };
+  }
+  bool cancelled() const { return cancelled_; }
+
+ private:
+  ProgressCallback progress_;
+  std::mutex mutex_;
+  std::vector<double> site_done_;
+  std::atomic<bool> cancelled_ = false;
+};
+
+// Every site unit, in parallel (TBB), computed or reused; counts them in `summary`.
+std::vector<json> RunSiteStage(const RunContext& run, RunProgress& bar,
+                               MissionRunSummary& summary) {
+  const size_t site_count = run.mission->sites.size();
+  std::vector<json> sites(site_count);
+  std::vector<char> reused(site_count, 0);  // Not vector<bool>: written from parallel tasks.
+  tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
+    if (bar.cancelled()) return;
+    bool was_reused = false;
+    sites[i] = EnsureSiteUnit(run, i, bar.Site(i), &was_reused);
+    reused[i] = was_reused;
+    bar.SiteDone(i);
+  });
+  if (bar.cancelled()) throw Error("cancelled during the site units");
+  for (const char r : reused) (r ? summary.sites_reused : summary.sites_computed)++;
+  return sites;
+}
+
+// The legs: every first pass, the second pass with the first passes' pooled variance factor
+// (MissionRunOptions::rock_variance_pass; a leg is matched again only when the factor it was
+// matched with is not the one wanted), then the legs tested against each other (a leg the test
+// changed is read from adjustment/rock_ties/).
+struct LegStage {
+  std::vector<json> legs;
+  PooledVarianceFactor first_pass;
+  std::optional<double> variance_pass;  // The factor the second pass applied.
+  std::vector<fs::path> tie_files;      // Each leg's tie points for the adjustment.
+};
+
+LegStage RunLegStage(const RunContext& run, RunProgress& bar, MissionRunSummary& summary) {
+  const size_t site_count = run.mission->sites.size();
+  const size_t leg_count = site_count > 0 ? site_count - 1 : 0;
+  SiteRocksCache site_rocks(run);
+  LegStage stage;
+  stage.legs.resize(leg_count);
+  for (size_t i = 0; i < leg_count; ++i) {
+    bool was_reused = false;
+    stage.legs[i] = EnsureLegUnit(
+        run, i, site_rocks, bar.Leg(i, leg_count, RunProgress::kSites, RunProgress::kFirstPass),
+        &was_reused);
+    ++(was_reused ? summary.legs_reused : summary.legs_computed);
+  }
+  stage.first_pass = FirstPassTieVariance(stage.legs);
+  const RockMatchingOptions final_matching =
+      SecondPassMatching(run, stage.legs, &stage.variance_pass);
+  for (size_t i = 0; i < leg_count; ++i) {
+    if (EnsureLegSecondPass(run, i, site_rocks, final_matching, stage.variance_pass, stage.legs[i],
+                            bar.Leg(i, leg_count, RunProgress::kFirstPass, RunProgress::kLegs))) {
+      ++summary.legs_rematched;
+    }
+  }
+  stage.tie_files =
+      TestLegsAgainstEachOther(run, stage.legs, run.out_dir / "adjustment" / "rock_ties");
+  return stage;
+}
+
+// The adjustment's inputs and options: network.json written, each site's own control points.
+AdjustmentStage PrepareAdjustment(const RunContext& run, const LegStage& legs) {
+  const MissionManifest& mission = *run.mission;
+  AdjustmentStage adjustment;
+  adjustment.dir = run.out_dir / "adjustment";
+  fs::create_directories(adjustment.dir);
+  WriteFileAtomically(adjustment.dir / "network.json", NetworkJson(mission, *run.options).dump(2));
+  for (const MissionSite& site : mission.sites) {
+    adjustment.site_controls.push_back(SiteDir(run, site.site) / "control_points.json");
+  }
+  adjustment.leg_tie_files = legs.tie_files;
+  adjustment.options.bundle = run.options->bundle;
+  // The second pass's variance factor decides which legs fault detection accepts; the
+  // adjustment weighs their tie points by the a-priori covariances: scaling the rock ties there
+  // left the site errors as they were and made their sigmas less honest on three generated
+  // traverses (docs/rocks.md).
+  if (legs.variance_pass) adjustment.options.rock_tie_variance_factor = 1.0 / *legs.variance_pass;
+  if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
+    adjustment.options.orbital_image = image->path;
+  }
+  return adjustment;
+}
+
+// The products unit with the adjusted poses: computed, or reused when it was made with the same
+// poses; `*unit` says which. Null when products are off.
+json EnsureProductsUnit(const RunContext& run, const ProgressCallback& progress,
+                        std::string* unit) {
+  const size_t site_count = run.mission->sites.size();
+  if (!run.options->traverse_products || site_count == 0) return nullptr;
+  const std::vector<Rigid3d> poses =
+      AdjustedPoses(run.out_dir / "adjustment" / "adjustment.json", site_count);
+  const fs::path dir = run.out_dir / "products";
+  json products = FinishedUnit(run, dir);
+  *unit = "reused";
+  if (products.is_null() || !SamePoses(products.value("poses", json()), poses)) {
+    *unit = "computed";
+    products = RunProductsUnit(run, poses, progress);
+    FinishUnit(run, dir, products);
+  }
+  products.erase("poses");  // In products/unit.json; summary.json keeps the figures.
+  return products;
+}
+
+// What each stage cost when its units were computed (this run or an earlier one), from the
+// units' records: per-site stages and legs summed (sites ran two or more at a time).
+json ComputedSeconds(const std::vector<json>& sites, const std::vector<json>& legs,
+                     const json& craters, double adjustment_seconds, const json& products) {
+  json computed = {{"stereo", 0.0}, {"dtm", 0.0}, {"ortho", 0.0}, {"registration", 0.0}};
+  for (const json& site : sites) {
+    for (auto& [stage, value] : computed.items()) {
+      value = value.get<double>() + site.value("seconds", json::object()).value(stage, 0.0);
+    }
+  }
+  double legs_seconds = 0.0;
+  for (const json& leg : legs) legs_seconds += leg.value("seconds", 0.0);
+  computed["legs"] = legs_seconds;
+  computed["craters"] = craters.is_object() ? craters.value("seconds", 0.0) : 0.0;
+  computed["adjustment"] = adjustment_seconds;
+  double products_seconds = 0.0;
+  if (products.is_object()) {
+    const json parts = products.value("seconds", json::object());
+    for (const auto& [part, value] : parts.items()) products_seconds += value.get<double>();
+  }
+  computed["products"] = products_seconds;
+  return computed;
+}
+
+}  // namespace
+}  // namespace mission_run
+
 MissionRunSummary RunMission(const MissionManifest& mission, const std::filesystem::path& out_dir,
                              const MissionRunOptions& options, const ProgressCallback& progress) {
   using namespace mission_run;
@@ -332,31 +512,7 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   const auto start = std::chrono::steady_clock::now();
   fs::create_directories(out_dir);
   const RunContext run(mission, options, out_dir);
-
-  // One bar for the run: sites 60 %, legs 15 %, craters 3 %, the adjustment 5 %, products 17 %.
-  constexpr double kSites = 0.6, kLegs = 0.75, kCraters = 0.78, kAdjustment = 0.83;
-  const size_t site_count = mission.sites.size();
-  const size_t leg_count = site_count > 0 ? site_count - 1 : 0;
-  std::mutex progress_mutex;
-  std::vector<double> site_done(site_count, 0.0);
-  std::atomic<bool> cancelled = false;
-  const auto report = [&](double fraction, std::string_view stage) {
-    if (!progress) return true;
-    std::lock_guard lock(progress_mutex);
-    const bool go = progress(fraction, stage);
-    if (!go) cancelled = true;
-    return go;
-  };
-  const auto sites_fraction = [&] {
-    double sum = 0.0;
-    for (double d : site_done) sum += d;
-    return kSites * sum / static_cast<double>(std::max<size_t>(1, site_count));
-  };
-  const auto span = [&](double from, double to) -> ProgressCallback {
-    return [&report, from, to](double f, std::string_view stage) {
-      return report(from + (to - from) * f, stage);
-    };
-  };
+  RunProgress bar(progress, std::max<size_t>(1, mission.sites.size()));
   // Wall time of each stage of this invocation [s] (reused units cost ~0).
   json stage_seconds = json::object();
   auto clock = std::chrono::steady_clock::now();
@@ -366,215 +522,39 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   };
 
   MissionRunSummary summary;
-  std::vector<json> site_summaries(site_count);
-  std::vector<char> reused(site_count, 0);  // Not vector<bool>: written from parallel tasks.
-  tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
-    if (cancelled) return;
-    bool was_reused = false;
-    site_summaries[i] = EnsureSiteUnit(
-        run, i,
-        [&](double f, std::string_view stage) {
-          {
-            std::lock_guard lock(progress_mutex);
-            site_done[i] = f;
-          }
-          return report(sites_fraction(), stage);
-        },
-        &was_reused);
-    reused[i] = was_reused;
-    std::lock_guard lock(progress_mutex);
-    site_done[i] = 1.0;
-  });
-  if (cancelled) throw Error("cancelled during the site units");
-  for (const char r : reused) (r ? summary.sites_reused : summary.sites_computed)++;
+  const std::vector<json> sites = RunSiteStage(run, bar, summary);
   lap("sites");
-  // The legs: the first pass with the run's matching options, then the second with the first
-  // pass's pooled variance factor (MissionRunOptions::rock_variance_pass). A leg is matched
-  // again only when the factor it was matched with is not the one wanted.
-  constexpr double kFirstPass = kSites + 0.8 * (kLegs - kSites);
-  SiteRocksCache site_rocks(run);
-  const auto leg_span = [&](size_t i, double from, double to) -> ProgressCallback {
-    return [&report, i, from, to, leg_count](double f, std::string_view s) {
-      const double n = static_cast<double>(leg_count);
-      return report(from + (to - from) * (static_cast<double>(i) + f) / n, s);
-    };
-  };
-  std::vector<json> leg_summaries(leg_count);
-  for (size_t i = 0; i < leg_count; ++i) {
-    bool was_reused = false;
-    leg_summaries[i] =
-        EnsureLegUnit(run, i, site_rocks, leg_span(i, kSites, kFirstPass), &was_reused);
-    ++(was_reused ? summary.legs_reused : summary.legs_computed);
-  }
-  std::optional<double> variance_pass;
-  const PooledVarianceFactor first_pass = FirstPassTieVariance(leg_summaries);
-  const RockMatchingOptions final_matching = SecondPassMatching(run, leg_summaries, &variance_pass);
-  for (size_t i = 0; i < leg_count; ++i) {
-    if (EnsureLegSecondPass(run, i, site_rocks, final_matching, variance_pass, leg_summaries[i],
-                            leg_span(i, kFirstPass, kLegs))) {
-      ++summary.legs_rematched;
-    }
-  }
-  // The legs tested against each other: a leg the test changed is read from rock_ties/.
-  const fs::path adjustment_dir = out_dir / "adjustment";
-  const std::vector<fs::path> leg_tie_files =
-      TestLegsAgainstEachOther(run, leg_summaries, adjustment_dir / "rock_ties");
+  const LegStage legs = RunLegStage(run, bar, summary);
   lap("legs");
-
   // How the whole-run units went: "computed", "reused" or "off".
   std::string craters_unit = "off", products_unit = "off";
   json craters;
   if (options.detect_craters) {
     bool was_reused = false;
-    craters = EnsureCratersUnit(run, span(kLegs, kCraters), &was_reused);
+    craters =
+        EnsureCratersUnit(run, bar.Span(RunProgress::kLegs, RunProgress::kCraters), &was_reused);
     craters_unit = was_reused ? "reused" : "computed";
   }
   lap("craters");
-
   // The adjustment reads everything the units wrote: the network, every site's control
   // points and every leg's tie points.
-  fs::create_directories(adjustment_dir);
-  WriteFileAtomically(adjustment_dir / "network.json", NetworkJson(mission, options).dump(2));
-  // Each site's control points: its own registration's, or a guided one's (below).
-  std::vector<fs::path> site_controls;
-  for (const MissionSite& site : mission.sites) {
-    site_controls.push_back(SiteDir(run, site.site) / "control_points.json");
-  }
-  const auto inputs = [&] {
-    std::vector<fs::path> files = {adjustment_dir / "network.json"};
-    files.insert(files.end(), site_controls.begin(), site_controls.end());
-    files.insert(files.end(), leg_tie_files.begin(), leg_tie_files.end());
-    return files;
-  };
-  TraverseAdjustmentOptions adjustment;
-  adjustment.bundle = options.bundle;
-  // The second pass's variance factor decides which legs fault detection accepts; the
-  // adjustment weighs their tie points by the a-priori covariances: scaling the rock ties there
-  // left the site errors as they were and made their sigmas less honest on three generated
-  // traverses (docs/rocks.md).
-  if (variance_pass) adjustment.rock_tie_variance_factor = 1.0 / *variance_pass;
-  const json tie_variance = TieVarianceJson(first_pass, variance_pass);
-  if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
-    adjustment.orbital_image = image->path;
-  }
-  json adjusted = AdjustTraverse(inputs(), adjustment_dir, adjustment, span(kCraters, kAdjustment));
+  AdjustmentStage adjustment = PrepareAdjustment(run, legs);
+  json adjusted = adjustment.Run(bar.Span(RunProgress::kCraters, RunProgress::kAdjustment));
   lap("adjustment");
-
-  // Guided re-registration: sites that did not register, again around their adjusted poses.
-  // Sites whose orthophoto had too few valid template pixels are not tried again: a prior
-  // does not change the template. Sites whose first match turned the orthophoto by the most
-  // the rotation grid allows (the true turn may lie beyond it; their control points are then
-  // turned too little) are matched again too in the first guided pass, and a guided match
-  // replaces their control points.
-  std::vector<bool> registered(site_count, false), eligible(site_count, false),
-      turn_at_edge(site_count, false);
-  json first_pass_sites = json::array();
-  for (size_t i = 0; i < site_count; ++i) {
-    const json& r = site_summaries[i].value("registration", json::object());
-    registered[i] = r.value("matched", false) && r.value("control_points", 0) > 0;
-    eligible[i] = r.value("template_pixels", 0) >= options.match.min_template_pixels;
-    const double turn = std::abs(r.value("rotation_deg", 0.0));
-    turn_at_edge[i] =
-        registered[i] && options.match.max_rotation_deg > 0.0 &&
-        turn >= options.match.max_rotation_deg - 0.5 * options.match.rotation_step_deg;
-    if (registered[i]) first_pass_sites.push_back(mission.sites[i].site);
-  }
-  json guided = {{"registered_first_pass", first_pass_sites},
-                 {"first_adjustment", adjusted},
-                 {"passes", json::array()}};
-  for (int pass = 1; pass <= options.guided_passes; ++pass) {
-    std::vector<size_t> todo;
-    for (size_t i = 0; i < site_count; ++i) {
-      if ((!registered[i] && eligible[i]) || (pass == 1 && turn_at_edge[i])) todo.push_back(i);
-    }
-    if (todo.empty() || !mission.FirstOrbital("image")) break;
-    report(kAdjustment, "guided registration");
-    const json sites = ReadJsonFile(adjustment_dir / "adjustment.json").value("sites", json());
-    if (!sites.is_array() || sites.size() != site_count) {
-      throw Error((adjustment_dir / "adjustment.json").string() + ": expected " +
-                  std::to_string(site_count) + " sites");
-    }
-    std::vector<json> results(todo.size());
-    tbb::parallel_for(size_t{0}, todo.size(), [&](size_t k) {
-      const GuidedPrior prior =
-          GuidedPriorFromAdjustment(sites[todo[k]], options.guided_sigma_floor_m);
-      results[k] = RunGuidedRegistrationUnit(run, todo[k], pass, prior);
-    });
-    json record = {{"pass", pass},
-                   {"attempted", json::array()},
-                   {"registered", json::array()},
-                   {"replaced", json::array()}};
-    for (size_t k = 0; k < todo.size(); ++k) {
-      const int site = mission.sites[todo[k]].site;
-      const json& r = results[k]["registration"];
-      record["attempted"].push_back(
-          {{"site", site},
-           {"prior", results[k]["prior"]},
-           {"matched", r.value("matched", false)},
-           {"reason", r.value("reason", "")},
-           {"correlation", r.value("correlation", json())},
-           {"null_highest_correlation", r.value("null_highest_correlation", json())},
-           {"search_radius_px", r.value("search_radius_px", 0)},
-           {"control_points", r.value("control_points", 0)},
-           {"turn_at_edge", turn_at_edge[todo[k]]}});
-      if (r.value("matched", false) && r.value("control_points", 0) > 0) {
-        record[registered[todo[k]] ? "replaced" : "registered"].push_back(site);
-        registered[todo[k]] = true;
-        site_controls[todo[k]] = GuidedDir(run, pass, site) / "control_points.json";
-      }
-      turn_at_edge[todo[k]] = false;
-    }
-    const bool any = !record["registered"].empty() || !record["replaced"].empty();
-    if (any) {
-      adjusted = AdjustTraverse(inputs(), adjustment_dir, adjustment);
-      record["adjustment"] = adjusted;
-    }
-    guided["passes"].push_back(record);
-    if (!any) break;
-  }
+  const json guided = RunGuidedPasses(run, sites, adjustment, adjusted, [&] {
+    bar.Report(RunProgress::kAdjustment, "guided registration");
+  });
   lap("guided_registration");
-
-  json products;
-  if (options.traverse_products && site_count > 0) {
-    const std::vector<Rigid3d> poses =
-        AdjustedPoses(adjustment_dir / "adjustment.json", site_count);
-    const fs::path dir = out_dir / "products";
-    products = FinishedUnit(run, dir);
-    products_unit = "reused";
-    if (products.is_null() || !SamePoses(products.value("poses", json()), poses)) {
-      products_unit = "computed";
-      products = RunProductsUnit(run, poses, span(kAdjustment, 1.0));
-      FinishUnit(run, dir, products);
-    }
-    products.erase("poses");  // In products/unit.json; summary.json keeps the figures.
-  }
+  const json products =
+      EnsureProductsUnit(run, bar.Span(RunProgress::kAdjustment, 1.0), &products_unit);
   lap("products");
-  report(1.0, "done");
+  bar.Report(1.0, "done");
 
-  // What each stage cost when its units were computed (this run or an earlier one), from the
-  // units' records: per-site stages and legs summed (sites ran two or more at a time).
-  json computed = {{"stereo", 0.0}, {"dtm", 0.0}, {"ortho", 0.0}, {"registration", 0.0}};
-  for (const json& site : site_summaries) {
-    for (auto& [stage, value] : computed.items()) {
-      value = value.get<double>() + site.value("seconds", json::object()).value(stage, 0.0);
-    }
-  }
-  double legs_seconds = 0.0;
-  for (const json& leg : leg_summaries) legs_seconds += leg.value("seconds", 0.0);
-  computed["legs"] = legs_seconds;
-  computed["craters"] = craters.is_object() ? craters.value("seconds", 0.0) : 0.0;
-  computed["adjustment"] = stage_seconds["adjustment"];
-  double products_seconds = 0.0;
-  if (products.is_object()) {
-    const json parts = products.value("seconds", json::object());
-    for (const auto& [part, value] : parts.items()) products_seconds += value.get<double>();
-  }
-  computed["products"] = products_seconds;
   summary.json = {{"mission", mission.root.string()},
                   {"name", mission.name},
-                  {"sites", site_summaries},
-                  {"legs", leg_summaries},
-                  {"rock_tie_variance", tie_variance},
+                  {"sites", sites},
+                  {"legs", legs.legs},
+                  {"rock_tie_variance", TieVarianceJson(legs.first_pass, legs.variance_pass)},
                   {"craters", craters},
                   {"adjustment", adjusted},
                   {"guided_registration", guided},
@@ -588,7 +568,8 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
                     {"craters", craters_unit},
                     {"products", products_unit}}},
                   {"stage_seconds", stage_seconds},
-                  {"computed_seconds", computed},
+                  {"computed_seconds", ComputedSeconds(sites, legs.legs, craters,
+                                                       stage_seconds["adjustment"], products)},
                   {"seconds", SecondsSince(start)}};
   return summary;
 }

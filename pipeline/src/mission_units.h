@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "areomap/adjustment/traverse_adjustment.h"
 #include "areomap/landmarks/rock_extraction.h"
 #include "areomap/landmarks/rock_matching.h"
 #include "areomap/map/dtm.h"
@@ -98,6 +99,33 @@ bool EnsureLegSecondPass(const RunContext& run, size_t index_a, SiteRocksCache& 
 nlohmann::json EnsureCratersUnit(const RunContext& run, const ProgressCallback& progress,
                                  bool* reused = nullptr);
 double SecondsSince(std::chrono::steady_clock::time_point start);
+
+// The JSON in `path`; null when the file is missing or not JSON.
+nlohmann::json ReadJsonOrNull(const std::filesystem::path& path);
+
+// The adjustment of a run (adjustment/): its inputs (the network, each site's control points,
+// each leg's tie points) and its options; repeated by the guided passes with the control points
+// they swap in.
+struct AdjustmentStage {
+  std::filesystem::path dir;
+  std::vector<std::filesystem::path> site_controls;  // One per mission site.
+  std::vector<std::filesystem::path> leg_tie_files;  // One per leg.
+  TraverseAdjustmentOptions options;
+  // AdjustTraverse on network.json, the site controls and the leg ties; its summary.
+  nlohmann::json Run(const ProgressCallback& progress = nullptr) const;
+};
+
+// Guided re-registration after the first adjustment (MissionRunOptions::guided_passes): each
+// pass matches again the sites that did not register (with enough template pixels) around
+// their adjusted poses, and in the first pass also those whose match turned the orthophoto by
+// the most the rotation grid allows; a site that registers swaps its control points in
+// `adjustment` and the adjustment is repeated (`adjusted` updated). Stops when a pass
+// registers nothing. Returns summary.json's "guided_registration". `announce` is called before
+// each pass that has sites to try.
+nlohmann::json RunGuidedPasses(const RunContext& run,
+                               const std::vector<nlohmann::json>& site_summaries,
+                               AdjustmentStage& adjustment, nlohmann::json& adjusted,
+                               const std::function<void()>& announce);
 
 // Where telemetry puts a site: traverse_from_site with the believed (level, north-up) frame.
 Rigid3d TelemetryTraverseFromSite(const MissionSitePose& pose);
