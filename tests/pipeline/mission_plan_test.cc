@@ -140,7 +140,9 @@ TEST_F(MissionPlanTest, UnitsOneAtATimeGiveTheLocalRun) {
       records = RunMissionPlanUnits(planned, plan, Options(), {unit.id}, {});
       ASSERT_EQ(records.size(), 1u);
       EXPECT_NE(records[0].outcome, UnitOutcome::kFailed) << unit.id << ": " << records[0].error;
-      if (unit.id == "site_000") EXPECT_EQ(records[0].outcome, UnitOutcome::kReused);
+      if (unit.id == "site_000") {
+        EXPECT_EQ(records[0].outcome, UnitOutcome::kReused);
+      }
     }
   }
   EXPECT_FALSE(fs::exists(planned / "legs" / "leg_000_001" / "error.txt"));
