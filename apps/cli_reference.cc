@@ -33,6 +33,19 @@ std::string OptionName(const CLI::Option& option) {
 }
 
 // A subcommand inherits its parent's footer (CLI11): printed once, with the parent.
+// The options `command` shows in its help: its own, then those of its option groups (unnamed
+// sub-apps, e.g. run's "Mission options"), in the order they were added.
+void AppendOptions(const CLI::App& command, std::vector<const CLI::Option*>& options) {
+  for (const CLI::Option* o :
+       command.get_options([](const CLI::Option* o) { return !o->get_group().empty(); })) {
+    options.push_back(o);
+  }
+  for (const CLI::App* group :
+       command.get_subcommands([](const CLI::App* a) { return a->get_name().empty(); })) {
+    AppendOptions(*group, options);
+  }
+}
+
 void AppendCommand(const CLI::App& command, const std::string& path, std::ostringstream& out) {
   out << "## `" << path << "`\n\n";
   const std::string& description = command.get_description();
@@ -44,8 +57,8 @@ void AppendCommand(const CLI::App& command, const std::string& path, std::ostrin
       (parent == nullptr || parent->get_footer() != command.get_footer())) {
     out << command.get_footer() << "\n\n";
   }
-  const std::vector<const CLI::Option*> options =
-      command.get_options([](const CLI::Option* o) { return !o->get_group().empty(); });
+  std::vector<const CLI::Option*> options;
+  AppendOptions(command, options);
   if (!options.empty()) {
     out << "| argument | meaning | default |\n|---|---|---|\n";
     for (const CLI::Option* option : options) {

@@ -17,6 +17,7 @@ void AddStereoCommand(CLI::App& app, const GlobalOptions& global);
 void AddErrorsCommand(CLI::App& app, const GlobalOptions& global);
 void AddAdjustCommand(CLI::App& app, const GlobalOptions& global);
 void AddRunCommand(CLI::App& app, const GlobalOptions& global);
+void AddRunUnitCommands(CLI::App& app, const GlobalOptions& global);  // run-unit, run-status
 void AddDtmCommand(CLI::App& app, const GlobalOptions& global);
 void AddCratersCommand(CLI::App& app, const GlobalOptions& global);
 void AddRegisterCommand(CLI::App& app, const GlobalOptions& global);

@@ -1,198 +1,49 @@
-// areomap craters IMAGE|DTM --out DIR: crater rims, ellipses and models; areomap craters score.
+// areomap craters IMAGE|DTM --out DIR: crater rims, ellipses and models (IMAGE... or --list FILE:
+// a catalogue, craters_catalogue.cc); areomap craters score.
 #include <cmath>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
 
+#include "areomap/crater/crater_image.h"
 #include "areomap/crater/crater_output.h"
-#include "areomap/crater/crater_raster.h"
 #include "areomap/crater/crater_score.h"
-#include "areomap/crater/learned_detector.h"
-#include "areomap/crater/sun_azimuth.h"
 #include "areomap/map/error.h"
 #include "commands.h"
+#include "craters_args.h"
 
 namespace areomap::cli {
-namespace {
 
-struct CratersArgs {
-  std::string input;
-  std::string out_dir;
-  bool dtm = false;
-  std::string units = "px";
-  double min_diameter = 8.0;
-  double max_diameter = 0.0;
-  std::optional<double> sun_azimuth_deg;
-  bool estimate_sun = true;
-  std::string method = "combined";
-  CraterDetectorOptions detector;
-};
-
-// The sun azimuth the detector uses: --sun-azimuth, else (an image) estimated from the shading of
-// craters found without it; `json` records which and how. Throws when --shading-templates are
-// asked for and no sun is known.
-std::optional<double> ChooseSunAzimuth(const CratersArgs& a, const RasterDataset& dataset,
-                                       const CraterDetectorOptions& options,
-                                       const GlobalOptions& global, nlohmann::json* json) {
-  if (a.dtm) {
-    (*json)["sun_azimuth_source"] = "none (DTM)";
-    return std::nullopt;
-  }
-  if (a.sun_azimuth_deg) {
-    (*json)["sun_azimuth_source"] = "given";
-    return a.sun_azimuth_deg;
-  }
-  (*json)["sun_azimuth_source"] = "none";
-  // The learned detector needs no sun: its rim fits run without the shading checks.
-  if (options.method == CraterMethod::kLearned) return std::nullopt;
-  if (!a.estimate_sun) {
-    if (options.shading_template.enabled) {
-      throw Error(
-          "craters: --shading-templates needs a sun azimuth: give --sun-azimuth, or "
-          "drop --no-sun-estimate");
-    }
-    return std::nullopt;
-  }
-  const SunAzimuthEstimate e =
-      EstimateSunAzimuthInRaster(dataset, options, {}, MakeProgressBar(global, "sun azimuth"));
-  (*json)["sun_azimuth_estimate"] = SunAzimuthEstimateJson(e);
-  std::ostringstream text;
-  text << std::fixed << std::setprecision(0) << e.votes << " of " << e.candidates
-       << " craters found without a sun show a bright and a dark wall; " << std::setprecision(2)
-       << e.agreement << " of them agree";
-  if (!e.reliable) {
-    if (options.shading_template.enabled) {
-      throw Error(
-          "craters: --shading-templates needs a sun azimuth: give --sun-azimuth (the "
-          "estimate from " +
-          a.input + " is not reliable: " + text.str() + ")");
-    }
-    std::cerr << "warning: no sun azimuth given and none could be estimated from " << a.input
-              << " (" << text.str() << "): the shading checks are off, expect more false "
-              << "detections (nested rims, mounds); give --sun-azimuth\n";
-    return std::nullopt;
-  }
-  (*json)["sun_azimuth_source"] = "estimated";
-  if (!global.quiet) {
-    std::cout << "sun azimuth estimated from the image: " << std::fixed << std::setprecision(1)
-              << e.azimuth_deg << " deg (" << text.str() << ")\n";
-  }
-  return e.azimuth_deg;
+CraterImageOptions ImageOptions(const CratersArgs& args) {
+  CraterImageOptions options = args.image;
+  options.diameters_in_metres = args.units == "m";
+  options.detector.method = CraterMethodFromString(args.method);
+  return options;
 }
 
+namespace {
+
+// One raster: today's `areomap craters IMAGE --out DIR` (crater_image.h).
 void RunDetect(const CratersArgs& a, const GlobalOptions& global) {
-  const RasterDataset dataset = RasterDataset::Open(a.input);
-  const RasterInfo& info = dataset.info();
-  CraterDetectorOptions options = a.detector;
-  options.method = a.dtm ? CraterMethod::kEdges : CraterMethodFromString(a.method);
-  // Ground size of a pixel, to turn metres into pixels and DTM heights into slopes.
-  const CraterCatalog probe = MakeCraterCatalog({}, info);
-  if (a.units == "m" && !(probe.pixel_size_m > 0.0)) {
-    throw Error(a.input + ": --units m needs a georeferenced raster in a projected Mars CRS " +
-                "(this one has no geotransform or CRS); give diameters in px");
-  }
-  const double to_px = a.units == "m" ? 1.0 / probe.pixel_size_m : 1.0;
-  options.min_diameter_px = a.min_diameter * to_px;
-  options.max_diameter_px = a.max_diameter * to_px;
-  if (!(options.min_diameter_px >= CraterDetectorOptions::kSmallestDiameterPx)) {
-    std::ostringstream text;
-    text << "--min-diameter: " << a.min_diameter;
-    if (a.units == "m") {
-      text << " m (" << options.min_diameter_px << " px of " << probe.pixel_size_m << " m on "
-           << a.input << ")";
-    } else {
-      text << " px";
-    }
-    text << " is below the smallest rim diameter detected, "
-         << CraterDetectorOptions::kSmallestDiameterPx << " px";
-    throw Error(text.str());
-  }
-  const double posting = probe.pixel_size_m > 0.0 ? probe.pixel_size_m : 1.0;
-  options.dtm_posting = posting;
-  options.Check();
-  // A missing or unreadable model is reported before any work or output.
-  if (options.method != CraterMethod::kEdges) CraterNetwork{options.learned.model_path};
-  nlohmann::json sun_json;
-  options.sun_azimuth_deg = ChooseSunAzimuth(a, dataset, options, global, &sun_json);
-  OutputFolder folder(
-      a.out_dir,
-      OutputPolicy(global, "craters",
-                   {"craters.csv", "craters.json", "craters.gpkg", "overlay.png"}, {a.input}));
-  const RimSource source = a.dtm ? RimSource::kDtm : RimSource::kImage;
-  const ProgressCallback progress = MakeProgressBar(global, "craters");
-  const std::vector<CraterDetection> found =
-      DetectCratersInRaster(dataset, source, options, progress);
-  CraterCatalog catalog = MakeCraterCatalog(found, info);
-  if (a.dtm) {
-    for (CatalogCrater& c : catalog.craters) {
-      const Ellipse& e = c.detection.ellipse;
-      const double reach = 1.2 * e.semi_major + 4.0;
-      const int c0 = std::max(0, static_cast<int>(e.center.x() - reach));
-      const int r0 = std::max(0, static_cast<int>(e.center.y() - reach));
-      const int c1 = std::min(info.width, static_cast<int>(e.center.x() + reach) + 1);
-      const int r1 = std::min(info.height, static_cast<int>(e.center.y() + reach) + 1);
-      if (c1 <= c0 || r1 <= r0) continue;
-      Ellipse local = e;
-      local.center -= Eigen::Vector2d(c0, r0);
-      c.model = MeasureCraterOnDtm(dataset.ReadWindowFloat(1, {c0, r0, c1 - c0, r1 - r0}), local,
-                                   posting);
-    }
-  }
-  const std::filesystem::path out = folder.dir();
-  WriteCratersCsv(out / "craters.csv", catalog);
-  WriteCratersJson(out / "craters.json", catalog);
-  nlohmann::json files = {"craters.csv", "craters.json", "overlay.png"};
-  if (catalog.IsGeoreferenced()) {
-    WriteCratersGeoPackage(out / "craters.gpkg", catalog);
-    files.push_back("craters.gpkg");
-  }
-  const int factor = DecimationFactor(info.width, info.height, 4096);
-  int64_t valid_pixels = 0;
-  WriteCraterOverlay(out / "overlay.png",
-                     ReadDecimated(dataset, dataset.FullWindow(), factor, &valid_pixels), found,
-                     4096);
-  int partial = 0, rims_fitted = 0, edge_detected = 0;
-  for (const CraterDetection& d : found) {
-    partial += d.partial ? 1 : 0;
-    rims_fitted += d.rim_fitted ? 1 : 0;
-    edge_detected += d.edge_detected ? 1 : 0;
-  }
-  nlohmann::json summary = {
-      {"command", "craters"},
-      {"input", a.input},
-      {"source", a.dtm ? "dtm" : "image"},
-      {"method", ToString(options.method)},
-      {"model", options.method != CraterMethod::kEdges
-                    ? (options.learned.model_path.empty() ? std::string("built-in")
-                                                          : options.learned.model_path)
-                    : std::string()},
-      {"rims_fitted", rims_fitted},
-      {"edge_detected", edge_detected},
-      {"width_px", info.width},
-      {"height_px", info.height},
-      {"georeferenced", catalog.IsGeoreferenced()},
-      {"pixel_size_m", catalog.pixel_size_m},
-      {"min_diameter_px", options.min_diameter_px},
-      {"max_diameter_px", options.max_diameter_px},
-      {"upsample_small_craters", options.upsample_small_craters},
-      // whether that level was searched: only for minimum diameters under 16 px
-      {"upsampled_level_searched", options.SearchesUpsampledLevel()},
-      {"sun_azimuth_deg",
-       options.sun_azimuth_deg ? nlohmann::json(*options.sun_azimuth_deg) : nlohmann::json()},
-      {"valid_pixels", valid_pixels},
-      {"craters", found.size()},
-      {"partial", partial},
-      {"files", files}};
-  summary.update(sun_json);
-  WriteSummary(out, summary);
-  folder.Commit();  // Also removes an earlier run's craters.gpkg when this input has no CRS.
-  if (valid_pixels == 0) {
-    std::cerr << "warning: " << a.input
-              << " has no valid pixel (every pixel is nodata or NaN): nothing was searched\n";
-  }
+  const CraterImageOptions options = ImageOptions(a);
+  const CraterImageJob job =
+      PrepareCraterImage(a.inputs.front(), options, MakeProgressBar(global, "sun azimuth"));
+  for (const std::string& w : job.warnings) std::cerr << "warning: " << w << "\n";
   if (!global.quiet) {
-    std::cout << "found " << found.size() << " craters (" << partial << " partial) in " << a.input
-              << "; wrote " << a.out_dir << "\n";
+    for (const std::string& note : job.notes) std::cout << note << "\n";
+  }
+  OutputFolder folder(a.out_dir,
+                      OutputPolicy(global, "craters",
+                                   {"craters.csv", "craters.json", "craters.gpkg", "overlay.png"},
+                                   {a.inputs.front()}));
+  const CraterImageResult result =
+      DetectCraterImage(job, folder.dir(), MakeProgressBar(global, "craters"));
+  WriteSummary(folder.dir(), CraterImageSummaryJson(job, result));
+  folder.Commit();  // Also removes an earlier run's craters.gpkg when this input has no CRS.
+  for (const std::string& w : result.warnings) std::cerr << "warning: " << w << "\n";
+  if (!global.quiet) {
+    std::cout << "found " << result.craters << " craters (" << result.partial << " partial) in "
+              << a.inputs.front() << "; wrote " << a.out_dir << "\n";
   }
 }
 
@@ -213,19 +64,20 @@ constexpr const char* kCratersDetails =
     "docs/crater-model.md. All: Ceres orthogonal-distance fits, tiles read in windows (bounded\n"
     "memory, TBB). Writes `craters.csv`, `craters.json`, `craters.gpkg` (Mars "
     "CRS,\n"
-    "when georeferenced), `overlay.png`, `summary.json`. `craters score DETECTIONS.csv TRUTH.csv\n"
-    "[--image IMAGE --out DIR]`: precision, recall, F1 by diameter bin. Speed and accuracy:\n"
-    "docs/benchmarks.md (Craters).";
+    "when georeferenced), `overlay.png`, `summary.json`. Two or more images, or `--list FILE`: a\n"
+    "catalogue; each image (georeferenced, projected Mars CRS) into `images/<NNN>_<stem>/` as\n"
+    "above plus `image.json`, one after the other, then one `craters.gpkg` and `craters.csv` in\n"
+    "the first image's CRS (or `--crs`) with each crater once where images overlap (the better-\n"
+    "fitted rim kept) and `images.csv`, a row per image; an image that fails is a row, the others\n"
+    "go on, the exit status is non-zero (docs/crater-catalogue.md). `craters score DETECTIONS.csv\n"
+    "TRUTH.csv [--image IMAGE --out DIR]`: precision, recall, F1 by diameter bin. Speed and\n"
+    "accuracy: docs/benchmarks.md (Craters).";
 
-void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
-  auto args = std::make_shared<CratersArgs>();
-  auto* cmd = app.add_subcommand(
-      "craters", "Detect crater rims in an image or DTM: ellipses, uncertainties, models");
-  cmd->footer(kCratersDetails);
-  cmd->require_subcommand(0, 1);
-  cmd->add_option("input", args->input, "Image or DTM raster (GeoTIFF, PNG, ISIS3, PDS...)");
-  cmd->add_option("--out", args->out_dir, "Output folder (created if needed)");
-  cmd->add_flag("--dtm", args->dtm, "The input holds heights: rims from curvature crests");
+void AddCraterDetectionOptions(CLI::App* cmd, CratersArgs* args) {
+  cmd->add_option("--crs", args->crs,
+                  "Catalogue: CRS of the merged catalogue, a projected Mars CRS in metres "
+                  "(IAU_2015:49910, WKT, PROJ); default: the first image's");
+  cmd->add_flag("--dtm", args->image.dtm, "The input holds heights: rims from curvature crests");
   cmd->add_option("--method", args->method,
                   "Image detector: combined (both below, the network's finds added to the edge "
                   "rims), edges (rim edges to ellipses) or learned (trained network, rims "
@@ -233,59 +85,92 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
                   "always use edges")
       ->check(CLI::IsMember({"combined", "learned", "edges"}))
       ->capture_default_str();
-  cmd->add_option("--model", args->detector.learned.model_path,
+  cmd->add_option("--model", args->image.detector.learned.model_path,
                   "learned, combined: ONNX crater model trained as the built-in one "
                   "(scripts/crater_model/train.py); default: built-in");
-  cmd->add_option("--min-score", args->detector.learned.min_score,
+  cmd->add_option("--min-score", args->image.detector.learned.min_score,
                   "learned, combined: heat-map peak threshold in (0, 1)")
       ->check(NumberIn(0.0, 1.0, Bound::kOpen, Bound::kOpen))
       ->capture_default_str();
-  cmd->add_flag("--no-rim-fit{false}", args->detector.learned.refine_rims,
+  cmd->add_flag("--no-rim-fit{false}", args->image.detector.learned.refine_rims,
                 "learned, combined: keep the network's circles, do not refit rims as ellipses");
   cmd->add_option("--units", args->units, "Unit of the diameter limits: px or m")
       ->check(CLI::IsMember({"px", "m"}))
       ->capture_default_str();
   // At least 4 px, checked in px once --units and the raster's pixel size are known.
-  cmd->add_option("--min-diameter", args->min_diameter, "Smallest rim diameter (at least 4 px)")
+  cmd->add_option("--min-diameter", args->image.min_diameter,
+                  "Smallest rim diameter (at least 4 px)")
       ->check(PositiveNumber())
       ->capture_default_str();
-  cmd->add_option("--max-diameter", args->max_diameter, "Largest rim diameter (0: no limit)")
+  cmd->add_option("--max-diameter", args->image.max_diameter, "Largest rim diameter (0: no limit)")
       ->check(NonNegativeNumber())
       ->capture_default_str();
-  cmd->add_option("--sun-azimuth", args->sun_azimuth_deg,
+  cmd->add_option("--sun-azimuth", args->image.sun_azimuth_deg,
                   "Sun azimuth [deg clockwise from image up]: enables the shading checks")
       ->check(FiniteNumber());
-  cmd->add_flag("!--no-sun-estimate", args->estimate_sun,
+  cmd->add_flag("!--no-sun-estimate", args->image.estimate_sun,
                 "Without --sun-azimuth, do not estimate it from the shading of the image's craters "
                 "(the shading checks stay off)");
-  cmd->add_option("--tile-size", args->detector.tile_size, "Tile core edge [px]")
+  cmd->add_option("--tile-size", args->image.detector.tile_size, "Tile core edge [px]")
       ->check(IntegerAtLeast(256))
       ->capture_default_str();
-  cmd->add_option("--tile-overlap", args->detector.tile_overlap,
+  cmd->add_option("--tile-overlap", args->image.detector.tile_overlap,
                   "Tile margin [px] (at most --tile-size)")
       ->check(IntegerAtLeast(32))
       ->capture_default_str();
-  cmd->add_option("--min-shading-contrast", args->detector.min_shading_contrast,
+  cmd->add_option("--min-shading-contrast", args->image.detector.min_shading_contrast,
                   "Image with sun: wall contrast threshold")
       ->check(FiniteNumber())
       ->capture_default_str();
-  cmd->add_option("--min-coverage", args->detector.min_coverage,
+  cmd->add_option("--min-coverage", args->image.detector.min_coverage,
                   "Fraction of rim sectors that must hold edges")
       ->check(NumberIn(0.0, 1.0))
       ->capture_default_str();
-  cmd->add_option("--max-axis-ratio", args->detector.max_axis_ratio, "Largest a / b accepted")
+  cmd->add_option("--max-axis-ratio", args->image.detector.max_axis_ratio, "Largest a / b accepted")
       ->check(NumberAtLeast(1.0))
       ->capture_default_str();
-  cmd->add_option("--min-edge-contrast", args->detector.min_edge_contrast,
+  cmd->add_option("--min-edge-contrast", args->image.detector.min_edge_contrast,
                   "Rim edge strength / high Canny threshold")
       ->check(NonNegativeNumber())
       ->capture_default_str();
-  cmd->add_flag("--no-upsample{false}", args->detector.upsample_small_craters,
+  cmd->add_flag("--no-upsample{false}", args->image.detector.upsample_small_craters,
                 "Skip the 2x upsampled level for craters under 16 px across (faster; finds fewer "
                 "of them)");
-  cmd->add_flag("--shading-templates", args->detector.shading_template.enabled,
+  cmd->add_flag("--shading-templates", args->image.detector.shading_template.enabled,
                 "Also seek small degraded bowls by their shading (needs a sun azimuth, given or "
                 "estimated; ~1.35x time)");
+}
+
+CratersArgs ParseCratersArguments(const std::vector<std::string>& arguments) {
+  CLI::App app("areomap craters options");
+  CratersArgs parsed;
+  AddCraterDetectionOptions(app.add_option_group("detection"), &parsed);
+  std::vector<std::string> reversed(arguments.rbegin(), arguments.rend());
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    throw Error(std::string("the plan's craters options cannot be read (") + e.what() + ")");
+  }
+  return parsed;
+}
+
+void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
+  auto args = std::make_shared<CratersArgs>();
+  CLI::App* detection_group = nullptr;
+  auto* cmd = app.add_subcommand(
+      "craters", "Detect crater rims in an image or DTM: ellipses, uncertainties, models");
+  cmd->footer(kCratersDetails);
+  cmd->require_subcommand(0, 1);
+  cmd->add_option("input", args->inputs,
+                  "Image or DTM raster (GeoTIFF, PNG, ISIS3, PDS...); two or more: a catalogue "
+                  "(georeferenced, projected Mars CRS) merged in DIR");
+  cmd->add_option("--list", args->list,
+                  "Catalogue: also the images listed in FILE, one path a line (blank lines and "
+                  "# comments skipped)");
+  cmd->add_option("--out", args->out_dir, "Output folder (created if needed)");
+  detection_group = cmd->add_option_group("Detection options");
+  AddCraterDetectionOptions(detection_group, args.get());
+  AddExecutorOptions(cmd, &args->executor);
 
   auto score_args = std::make_shared<std::array<std::string, 4>>();
   auto min_score_diameter = std::make_shared<double>(8.0);
@@ -348,18 +233,30 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
     line(s.all);
     (void)global;
   });
-  cmd->callback([cmd, args, &global] {
+  cmd->callback([cmd, args, detection_group, &global] {
     if (!cmd->get_subcommands().empty()) return;  // `craters score` ran
-    if (args->input.empty()) throw Error("craters: missing INPUT raster (or use 'craters score')");
+    if (args->inputs.empty() && args->list.empty()) {
+      throw Error("craters: missing INPUT raster (or use 'craters score')");
+    }
     if (args->out_dir.empty()) throw Error("craters: --out DIR is required");
-    if (args->detector.shading_template.enabled && !args->dtm && args->method == "learned")
+    ImageOptions(*args).Check();
+    const bool planned = args->executor.plan_only || args->executor.executor != "local";
+    if (args->inputs.size() > 1 || !args->list.empty()) {
+      if (planned) {
+        RunPlannedCraterCatalogue(*args, ArgumentsGiven(*detection_group), global);
+      } else {
+        RunCraterCatalogue(*args, global);
+      }
+      return;
+    }
+    if (planned) {
       throw Error(
-          "craters: --shading-templates belongs to --method edges (the learned detector finds "
-          "degraded bowls without it)");
-    if (args->detector.shading_template.enabled && args->dtm)
-      throw Error(
-          "craters: --shading-templates needs an image, not a DTM (the bowl's shading depends on "
-          "where the sun is)");
+          "craters: --plan and --executor belong to a catalogue (two or more images, or "
+          "--list)");
+    }
+    if (!args->crs.empty()) {
+      throw Error("craters: --crs belongs to a catalogue (two or more images, or --list)");
+    }
     RunDetect(*args, global);
   });
 }

@@ -65,6 +65,7 @@ int main(int argc, char** argv) {
   areomap::cli::AddErrorsCommand(app, global);
   areomap::cli::AddAdjustCommand(app, global);
   areomap::cli::AddRunCommand(app, global);
+  areomap::cli::AddRunUnitCommands(app, global);
   areomap::cli::AddDtmCommand(app, global);
   areomap::cli::AddCratersCommand(app, global);
   areomap::cli::AddRegisterCommand(app, global);

@@ -5,13 +5,18 @@
 #include <limits>
 #include <sstream>
 
+#include "areomap/map/error.h"
 #include "areomap/map/mission_manifest.h"
+#include "areomap/pipeline/mission_plan.h"
 #include "areomap/pipeline/mission_run.h"
 #include "areomap/pipeline/run_report.h"
 #include "commands.h"
+#include "run_options.h"
 
 namespace areomap::cli {
 namespace {
+
+namespace fs = std::filesystem;
 
 // A number of the run's summary; NaN (printed "nan") where it is missing or null: undefined, as
 // the precision of no detections.
@@ -184,26 +189,9 @@ constexpr const char* kReportDetails =
     "Re-writes `DIR/report.html` (one self-contained page: key figures, traverse map, sites and\n"
     "legs tables, registration details, fault-detection tables) from a run folder.";
 
-void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
-  struct Options {
-    std::string mission;
-    std::string out;
-    MissionRunOptions run;
-    bool no_craters = false;
-    bool no_products = false;
-    bool keep_coarse_points = false;
-    bool no_leg_test = false;
-    bool no_rock_variance_pass = false;
-  };
-  auto o = std::make_shared<Options>();
-  auto* run = app.add_subcommand(
-      "run",
-      "The whole job on a mission folder: stereo, DTM and orthophoto per site, registration onto "
-      "the orbital image, rock tie points with fault detection per leg, bundle adjustment, the "
-      "anchored traverse and report.html. Finished sites and legs are reused on a re-run.");
-  run->footer(kRunDetails);
-  run->add_option("MISSION", o->mission, "Mission folder (or its mission.json)")->required();
-  run->add_option("--out", o->out, "Output folder (created if needed)")->required();
+// The mission options of `run`, kept apart from the folder and executor options so that a plan
+// can record them as given (ArgumentsGiven) and `run-unit` read them again (run_options.h).
+void AddMissionRunOptions(CLI::App* run, MissionRunArguments* o) {
   // Beyond the stereo's nearest range, which run does not change.
   std::ostringstream max_range_help;
   max_range_help << "Stereo points beyond are dropped [m] (more than the nearest range searched, "
@@ -262,18 +250,68 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
   run->add_flag("--no-craters", o->no_craters, "Skip crater detection on the orbital image");
   run->add_flag("--no-products", o->no_products,
                 "Skip the whole-traverse DTM and orthomosaic (products/)");
+}
+
+MissionRunOptions MissionRunArguments::Resolve() const {
+  MissionRunOptions options = run;
+  if (no_craters) options.detect_craters = false;
+  if (no_products) options.traverse_products = false;
+  if (keep_coarse_points) options.prefer_precise_pairs = false;
+  if (no_leg_test) options.leg_test = false;
+  if (no_rock_variance_pass) options.rock_variance_pass = false;
+  options.rocks.model_min_height_m = options.matching.fault_detection.min_peak_to_plane_m;
+  return options;
+}
+
+MissionRunOptions ParseMissionRunArguments(const std::vector<std::string>& arguments) {
+  CLI::App app("areomap run options");
+  MissionRunArguments parsed;
+  AddMissionRunOptions(app.add_option_group("mission"), &parsed);
+  std::vector<std::string> reversed(arguments.rbegin(), arguments.rend());
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    throw Error(std::string("the plan's run options cannot be read (") + e.what() + ")");
+  }
+  return parsed.Resolve();
+}
+
+void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
+  struct Options {
+    std::string mission;
+    std::string out;
+    MissionRunArguments mission_options;
+    CLI::App* mission_group = nullptr;
+    ExecutorArguments executor;
+  };
+  auto o = std::make_shared<Options>();
+  auto* run = app.add_subcommand(
+      "run",
+      "The whole job on a mission folder: stereo, DTM and orthophoto per site, registration onto "
+      "the orbital image, rock tie points with fault detection per leg, bundle adjustment, the "
+      "anchored traverse and report.html. Finished sites and legs are reused on a re-run.");
+  run->footer(kRunDetails);
+  run->add_option("MISSION", o->mission, "Mission folder (or its mission.json)")->required();
+  run->add_option("--out", o->out, "Output folder (created if needed)")->required();
+  o->mission_group = run->add_option_group("Mission options");
+  AddMissionRunOptions(o->mission_group, &o->mission_options);
+  AddExecutorOptions(run, &o->executor);
   run->callback([o, &global] {
-    if (o->no_craters) o->run.detect_craters = false;
-    if (o->no_products) o->run.traverse_products = false;
-    if (o->keep_coarse_points) o->run.prefer_precise_pairs = false;
-    if (o->no_leg_test) o->run.leg_test = false;
-    if (o->no_rock_variance_pass) o->run.rock_variance_pass = false;
-    o->run.rocks.model_min_height_m = o->run.matching.fault_detection.min_peak_to_plane_m;
-    const MissionRunSummary summary = RunMissionFolder(o->mission, o->out, o->run, global.overwrite,
-                                                       MakeProgressBar(global, "run"));
-    const nlohmann::json& json = summary.json;
+    const MissionRunOptions options = o->mission_options.Resolve();
+    if (o->executor.plan_only || o->executor.executor != "local") {
+      const WorkPlan plan = PlanMissionFolder(o->mission, o->out, options,
+                                              ArgumentsGiven(*o->mission_group), global.overwrite);
+      const bool finished = RunPlan(o->out, plan, o->executor, global);
+      if (finished && !global.quiet) {
+        PrintRunSummary(ReadJsonFile(fs::path(o->out) / "summary.json"));
+        std::printf("report: %s/report.html\n", o->out.c_str());
+      }
+      return;
+    }
+    const MissionRunSummary summary = RunMissionFolder(
+        o->mission, o->out, options, global.overwrite, MakeProgressBar(global, "run"));
     if (!global.quiet) {
-      PrintRunSummary(json);
+      PrintRunSummary(summary.json);
       std::printf("report: %s/report.html\n", o->out.c_str());
     }
   });

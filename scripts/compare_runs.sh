@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Compares two `areomap run` output folders for a change that must not alter results (a
-# refactoring): summary.json without its run-specific fields (times, the names of the folders),
-# every GeoTIFF by georeference and pixel checksums (gdalinfo), every CSV byte for byte. Prints
-# each difference; exits 1 if any, 0 if the two runs carry the same figures and rasters.
+# refactoring) or a run made another way (a plan's units on Slurm or GNU parallel): summary.json
+# without its run-specific fields (times, the mission folder, "units": which units this
+# invocation computed or reused), every GeoTIFF by georeference and pixel checksums (gdalinfo),
+# every CSV byte for byte. Prints each difference; exits 1 if any, 0 if the two runs carry the
+# same figures and rasters.
 #   bash scripts/compare_runs.sh RUN_A RUN_B [--skip UNIT]...
 # --skip UNIT leaves out a unit that is meant to differ: its folder and its summary.json entry
 # (e.g. --skip craters after a change of crater detector).
@@ -41,6 +43,7 @@ for unit in sys.argv[2:]:
     summary.pop(unit, None)
     summary.get("units", {}).pop(unit, None)
 summary.pop("mission", None)
+summary.pop("units", None)
 print(json.dumps(strip(summary), indent=1, sort_keys=True))
 PY
 }

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages areomap needs to build, test and run (the Python module
-# included: python3-dev, python3-numpy, pybind11-dev, and python3-pytest for its tests).
+# included: python3-dev, python3-numpy, pybind11-dev, and python3-pytest for its tests; GNU
+# parallel for the parallel executor, docs/cluster.md).
 # Installs only what is missing; runs `apt-get update` at most once.
 # Must run as root (or with sudo available). Safe to run repeatedly.
 #   bash scripts/install-deps.sh              build, test and run
@@ -8,6 +9,8 @@
 #                                             (scripts/crater_model/train.py: PyTorch on the CPU)
 #   bash scripts/install-deps.sh --fuzz       also what the libFuzzer targets need (clang and its
 #                                             libFuzzer / sanitizer runtimes; scripts/fuzz.sh)
+#   bash scripts/install-deps.sh --cluster    also Slurm and munge, to run plans on a Slurm
+#                                             cluster of one (scripts/slurm-single-node.sh)
 # The options combine.
 set -euo pipefail
 
@@ -26,14 +29,16 @@ packages=(
   libgtest-dev libgmock-dev
   libbenchmark-dev
   python3-dev python3-numpy pybind11-dev python3-pytest
+  parallel
 )
 for option in "$@"; do
   case "$option" in
     --training) packages+=(python3-torch python3-opencv) ;;
     # libFuzzer's runtime is only a Recommends of clang, which --no-install-recommends skips.
     --fuzz) packages+=(clang libclang-rt-14-dev) ;;
+    --cluster) packages+=(slurm-wlm munge) ;;
     *)
-      echo "error: install-deps: unknown option '$option' (expected --training, --fuzz or nothing)" >&2
+      echo "error: install-deps: unknown option '$option' (expected --training, --fuzz, --cluster or nothing)" >&2
       exit 2
       ;;
   esac

@@ -4,19 +4,15 @@
 #include <vector>
 
 #include "areomap/crater/learned_detector.h"
+#include "areomap/crater/same_crater.h"
 
 namespace areomap {
 namespace {
 
-// The scoring rule's tolerance (crater_score.h), the edge rim in the place of the truth: the
-// same crater when the centres lie closer than a quarter of the larger diameter and the
-// network's diameter is within 30 % of the rim's.
+// One crater by the scoring rule's tolerance (same_crater.h), the edge rim as the reference.
 bool SameCrater(const CraterDetection& edge, const CraterDetection& found) {
-  const double de = edge.Diameter(), df = found.Diameter();
-  if (!(de > 0.0 && df > 0.0)) return false;
-  const double ratio = df / de;
-  return (edge.ellipse.center - found.ellipse.center).norm() < 0.25 * std::max(de, df) &&
-         ratio >= 0.7 && ratio <= 1.3;
+  return areomap::SameCrater(CraterCircle{edge.ellipse.center, edge.Diameter()},
+                             CraterCircle{found.ellipse.center, found.Diameter()});
 }
 
 // Inner structure of a fitted rim: a smaller find (under 0.7 of its diameter) centred within

@@ -22,6 +22,7 @@
 #include "areomap/map/error.h"
 #include "areomap/map/output_folder.h"
 #include "areomap/pipeline/run_report.h"
+#include "areomap/pipeline/work_plan.h"
 #include "mission_units.h"
 
 namespace areomap {
@@ -30,47 +31,12 @@ namespace mission_run {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-namespace {
-
-std::string ThreeDigits(int n) {
-  char text[16];
-  std::snprintf(text, sizeof(text), "%03d", n);
-  return text;
-}
-
-// The identity of the mission's input files: the path, size and modification time of each file
-// the manifest names, hashed (FNV-1a, 64 bits). A changed input (a label edited, a mission
-// simulated again into the same folder) changes it, and so every finished unit's fingerprint.
-// Size and time rather than content, as make does: a stat per file, even for gigabytes of images.
-std::string InputFilesIdentity(const MissionManifest& mission) {
-  uint64_t hash = 14695981039346656037ull;
-  const auto add = [&hash](const std::string& text) {
-    for (const unsigned char c : text) {
-      hash ^= c;
-      hash *= 1099511628211ull;
-    }
-  };
-  for (const fs::path& file : mission.files) {
-    if (file.empty()) continue;
-    std::error_code ec;
-    const uintmax_t size = fs::file_size(file, ec);
-    const auto time = fs::last_write_time(file, ec);
-    add(file.lexically_relative(mission.root).string() + '\n' + std::to_string(size) + ' ' +
-        std::to_string(time.time_since_epoch().count()) + '\n');
-  }
-  char text[17];
-  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(hash));
-  return text;
-}
-
-json ReadJsonFile(const fs::path& path) {
+json ReadJsonOrNull(const fs::path& path) {
   std::ifstream in(path);
   if (!in) return nullptr;
   json parsed = json::parse(in, nullptr, false);
   return parsed.is_discarded() ? json(nullptr) : parsed;
 }
-
-}  // namespace
 
 RunContext::RunContext(const MissionManifest& mission_in, const MissionRunOptions& options_in,
                        fs::path out_dir_in)
@@ -78,17 +44,30 @@ RunContext::RunContext(const MissionManifest& mission_in, const MissionRunOption
       options(&options_in),
       out_dir(std::move(out_dir_in)),
       fingerprint(json{{"mission", fs::absolute(mission_in.root).lexically_normal().string()},
-                       {"inputs", InputFilesIdentity(mission_in)},
+                       {"inputs", FilesIdentity(mission_in.files, mission_in.root)},
                        {"options", options_in.ToJson()}}
                       .dump()),
       map(MapFrame::LocalEquirectangular(mission_in.body, mission_in.origin)) {}
 
+OutputFolderOptions RunFolderPolicy(const fs::path& mission, bool overwrite) {
+  OutputFolderOptions policy;
+  policy.command = "run";
+  // The plan's claims and done records (.areomap-units/) are areomap's own dot files.
+  policy.outputs = {"sites/",    "legs/",     "guided/",     "adjustment/",
+                    "craters/",  "products/", "report.html", "summary.json",
+                    "plan.json", "error.txt", "slurm/",      "parallel/"};
+  policy.inputs = {mission};
+  policy.overwrite = overwrite;
+  policy.in_place = true;
+  return policy;
+}
+
 fs::path SiteDir(const RunContext& run, int site) {
-  return run.out_dir / "sites" / ("site_" + ThreeDigits(site));
+  return run.out_dir / "sites" / SiteUnitId(site);
 }
 
 fs::path LegDir(const RunContext& run, int site_a, int site_b) {
-  return run.out_dir / "legs" / ("leg_" + ThreeDigits(site_a) + "_" + ThreeDigits(site_b));
+  return run.out_dir / "legs" / LegUnitId(site_a, site_b);
 }
 
 namespace {
@@ -122,7 +101,7 @@ bool UnitOutputFilesExist(const json& unit, const fs::path& unit_dir) {
 }  // namespace
 
 json FinishedUnit(const RunContext& run, const fs::path& unit_dir) {
-  const json unit = ReadJsonFile(unit_dir / "unit.json");
+  const json unit = ReadJsonOrNull(unit_dir / "unit.json");
   if (!unit.is_object() || unit.value("fingerprint", "") != run.fingerprint ||
       !UnitOutputFilesExist(unit, unit_dir)) {
     return nullptr;
@@ -182,7 +161,7 @@ json NetworkJson(const MissionManifest& mission, const MissionRunOptions& option
 
 // The adjusted site poses (traverse_from_site) from adjustment.json (BundleResult's JSON).
 std::vector<Rigid3d> AdjustedPoses(const fs::path& adjustment_json, size_t site_count) {
-  const json result = ReadJsonFile(adjustment_json);
+  const json result = ReadJsonOrNull(adjustment_json);
   const json sites = result.is_object() ? result.value("sites", json()) : json();
   if (!sites.is_array() || sites.size() != site_count) {
     throw Error(adjustment_json.string() + ": expected \"sites\" with " +
@@ -202,57 +181,6 @@ std::vector<Rigid3d> AdjustedPoses(const fs::path& adjustment_json, size_t site_
     }
   }
   return poses;
-}
-
-// A leg's first-pass figures: "first_pass" after the second pass matched it again, else the leg.
-const json& FirstPass(const json& leg) {
-  const auto found = leg.find("first_pass");
-  return found != leg.end() && found->is_object() ? *found : leg;
-}
-
-// The rock tie points' a-posteriori variance factor over the run's legs: their first-pass
-// conformal fits' chi2 (recorded at the pass's tie_variance_factor, scaled back to the a-priori
-// covariances) and redundancy, pooled (PoolVarianceFactor).
-PooledVarianceFactor FirstPassTieVariance(const std::vector<json>& legs) {
-  std::vector<SitePairError> fits;
-  for (const json& leg : legs) {
-    const json& first = FirstPass(leg);
-    const json chi2 = first.value("conformal_chi2", json());
-    if (!chi2.is_number() || !std::isfinite(chi2.get<double>())) continue;  // null when resumed
-    SitePairError fit;
-    fit.chi2 = chi2.get<double>() * first.value("tie_variance_factor", 1.0);
-    fit.redundancy = first.value("conformal_redundancy", 0);
-    fits.push_back(fit);
-  }
-  return PoolVarianceFactor(fits);
-}
-
-// summary.json's "rock_tie_variance": the pooled figures (null when no leg had redundancy) and
-// the factor the second pass applied (null when it did not run).
-json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional<double> applied) {
-  const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(); };
-  return {{"legs", pooled.fits},
-          {"chi2", pooled.chi2},
-          {"redundancy", pooled.redundancy},
-          {"sigma0_squared", number(pooled.estimate)},
-          {"sigma0_squared_upper_95", number(pooled.upper_95)},
-          {"applied_factor", applied ? json(*applied) : json()}};
-}
-
-// The first-pass figures a leg keeps when the second pass matches it again.
-json FirstPassRecord(const json& leg) {
-  const json& first = FirstPass(leg);
-  json record = json::object();
-  for (const char* key :
-       {"outcome", "tie_points", "rock_matches", "relative_error_percent", "conformal_chi2",
-        "conformal_redundancy", "tie_variance_factor", "seconds"}) {
-    if (first.contains(key)) record[key] = first[key];
-  }
-  return record;
-}
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace
@@ -393,6 +321,190 @@ nlohmann::json MissionRunOptions::ToJson() const {
   return figures;
 }
 
+namespace mission_run {
+namespace {
+
+// One progress bar for the whole run, shared by the site units running in parallel: sites 60 %,
+// legs 15 % (the first pass 80 % of it), craters 3 %, the adjustment 5 %, products 17 %. A
+// callback that answers false cancels the run.
+class RunProgress {
+ public:
+  static constexpr double kSites = 0.6, kLegs = 0.75, kCraters = 0.78, kAdjustment = 0.83;
+  static constexpr double kFirstPass = kSites + 0.8 * (kLegs - kSites);
+
+  RunProgress(const ProgressCallback& progress, size_t site_count)
+      : progress_(progress), site_done_(site_count, 0.0) {}
+
+  bool Report(double fraction, std::string_view stage) {
+    if (!progress_) return true;
+    std::lock_guard lock(mutex_);
+    const bool go = progress_(fraction, stage);
+    if (!go) cancelled_ = true;
+    return go;
+  }
+  ProgressCallback Span(double from, double to) {
+    return [this, from, to](double f, std::string_view stage) {
+      return Report(from + (to - from) * f, stage);
+    };
+  }
+  // Site i's own fraction, shown as the sites' share done.
+  ProgressCallback Site(size_t i) {
+    return [this, i](double f, std::string_view stage) {
+      double sum = 0.0;
+      {
+        std::lock_guard lock(mutex_);
+        site_done_[i] = f;
+        for (double d : site_done_) sum += d;
+      }
+      return Report(kSites * sum / static_cast<double>(site_done_.size()), stage);
+    };
+  }
+  void SiteDone(size_t i) {
+    std::lock_guard lock(mutex_);
+    site_done_[i] = 1.0;
+  }
+  // Leg i of `count` within [from, to].
+  ProgressCallback Leg(size_t i, size_t count, double from, double to) {
+    return [this, i, count, from, to](double f, std::string_view stage) {
+      const double n = static_cast<double>(count);
+      return Report(from + (to - from) * (static_cast<double>(i) + f) / n, stage);
+    };
+  }
+  bool cancelled() const { return cancelled_; }
+
+ private:
+  ProgressCallback progress_;
+  std::mutex mutex_;
+  std::vector<double> site_done_;
+  std::atomic<bool> cancelled_ = false;
+};
+
+// Every site unit, in parallel (TBB), computed or reused; counts them in `summary`.
+std::vector<json> RunSiteStage(const RunContext& run, RunProgress& bar,
+                               MissionRunSummary& summary) {
+  const size_t site_count = run.mission->sites.size();
+  std::vector<json> sites(site_count);
+  std::vector<char> reused(site_count, 0);  // Not vector<bool>: written from parallel tasks.
+  tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
+    if (bar.cancelled()) return;
+    bool was_reused = false;
+    sites[i] = EnsureSiteUnit(run, i, bar.Site(i), &was_reused);
+    reused[i] = was_reused;
+    bar.SiteDone(i);
+  });
+  if (bar.cancelled()) throw Error("cancelled during the site units");
+  for (const char r : reused) (r ? summary.sites_reused : summary.sites_computed)++;
+  return sites;
+}
+
+// The legs: every first pass, the second pass with the first passes' pooled variance factor
+// (MissionRunOptions::rock_variance_pass; a leg is matched again only when the factor it was
+// matched with is not the one wanted), then the legs tested against each other (a leg the test
+// changed is read from adjustment/rock_ties/).
+struct LegStage {
+  std::vector<json> legs;
+  PooledVarianceFactor first_pass;
+  std::optional<double> variance_pass;  // The factor the second pass applied.
+  std::vector<fs::path> tie_files;      // Each leg's tie points for the adjustment.
+};
+
+LegStage RunLegStage(const RunContext& run, RunProgress& bar, MissionRunSummary& summary) {
+  const size_t site_count = run.mission->sites.size();
+  const size_t leg_count = site_count > 0 ? site_count - 1 : 0;
+  SiteRocksCache site_rocks(run);
+  LegStage stage;
+  stage.legs.resize(leg_count);
+  for (size_t i = 0; i < leg_count; ++i) {
+    bool was_reused = false;
+    stage.legs[i] = EnsureLegUnit(
+        run, i, site_rocks, bar.Leg(i, leg_count, RunProgress::kSites, RunProgress::kFirstPass),
+        &was_reused);
+    ++(was_reused ? summary.legs_reused : summary.legs_computed);
+  }
+  stage.first_pass = FirstPassTieVariance(stage.legs);
+  const RockMatchingOptions final_matching =
+      SecondPassMatching(run, stage.legs, &stage.variance_pass);
+  for (size_t i = 0; i < leg_count; ++i) {
+    if (EnsureLegSecondPass(run, i, site_rocks, final_matching, stage.variance_pass, stage.legs[i],
+                            bar.Leg(i, leg_count, RunProgress::kFirstPass, RunProgress::kLegs))) {
+      ++summary.legs_rematched;
+    }
+  }
+  stage.tie_files =
+      TestLegsAgainstEachOther(run, stage.legs, run.out_dir / "adjustment" / "rock_ties");
+  return stage;
+}
+
+// The adjustment's inputs and options: network.json written, each site's own control points.
+AdjustmentStage PrepareAdjustment(const RunContext& run, const LegStage& legs) {
+  const MissionManifest& mission = *run.mission;
+  AdjustmentStage adjustment;
+  adjustment.dir = run.out_dir / "adjustment";
+  fs::create_directories(adjustment.dir);
+  WriteFileAtomically(adjustment.dir / "network.json", NetworkJson(mission, *run.options).dump(2));
+  for (const MissionSite& site : mission.sites) {
+    adjustment.site_controls.push_back(SiteDir(run, site.site) / "control_points.json");
+  }
+  adjustment.leg_tie_files = legs.tie_files;
+  adjustment.options.bundle = run.options->bundle;
+  // The second pass's variance factor decides which legs fault detection accepts; the
+  // adjustment weighs their tie points by the a-priori covariances: scaling the rock ties there
+  // left the site errors as they were and made their sigmas less honest on three generated
+  // traverses (docs/rocks.md).
+  if (legs.variance_pass) adjustment.options.rock_tie_variance_factor = 1.0 / *legs.variance_pass;
+  if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
+    adjustment.options.orbital_image = image->path;
+  }
+  return adjustment;
+}
+
+// The products unit with the adjusted poses: computed, or reused when it was made with the same
+// poses; `*unit` says which. Null when products are off.
+json EnsureProductsUnit(const RunContext& run, const ProgressCallback& progress,
+                        std::string* unit) {
+  const size_t site_count = run.mission->sites.size();
+  if (!run.options->traverse_products || site_count == 0) return nullptr;
+  const std::vector<Rigid3d> poses =
+      AdjustedPoses(run.out_dir / "adjustment" / "adjustment.json", site_count);
+  const fs::path dir = run.out_dir / "products";
+  json products = FinishedUnit(run, dir);
+  *unit = "reused";
+  if (products.is_null() || !SamePoses(products.value("poses", json()), poses)) {
+    *unit = "computed";
+    products = RunProductsUnit(run, poses, progress);
+    FinishUnit(run, dir, products);
+  }
+  products.erase("poses");  // In products/unit.json; summary.json keeps the figures.
+  return products;
+}
+
+// What each stage cost when its units were computed (this run or an earlier one), from the
+// units' records: per-site stages and legs summed (sites ran two or more at a time).
+json ComputedSeconds(const std::vector<json>& sites, const std::vector<json>& legs,
+                     const json& craters, double adjustment_seconds, const json& products) {
+  json computed = {{"stereo", 0.0}, {"dtm", 0.0}, {"ortho", 0.0}, {"registration", 0.0}};
+  for (const json& site : sites) {
+    for (auto& [stage, value] : computed.items()) {
+      value = value.get<double>() + site.value("seconds", json::object()).value(stage, 0.0);
+    }
+  }
+  double legs_seconds = 0.0;
+  for (const json& leg : legs) legs_seconds += leg.value("seconds", 0.0);
+  computed["legs"] = legs_seconds;
+  computed["craters"] = craters.is_object() ? craters.value("seconds", 0.0) : 0.0;
+  computed["adjustment"] = adjustment_seconds;
+  double products_seconds = 0.0;
+  if (products.is_object()) {
+    const json parts = products.value("seconds", json::object());
+    for (const auto& [part, value] : parts.items()) products_seconds += value.get<double>();
+  }
+  computed["products"] = products_seconds;
+  return computed;
+}
+
+}  // namespace
+}  // namespace mission_run
+
 MissionRunSummary RunMission(const MissionManifest& mission, const std::filesystem::path& out_dir,
                              const MissionRunOptions& options, const ProgressCallback& progress) {
   using namespace mission_run;
@@ -400,31 +512,7 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   const auto start = std::chrono::steady_clock::now();
   fs::create_directories(out_dir);
   const RunContext run(mission, options, out_dir);
-
-  // One bar for the run: sites 60 %, legs 15 %, craters 3 %, the adjustment 5 %, products 17 %.
-  constexpr double kSites = 0.6, kLegs = 0.75, kCraters = 0.78, kAdjustment = 0.83;
-  const size_t site_count = mission.sites.size();
-  const size_t leg_count = site_count > 0 ? site_count - 1 : 0;
-  std::mutex progress_mutex;
-  std::vector<double> site_done(site_count, 0.0);
-  std::atomic<bool> cancelled = false;
-  const auto report = [&](double fraction, std::string_view stage) {
-    if (!progress) return true;
-    std::lock_guard lock(progress_mutex);
-    const bool go = progress(fraction, stage);
-    if (!go) cancelled = true;
-    return go;
-  };
-  const auto sites_fraction = [&] {
-    double sum = 0.0;
-    for (double d : site_done) sum += d;
-    return kSites * sum / static_cast<double>(std::max<size_t>(1, site_count));
-  };
-  const auto span = [&](double from, double to) -> ProgressCallback {
-    return [&report, from, to](double f, std::string_view stage) {
-      return report(from + (to - from) * f, stage);
-    };
-  };
+  RunProgress bar(progress, std::max<size_t>(1, mission.sites.size()));
   // Wall time of each stage of this invocation [s] (reused units cost ~0).
   json stage_seconds = json::object();
   auto clock = std::chrono::steady_clock::now();
@@ -434,242 +522,39 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   };
 
   MissionRunSummary summary;
-  std::vector<json> site_summaries(site_count);
-  std::vector<bool> reused(site_count, false);
-  tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
-    if (cancelled) return;
-    const fs::path dir = SiteDir(run, mission.sites[i].site);
-    json done = FinishedUnit(run, dir);
-    if (done.is_null()) {
-      done = RunSiteUnit(run, i, [&](double f, std::string_view stage) {
-        {
-          std::lock_guard lock(progress_mutex);
-          site_done[i] = f;
-        }
-        return report(sites_fraction(), stage);
-      });
-      FinishUnit(run, dir, done);
-    } else {
-      reused[i] = true;
-    }
-    site_summaries[i] = done;
-    std::lock_guard lock(progress_mutex);
-    site_done[i] = 1.0;
-  });
-  if (cancelled) throw Error("cancelled during the site units");
-  for (bool r : reused) (r ? summary.sites_reused : summary.sites_computed)++;
+  const std::vector<json> sites = RunSiteStage(run, bar, summary);
   lap("sites");
-  // The legs: the first pass with the run's matching options, then the second with the first
-  // pass's pooled variance factor (MissionRunOptions::rock_variance_pass). A leg is matched
-  // again only when the factor it was matched with is not the one wanted.
-  constexpr double kFirstPass = kSites + 0.8 * (kLegs - kSites);
-  SiteRocksCache site_rocks(run);
-  const auto match_leg = [&](size_t i, const RockMatchingOptions& matching, double from,
-                             double to) {
-    const auto leg_start = std::chrono::steady_clock::now();
-    json done = RunLegUnit(run, i, i + 1, site_rocks, matching, [&](double f, std::string_view s) {
-      const double n = static_cast<double>(leg_count);
-      return report(from + (to - from) * (static_cast<double>(i) + f) / n, s);
-    });
-    done["seconds"] = SecondsSince(leg_start);
-    return done;
-  };
-  std::vector<json> leg_summaries(leg_count);
-  for (size_t i = 0; i < leg_count; ++i) {
-    const fs::path dir = LegDir(run, mission.sites[i].site, mission.sites[i + 1].site);
-    json done = FinishedUnit(run, dir);
-    if (done.is_null()) {
-      done = match_leg(i, options.matching, kSites, kFirstPass);
-      FinishUnit(run, dir, done);
-      ++summary.legs_computed;
-    } else {
-      ++summary.legs_reused;
-    }
-    leg_summaries[i] = done;
-  }
-  const PooledVarianceFactor first_pass = FirstPassTieVariance(leg_summaries);
-  const std::optional<double> variance_pass = options.RockVariancePassFactor(first_pass);
-  RockMatchingOptions final_matching = options.matching;
-  if (variance_pass) final_matching.tie_variance_factor = *variance_pass;
-  for (size_t i = 0; i < leg_count; ++i) {
-    const double recorded = leg_summaries[i].value("tie_variance_factor", 1.0);
-    const double wanted = final_matching.tie_variance_factor;
-    if (std::abs(recorded - wanted) <= 1e-12 * wanted) continue;
-    const json first = FirstPassRecord(leg_summaries[i]);
-    json done = match_leg(i, final_matching, kFirstPass, kLegs);
-    if (variance_pass) {
-      done["first_pass"] = first;
-      done["seconds"] = done["seconds"].get<double>() + first.value("seconds", 0.0);
-    }
-    FinishUnit(run, LegDir(run, mission.sites[i].site, mission.sites[i + 1].site), done);
-    leg_summaries[i] = done;
-    ++summary.legs_rematched;
-  }
-  // The legs tested against each other: a leg the test changed is read from rock_ties/.
-  const fs::path adjustment_dir = out_dir / "adjustment";
-  const std::vector<fs::path> leg_tie_files =
-      TestLegsAgainstEachOther(run, leg_summaries, adjustment_dir / "rock_ties");
+  const LegStage legs = RunLegStage(run, bar, summary);
   lap("legs");
-
   // How the whole-run units went: "computed", "reused" or "off".
   std::string craters_unit = "off", products_unit = "off";
   json craters;
   if (options.detect_craters) {
-    const fs::path dir = out_dir / "craters";
-    craters = FinishedUnit(run, dir);
-    craters_unit = craters.is_null() ? "computed" : "reused";
-    if (craters.is_null()) {
-      craters = RunCratersUnit(run, span(kLegs, kCraters));
-      craters["seconds"] = SecondsSince(clock);  // Since the legs' lap.
-      if (fs::exists(dir)) FinishUnit(run, dir, craters);
-    }
+    bool was_reused = false;
+    craters =
+        EnsureCratersUnit(run, bar.Span(RunProgress::kLegs, RunProgress::kCraters), &was_reused);
+    craters_unit = was_reused ? "reused" : "computed";
   }
   lap("craters");
-
   // The adjustment reads everything the units wrote: the network, every site's control
   // points and every leg's tie points.
-  fs::create_directories(adjustment_dir);
-  WriteFileAtomically(adjustment_dir / "network.json", NetworkJson(mission, options).dump(2));
-  // Each site's control points: its own registration's, or a guided one's (below).
-  std::vector<fs::path> site_controls;
-  for (const MissionSite& site : mission.sites) {
-    site_controls.push_back(SiteDir(run, site.site) / "control_points.json");
-  }
-  const auto inputs = [&] {
-    std::vector<fs::path> files = {adjustment_dir / "network.json"};
-    files.insert(files.end(), site_controls.begin(), site_controls.end());
-    files.insert(files.end(), leg_tie_files.begin(), leg_tie_files.end());
-    return files;
-  };
-  TraverseAdjustmentOptions adjustment;
-  adjustment.bundle = options.bundle;
-  // The second pass's variance factor decides which legs fault detection accepts; the
-  // adjustment weighs their tie points by the a-priori covariances: scaling the rock ties there
-  // left the site errors as they were and made their sigmas less honest on three generated
-  // traverses (docs/rocks.md).
-  if (variance_pass) adjustment.rock_tie_variance_factor = 1.0 / *variance_pass;
-  const json tie_variance = TieVarianceJson(first_pass, variance_pass);
-  if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
-    adjustment.orbital_image = image->path;
-  }
-  json adjusted = AdjustTraverse(inputs(), adjustment_dir, adjustment, span(kCraters, kAdjustment));
+  AdjustmentStage adjustment = PrepareAdjustment(run, legs);
+  json adjusted = adjustment.Run(bar.Span(RunProgress::kCraters, RunProgress::kAdjustment));
   lap("adjustment");
-
-  // Guided re-registration: sites that did not register, again around their adjusted poses.
-  // Sites whose orthophoto had too few valid template pixels are not tried again: a prior
-  // does not change the template. Sites whose first match turned the orthophoto by the most
-  // the rotation grid allows (the true turn may lie beyond it; their control points are then
-  // turned too little) are matched again too in the first guided pass, and a guided match
-  // replaces their control points.
-  std::vector<bool> registered(site_count, false), eligible(site_count, false),
-      turn_at_edge(site_count, false);
-  json first_pass_sites = json::array();
-  for (size_t i = 0; i < site_count; ++i) {
-    const json& r = site_summaries[i].value("registration", json::object());
-    registered[i] = r.value("matched", false) && r.value("control_points", 0) > 0;
-    eligible[i] = r.value("template_pixels", 0) >= options.match.min_template_pixels;
-    const double turn = std::abs(r.value("rotation_deg", 0.0));
-    turn_at_edge[i] =
-        registered[i] && options.match.max_rotation_deg > 0.0 &&
-        turn >= options.match.max_rotation_deg - 0.5 * options.match.rotation_step_deg;
-    if (registered[i]) first_pass_sites.push_back(mission.sites[i].site);
-  }
-  json guided = {{"registered_first_pass", first_pass_sites},
-                 {"first_adjustment", adjusted},
-                 {"passes", json::array()}};
-  for (int pass = 1; pass <= options.guided_passes; ++pass) {
-    std::vector<size_t> todo;
-    for (size_t i = 0; i < site_count; ++i) {
-      if ((!registered[i] && eligible[i]) || (pass == 1 && turn_at_edge[i])) todo.push_back(i);
-    }
-    if (todo.empty() || !mission.FirstOrbital("image")) break;
-    report(kAdjustment, "guided registration");
-    const json sites = ReadJsonFile(adjustment_dir / "adjustment.json").value("sites", json());
-    if (!sites.is_array() || sites.size() != site_count) {
-      throw Error((adjustment_dir / "adjustment.json").string() + ": expected " +
-                  std::to_string(site_count) + " sites");
-    }
-    std::vector<json> results(todo.size());
-    tbb::parallel_for(size_t{0}, todo.size(), [&](size_t k) {
-      const GuidedPrior prior =
-          GuidedPriorFromAdjustment(sites[todo[k]], options.guided_sigma_floor_m);
-      results[k] = RunGuidedRegistrationUnit(run, todo[k], pass, prior);
-    });
-    json record = {{"pass", pass},
-                   {"attempted", json::array()},
-                   {"registered", json::array()},
-                   {"replaced", json::array()}};
-    for (size_t k = 0; k < todo.size(); ++k) {
-      const int site = mission.sites[todo[k]].site;
-      const json& r = results[k]["registration"];
-      record["attempted"].push_back(
-          {{"site", site},
-           {"prior", results[k]["prior"]},
-           {"matched", r.value("matched", false)},
-           {"reason", r.value("reason", "")},
-           {"correlation", r.value("correlation", json())},
-           {"null_highest_correlation", r.value("null_highest_correlation", json())},
-           {"search_radius_px", r.value("search_radius_px", 0)},
-           {"control_points", r.value("control_points", 0)},
-           {"turn_at_edge", turn_at_edge[todo[k]]}});
-      if (r.value("matched", false) && r.value("control_points", 0) > 0) {
-        record[registered[todo[k]] ? "replaced" : "registered"].push_back(site);
-        registered[todo[k]] = true;
-        site_controls[todo[k]] = GuidedDir(run, pass, site) / "control_points.json";
-      }
-      turn_at_edge[todo[k]] = false;
-    }
-    const bool any = !record["registered"].empty() || !record["replaced"].empty();
-    if (any) {
-      adjusted = AdjustTraverse(inputs(), adjustment_dir, adjustment);
-      record["adjustment"] = adjusted;
-    }
-    guided["passes"].push_back(record);
-    if (!any) break;
-  }
+  const json guided = RunGuidedPasses(run, sites, adjustment, adjusted, [&] {
+    bar.Report(RunProgress::kAdjustment, "guided registration");
+  });
   lap("guided_registration");
-
-  json products;
-  if (options.traverse_products && site_count > 0) {
-    const std::vector<Rigid3d> poses =
-        AdjustedPoses(adjustment_dir / "adjustment.json", site_count);
-    const fs::path dir = out_dir / "products";
-    products = FinishedUnit(run, dir);
-    products_unit = "reused";
-    if (products.is_null() || !SamePoses(products.value("poses", json()), poses)) {
-      products_unit = "computed";
-      products = RunProductsUnit(run, poses, span(kAdjustment, 1.0));
-      FinishUnit(run, dir, products);
-    }
-    products.erase("poses");  // In products/unit.json; summary.json keeps the figures.
-  }
+  const json products =
+      EnsureProductsUnit(run, bar.Span(RunProgress::kAdjustment, 1.0), &products_unit);
   lap("products");
-  report(1.0, "done");
+  bar.Report(1.0, "done");
 
-  // What each stage cost when its units were computed (this run or an earlier one), from the
-  // units' records: per-site stages and legs summed (sites ran two or more at a time).
-  json computed = {{"stereo", 0.0}, {"dtm", 0.0}, {"ortho", 0.0}, {"registration", 0.0}};
-  for (const json& site : site_summaries) {
-    for (auto& [stage, value] : computed.items()) {
-      value = value.get<double>() + site.value("seconds", json::object()).value(stage, 0.0);
-    }
-  }
-  double legs_seconds = 0.0;
-  for (const json& leg : leg_summaries) legs_seconds += leg.value("seconds", 0.0);
-  computed["legs"] = legs_seconds;
-  computed["craters"] = craters.is_object() ? craters.value("seconds", 0.0) : 0.0;
-  computed["adjustment"] = stage_seconds["adjustment"];
-  double products_seconds = 0.0;
-  if (products.is_object()) {
-    const json parts = products.value("seconds", json::object());
-    for (const auto& [part, value] : parts.items()) products_seconds += value.get<double>();
-  }
-  computed["products"] = products_seconds;
   summary.json = {{"mission", mission.root.string()},
                   {"name", mission.name},
-                  {"sites", site_summaries},
-                  {"legs", leg_summaries},
-                  {"rock_tie_variance", tie_variance},
+                  {"sites", sites},
+                  {"legs", legs.legs},
+                  {"rock_tie_variance", TieVarianceJson(legs.first_pass, legs.variance_pass)},
                   {"craters", craters},
                   {"adjustment", adjusted},
                   {"guided_registration", guided},
@@ -683,7 +568,8 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
                     {"craters", craters_unit},
                     {"products", products_unit}}},
                   {"stage_seconds", stage_seconds},
-                  {"computed_seconds", computed},
+                  {"computed_seconds", ComputedSeconds(sites, legs.legs, craters,
+                                                       stage_seconds["adjustment"], products)},
                   {"seconds", SecondsSince(start)}};
   return summary;
 }
@@ -695,14 +581,7 @@ MissionRunSummary RunMissionFolder(const std::filesystem::path& mission,
   options.Check();  // Bad options fail before the mission is read.
   // In place: the run's units are files under out_dir that a later run resumes from. The lock
   // keeps a second run on the same out_dir from computing them all again at the same time.
-  OutputFolderOptions policy;
-  policy.command = "run";
-  policy.outputs = {"sites/",   "legs/",     "guided/",     "adjustment/",
-                    "craters/", "products/", "report.html", "summary.json"};
-  policy.inputs = {mission};
-  policy.overwrite = overwrite;
-  policy.in_place = true;
-  OutputFolder out(out_dir, std::move(policy));
+  OutputFolder out(out_dir, mission_run::RunFolderPolicy(mission, overwrite));
   // Every file the manifest names is checked before any work starts.
   const MissionManifest manifest = ReadMissionManifest(mission);
   MissionRunSummary summary = RunMission(manifest, out.dir(), options, progress);

@@ -93,10 +93,6 @@ SiteStereo RunSiteStereo(const RunContext& run, const MissionSite& site,
   return result;
 }
 
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 }  // namespace
 
 json RegisterSiteOrtho(const RunContext& run, const Orthophoto& ortho, const fs::path& ortho_path,

@@ -3,21 +3,27 @@
 // and writes its products atomically, its unit.json last.
 #pragma once
 
+#include <chrono>
 #include <filesystem>
+#include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "areomap/adjustment/traverse_adjustment.h"
 #include "areomap/landmarks/rock_extraction.h"
 #include "areomap/landmarks/rock_matching.h"
 #include "areomap/map/dtm.h"
 #include "areomap/map/mission_manifest.h"
 #include "areomap/map/orthophoto.h"
+#include "areomap/map/output_folder.h"
 #include "areomap/map/rigid3d.h"
 #include "areomap/map/site_georeference.h"
 #include "areomap/pipeline/mission_run.h"
+#include "areomap/pipeline/unit_claim.h"
 
 namespace areomap::mission_run {
 
@@ -28,10 +34,15 @@ struct RunContext {
   std::filesystem::path out_dir;
   std::string fingerprint;  // Options + mission, recorded in every unit.json.
   MapFrame map;             // The mission map (equirectangular at the origin).
+  UnitClaimOptions claims;  // Units are claimed (unit_claim.h): one process computes each.
 
   RunContext(const MissionManifest& mission_in, const MissionRunOptions& options_in,
              std::filesystem::path out_dir_in);
 };
+
+// The output-folder policy (output_folder.h) of a run's folder, planned or not: the units'
+// folders, the run's files and the plan's (plan.json, claims, executor scripts and logs).
+OutputFolderOptions RunFolderPolicy(const std::filesystem::path& mission, bool overwrite);
 
 std::filesystem::path SiteDir(const RunContext& run, int site);
 std::filesystem::path LegDir(const RunContext& run, int site_a, int site_b);
@@ -43,6 +54,78 @@ nlohmann::json FinishedUnit(const RunContext& run, const std::filesystem::path& 
 // files names the unit's products (the files now in its folder, but unit.json and hidden ones).
 void FinishUnit(const RunContext& run, const std::filesystem::path& unit_dir,
                 const nlohmann::json& summary);
+
+class SiteRocksCache;
+
+// A unit under its claim (ClaimFile(run.out_dir, unit_id)): its summary when FinishedUnit finds it
+// and `accept` (if given) takes it (`*reused` true), else `compute`d and recorded by FinishUnit
+// (unless `compute` wrote no folder: nothing to record). Waits while another process computes it.
+// A failure leaves error.txt in `unit_dir` and throws areomap::Error with the message.
+nlohmann::json EnsureUnit(const RunContext& run, const std::string& unit_id,
+                          const std::filesystem::path& unit_dir,
+                          const std::function<nlohmann::json()>& compute, bool* reused = nullptr,
+                          const std::function<bool(const nlohmann::json&)>& accept = nullptr);
+
+// Unit ids of the plan (mission_plan.h): "site_NNN", "leg_NNN_MMM", "leg_NNN_MMM_pass2"; the
+// first two name the units' folders too (SiteDir, LegDir).
+std::string SiteUnitId(int site);
+std::string LegUnitId(int site_a, int site_b);
+std::string SecondPassUnitId(int site_a, int site_b);
+
+// The site unit of mission.sites[site_index] (RunSiteUnit), computed or reused.
+nlohmann::json EnsureSiteUnit(const RunContext& run, size_t site_index,
+                              const ProgressCallback& progress, bool* reused = nullptr);
+// The first pass of the leg from mission.sites[index_a] to the next site (RunLegUnit with the
+// run's matching options; "seconds" recorded), computed or reused. Throws areomap::Error naming
+// the site unit when one of its sites is not finished.
+nlohmann::json EnsureLegUnit(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
+                             const ProgressCallback& progress, bool* reused = nullptr);
+// The rock tie points' a-posteriori variance factor pooled over the legs' first passes
+// (PoolVarianceFactor), and summary.json's record of it and of the factor applied.
+PooledVarianceFactor FirstPassTieVariance(const std::vector<nlohmann::json>& legs);
+nlohmann::json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional<double> applied);
+// The matching options of the legs' second pass given every leg's summary (first pass or
+// after): the run's, with the pooled factor (MissionRunOptions::RockVariancePassFactor) when
+// the pass applies; `*factor` is that factor or nullopt.
+RockMatchingOptions SecondPassMatching(const RunContext& run,
+                                       const std::vector<nlohmann::json>& legs,
+                                       std::optional<double>* factor);
+// The second pass of leg `index_a` (its summary in `leg`, updated): matched again with `matching`
+// unless it already was with that variance factor. Returns whether it was matched again.
+bool EnsureLegSecondPass(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
+                         const RockMatchingOptions& matching, std::optional<double> factor,
+                         nlohmann::json& leg, const ProgressCallback& progress);
+// The craters unit (craters/), computed or reused; null when craters are off.
+nlohmann::json EnsureCratersUnit(const RunContext& run, const ProgressCallback& progress,
+                                 bool* reused = nullptr);
+double SecondsSince(std::chrono::steady_clock::time_point start);
+
+// The JSON in `path`; null when the file is missing or not JSON.
+nlohmann::json ReadJsonOrNull(const std::filesystem::path& path);
+
+// The adjustment of a run (adjustment/): its inputs (the network, each site's control points,
+// each leg's tie points) and its options; repeated by the guided passes with the control points
+// they swap in.
+struct AdjustmentStage {
+  std::filesystem::path dir;
+  std::vector<std::filesystem::path> site_controls;  // One per mission site.
+  std::vector<std::filesystem::path> leg_tie_files;  // One per leg.
+  TraverseAdjustmentOptions options;
+  // AdjustTraverse on network.json, the site controls and the leg ties; its summary.
+  nlohmann::json Run(const ProgressCallback& progress = nullptr) const;
+};
+
+// Guided re-registration after the first adjustment (MissionRunOptions::guided_passes): each
+// pass matches again the sites that did not register (with enough template pixels) around
+// their adjusted poses, and in the first pass also those whose match turned the orthophoto by
+// the most the rotation grid allows; a site that registers swaps its control points in
+// `adjustment` and the adjustment is repeated (`adjusted` updated). Stops when a pass
+// registers nothing. Returns summary.json's "guided_registration". `announce` is called before
+// each pass that has sites to try.
+nlohmann::json RunGuidedPasses(const RunContext& run,
+                               const std::vector<nlohmann::json>& site_summaries,
+                               AdjustmentStage& adjustment, nlohmann::json& adjusted,
+                               const std::function<void()>& announce);
 
 // Where telemetry puts a site: traverse_from_site with the believed (level, north-up) frame.
 Rigid3d TelemetryTraverseFromSite(const MissionSitePose& pose);

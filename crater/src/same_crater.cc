@@ -1,0 +1,28 @@
+#include "areomap/crater/same_crater.h"
+
+#include <algorithm>
+
+namespace areomap {
+namespace {
+
+constexpr double kCentreTolerance = 0.25;  // x the larger diameter
+constexpr double kMinRatio = 0.7;          // other / reference diameter
+constexpr double kMaxRatio = 1.3;
+
+}  // namespace
+
+bool SameCrater(const CraterCircle& reference, const CraterCircle& other) {
+  const double dr = reference.diameter, d = other.diameter;
+  if (!(dr > 0.0 && d > 0.0)) return false;
+  const double ratio = d / dr;
+  return (reference.center - other.center).norm() < kCentreTolerance * std::max(dr, d) &&
+         ratio >= kMinRatio && ratio <= kMaxRatio;
+}
+
+bool SameCraterEitherWay(const CraterCircle& a, const CraterCircle& b) {
+  return SameCrater(a, b) || SameCrater(b, a);
+}
+
+double SameCraterSearchRadius(double diameter) { return kCentreTolerance * diameter / kMinRatio; }
+
+}  // namespace areomap

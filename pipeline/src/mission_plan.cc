@@ -1,0 +1,213 @@
+#include "areomap/pipeline/mission_plan.h"
+
+#include <chrono>
+
+#include "areomap/map/error.h"
+#include "areomap/map/output_folder.h"
+#include "mission_units.h"
+
+namespace areomap {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using namespace mission_run;
+
+namespace {
+
+std::string Relative(const fs::path& path, const fs::path& root) {
+  return path.lexically_relative(root).generic_string();
+}
+
+}  // namespace
+
+WorkPlan PlanMission(const MissionManifest& mission, const fs::path& out_dir,
+                     const MissionRunOptions& options, std::vector<std::string> arguments) {
+  options.Check();
+  const fs::path dir = fs::absolute(out_dir).lexically_normal();
+  const RunContext run(mission, options, dir);
+  WorkPlan plan;
+  plan.job = "run";
+  plan.inputs = {fs::absolute(mission.root).lexically_normal().string()};
+  plan.arguments = std::move(arguments);
+  plan.fingerprint = run.fingerprint;
+
+  PlannedStage sites{"sites", {}, {}};
+  for (const MissionSite& site : mission.sites) {
+    sites.units.push_back(
+        {SiteUnitId(site.site),
+         Relative(SiteDir(run, site.site), dir),
+         {},
+         "stereo, DTM, orthophoto and orbital registration of site " + std::to_string(site.site)});
+  }
+  PlannedStage legs{"legs", {"sites"}, {}};
+  PlannedStage second{"legs_second_pass", {"legs"}, {}};
+  std::vector<std::string> leg_ids;
+  for (size_t i = 0; i + 1 < mission.sites.size(); ++i) {
+    const int a = mission.sites[i].site, b = mission.sites[i + 1].site;
+    leg_ids.push_back(LegUnitId(a, b));
+    legs.units.push_back({LegUnitId(a, b),
+                          Relative(LegDir(run, a, b), dir),
+                          {SiteUnitId(a), SiteUnitId(b)},
+                          "rocks and cross-site matching of sites " + std::to_string(a) + " and " +
+                              std::to_string(b) + " (first pass)"});
+  }
+  for (size_t i = 0; i + 1 < mission.sites.size(); ++i) {
+    const int a = mission.sites[i].site, b = mission.sites[i + 1].site;
+    second.units.push_back({SecondPassUnitId(a, b), Relative(LegDir(run, a, b), dir), leg_ids,
+                            "the leg matched again with the rock ties' pooled variance factor "
+                            "when the second pass applies"});
+  }
+  PlannedStage craters{"craters", {}, {}};
+  if (options.detect_craters) {
+    craters.units.push_back({"craters", "craters", {}, "crater detection on the orbital image"});
+  }
+  PlannedStage finish{"finish", {"sites", "legs_second_pass"}, {}};
+  PlannedUnit last{"finish", ".", {}, ""};
+  for (const PlannedStage* stage : {&sites, &second, &craters}) {
+    for (const PlannedUnit& unit : stage->units) last.after.push_back(unit.id);
+  }
+  if (!craters.units.empty()) finish.after.push_back("craters");
+  last.description =
+      "the legs' test, bundle adjustment, guided re-registration, traverse products, "
+      "summary.json and report.html";
+  finish.units.push_back(last);
+  plan.stages = {sites, legs, second};
+  if (!craters.units.empty()) plan.stages.push_back(craters);
+  plan.stages.push_back(finish);
+  return plan;
+}
+
+WorkPlan PlanMissionFolder(const fs::path& mission, const fs::path& out_dir,
+                           const MissionRunOptions& options,
+                           const std::vector<std::string>& arguments, bool overwrite) {
+  options.Check();
+  // The same plan already in place (a second executor started on it): reused as it is, without
+  // taking the folder, whose start would remove the temporaries of units running elsewhere.
+  if (fs::exists(out_dir / kPlanFileName)) {
+    const MissionManifest manifest = ReadMissionManifest(mission);
+    const WorkPlan wanted = PlanMission(manifest, out_dir, options, arguments);
+    try {
+      const WorkPlan existing = ReadWorkPlan(out_dir);
+      if (existing.ToJson() == wanted.ToJson()) return existing;
+    } catch (const Error&) {
+      // Not a plan of this version: the output-folder policy below decides.
+    }
+  }
+  OutputFolder out(out_dir, RunFolderPolicy(mission, overwrite));
+  const MissionManifest manifest = ReadMissionManifest(mission);
+  const WorkPlan plan = PlanMission(manifest, out.dir(), options, arguments);
+  WriteWorkPlan(out.dir(), plan);
+  out.Commit();
+  return plan;
+}
+
+namespace {
+
+// Every leg's first pass, as its unit recorded it; throws areomap::Error naming the first leg
+// that is not finished.
+std::vector<json> FinishedLegs(const RunContext& run) {
+  std::vector<json> legs;
+  const std::vector<MissionSite>& sites = run.mission->sites;
+  for (size_t i = 0; i + 1 < sites.size(); ++i) {
+    json leg = FinishedUnit(run, LegDir(run, sites[i].site, sites[i + 1].site));
+    if (leg.is_null()) {
+      throw Error("the legs' second pass needs every leg's first pass; " +
+                  LegUnitId(sites[i].site, sites[i + 1].site) + " is not finished");
+    }
+    legs.push_back(std::move(leg));
+  }
+  return legs;
+}
+
+size_t SiteIndex(const MissionManifest& mission, int site) {
+  for (size_t i = 0; i < mission.sites.size(); ++i) {
+    if (mission.sites[i].site == site) return i;
+  }
+  throw Error("the mission has no site " + std::to_string(site));
+}
+
+// Runs one planned unit of the run, under its claim; true when it was already done. Throws
+// areomap::Error on failure.
+bool RunOneMissionUnit(const RunContext& run, const fs::path& mission_folder, const std::string& id,
+                       SiteRocksCache& rocks, const ProgressCallback& progress) {
+  const MissionManifest& mission = *run.mission;
+  int a = -1, b = -1;
+  char tail[8] = {};
+  bool reused = false;
+  if (std::sscanf(id.c_str(), "site_%d", &a) == 1) {
+    EnsureSiteUnit(run, SiteIndex(mission, a), progress, &reused);
+  } else if (std::sscanf(id.c_str(), "leg_%d_%d_%7s", &a, &b, tail) == 3) {
+    const size_t index = SiteIndex(mission, a);
+    std::vector<json> legs = FinishedLegs(run);
+    std::optional<double> factor;
+    const RockMatchingOptions matching = SecondPassMatching(run, legs, &factor);
+    reused = !EnsureLegSecondPass(run, index, rocks, matching, factor, legs[index], progress);
+  } else if (std::sscanf(id.c_str(), "leg_%d_%d", &a, &b) == 2) {
+    EnsureLegUnit(run, SiteIndex(mission, a), rocks, progress, &reused);
+  } else if (id == "craters") {
+    EnsureCratersUnit(run, progress, &reused);
+  } else if (id == "finish") {
+    std::string error;
+    const UnitOutcome outcome = RunClaimedUnit(
+        ClaimFile(run.out_dir, id), run.out_dir / "error.txt", id,
+        [&] { return DoneFileMatches(run.out_dir, id, run.fingerprint); },
+        [&] {
+          RunMissionFolder(mission_folder, run.out_dir, *run.options, /*overwrite=*/false,
+                           progress);
+          WriteDoneFile(run.out_dir, id, run.fingerprint);
+        },
+        run.claims, /*wait=*/true, &error);
+    if (outcome == UnitOutcome::kFailed) throw Error(error);
+    reused = outcome == UnitOutcome::kReused;
+  } else {
+    throw Error("not a unit of a mission plan: " + id);
+  }
+  return reused;
+}
+
+}  // namespace
+
+std::vector<UnitRunRecord> RunMissionPlanUnits(const fs::path& out_dir, const WorkPlan& plan,
+                                               const MissionRunOptions& options,
+                                               const std::vector<std::string>& unit_ids,
+                                               const UnitClaimOptions& claims,
+                                               const ProgressCallback& progress) {
+  if (plan.job != "run" || plan.inputs.size() != 1) {
+    throw Error((out_dir / kPlanFileName).string() + ": not a plan of `areomap run` (job \"" +
+                plan.job + "\")");
+  }
+  options.Check();
+  claims.Check();
+  for (const std::string& id : unit_ids) plan.Unit(id);  // Unknown ids fail before any work.
+  const fs::path dir = fs::absolute(out_dir).lexically_normal();
+  const MissionManifest mission = ReadMissionManifest(plan.inputs[0]);
+  RunContext run(mission, options, dir);
+  run.claims = claims;
+  if (run.fingerprint != plan.fingerprint) {
+    throw Error((dir / kPlanFileName).string() +
+                ": the mission's files or the options changed since this plan was written; write "
+                "the plan again (areomap run " +
+                plan.inputs[0] + " --out " + dir.string() + " --plan)");
+  }
+  SiteRocksCache rocks(run);
+  std::vector<UnitRunRecord> records;
+  for (const std::string& id : unit_ids) {
+    UnitRunRecord record;
+    record.id = id;
+    const auto start = std::chrono::steady_clock::now();
+    try {
+      const bool reused = RunOneMissionUnit(run, plan.inputs[0], id, rocks, progress);
+      record.outcome = reused ? UnitOutcome::kReused : UnitOutcome::kComputed;
+      WriteDoneFile(dir, id, plan.fingerprint);
+    } catch (const std::exception& e) {
+      record.outcome = UnitOutcome::kFailed;
+      record.error = e.what();
+      WriteUnitError(ErrorFile(dir, plan.Unit(id)), id, e.what());
+    }
+    record.seconds = SecondsSince(start);
+    records.push_back(record);
+  }
+  return records;
+}
+
+}  // namespace areomap
