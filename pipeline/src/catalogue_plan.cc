@@ -74,19 +74,8 @@ OutputFolderOptions CataloguePlanFolderPolicy(std::vector<fs::path> inputs, bool
 WorkPlan PlanCraterCatalogueFolder(const std::vector<fs::path>& images,
                                    const std::vector<fs::path>& inputs, const fs::path& out_dir,
                                    const std::vector<std::string>& arguments, bool overwrite) {
-  const WorkPlan wanted = PlanCraterCatalogue(images, out_dir, arguments);
-  if (fs::exists(out_dir / kPlanFileName)) {
-    try {
-      const WorkPlan existing = ReadWorkPlan(out_dir);
-      if (existing.ToJson() == wanted.ToJson()) return existing;
-    } catch (const Error&) {
-      // Not a plan of this version: the output-folder policy below decides.
-    }
-  }
-  OutputFolder out(out_dir, CataloguePlanFolderPolicy(inputs, overwrite));
-  WriteWorkPlan(out.dir(), wanted);
-  out.Commit();
-  return wanted;
+  return WritePlanInFolder(out_dir, PlanCraterCatalogue(images, out_dir, arguments),
+                           CataloguePlanFolderPolicy(inputs, overwrite));
 }
 
 namespace {

@@ -81,24 +81,9 @@ WorkPlan PlanMissionFolder(const fs::path& mission, const fs::path& out_dir,
                            const MissionRunOptions& options,
                            const std::vector<std::string>& arguments, bool overwrite) {
   options.Check();
-  // The same plan already in place (a second executor started on it): reused as it is, without
-  // taking the folder, whose start would remove the temporaries of units running elsewhere.
-  if (fs::exists(out_dir / kPlanFileName)) {
-    const MissionManifest manifest = ReadMissionManifest(mission);
-    const WorkPlan wanted = PlanMission(manifest, out_dir, options, arguments);
-    try {
-      const WorkPlan existing = ReadWorkPlan(out_dir);
-      if (existing.ToJson() == wanted.ToJson()) return existing;
-    } catch (const Error&) {
-      // Not a plan of this version: the output-folder policy below decides.
-    }
-  }
-  OutputFolder out(out_dir, RunFolderPolicy(mission, overwrite));
-  const MissionManifest manifest = ReadMissionManifest(mission);
-  const WorkPlan plan = PlanMission(manifest, out.dir(), options, arguments);
-  WriteWorkPlan(out.dir(), plan);
-  out.Commit();
-  return plan;
+  const MissionManifest manifest = ReadMissionManifest(mission);  // Every file it names checked.
+  return WritePlanInFolder(out_dir, PlanMission(manifest, out_dir, options, arguments),
+                           RunFolderPolicy(mission, overwrite));
 }
 
 namespace {

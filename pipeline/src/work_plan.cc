@@ -1,13 +1,16 @@
 #include "areomap/pipeline/work_plan.h"
 
+#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <thread>
 
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
+#include "areomap/map/output_folder.h"
 
 namespace areomap {
 
@@ -162,6 +165,32 @@ std::string FilesIdentity(const std::vector<fs::path>& files, const fs::path& ro
   char text[17];
   std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(hash));
   return text;
+}
+
+WorkPlan WritePlanInFolder(const fs::path& dir, const WorkPlan& plan,
+                           const OutputFolderOptions& policy) {
+  const auto same_plan_there = [&] {
+    if (!fs::exists(dir / kPlanFileName)) return false;
+    try {
+      return ReadWorkPlan(dir).ToJson() == plan.ToJson();
+    } catch (const Error&) {
+      return false;  // Not a plan of this version: the policy decides.
+    }
+  };
+  if (same_plan_there()) return plan;
+  try {
+    OutputFolder out(dir, policy);
+    WriteWorkPlan(out.dir(), plan);
+    out.Commit();
+    return plan;
+  } catch (const Error&) {
+    if (!fs::exists(dir / OutputFolder::kLockName)) throw;
+    for (int i = 0; i < 50; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      if (same_plan_there()) return plan;
+    }
+    throw;
+  }
 }
 
 fs::path ClaimFile(const fs::path& dir, const std::string& unit_id) {

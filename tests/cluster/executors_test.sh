@@ -78,19 +78,18 @@ if wanted kill; then
 fi
 
 if wanted twice; then
-  step "two executors on one plan at once"
-  "$areomap" --quiet run "$mission" --out "$work/twice" --plan
-  units=$(python3 -c 'import json,sys
-plan = json.load(open(sys.argv[1]))
-print(" ".join(u["id"] for s in plan["stages"] for u in s["units"]))' "$work/twice/plan.json")
-  # shellcheck disable=SC2086
-  "$areomap" run-unit "$work/twice" $units > "$work/twice_a.log" 2>&1 &
+  step "two executors started at once on one folder (one writes the plan, both use it)"
+  "$areomap" run "$mission" --out "$work/twice" --executor parallel --jobs 2 \
+    > "$work/twice_a.log" 2>&1 &
   first=$!
-  # shellcheck disable=SC2086
-  "$areomap" run-unit "$work/twice" $units > "$work/twice_b.log" 2>&1 &
+  "$areomap" run "$mission" --out "$work/twice" --executor parallel --jobs 2 \
+    > "$work/twice_b.log" 2>&1 &
   second=$!
   wait "$first"
   wait "$second"
+  units=$(python3 -c 'import json,sys
+plan = json.load(open(sys.argv[1]))
+print(" ".join(u["id"] for s in plan["stages"] for u in s["units"]))' "$work/twice/plan.json")
   for unit in $units; do
     computed=$(cat "$work/twice_a.log" "$work/twice_b.log" | grep -c "^$unit: computed" || true)
     # A second pass that has nothing to do is reused by both.

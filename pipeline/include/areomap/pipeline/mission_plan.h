@@ -37,10 +37,10 @@ namespace areomap {
 WorkPlan PlanMission(const MissionManifest& mission, const std::filesystem::path& out_dir,
                      const MissionRunOptions& options, std::vector<std::string> arguments);
 
-// `areomap run MISSION --out DIR --plan`: checks `options`, takes `out_dir` under the output-folder
-// policy as RunMissionFolder does (the plan's files are the run's), reads the manifest (every
-// file it names checked), writes out_dir/plan.json and records it. The same plan already there
-// is returned as it is (a second executor on the plan). Throws areomap::Error as those steps do.
+// `areomap run MISSION --out DIR --plan`: checks `options`, reads the manifest (every file it
+// names checked), and writes out_dir/plan.json under the output-folder policy of the run
+// (WritePlanInFolder: the plan's files are the run's; the same plan already there is returned as
+// it is). Throws areomap::Error as those steps do.
 WorkPlan PlanMissionFolder(const std::filesystem::path& mission,
                            const std::filesystem::path& out_dir, const MissionRunOptions& options,
                            const std::vector<std::string>& arguments, bool overwrite = false);

@@ -19,6 +19,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "areomap/map/output_folder.h"
+
 namespace areomap {
 
 struct PlannedUnit {
@@ -62,6 +64,15 @@ constexpr const char* kUnitsFolderName = ".areomap-units";
 // (and saying how to make one) when it is missing or malformed.
 void WriteWorkPlan(const std::filesystem::path& dir, const WorkPlan& plan);
 WorkPlan ReadWorkPlan(const std::filesystem::path& dir);
+
+// Writes `plan` as DIR/plan.json under the output-folder `policy` (output_folder.h: the folder's
+// checks, its lock, the record of its outputs) and returns it. The same plan already there is
+// returned as it is, without taking the folder (a second executor started on the plan: taking it
+// would remove the temporaries of units running elsewhere); when another process holds the
+// folder, waits up to 10 s for it to write the same plan (two executors started at once).
+// Throws areomap::Error from the policy.
+WorkPlan WritePlanInFolder(const std::filesystem::path& dir, const WorkPlan& plan,
+                           const OutputFolderOptions& policy);
 
 std::filesystem::path ClaimFile(const std::filesystem::path& dir, const std::string& unit_id);
 std::filesystem::path DoneFile(const std::filesystem::path& dir, const std::string& unit_id);
