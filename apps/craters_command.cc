@@ -142,16 +142,7 @@ void AddCraterDetectionOptions(CLI::App* cmd, CratersArgs* args) {
 }
 
 CratersArgs ParseCratersArguments(const std::vector<std::string>& arguments) {
-  CLI::App app("areomap craters options");
-  CratersArgs parsed;
-  AddCraterDetectionOptions(app.add_option_group("detection"), &parsed);
-  std::vector<std::string> reversed(arguments.rbegin(), arguments.rend());
-  try {
-    app.parse(reversed);
-  } catch (const CLI::ParseError& e) {
-    throw Error(std::string("the plan's craters options cannot be read (") + e.what() + ")");
-  }
-  return parsed;
+  return ParsePlanArguments(arguments, &AddCraterDetectionOptions, "craters");
 }
 
 void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {

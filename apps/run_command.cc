@@ -264,16 +264,7 @@ MissionRunOptions MissionRunArguments::Resolve() const {
 }
 
 MissionRunOptions ParseMissionRunArguments(const std::vector<std::string>& arguments) {
-  CLI::App app("areomap run options");
-  MissionRunArguments parsed;
-  AddMissionRunOptions(app.add_option_group("mission"), &parsed);
-  std::vector<std::string> reversed(arguments.rbegin(), arguments.rend());
-  try {
-    app.parse(reversed);
-  } catch (const CLI::ParseError& e) {
-    throw Error(std::string("the plan's run options cannot be read (") + e.what() + ")");
-  }
-  return parsed.Resolve();
+  return ParsePlanArguments(arguments, &AddMissionRunOptions, "run").Resolve();
 }
 
 void AddRunCommand(CLI::App& app, const GlobalOptions& global) {

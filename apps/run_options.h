@@ -10,6 +10,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "areomap/map/error.h"
 #include "areomap/pipeline/mission_run.h"
 #include "areomap/pipeline/work_plan.h"
 #include "cli_common.h"
@@ -30,6 +31,24 @@ void AddMissionRunOptions(CLI::App* command, MissionRunArguments* arguments);
 // The options a plan recorded (ArgumentsGiven), read again; throws areomap::Error when they do
 // not parse (a plan written by another version).
 MissionRunOptions ParseMissionRunArguments(const std::vector<std::string>& arguments);
+
+// A plan's recorded options (ArgumentsGiven) read again with the options `add` registers, into
+// a fresh app; throws areomap::Error naming the `command` when they do not parse (a plan written
+// by another version).
+template <typename Args>
+Args ParsePlanArguments(const std::vector<std::string>& arguments, void (*add)(CLI::App*, Args*),
+                        const std::string& command) {
+  CLI::App app("areomap " + command + " options");
+  Args parsed;
+  add(app.add_option_group("recorded"), &parsed);
+  std::vector<std::string> reversed(arguments.rbegin(), arguments.rend());
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    throw Error("the plan's " + command + " options cannot be read (" + e.what() + ")");
+  }
+  return parsed;
+}
 
 // The options given on the command line among `group`'s, as words ("--posting", "0.2", ...).
 std::vector<std::string> ArgumentsGiven(const CLI::App& group);
