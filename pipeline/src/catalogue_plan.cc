@@ -6,6 +6,7 @@
 #include "areomap/crater/crater_catalogue.h"
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
+#include "mission_units.h"
 
 namespace areomap {
 
@@ -33,9 +34,8 @@ std::vector<fs::path> PlanImages(const WorkPlan& plan) {
 
 }  // namespace
 
-WorkPlan PlanCraterCatalogue(const std::vector<fs::path>& images_in, const fs::path& out_dir,
+WorkPlan PlanCraterCatalogue(const std::vector<fs::path>& images_in,
                              std::vector<std::string> arguments) {
-  (void)out_dir;  // Unit folders are relative to it.
   std::vector<fs::path> images;
   for (const fs::path& image : images_in) images.push_back(fs::absolute(image).lexically_normal());
   WorkPlan plan;
@@ -74,15 +74,11 @@ OutputFolderOptions CataloguePlanFolderPolicy(std::vector<fs::path> inputs, bool
 WorkPlan PlanCraterCatalogueFolder(const std::vector<fs::path>& images,
                                    const std::vector<fs::path>& inputs, const fs::path& out_dir,
                                    const std::vector<std::string>& arguments, bool overwrite) {
-  return WritePlanInFolder(out_dir, PlanCraterCatalogue(images, out_dir, arguments),
+  return WritePlanInFolder(out_dir, PlanCraterCatalogue(images, arguments),
                            CataloguePlanFolderPolicy(inputs, overwrite));
 }
 
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // The merge unit: writes the merged files in place and summary.json; throws areomap::Error naming
 // the failed images after writing them.
@@ -134,6 +130,7 @@ std::vector<UnitRunRecord> RunCataloguePlanUnits(const fs::path& out_dir, const 
   CraterImageOptions image_options = image;
   image_options.require_ground = true;
   image_options.Check();
+  bool model_checked = false;  // Loaded once, for the first image unit (not for the merge).
   std::vector<UnitRunRecord> records;
   for (const std::string& id : unit_ids) {
     const PlannedStage* stage = nullptr;
@@ -146,8 +143,9 @@ std::vector<UnitRunRecord> RunCataloguePlanUnits(const fs::path& out_dir, const 
         MergeUnit(dir, plan, merge, summary_head, progress);
         return;
       }
+      if (!model_checked) CheckCraterModel(image_options);
+      model_checked = true;
       const size_t index = static_cast<size_t>(&unit - stage->units.data());
-      CheckCraterModel(image_options);
       const CatalogueImageRecord r =
           RunCraterCatalogueImage(plan.inputs[index], dir / unit.folder, image_options, progress);
       if (!r.ok) throw Error(r.error);
@@ -161,7 +159,7 @@ std::vector<UnitRunRecord> RunCataloguePlanUnits(const fs::path& out_dir, const 
         },
         claims, /*wait=*/true, &record.error);
     record.outcome = outcome;
-    record.seconds = SecondsSince(start);
+    record.seconds = mission_run::SecondsSince(start);
     records.push_back(record);
   }
   return records;

@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 #include "areomap/map/output_folder.h"
 #include "mission_units.h"
@@ -88,9 +89,17 @@ WorkPlan PlanMissionFolder(const fs::path& mission, const fs::path& out_dir,
 
 namespace {
 
-// Every leg's first pass, as its unit recorded it; throws areomap::Error naming the first leg
-// that is not finished.
-std::vector<json> FinishedLegs(const RunContext& run) {
+// The variance factor of the legs' second pass, for that stage's units: pooled once from every
+// leg's first pass and kept in DIR/.areomap-units/second_pass.json with the plan's fingerprint,
+// so that each of the stage's units (one per leg, each maybe its own process) reads that file
+// rather than every leg's record. Throws areomap::Error naming the first leg not finished.
+std::optional<double> PlannedSecondPassFactor(const RunContext& run) {
+  const fs::path record = run.out_dir / kUnitsFolderName / "second_pass.json";
+  const json kept = ReadJsonOrNull(record);
+  if (kept.is_object() && kept.value("fingerprint", "") == run.fingerprint) {
+    const json factor = kept.value("factor", json());
+    return factor.is_number() ? std::optional<double>(factor.get<double>()) : std::nullopt;
+  }
   std::vector<json> legs;
   const std::vector<MissionSite>& sites = run.mission->sites;
   for (size_t i = 0; i + 1 < sites.size(); ++i) {
@@ -101,37 +110,39 @@ std::vector<json> FinishedLegs(const RunContext& run) {
     }
     legs.push_back(std::move(leg));
   }
-  return legs;
+  const std::optional<double> factor = SecondPassFactor(run, legs);
+  fs::create_directories(record.parent_path());
+  WriteFileAtomically(
+      record,
+      json{{"fingerprint", run.fingerprint}, {"factor", factor ? json(*factor) : json()}}.dump());
+  return factor;
 }
 
-size_t SiteIndex(const MissionManifest& mission, int site) {
-  for (size_t i = 0; i < mission.sites.size(); ++i) {
-    if (mission.sites[i].site == site) return i;
-  }
-  throw Error("the mission has no site " + std::to_string(site));
-}
-
-// Runs one planned unit of the run, under its claim; true when it was already done. Throws
+// Runs one planned unit of the run (the `index`-th of its stage: PlanMission lists sites and
+// legs in the mission's order), under its claim; true when it was already done. Throws
 // areomap::Error on failure.
-bool RunOneMissionUnit(const RunContext& run, const fs::path& mission_folder, const std::string& id,
-                       SiteRocksCache& rocks, const ProgressCallback& progress) {
-  const MissionManifest& mission = *run.mission;
-  int a = -1, b = -1;
-  char tail[8] = {};
+bool RunOneMissionUnit(const RunContext& run, const fs::path& mission_folder,
+                       const PlannedStage& stage, size_t index, SiteRocksCache& rocks,
+                       const ProgressCallback& progress) {
   bool reused = false;
-  if (std::sscanf(id.c_str(), "site_%d", &a) == 1) {
-    EnsureSiteUnit(run, SiteIndex(mission, a), progress, &reused);
-  } else if (std::sscanf(id.c_str(), "leg_%d_%d_%7s", &a, &b, tail) == 3) {
-    const size_t index = SiteIndex(mission, a);
-    std::vector<json> legs = FinishedLegs(run);
-    std::optional<double> factor;
-    const RockMatchingOptions matching = SecondPassMatching(run, legs, &factor);
-    reused = !EnsureLegSecondPass(run, index, rocks, matching, factor, legs[index], progress);
-  } else if (std::sscanf(id.c_str(), "leg_%d_%d", &a, &b) == 2) {
-    EnsureLegUnit(run, SiteIndex(mission, a), rocks, progress, &reused);
-  } else if (id == "craters") {
+  if (stage.name == "sites") {
+    EnsureSiteUnit(run, index, progress, &reused);
+  } else if (stage.name == "legs") {
+    EnsureLegUnit(run, index, rocks, progress, &reused);
+  } else if (stage.name == "legs_second_pass") {
+    const std::optional<double> factor = PlannedSecondPassFactor(run);
+    const MissionSite& a = run.mission->sites[index];
+    const MissionSite& b = run.mission->sites[index + 1];
+    json leg = FinishedUnit(run, LegDir(run, a.site, b.site));
+    if (leg.is_null()) {
+      throw Error(SecondPassUnitId(a.site, b.site) + " needs the leg unit " +
+                  LegUnitId(a.site, b.site) + " finished first");
+    }
+    reused = !EnsureLegSecondPass(run, index, rocks, factor, leg, progress);
+  } else if (stage.name == "craters") {
     EnsureCratersUnit(run, progress, &reused);
-  } else if (id == "finish") {
+  } else if (stage.name == "finish") {
+    const std::string id = stage.units[index].id;
     std::string error;
     const UnitOutcome outcome = RunClaimedUnit(
         ClaimFile(run.out_dir, id), run.out_dir / "error.txt", id,
@@ -145,7 +156,7 @@ bool RunOneMissionUnit(const RunContext& run, const fs::path& mission_folder, co
     if (outcome == UnitOutcome::kFailed) throw Error(error);
     reused = outcome == UnitOutcome::kReused;
   } else {
-    throw Error("not a unit of a mission plan: " + id);
+    throw Error("not a stage of a mission plan: " + stage.name);
   }
   return reused;
 }
@@ -181,7 +192,10 @@ std::vector<UnitRunRecord> RunMissionPlanUnits(const fs::path& out_dir, const Wo
     record.id = id;
     const auto start = std::chrono::steady_clock::now();
     try {
-      const bool reused = RunOneMissionUnit(run, plan.inputs[0], id, rocks, progress);
+      const PlannedStage* stage = nullptr;
+      const PlannedUnit& unit = plan.Unit(id, &stage);
+      const size_t index = static_cast<size_t>(&unit - stage->units.data());
+      const bool reused = RunOneMissionUnit(run, plan.inputs[0], *stage, index, rocks, progress);
       record.outcome = reused ? UnitOutcome::kReused : UnitOutcome::kComputed;
       WriteDoneFile(dir, id, plan.fingerprint);
     } catch (const std::exception& e) {

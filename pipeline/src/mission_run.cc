@@ -422,10 +422,9 @@ LegStage RunLegStage(const RunContext& run, RunProgress& bar, MissionRunSummary&
     ++(was_reused ? summary.legs_reused : summary.legs_computed);
   }
   stage.first_pass = FirstPassTieVariance(stage.legs);
-  const RockMatchingOptions final_matching =
-      SecondPassMatching(run, stage.legs, &stage.variance_pass);
+  stage.variance_pass = SecondPassFactor(run, stage.legs);
   for (size_t i = 0; i < leg_count; ++i) {
-    if (EnsureLegSecondPass(run, i, site_rocks, final_matching, stage.variance_pass, stage.legs[i],
+    if (EnsureLegSecondPass(run, i, site_rocks, stage.variance_pass, stage.legs[i],
                             bar.Leg(i, leg_count, RunProgress::kFirstPass, RunProgress::kLegs))) {
       ++summary.legs_rematched;
     }

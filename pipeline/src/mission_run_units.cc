@@ -142,17 +142,15 @@ json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional<double> a
           {"applied_factor", applied ? json(*applied) : json()}};
 }
 
-RockMatchingOptions SecondPassMatching(const RunContext& run, const std::vector<json>& legs,
-                                       std::optional<double>* factor) {
-  *factor = run.options->RockVariancePassFactor(FirstPassTieVariance(legs));
-  RockMatchingOptions matching = run.options->matching;
-  if (*factor) matching.tie_variance_factor = **factor;
-  return matching;
+std::optional<double> SecondPassFactor(const RunContext& run, const std::vector<json>& legs) {
+  return run.options->RockVariancePassFactor(FirstPassTieVariance(legs));
 }
 
 bool EnsureLegSecondPass(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
-                         const RockMatchingOptions& matching, std::optional<double> factor,
-                         json& leg, const ProgressCallback& progress) {
+                         std::optional<double> factor, json& leg,
+                         const ProgressCallback& progress) {
+  RockMatchingOptions matching = run.options->matching;
+  if (factor) matching.tie_variance_factor = *factor;
   const double wanted = matching.tie_variance_factor;
   const auto matched_with_wanted = [wanted](const json& summary) {
     return std::abs(summary.value("tie_variance_factor", 1.0) - wanted) <= 1e-12 * wanted;

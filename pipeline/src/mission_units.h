@@ -84,17 +84,17 @@ nlohmann::json EnsureLegUnit(const RunContext& run, size_t index_a, SiteRocksCac
 // (PoolVarianceFactor), and summary.json's record of it and of the factor applied.
 PooledVarianceFactor FirstPassTieVariance(const std::vector<nlohmann::json>& legs);
 nlohmann::json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional<double> applied);
-// The matching options of the legs' second pass given every leg's summary (first pass or
-// after): the run's, with the pooled factor (MissionRunOptions::RockVariancePassFactor) when
-// the pass applies; `*factor` is that factor or nullopt.
-RockMatchingOptions SecondPassMatching(const RunContext& run,
-                                       const std::vector<nlohmann::json>& legs,
-                                       std::optional<double>* factor);
-// The second pass of leg `index_a` (its summary in `leg`, updated): matched again with `matching`
-// unless it already was with that variance factor. Returns whether it was matched again.
+// The variance factor the legs' second pass applies given every leg's summary (first pass or
+// after): the pooled factor (MissionRunOptions::RockVariancePassFactor), nullopt when the pass
+// does not apply.
+std::optional<double> SecondPassFactor(const RunContext& run,
+                                       const std::vector<nlohmann::json>& legs);
+// The second pass of leg `index_a` (its summary in `leg`, updated): matched again with the run's
+// matching options and `factor` (the run's own tie_variance_factor when nullopt) unless it
+// already was with that factor. Returns whether it was matched again.
 bool EnsureLegSecondPass(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
-                         const RockMatchingOptions& matching, std::optional<double> factor,
-                         nlohmann::json& leg, const ProgressCallback& progress);
+                         std::optional<double> factor, nlohmann::json& leg,
+                         const ProgressCallback& progress);
 // The craters unit (craters/), computed or reused; null when craters are off.
 nlohmann::json EnsureCratersUnit(const RunContext& run, const ProgressCallback& progress,
                                  bool* reused = nullptr);

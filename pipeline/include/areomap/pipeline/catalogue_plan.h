@@ -31,10 +31,9 @@
 
 namespace areomap {
 
-// The plan of a catalogue of `images` into `out_dir`; `arguments` are the craters command's
-// options as given (recorded for run-unit to read again).
+// The plan of a catalogue of `images` (unit folders relative to the output folder);
+// `arguments` are the craters command's options as given (recorded for run-unit to read again).
 WorkPlan PlanCraterCatalogue(const std::vector<std::filesystem::path>& images,
-                             const std::filesystem::path& out_dir,
                              std::vector<std::string> arguments);
 
 // The output-folder policy of a planned catalogue (in place: units write into DIR/images/).
