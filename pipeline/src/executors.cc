@@ -173,6 +173,14 @@ std::string NotDone(const fs::path& dir, const WorkPlan& plan,
   return lines;
 }
 
+// True when no unit of `stage` was started: none done, running or failed.
+bool NoneStarted(const fs::path& dir, const WorkPlan& plan, const std::string& stage) {
+  for (const UnitStatus& s : ReadPlanStatus(dir, plan)) {
+    if (s.stage == stage && s.state != UnitState::kPending) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 SlurmSubmission SubmitPlanToSlurm(const fs::path& dir_in, const WorkPlan& plan,
@@ -254,6 +262,7 @@ void RunPlanWithGnuParallel(const fs::path& dir_in, const WorkPlan& plan,
   const std::string executable = Executable(options.executor);
   fs::create_directories(dir / "parallel");
   std::vector<std::string> failed_stages;  // Stages that ended with units not done.
+  std::string none_started;                // Stages that parallel ran without starting a unit.
   for (const PlannedStage& stage : plan.stages) {
     if (stage.units.empty()) continue;
     const bool blocked = std::any_of(stage.after.begin(), stage.after.end(), [&](const auto& s) {
@@ -280,6 +289,7 @@ void RunPlanWithGnuParallel(const fs::path& dir_in, const WorkPlan& plan,
     RunProgram(argv, /*capture=*/false);
     if (!NotDone(dir, plan, {stage.name}).empty()) {
       failed_stages.push_back(stage.name);
+      if (NoneStarted(dir, plan, stage.name)) none_started.append(" ").append(stage.name);
     } else if (stage_done) {
       stage_done(stage.name);
     }
@@ -289,7 +299,12 @@ void RunPlanWithGnuParallel(const fs::path& dir_in, const WorkPlan& plan,
     throw Error(
         "GNU parallel ended with units not done (their error.txt; stages after a failed "
         "one are not run):" +
-        missing);
+        missing +
+        (none_started.empty()
+             ? std::string()
+             : "\nGNU parallel started no unit of stage(s)" + none_started + ": each host needs " +
+                   executable + ", the folder " + dir.string() +
+                   " and, for its remote worker, SHELL set in the environment"));
   }
 }
 
