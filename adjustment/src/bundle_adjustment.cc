@@ -7,7 +7,6 @@
 #include <deque>
 #include <map>
 #include <memory>
-#include <set>
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -18,6 +17,7 @@
 #include <Eigen/SparseCholesky>
 
 #include "areomap/map/error.h"
+#include "bundle_checks.h"
 #include "bundle_costs.h"
 
 namespace areomap {
@@ -25,6 +25,7 @@ namespace {
 
 using bundle_internal::AbsolutePointResidual;
 using bundle_internal::AbsolutePoseResidual;
+using bundle_internal::CheckSite;
 using bundle_internal::HeightResidual;
 using bundle_internal::ImageResidual;
 using bundle_internal::RelativePoseResidual;
@@ -585,154 +586,7 @@ class Network {
   ceres::ResidualBlockId site0_prior_ = nullptr;
 };
 
-void CheckSite(int site, int count, const std::string& what) {
-  if (site < 0 || site >= count) {
-    throw Error("bundle input: " + what + ": site " + std::to_string(site) + " is not in [0, " +
-                std::to_string(count) + ")");
-  }
-}
-
-void CheckFinite(const Eigen::MatrixXd& m, const std::string& what) {
-  if (!m.allFinite()) throw Error("bundle input: " + what + " is not finite");
-}
-
 }  // namespace
-
-Matrix6d PoseCovarianceFromSigmas(const Eigen::Vector3d& rotation_sigma_rad,
-                                  const Eigen::Vector3d& translation_sigma_m) {
-  Vector6d sigmas;
-  sigmas << rotation_sigma_rad, translation_sigma_m;
-  return sigmas.cwiseAbs2().asDiagonal();
-}
-
-Matrix6d DeadReckoningCovariance(const Eigen::Vector3d& leg_in_a, double scale_sigma,
-                                 double heading_sigma_rad, const Vector6d& floor_sigmas) {
-  // Error of (rotation vector, translation) = s * d_s + drift * d_drift.
-  // The scale error acts on the horizontal leg: heights come from the inclinometers.
-  const Eigen::Vector3d horizontal(leg_in_a.x(), leg_in_a.y(), 0.0);
-  Vector6d d_scale, d_drift;
-  d_scale << 0, 0, 0, horizontal;
-  d_drift << Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ().cross(horizontal);
-  const double s2 = scale_sigma * scale_sigma, h2 = heading_sigma_rad * heading_sigma_rad;
-  Matrix6d c = s2 * d_scale * d_scale.transpose() + h2 * d_drift * d_drift.transpose();
-  // Second-order terms of (1 + s) Rz(drift) d - d, linearized at the measured leg: (s^2 +
-  // drift^2 / 2) along the leg and 2 s drift across it (variances 3 s^4 + 3/4 drift^4, 4 s^2
-  // drift^2 for Gaussian s and drift). They exceed any small floor on long legs.
-  const double length2 = horizontal.squaredNorm();
-  if (length2 > 0.0) {
-    const Eigen::Vector3d u = horizontal.normalized();
-    const Eigen::Vector3d across = Eigen::Vector3d::UnitZ().cross(u);
-    c.bottomRightCorner<3, 3>() += (3.0 * s2 * s2 + 0.75 * h2 * h2) * length2 * u * u.transpose() +
-                                   4.0 * s2 * h2 * length2 * across * across.transpose();
-  }
-  c.diagonal() += floor_sigmas.cwiseAbs2();
-  return c;
-}
-
-std::string ToString(ObservationKind kind) {
-  switch (kind) {
-    case ObservationKind::kTiePoint:
-      return "tie_point";
-    case ObservationKind::kControlPoint:
-      return "control_point";
-    case ObservationKind::kPosePrior:
-      return "pose_prior";
-    case ObservationKind::kHeight:
-      return "height";
-  }
-  return "unknown";
-}
-
-void BundleInput::Check() const {
-  if (site_count < 1) throw Error("bundle input: site_count must be at least 1");
-  body.Check();
-  if (!IsValid(origin)) throw Error("bundle input: origin is not a valid lat/lon/h");
-  if (!initial_poses.empty() && static_cast<int>(initial_poses.size()) != site_count) {
-    throw Error("bundle input: " + std::to_string(initial_poses.size()) + " initial poses for " +
-                std::to_string(site_count) + " sites");
-  }
-  std::set<std::string> ids;
-  for (const TiePoint& t : tie_points) {
-    const std::string what = "tie point '" + t.id + "'";
-    CheckSite(t.site_a, site_count, what + " site_a");
-    CheckSite(t.site_b, site_count, what + " site_b");
-    if (t.site_a == t.site_b) throw Error("bundle input: " + what + ": site_a equals site_b");
-    CheckFinite(t.position_in_a, what + " position_in_a");
-    CheckFinite(t.position_in_b, what + " position_in_b");
-    if (!ids.insert(t.id).second) throw Error("bundle input: duplicate point id '" + t.id + "'");
-  }
-  for (const ControlPoint& c : control_points) {
-    const std::string what = "control point '" + c.id + "'";
-    CheckSite(c.site, site_count, what);
-    CheckFinite(c.position_in_site, what + " position_in_site");
-    CheckFinite(c.position_mbf, what + " position_mbf");
-    if (!ids.insert(c.id).second) throw Error("bundle input: duplicate point id '" + c.id + "'");
-  }
-  for (const RelativePosePrior& p : priors) {
-    const std::string what =
-        "pose prior " + std::to_string(p.site_a) + "-" + std::to_string(p.site_b);
-    CheckSite(p.site_a, site_count, what);
-    CheckSite(p.site_b, site_count, what);
-    if (p.site_a == p.site_b) throw Error("bundle input: " + what + ": site_a equals site_b");
-    CheckFinite(p.a_from_b.translation, what + " translation");
-  }
-  std::map<std::string, std::vector<int>> landmark_sites;
-  for (const TiePoint& t : tie_points) landmark_sites[t.id] = {t.site_a, t.site_b};
-  for (const ControlPoint& c : control_points) landmark_sites[c.id] = {c.site};
-  for (const ImageObservation& o : image_observations) {
-    const std::string what = "image observation of '" + o.landmark_id + "' in '" + o.image + "'";
-    const auto landmark = landmark_sites.find(o.landmark_id);
-    if (landmark == landmark_sites.end()) {
-      throw Error("bundle input: " + what + ": no tie point or control point has that id");
-    }
-    if (std::find(landmark->second.begin(), landmark->second.end(), o.site) ==
-        landmark->second.end()) {
-      throw Error("bundle input: " + what + ": site " + std::to_string(o.site) +
-                  " is not one of the landmark's sites");
-    }
-    if (!(o.sigma_px > 0.0) || !o.pixel.allFinite()) {
-      throw Error("bundle input: " + what + ": expected a finite pixel and a positive sigma_px");
-    }
-  }
-  for (const SiteHeight& h : heights) {
-    CheckSite(h.site, site_count, "height");
-    if (!(h.sigma_m > 0.0) || !std::isfinite(h.height_m)) {
-      throw Error("bundle input: height of site " + std::to_string(h.site) +
-                  ": expected a finite height and a positive sigma_m");
-    }
-  }
-}
-
-void BundleOptions::Check() const {
-  RequireOption(huber_scale > 0.0, "BundleOptions.huber_scale", "> 0 sigmas");
-  RequireOption(rejection_alpha > 0.0 && rejection_alpha < 0.5, "BundleOptions.rejection_alpha",
-                "in (0, 0.5)");
-  RequireOption(max_rejection_rounds >= 0, "BundleOptions.max_rejection_rounds", ">= 0");
-  RequireOption(max_iterations >= 1, "BundleOptions.max_iterations", ">= 1");
-  RequireOption(num_threads >= 1, "BundleOptions.num_threads", ">= 1");
-}
-
-Matrix6d BundleResult::RelativeCovariance(int site_a, int site_b) const {
-  if (pose_covariance.rows() == 0) return Matrix6d::Zero();
-  const auto block = [&](int i, int j) -> Matrix6d {
-    return pose_covariance.block<6, 6>(6 * i, 6 * j);
-  };
-  return block(site_a, site_a) + block(site_b, site_b) - block(site_a, site_b) -
-         block(site_b, site_a);
-}
-
-std::string BundleResult::BriefReport() const {
-  int only_priors = 0;
-  for (const SiteReport& s : sites) only_priors += s.only_priors ? 1 : 0;
-  char text[400];
-  std::snprintf(text, sizeof(text),
-                "bundle adjustment: %zu sites, %zu observation groups, %d rejected in %d rounds; "
-                "sigma0 %.3f (redundancy %d); %d iterations, %s; solve %.3f s, covariance %.3f "
-                "s; %d sites linked by priors only",
-                sites.size(), observations.size(), rejected, rejection_rounds, sigma0, redundancy,
-                iterations, termination.c_str(), solve_seconds, covariance_seconds, only_priors);
-  return text;
-}
 
 BundleResult AdjustBundle(const BundleInput& input, const BundleOptions& options,
                           const ProgressCallback& progress) {
@@ -786,62 +640,5 @@ BundleResult IncrementalBundle::AdjustWindow(int window) {
 }
 
 BundleResult IncrementalBundle::Full() { return Adjust({}); }
-
-nlohmann::json ToJson(const BundleResult& result) {
-  nlohmann::json sites = nlohmann::json::array();
-  for (const SiteReport& s : result.sites) {
-    const auto pose = [](const Rigid3d& p) {
-      const Eigen::Quaterniond& q = p.rotation;
-      return nlohmann::json{
-          {"position_m", {p.translation.x(), p.translation.y(), p.translation.z()}},
-          {"rotation_wxyz", {q.w(), q.x(), q.y(), q.z()}}};
-    };
-    nlohmann::json covariance = nlohmann::json::array();
-    for (int r = 0; r < 6; ++r) {
-      nlohmann::json row = nlohmann::json::array();
-      for (int c = 0; c < 6; ++c) row.push_back(s.covariance(r, c));
-      covariance.push_back(row);
-    }
-    sites.push_back({{"site", s.site},
-                     {"initial", pose(s.initial)},
-                     {"adjusted", pose(s.adjusted)},
-                     {"shift_m", (s.adjusted.translation - s.initial.translation).norm()},
-                     {"covariance", covariance},
-                     {"held", s.held},
-                     {"tie_points", s.tie_points},
-                     {"control_points", s.control_points},
-                     {"heights", s.heights},
-                     {"only_priors", s.only_priors}});
-  }
-  nlohmann::json observations = nlohmann::json::array();
-  for (const ObservationReport& o : result.observations) {
-    nlohmann::json j = {{"kind", ToString(o.kind)},
-                        {"id", o.id},
-                        {"sites", o.sites},
-                        {"chi2", o.chi2},
-                        {"dof", o.dof},
-                        {"threshold", o.threshold},
-                        {"residual", o.residual_m},
-                        {"rejected", o.rejected}};
-    if (o.rejected) j["reason"] = o.reason;
-    observations.push_back(j);
-  }
-  nlohmann::json images = nlohmann::json::array();
-  for (const ImageReport& i : result.images) {
-    images.push_back({{"image", i.image}, {"observations", i.observations}, {"rms_px", i.rms_px}});
-  }
-  return {{"sigma0", result.sigma0},
-          {"redundancy", result.redundancy},
-          {"rejected", result.rejected},
-          {"rejection_rounds", result.rejection_rounds},
-          {"iterations", result.iterations},
-          {"converged", result.converged},
-          {"termination", result.termination},
-          {"solve_seconds", result.solve_seconds},
-          {"covariance_seconds", result.covariance_seconds},
-          {"sites", sites},
-          {"observations", observations},
-          {"images", images}};
-}
 
 }  // namespace areomap

@@ -187,12 +187,11 @@ void ReadTiePointArray(const json& doc, const Where& w, std::vector<TiePoint>& t
   }
 }
 
-void ReadSections(const json& doc, const Where& w, BundleInputFile& out) {
-  BundleInput& input = out.input;
-  const json& priors = Array(doc, "priors", w);
-  for (size_t i = 0; i < priors.size(); ++i) {
+void ReadPriorArray(const json& doc, const Where& w, std::vector<RelativePosePrior>& priors) {
+  const json& array = Array(doc, "priors", w);
+  for (size_t i = 0; i < array.size(); ++i) {
     const Where wp = (w / "priors")[i];
-    const json& p = priors[i];
+    const json& p = array[i];
     RelativePosePrior prior;
     prior.site_a = Integer(Field(p, "site_a", wp), wp / "site_a");
     prior.site_b = Integer(Field(p, "site_b", wp), wp / "site_b");
@@ -200,9 +199,51 @@ void ReadSections(const json& doc, const Where& w, BundleInputFile& out) {
         Rigid3d(Rotation(p, wp), Position(Field(p, "position_m", wp), wp / "position_m"));
     prior.covariance = PoseCovariance(p, wp);
     prior.source = Text(p, "source", prior.source, wp);
-    input.priors.push_back(prior);
+    priors.push_back(prior);
   }
-  ReadTiePointArray(doc, w, input.tie_points);
+}
+
+// A control point's MBF position: from "position_traverse_m", "position_mbf_m" or
+// "lat_deg"/"lon_deg"/"h_m", the first present.
+Eigen::Vector3d ControlPositionMbf(const json& c, const Where& wc, const BundleInput& input,
+                                   const Rigid3d& mbf_from_traverse) {
+  if (c.contains("position_traverse_m")) {
+    return mbf_from_traverse * Position(c.at("position_traverse_m"), wc / "position_traverse_m");
+  }
+  if (c.contains("position_mbf_m")) return Position(c.at("position_mbf_m"), wc / "position_mbf_m");
+  const Geographic g{RadFromDeg(Number(Field(c, "lat_deg", wc), wc / "lat_deg")),
+                     RadFromDeg(Number(Field(c, "lon_deg", wc), wc / "lon_deg")),
+                     Number(Field(c, "h_m", wc), wc / "h_m")};
+  if (!IsValid(g)) (wc / "lat_deg").Fail("a latitude in [-90, 90] degrees");
+  return MbfFromGeographic(input.body, g);
+}
+
+// A control point's MBF covariance: from "covariance_mbf_m2", "covariance_traverse_m2" or
+// "sigma_horizontal_m"/"sigma_vertical_m" (local level frame at `position_mbf`).
+Eigen::Matrix3d ControlCovarianceMbf(const json& c, const Where& wc, const BundleInput& input,
+                                     const Rigid3d& mbf_from_traverse,
+                                     const Eigen::Vector3d& position_mbf) {
+  if (c.contains("covariance_mbf_m2")) {
+    return Matrix<3>(c.at("covariance_mbf_m2"), wc / "covariance_mbf_m2");
+  }
+  if (c.contains("covariance_traverse_m2")) {
+    const Eigen::Matrix3d r = mbf_from_traverse.RotationMatrix();
+    return r * Matrix<3>(c.at("covariance_traverse_m2"), wc / "covariance_traverse_m2") *
+           r.transpose();
+  }
+  // Horizontal and vertical sigmas in the local level frame at the point.
+  const double h = Number(Field(c, "sigma_horizontal_m", wc), wc / "sigma_horizontal_m");
+  const double v = Number(Field(c, "sigma_vertical_m", wc), wc / "sigma_vertical_m");
+  if (!(h > 0.0) || !(v > 0.0)) (wc / "sigma_horizontal_m").Fail("positive sigmas");
+  const Eigen::Matrix3d mbf_from_enu =
+      EnuFromMbf(input.body, GeographicFromMbf(input.body, position_mbf))
+          .RotationMatrix()
+          .transpose();
+  return mbf_from_enu * Eigen::Vector3d(h * h, h * h, v * v).asDiagonal() *
+         mbf_from_enu.transpose();
+}
+
+void ReadControlPointArray(const json& doc, const Where& w, BundleInput& input) {
   const json& controls = Array(doc, "control_points", w);
   for (size_t i = 0; i < controls.size(); ++i) {
     const Where wc = (w / "control_points")[i];
@@ -215,41 +256,15 @@ void ReadSections(const json& doc, const Where& w, BundleInputFile& out) {
     control.covariance_in_site =
         Matrix<3>(Field(c, "covariance_in_site_m2", wc), wc / "covariance_in_site_m2");
     const Rigid3d mbf_from_traverse = SiteFromMbf(input.body, input.origin).Inverse();
-    const bool in_traverse = c.contains("position_traverse_m");
-    if (in_traverse) {
-      control.position_mbf =
-          mbf_from_traverse * Position(c.at("position_traverse_m"), wc / "position_traverse_m");
-    } else if (c.contains("position_mbf_m")) {
-      control.position_mbf = Position(c.at("position_mbf_m"), wc / "position_mbf_m");
-    } else {
-      const Geographic g{RadFromDeg(Number(Field(c, "lat_deg", wc), wc / "lat_deg")),
-                         RadFromDeg(Number(Field(c, "lon_deg", wc), wc / "lon_deg")),
-                         Number(Field(c, "h_m", wc), wc / "h_m")};
-      if (!IsValid(g)) (wc / "lat_deg").Fail("a latitude in [-90, 90] degrees");
-      control.position_mbf = MbfFromGeographic(input.body, g);
-    }
-    if (c.contains("covariance_mbf_m2")) {
-      control.covariance_mbf = Matrix<3>(c.at("covariance_mbf_m2"), wc / "covariance_mbf_m2");
-    } else if (c.contains("covariance_traverse_m2")) {
-      const Eigen::Matrix3d r = mbf_from_traverse.RotationMatrix();
-      control.covariance_mbf =
-          r * Matrix<3>(c.at("covariance_traverse_m2"), wc / "covariance_traverse_m2") *
-          r.transpose();
-    } else {
-      // Horizontal and vertical sigmas in the local level frame at the point.
-      const double h = Number(Field(c, "sigma_horizontal_m", wc), wc / "sigma_horizontal_m");
-      const double v = Number(Field(c, "sigma_vertical_m", wc), wc / "sigma_vertical_m");
-      if (!(h > 0.0) || !(v > 0.0)) (wc / "sigma_horizontal_m").Fail("positive sigmas");
-      const Eigen::Matrix3d mbf_from_enu =
-          EnuFromMbf(input.body, GeographicFromMbf(input.body, control.position_mbf))
-              .RotationMatrix()
-              .transpose();
-      control.covariance_mbf = mbf_from_enu * Eigen::Vector3d(h * h, h * h, v * v).asDiagonal() *
-                               mbf_from_enu.transpose();
-    }
+    control.position_mbf = ControlPositionMbf(c, wc, input, mbf_from_traverse);
+    control.covariance_mbf =
+        ControlCovarianceMbf(c, wc, input, mbf_from_traverse, control.position_mbf);
     control.source = Text(c, "source", control.source, wc);
     input.control_points.push_back(control);
   }
+}
+
+void ReadHeightArray(const json& doc, const Where& w, std::vector<SiteHeight>& out) {
   const json& heights = Array(doc, "heights", w);
   for (size_t i = 0; i < heights.size(); ++i) {
     const Where wh = (w / "heights")[i];
@@ -258,46 +273,61 @@ void ReadSections(const json& doc, const Where& w, BundleInputFile& out) {
     h.height_m = Number(Field(heights[i], "h_m", wh), wh / "h_m");
     h.sigma_m = Number(Field(heights[i], "sigma_m", wh), wh / "sigma_m");
     h.source = Text(heights[i], "source", h.source, wh);
-    input.heights.push_back(h);
+    out.push_back(h);
   }
+}
+
+ImageObservation ReadImageObservation(const json& o, const Where& wi) {
+  ImageObservation image;
+  const json& landmark = Field(o, "landmark", wi);
+  if (!landmark.is_string()) (wi / "landmark").Fail("a tie point or control point id");
+  image.landmark_id = landmark.get<std::string>();
+  image.site = Integer(Field(o, "site", wi), wi / "site");
+  image.image = Text(o, "image", "", wi);
+  image.pixel = Vector<2>(Field(o, "pixel", wi), wi / "pixel");
+  image.sigma_px = Number(Field(o, "sigma_px", wi), wi / "sigma_px");
+  const Where wc = wi / "camera";
+  const json& camera = Field(o, "camera", wi);
+  CahvorModel& m = image.camera_in_site;
+  m.c = Vector<3>(Field(camera, "c", wc), wc / "c");
+  m.a = Vector<3>(Field(camera, "a", wc), wc / "a");
+  m.h = Vector<3>(Field(camera, "h", wc), wc / "h");
+  m.v = Vector<3>(Field(camera, "v", wc), wc / "v");
+  m.o = camera.contains("o") ? Vector<3>(camera.at("o"), wc / "o") : m.a;
+  m.r = camera.contains("r") ? Vector<3>(camera.at("r"), wc / "r") : Eigen::Vector3d::Zero();
+  return image;
+}
+
+// The document's "truth": one position per site, or none.
+void ReadTruthArray(const json& doc, const Where& w, BundleInputFile& out) {
+  const json& truth = Array(doc, "truth", w);
+  if (truth.empty()) return;
+  const int site_count = out.input.site_count;
+  out.truth.assign(static_cast<size_t>(site_count), Eigen::Vector3d::Constant(std::nan("")));
+  for (size_t i = 0; i < truth.size(); ++i) {
+    const Where wt = (w / "truth")[i];
+    const int site = Integer(Field(truth[i], "site", wt), wt / "site");
+    if (site < 0 || site >= site_count) (wt / "site").Fail("a listed site");
+    out.truth[static_cast<size_t>(site)] =
+        Position(Field(truth[i], "position_m", wt), wt / "position_m");
+  }
+  for (const Eigen::Vector3d& t : out.truth) {
+    if (!t.allFinite()) (w / "truth").Fail("a position for every site");
+  }
+}
+
+void ReadSections(const json& doc, const Where& w, BundleInputFile& out) {
+  BundleInput& input = out.input;
+  ReadPriorArray(doc, w, input.priors);
+  ReadTiePointArray(doc, w, input.tie_points);
+  ReadControlPointArray(doc, w, input);
+  ReadHeightArray(doc, w, input.heights);
   const json& images = Array(doc, "image_observations", w);
   for (size_t i = 0; i < images.size(); ++i) {
-    const Where wi = (w / "image_observations")[i];
-    const json& o = images[i];
-    ImageObservation image;
-    const json& landmark = Field(o, "landmark", wi);
-    if (!landmark.is_string()) (wi / "landmark").Fail("a tie point or control point id");
-    image.landmark_id = landmark.get<std::string>();
-    image.site = Integer(Field(o, "site", wi), wi / "site");
-    image.image = Text(o, "image", "", wi);
-    image.pixel = Vector<2>(Field(o, "pixel", wi), wi / "pixel");
-    image.sigma_px = Number(Field(o, "sigma_px", wi), wi / "sigma_px");
-    const Where wc = wi / "camera";
-    const json& camera = Field(o, "camera", wi);
-    CahvorModel& m = image.camera_in_site;
-    m.c = Vector<3>(Field(camera, "c", wc), wc / "c");
-    m.a = Vector<3>(Field(camera, "a", wc), wc / "a");
-    m.h = Vector<3>(Field(camera, "h", wc), wc / "h");
-    m.v = Vector<3>(Field(camera, "v", wc), wc / "v");
-    m.o = camera.contains("o") ? Vector<3>(camera.at("o"), wc / "o") : m.a;
-    m.r = camera.contains("r") ? Vector<3>(camera.at("r"), wc / "r") : Eigen::Vector3d::Zero();
-    input.image_observations.push_back(image);
+    input.image_observations.push_back(
+        ReadImageObservation(images[i], (w / "image_observations")[i]));
   }
-  const json& truth = Array(doc, "truth", w);
-  if (!truth.empty()) {
-    out.truth.assign(static_cast<size_t>(input.site_count),
-                     Eigen::Vector3d::Constant(std::nan("")));
-    for (size_t i = 0; i < truth.size(); ++i) {
-      const Where wt = (w / "truth")[i];
-      const int site = Integer(Field(truth[i], "site", wt), wt / "site");
-      if (site < 0 || site >= input.site_count) (wt / "site").Fail("a listed site");
-      out.truth[static_cast<size_t>(site)] =
-          Position(Field(truth[i], "position_m", wt), wt / "position_m");
-    }
-    for (const Eigen::Vector3d& t : out.truth) {
-      if (!t.allFinite()) (w / "truth").Fail("a position for every site");
-    }
-  }
+  ReadTruthArray(doc, w, out);
 }
 
 json ToJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
@@ -222,11 +223,115 @@ bool SamePoses(const json& recorded, const std::vector<Rigid3d>& poses) {
   return true;
 }
 
-json RunProductsUnit(const RunContext& run, const std::vector<Rigid3d>& traverse_from_site,
-                     const ProgressCallback& progress) {
+namespace {
+
+// Every site placed twice, with the adjusted and with the telemetry poses, and the traverse grid
+// covering both.
+struct TraversePlacement {
+  std::vector<SiteGeoreference> adjusted, telemetry;
+  DtmOptions dtm_options;  // The run's, at the traverse posting.
+  GridSpec grid;
+};
+
+TraversePlacement PlaceSites(const RunContext& run,
+                             const std::vector<Rigid3d>& traverse_from_site) {
+  const MissionManifest& mission = *run.mission;
+  const MissionRunOptions& options = *run.options;
+  TraversePlacement out;
+  Eigen::Vector2d min = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d max = -min;
+  const double reach = SiteReach(options);
+  for (size_t i = 0; i < mission.sites.size(); ++i) {
+    out.adjusted.push_back(
+        SiteGeoreference::InMission(mission.body, mission.origin, traverse_from_site[i]));
+    out.telemetry.push_back(SiteGeoreference::InMission(
+        mission.body, mission.origin, TelemetryTraverseFromSite(mission.telemetry[i])));
+    for (const SiteGeoreference* g : {&out.adjusted.back(), &out.telemetry.back()}) {
+      const Eigen::Vector2d centre = SiteOnMap(run, *g);
+      min = min.cwiseMin(centre - Eigen::Vector2d::Constant(reach));
+      max = max.cwiseMax(centre + Eigen::Vector2d::Constant(reach));
+    }
+  }
+  out.dtm_options = options.dtm;
+  out.dtm_options.posting_m = options.traverse_posting_m;
+  out.dtm_options.grid.reset();
+  out.grid = GridSpec::Covering(min, max, out.dtm_options.posting_m);
+  return out;
+}
+
+struct TraverseDtms {
+  Dtm adjusted, telemetry;
+};
+
+// Every site's points gridded with both poses and merged.
+TraverseDtms MakeTraverseDtms(const RunContext& run, const TraversePlacement& placement) {
+  const size_t site_count = run.mission->sites.size();
+  std::vector<GriddedLayers> adjusted_layers(site_count), telemetry_layers(site_count);
+  tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
+    SiteLayers layers = GridSite(run, i, placement.adjusted[i], placement.telemetry[i],
+                                 placement.grid, placement.dtm_options);
+    adjusted_layers[i] = std::move(layers.adjusted);
+    telemetry_layers[i] = std::move(layers.telemetry);
+  });
+  return {Dtm{MergeGriddedLayers(adjusted_layers, placement.grid), run.map.Wkt()},
+          Dtm{MergeGriddedLayers(telemetry_layers, placement.grid), run.map.Wkt()}};
+}
+
+struct TraverseMosaics {
+  Orthophoto adjusted, telemetry;
+};
+
+// The orthomosaic with both poses (the telemetry one only to be compared with the orbital
+// image, not written). Calls `report` between the orthophotos and the mosaics.
+TraverseMosaics MakeTraverseMosaics(const RunContext& run, const TraversePlacement& placement,
+                                    const TraverseDtms& dtms, const std::function<void()>& report) {
   const MissionManifest& mission = *run.mission;
   const MissionRunOptions& options = *run.options;
   const size_t site_count = mission.sites.size();
+  std::vector<Orthophoto> orthophotos(site_count), telemetry_orthophotos(site_count);
+  tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
+    const int first_id = static_cast<int>(i * 1000);  // Unique image ids across the mosaic.
+    const std::vector<OrthoSourceImage> images = SiteOrthoImages(mission.sites[i], first_id);
+    orthophotos[i] =
+        MakeOrthophoto(dtms.adjusted, placement.adjusted[i], run.map, images, options.ortho);
+    telemetry_orthophotos[i] =
+        MakeOrthophoto(dtms.telemetry, placement.telemetry[i], run.map, images, options.ortho);
+  });
+  report();
+  return {MakeOrthomosaic(orthophotos, dtms.adjusted.layers.grid, dtms.adjusted.crs_wkt,
+                          options.mosaic),
+          MakeOrthomosaic(telemetry_orthophotos, placement.grid, dtms.adjusted.crs_wkt,
+                          options.mosaic)};
+}
+
+// The products against the mission's orbital DTM and image (each when the mission has one),
+// added to `summary`.
+void CompareWithOrbital(const RunContext& run, const GridSpec& grid, const TraverseDtms& dtms,
+                        const TraverseMosaics& mosaics, json& summary) {
+  const MissionManifest& mission = *run.mission;
+  if (const MissionOrbitalProduct* orbital_dtm = mission.FirstOrbital("dtm")) {
+    const cv::Mat reference =
+        ResampleOntoGrid(OrbitalImage::Open(orbital_dtm->path), grid, run.map.Wkt());
+    summary["orbital_dtm"] = orbital_dtm->path.filename().string();
+    summary["dtm_minus_orbital_adjusted"] =
+        DifferenceStats(dtms.adjusted.layers.elevation, reference);
+    summary["dtm_minus_orbital_telemetry"] =
+        DifferenceStats(dtms.telemetry.layers.elevation, reference);
+  }
+  if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
+    const cv::Mat reference =
+        ResampleOntoGrid(OrbitalImage::Open(image->path), grid, run.map.Wkt());
+    summary["orbital_image"] = image->path.filename().string();
+    summary["ortho_vs_orbital_adjusted"] = Correlation(mosaics.adjusted.image, reference);
+    summary["ortho_vs_orbital_telemetry"] = Correlation(mosaics.telemetry.image, reference);
+  }
+}
+
+}  // namespace
+
+json RunProductsUnit(const RunContext& run, const std::vector<Rigid3d>& traverse_from_site,
+                     const ProgressCallback& progress) {
+  const size_t site_count = run.mission->sites.size();
   if (traverse_from_site.size() != site_count) {
     throw Error("traverse products: " + std::to_string(traverse_from_site.size()) +
                 " adjusted poses for " + std::to_string(site_count) + " sites");
@@ -236,26 +341,8 @@ json RunProductsUnit(const RunContext& run, const std::vector<Rigid3d>& traverse
   const auto report = [&](double f, std::string_view stage) {
     if (progress && !progress(f, stage)) throw Error("cancelled during the traverse products");
   };
-
-  std::vector<SiteGeoreference> adjusted, telemetry;
-  Eigen::Vector2d min = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector2d max = -min;
-  const double reach = SiteReach(options);
-  for (size_t i = 0; i < site_count; ++i) {
-    adjusted.push_back(
-        SiteGeoreference::InMission(mission.body, mission.origin, traverse_from_site[i]));
-    telemetry.push_back(SiteGeoreference::InMission(
-        mission.body, mission.origin, TelemetryTraverseFromSite(mission.telemetry[i])));
-    for (const SiteGeoreference* g : {&adjusted.back(), &telemetry.back()}) {
-      const Eigen::Vector2d centre = SiteOnMap(run, *g);
-      min = min.cwiseMin(centre - Eigen::Vector2d::Constant(reach));
-      max = max.cwiseMax(centre + Eigen::Vector2d::Constant(reach));
-    }
-  }
-  DtmOptions dtm_options = options.dtm;
-  dtm_options.posting_m = options.traverse_posting_m;
-  dtm_options.grid.reset();
-  const GridSpec grid = GridSpec::Covering(min, max, dtm_options.posting_m);
+  const TraversePlacement placement = PlaceSites(run, traverse_from_site);
+  const GridSpec& grid = placement.grid;
 
   // Wall time of the unit's parts [s].
   json seconds = json::object();
@@ -266,40 +353,16 @@ json RunProductsUnit(const RunContext& run, const std::vector<Rigid3d>& traverse
   };
 
   report(0.0, "traverse DTM");
-  std::vector<GriddedLayers> adjusted_layers(site_count), telemetry_layers(site_count);
-  tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
-    SiteLayers layers = GridSite(run, i, adjusted[i], telemetry[i], grid, dtm_options);
-    adjusted_layers[i] = std::move(layers.adjusted);
-    telemetry_layers[i] = std::move(layers.telemetry);
-  });
-  const Dtm dtm{MergeGriddedLayers(adjusted_layers, grid), run.map.Wkt()};
-  const Dtm telemetry_dtm{MergeGriddedLayers(telemetry_layers, grid), run.map.Wkt()};
-  adjusted_layers.clear();
-  telemetry_layers.clear();
-  WriteDtm(dir / "traverse_dtm.tif", dtm);
+  const TraverseDtms dtms = MakeTraverseDtms(run, placement);
+  WriteDtm(dir / "traverse_dtm.tif", dtms.adjusted);
   WriteImage(dir / "traverse_dtm.png", ShadedRelief(dir / "traverse_dtm.tif", 1000));
   lap("dtm");
 
-  // The orthomosaic with both poses (the telemetry one only to be compared with the orbital
-  // image, not written).
   report(0.4, "traverse orthomosaic");
-  std::vector<Orthophoto> orthophotos(site_count), telemetry_orthophotos(site_count);
-  tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
-    const int first_id = static_cast<int>(i * 1000);  // Unique image ids across the mosaic.
-    const std::vector<OrthoSourceImage> images = SiteOrthoImages(mission.sites[i], first_id);
-    orthophotos[i] = MakeOrthophoto(dtm, adjusted[i], run.map, images, options.ortho);
-    telemetry_orthophotos[i] =
-        MakeOrthophoto(telemetry_dtm, telemetry[i], run.map, images, options.ortho);
-  });
-  report(0.8, "traverse orthomosaic");
-  const Orthophoto mosaic =
-      MakeOrthomosaic(orthophotos, dtm.layers.grid, dtm.crs_wkt, options.mosaic);
-  const Orthophoto telemetry_mosaic =
-      MakeOrthomosaic(telemetry_orthophotos, grid, dtm.crs_wkt, options.mosaic);
-  orthophotos.clear();
-  telemetry_orthophotos.clear();
-  WriteOrthophoto(dir / "traverse_ortho.tif", mosaic);
-  WriteImage(dir / "traverse_ortho.png", Thumbnail(mosaic.image, 1000));
+  const TraverseMosaics mosaics =
+      MakeTraverseMosaics(run, placement, dtms, [&] { report(0.8, "traverse orthomosaic"); });
+  WriteOrthophoto(dir / "traverse_ortho.tif", mosaics.adjusted);
+  WriteImage(dir / "traverse_ortho.png", Thumbnail(mosaics.adjusted.image, 1000));
   lap("orthomosaic");
 
   report(0.9, "comparison with the orbital data");
@@ -308,26 +371,12 @@ json RunProductsUnit(const RunContext& run, const std::vector<Rigid3d>& traverse
       {"posting_m", grid.posting},
       {"width", grid.width},
       {"height", grid.height},
-      {"dtm_known_area_m2", dtm.layers.known_cells * cell_area},
-      {"ortho_valid_area_m2", mosaic.valid_cells * cell_area},
+      {"dtm_known_area_m2", dtms.adjusted.layers.known_cells * cell_area},
+      {"ortho_valid_area_m2", mosaics.adjusted.valid_cells * cell_area},
       {"files",
        {"traverse_dtm.tif", "traverse_dtm.png", "traverse_ortho.tif", "traverse_ortho.png"}},
       {"poses", PosesJson(traverse_from_site)}};
-  if (const MissionOrbitalProduct* orbital_dtm = mission.FirstOrbital("dtm")) {
-    const cv::Mat reference =
-        ResampleOntoGrid(OrbitalImage::Open(orbital_dtm->path), grid, run.map.Wkt());
-    summary["orbital_dtm"] = orbital_dtm->path.filename().string();
-    summary["dtm_minus_orbital_adjusted"] = DifferenceStats(dtm.layers.elevation, reference);
-    summary["dtm_minus_orbital_telemetry"] =
-        DifferenceStats(telemetry_dtm.layers.elevation, reference);
-  }
-  if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
-    const cv::Mat reference =
-        ResampleOntoGrid(OrbitalImage::Open(image->path), grid, run.map.Wkt());
-    summary["orbital_image"] = image->path.filename().string();
-    summary["ortho_vs_orbital_adjusted"] = Correlation(mosaic.image, reference);
-    summary["ortho_vs_orbital_telemetry"] = Correlation(telemetry_mosaic.image, reference);
-  }
+  CompareWithOrbital(run, grid, dtms, mosaics, summary);
   lap("comparison");
   summary["seconds"] = seconds;
   report(1.0, "traverse products");
