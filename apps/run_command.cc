@@ -10,6 +10,7 @@
 #include "areomap/pipeline/mission_plan.h"
 #include "areomap/pipeline/mission_run.h"
 #include "areomap/pipeline/run_report.h"
+#include "areomap/pipeline/run_summary.h"
 #include "commands.h"
 #include "run_options.h"
 
@@ -18,114 +19,113 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A number of the run's summary; NaN (printed "nan") where it is missing or null: undefined, as
-// the precision of no detections.
-double Number(const nlohmann::json& object, const char* key) {
-  const auto it = object.find(key);
-  return it != object.end() && it->is_number() ? it->get<double>()
-                                               : std::numeric_limits<double>::quiet_NaN();
+// A figure of the run's summary; NaN (printed "nan") where it is missing: undefined, as the
+// precision of no detections.
+double Number(const OptionalNumber& value) {
+  return value.value_or(std::numeric_limits<double>::quiet_NaN());
+}
+
+int Count(const OptionalNumber& value) { return value ? static_cast<int>(*value) : 0; }
+
+// The per-site and per-leg lines.
+void PrintSitesAndLegs(const RunSummary& s) {
+  for (const SiteSummary& site : s.sites) {
+    const SiteRegistrationSummary& r = site.registration;
+    char verdict[96];
+    if (r.matched) {
+      std::snprintf(verdict, sizeof(verdict), "matched, CC %.3f", Number(r.correlation));
+    } else {
+      std::snprintf(verdict, sizeof(verdict), "no match: %s", r.reason.c_str());
+    }
+    std::printf("site %3d: %8d points, registration %s\n", site.site, Count(site.points), verdict);
+  }
+  for (const LegSummary& leg : s.legs) {
+    std::printf("leg %3d -> %3d: %-30s %3d tie points", leg.site_a, leg.site_b, leg.outcome.c_str(),
+                leg.tie_points);
+    if (leg.first_pass && leg.first_pass->outcome != leg.outcome) {
+      std::printf(" (first pass: %s)", leg.first_pass->outcome.c_str());
+    }
+    if (leg.relative_error_percent) {
+      std::printf(", RE %.2f %%", Number(leg.relative_error_percent));
+    }
+    const LegTestSummary& test = leg.leg_test;
+    if (test.tested && !test.dropped.empty()) {
+      std::printf(" (legs' test: F %.2f > %.2f, dropped %zu)", Number(test.first_f_statistic),
+                  Number(test.f_threshold), test.dropped.size());
+    }
+    std::printf("\n");
+  }
 }
 
 // The lines a person reads after a run: per-leg outcome and RE, and the final errors.
-void PrintRunSummary(const nlohmann::json& s) {
+void PrintRunSummary(const RunSummary& s) {
+  const UnitsSummary units = s.units.value_or(UnitsSummary{});
   std::printf(
       "sites: %d computed, %d reused; legs: %d computed, %d reused, %d matched again (%.0f s)\n",
-      s["units"]["sites_computed"].get<int>(), s["units"]["sites_reused"].get<int>(),
-      s["units"]["legs_computed"].get<int>(), s["units"]["legs_reused"].get<int>(),
-      s["units"].value("legs_rematched", 0), Number(s, "seconds"));
-  for (const nlohmann::json& site : s["sites"]) {
-    const nlohmann::json& r = site["registration"];
-    char verdict[96];
-    if (r.value("matched", false)) {
-      std::snprintf(verdict, sizeof(verdict), "matched, CC %.3f", Number(r, "correlation"));
-    } else {
-      std::snprintf(verdict, sizeof(verdict), "no match: %s",
-                    r.value("reason", std::string("?")).c_str());
-    }
-    std::printf("site %3d: %8d points, registration %s\n", site["site"].get<int>(),
-                site["points"].get<int>(), verdict);
-  }
-  for (const nlohmann::json& leg : s["legs"]) {
-    std::printf("leg %3d -> %3d: %-30s %3d tie points", leg["site_a"].get<int>(),
-                leg["site_b"].get<int>(), leg["outcome"].get<std::string>().c_str(),
-                leg["tie_points"].get<int>());
-    const nlohmann::json& first = leg.value("first_pass", nlohmann::json::object());
-    if (first.contains("outcome") && first["outcome"] != leg["outcome"]) {
-      std::printf(" (first pass: %s)", first["outcome"].get<std::string>().c_str());
-    }
-    if (leg.contains("relative_error_percent")) {
-      std::printf(", RE %.2f %%", Number(leg, "relative_error_percent"));
-    }
-    const nlohmann::json& test = leg.value("leg_test", nlohmann::json::object());
-    if (test.value("tested", false) && !test.value("dropped", nlohmann::json::array()).empty()) {
-      std::printf(" (legs' test: F %.2f > %.2f, dropped %zu)", Number(test, "first_f_statistic"),
-                  Number(test, "f_threshold"), test["dropped"].size());
-    }
-    std::printf("\n");
-  }
-  const nlohmann::json& ties = s.value("rock_tie_variance", nlohmann::json::object());
-  if (ties.value("sigma0_squared", nlohmann::json()).is_number()) {
+      units.sites_computed, units.sites_reused, units.legs_computed, units.legs_reused,
+      units.legs_rematched, Number(s.seconds));
+  PrintSitesAndLegs(s);
+  const TieVarianceSummary& ties = s.tie_variance;
+  if (ties.sigma0_squared) {
     std::printf(
         "rock tie fits of %d legs: pooled sigma0^2 %.3f (95 %% upper bound %.3f, redundancy %d)\n",
-        ties.value("legs", 0), Number(ties, "sigma0_squared"),
-        Number(ties, "sigma0_squared_upper_95"), ties.value("redundancy", 0));
+        Count(ties.legs), Number(ties.sigma0_squared), Number(ties.sigma0_squared_upper_95),
+        Count(ties.redundancy));
   }
-  if (ties.value("applied_factor", nlohmann::json()).is_number()) {
+  if (ties.applied_factor) {
     std::printf("legs matched again with the rock ties' variance factor %.3f (second pass)\n",
-                Number(ties, "applied_factor"));
+                Number(ties.applied_factor));
   }
-  const nlohmann::json& guided = s.value("guided_registration", nlohmann::json::object());
-  for (const nlohmann::json& pass : guided.value("passes", nlohmann::json::array())) {
+  for (const GuidedPassSummary& pass : s.guided.passes) {
     std::printf(
         "guided registration pass %d (around the adjusted poses, %zu sites tried): %zu more",
-        pass.value("pass", 0), pass["attempted"].size(), pass["registered"].size());
-    for (const nlohmann::json& site : pass["registered"]) std::printf(" %d", site.get<int>());
-    if (!pass.value("replaced", nlohmann::json::array()).empty()) {
+        pass.pass, pass.attempted.size(), pass.registered.size());
+    for (int site : pass.registered) std::printf(" %d", site);
+    if (!pass.replaced.empty()) {
       std::printf("; re-matched (first turn at the rotation search's edge):");
-      for (const nlohmann::json& site : pass["replaced"]) std::printf(" %d", site.get<int>());
+      for (int site : pass.replaced) std::printf(" %d", site);
     }
     std::printf("\n");
   }
-  const nlohmann::json& a = s["adjustment"];
+  const AdjustmentSummary& a = s.adjustment;
   std::printf("bundle adjustment: %d tie points, %d control points, %d rejected, sigma0 %.3f\n",
-              a.value("tie_points", 0), a.value("control_points", 0), a.value("rejected", 0),
-              Number(a, "sigma0"));
-  if (a.contains("adjusted_end_error_m")) {
+              Count(a.tie_points), Count(a.control_points), Count(a.rejected), Number(a.sigma0));
+  if (a.adjusted_end_error_m) {
     std::printf("end-point error against truth over %.1f m: telemetry %.2f m, adjusted %.2f m\n",
-                Number(a, "length_m"), Number(a, "initial_end_error_m"),
-                Number(a, "adjusted_end_error_m"));
+                Number(a.length_m), Number(a.initial_end_error_m), Number(a.adjusted_end_error_m));
   }
-  if (a.contains("median_adjusted_error_m")) {
+  if (a.median_adjusted_error_m) {
     std::printf(
         "adjusted horizontal error against truth: median %.3f m, worst %.3f m; %d of %d "
         "sites within their 1-sigma ellipse's semi-major axis\n",
-        Number(a, "median_adjusted_error_m"), Number(a, "worst_adjusted_error_m"),
-        a.value("sites_within_1sigma", 0), a.value("sites", 0));
+        Number(a.median_adjusted_error_m), Number(a.worst_adjusted_error_m),
+        Count(a.sites_within_1sigma), Count(a.sites));
   }
-  const nlohmann::json& c = s.value("craters", nlohmann::json::object());
-  if (c.is_object() && c.contains("craters")) {
-    std::printf("craters on the orbital image: %d", c["craters"].get<int>());
-    if (c.contains("score")) {
+  if (s.craters && s.craters->craters) {
+    std::printf("craters on the orbital image: %d", Count(s.craters->craters));
+    if (const std::optional<CraterScoreSummary>& score = s.craters->score) {
       // Precision is undefined (null) when nothing was detected.
-      std::printf(" (truth %d: precision %.2f, recall %.2f)", c["score"].value("truth", 0),
-                  Number(c["score"], "precision"), Number(c["score"], "recall"));
+      std::printf(" (truth %d: precision %.2f, recall %.2f)", Count(score->truth),
+                  Number(score->precision), Number(score->recall));
     }
     std::printf("\n");
   }
-  const nlohmann::json& p = s.value("products", nlohmann::json::object());
-  if (p.is_object() && p.contains("dtm_minus_orbital_adjusted")) {
+  if (s.products && s.products->dtm_minus_orbital_adjusted) {
+    const DifferenceSummary& adjusted = *s.products->dtm_minus_orbital_adjusted;
+    const DifferenceSummary telemetry =
+        s.products->dtm_minus_orbital_telemetry.value_or(DifferenceSummary{});
     std::printf(
         "traverse DTM - orbital DTM over %d cells: RMS %.3f m with telemetry poses, %.3f m "
         "adjusted (products/traverse_dtm.tif, traverse_ortho.tif)\n",
-        p["dtm_minus_orbital_adjusted"].value("cells", 0),
-        Number(p["dtm_minus_orbital_telemetry"], "rms_m"),
-        Number(p["dtm_minus_orbital_adjusted"], "rms_m"));
+        Count(adjusted.cells), Number(telemetry.rms_m), Number(adjusted.rms_m));
   }
-  const nlohmann::json t = s.value("stage_seconds", nlohmann::json::object());
+  const auto stage = [&](const char* name) {
+    const auto it = s.stage_seconds.find(name);
+    return it == s.stage_seconds.end() ? std::numeric_limits<double>::quiet_NaN() : it->second;
+  };
   std::printf(
       "time: sites %.0f s, legs %.0f s, craters %.0f s, adjustment %.0f s, products %.0f s\n",
-      Number(t, "sites"), Number(t, "legs"), Number(t, "craters"), Number(t, "adjustment"),
-      Number(t, "products"));
+      stage("sites"), stage("legs"), stage("craters"), stage("adjustment"), stage("products"));
 }
 
 }  // namespace
@@ -294,7 +294,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
                                               ArgumentsGiven(*o->mission_group), global.overwrite);
       const bool finished = RunPlan(o->out, plan, o->executor, global);
       if (finished && !global.quiet) {
-        PrintRunSummary(ReadJsonFile(fs::path(o->out) / "summary.json"));
+        PrintRunSummary(ReadRunSummary(o->out));
         std::printf("report: %s/report.html\n", o->out.c_str());
       }
       return;
@@ -302,7 +302,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     const MissionRunSummary summary = RunMissionFolder(
         o->mission, o->out, options, global.overwrite, MakeProgressBar(global, "run"));
     if (!global.quiet) {
-      PrintRunSummary(summary.json);
+      PrintRunSummary(RunSummary::FromJson(summary.json, o->out + "/summary.json"));
       std::printf("report: %s/report.html\n", o->out.c_str());
     }
   });

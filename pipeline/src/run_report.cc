@@ -9,17 +9,15 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "areomap/map/atomic_file.h"
 #include "areomap/map/csv.h"
 #include "areomap/map/error.h"
+#include "areomap/pipeline/run_summary.h"
 
 namespace areomap {
 namespace {
 
 namespace fs = std::filesystem;
-using nlohmann::json;
 
 std::string Escape(const std::string& text) {
   std::string out;
@@ -80,172 +78,173 @@ std::string CsvTable(const fs::path& path) {
   return html + "</table>";
 }
 
-std::string Number(const json& value, const char* format) {
-  if (!value.is_number()) return "&ndash;";
+std::string Number(const OptionalNumber& value, const char* format) {
+  if (!value) return "&ndash;";
   char text[64];
-  std::snprintf(text, sizeof(text), format, value.get<double>());
+  std::snprintf(text, sizeof(text), format, *value);
   return text;
 }
 
-std::string KeyFigures(const json& summary) {
-  const json& adjustment = summary.value("adjustment", json::object());
+std::string Scaled(const OptionalNumber& value, double factor) {
+  return Number(value ? OptionalNumber(factor * *value) : std::nullopt, "%.2f %%");
+}
+
+std::string GuidedRegistrationFigure(const GuidedSummary& guided) {
+  std::string text = std::to_string(guided.registered_first_pass->size()) + " around telemetry";
+  for (const GuidedPassSummary& pass : guided.passes) {
+    text += " + " + std::to_string(pass.registered.size()) + " guided (pass " +
+            std::to_string(pass.pass) + "; " + std::to_string(pass.replaced.size()) +
+            " re-matched)";
+  }
+  return text;
+}
+
+std::string CratersFigure(const CratersSummary& craters) {
+  std::string text = Number(craters.craters, "%.0f");
+  if (craters.score) {
+    text += " (truth " + Number(craters.score->truth, "%.0f") + ": precision " +
+            Number(craters.score->precision, "%.2f") + ", recall " +
+            Number(craters.score->recall, "%.2f") + ")";
+  }
+  return text;
+}
+
+std::string KeyFigures(const RunSummary& summary) {
+  const AdjustmentSummary& adjustment = summary.adjustment;
   std::string html = "<table class=\"figures\">";
   const auto row = [&](const std::string& name, const std::string& value) {
     html += "<tr><th>" + name + "</th><td>" + value + "</td></tr>";
   };
-  row("mission", Escape(summary.value("name", std::string())));
-  row("sites", std::to_string(summary.value("sites", json::array()).size()));
-  row("traverse length", Number(adjustment.value("length_m", json()), "%.1f m"));
+  row("mission", Escape(summary.name));
+  row("sites", std::to_string(summary.sites.size()));
+  row("traverse length", Number(adjustment.length_m, "%.1f m"));
   row("tie points / control points",
-      Number(adjustment.value("tie_points", json()), "%.0f") + " / " +
-          Number(adjustment.value("control_points", json()), "%.0f"));
-  row("observations rejected", Number(adjustment.value("rejected", json()), "%.0f"));
-  row("sigma0", Number(adjustment.value("sigma0", json()), "%.3f"));
-  const json& ties = summary.value("rock_tie_variance", json::object());
+      Number(adjustment.tie_points, "%.0f") + " / " + Number(adjustment.control_points, "%.0f"));
+  row("observations rejected", Number(adjustment.rejected, "%.0f"));
+  row("sigma0", Number(adjustment.sigma0, "%.3f"));
+  const TieVarianceSummary& ties = summary.tie_variance;
   row("rock tie fits: pooled sigma0&sup2; (95 % upper bound; legs, redundancy)",
-      Number(ties.value("sigma0_squared", json()), "%.3f") + " (" +
-          Number(ties.value("sigma0_squared_upper_95", json()), "%.3f") + "; " +
-          Number(ties.value("legs", json()), "%.0f") + ", " +
-          Number(ties.value("redundancy", json()), "%.0f") + ")");
+      Number(ties.sigma0_squared, "%.3f") + " (" + Number(ties.sigma0_squared_upper_95, "%.3f") +
+          "; " + Number(ties.legs, "%.0f") + ", " + Number(ties.redundancy, "%.0f") + ")");
   row("rock tie variance factor applied by the legs' second pass",
-      ties.value("applied_factor", json()).is_number()
-          ? Number(ties["applied_factor"], "%.3f")
-          : std::string("none (too little redundancy, or off)"));
-  row("end-point error, telemetry (truth)",
-      Number(adjustment.value("initial_end_error_m", json()), "%.3f m"));
-  row("end-point error, adjusted (truth)",
-      Number(adjustment.value("adjusted_end_error_m", json()), "%.3f m"));
-  row("median adjusted leg RE (truth)",
-      Number(adjustment.value("median_adjusted_leg_re", json()).is_number()
-                 ? json(100.0 * adjustment["median_adjusted_leg_re"].get<double>())
-                 : json(),
-             "%.2f %%"));
-  row("largest 1&sigma; ellipse",
-      Number(adjustment.value("largest_horizontal_sigma_m", json()), "%.3f m"));
-  if (adjustment.contains("median_adjusted_error_m")) {
+      ties.applied_factor ? Number(ties.applied_factor, "%.3f")
+                          : std::string("none (too little redundancy, or off)"));
+  row("end-point error, telemetry (truth)", Number(adjustment.initial_end_error_m, "%.3f m"));
+  row("end-point error, adjusted (truth)", Number(adjustment.adjusted_end_error_m, "%.3f m"));
+  row("median adjusted leg RE (truth)", Scaled(adjustment.median_adjusted_leg_re, 100.0));
+  row("largest 1&sigma; ellipse", Number(adjustment.largest_horizontal_sigma_m, "%.3f m"));
+  if (adjustment.median_adjusted_error_m) {
     row("adjusted horizontal error, median / worst (truth)",
-        Number(adjustment["median_adjusted_error_m"], "%.3f m") + " / " +
-            Number(adjustment.value("worst_adjusted_error_m", json()), "%.3f m"));
+        Number(adjustment.median_adjusted_error_m, "%.3f m") + " / " +
+            Number(adjustment.worst_adjusted_error_m, "%.3f m"));
     row("sites within their 1&sigma; ellipse's semi-major axis (truth)",
-        Number(adjustment.value("sites_within_1sigma", json()), "%.0f"));
+        Number(adjustment.sites_within_1sigma, "%.0f"));
   }
-  const json& guided = summary.value("guided_registration", json::object());
-  if (guided.contains("registered_first_pass")) {
-    std::string text = std::to_string(guided["registered_first_pass"].size()) + " around telemetry";
-    for (const json& pass : guided.value("passes", json::array())) {
-      text += " + " + std::to_string(pass.value("registered", json::array()).size()) +
-              " guided (pass " + std::to_string(pass.value("pass", 0)) + "; " +
-              std::to_string(pass.value("replaced", json::array()).size()) + " re-matched)";
-    }
-    row("sites registered on the orbital image", text);
+  if (summary.guided.registered_first_pass) {
+    row("sites registered on the orbital image", GuidedRegistrationFigure(summary.guided));
   }
-  const json& products = summary.value("products", json::object());
-  if (products.is_object() && products.contains("dtm_minus_orbital_adjusted")) {
-    const auto rms = [&](const char* key) {
-      return Number(products[key].value("rms_m", json()), "%.3f m");
+  if (summary.products && summary.products->dtm_minus_orbital_adjusted) {
+    const auto rms = [](const std::optional<DifferenceSummary>& d) {
+      return Number(d ? d->rms_m : std::nullopt, "%.3f m");
     };
     row("traverse DTM &minus; orbital DTM, RMS: telemetry / adjusted poses",
-        rms("dtm_minus_orbital_telemetry") + " / " + rms("dtm_minus_orbital_adjusted"));
+        rms(summary.products->dtm_minus_orbital_telemetry) + " / " +
+            rms(summary.products->dtm_minus_orbital_adjusted));
   }
-  const json& craters = summary.value("craters", json::object());
-  if (craters.is_object() && craters.contains("craters")) {
-    std::string text = Number(craters["craters"], "%.0f");
-    if (craters.contains("score")) {
-      const json& score = craters["score"];
-      text += " (truth " + Number(score.value("truth", json()), "%.0f") + ": precision " +
-              Number(score.value("precision", json()), "%.2f") + ", recall " +
-              Number(score.value("recall", json()), "%.2f") + ")";
-    }
-    row("craters on the orbital image", text);
+  if (summary.craters && summary.craters->craters) {
+    row("craters on the orbital image", CratersFigure(*summary.craters));
   }
-  row("run time", Number(summary.value("seconds", json()), "%.0f s"));
+  row("run time", Number(summary.seconds, "%.0f s"));
   return html + "</table>";
 }
 
 // Wall time per stage: of the invocation that wrote the summary, and as recorded by the units
 // when they were computed (a resumed run reuses most of them).
-std::string StageTimes(const json& summary) {
-  const json stages = summary.value("stage_seconds", json::object());
-  const json computed = summary.value("computed_seconds", json::object());
-  if (!stages.is_object() || stages.empty()) return "";
+std::string StageTimes(const RunSummary& summary) {
+  if (summary.stage_seconds.empty()) return "";
+  const auto seconds = [](const std::map<std::string, double>& times, const char* stage) {
+    const auto it = times.find(stage);
+    return it == times.end() ? OptionalNumber() : OptionalNumber(it->second);
+  };
   std::string html =
       "<h2>Run time per stage</h2><p>Wall time of the run that wrote this folder, and what each "
       "stage cost when its units were computed (this run or an earlier one; per-site stages and "
       "legs summed over the units, the sites ran in parallel).</p><table><tr><th>stage</th>"
       "<th>this run [s]</th><th>when computed [s]</th></tr>";
-  const auto row = [&](const std::string& name, const json& now, const json& then) {
+  const auto row = [&](const std::string& name, const OptionalNumber& now,
+                       const OptionalNumber& then) {
     html += "<tr><th>" + name + "</th><td>" + Number(now, "%.1f") + "</td><td>" +
             Number(then, "%.1f") + "</td></tr>";
   };
-  row("sites", stages.value("sites", json()), json());
+  row("sites", seconds(summary.stage_seconds, "sites"), std::nullopt);
   for (const char* stage : {"stereo", "dtm", "ortho", "registration"}) {
-    row(std::string("&nbsp;&nbsp;") + stage, json(), computed.value(stage, json()));
+    row(std::string("&nbsp;&nbsp;") + stage, std::nullopt,
+        seconds(summary.computed_seconds, stage));
   }
   for (const char* stage : {"legs", "craters", "adjustment", "products"}) {
-    row(stage, stages.value(stage, json()), computed.value(stage, json()));
+    row(stage, seconds(summary.stage_seconds, stage), seconds(summary.computed_seconds, stage));
   }
   return html + "</table>";
 }
 
-std::string DifferenceRow(const std::string& name, const json& stats) {
-  return "<tr><th>" + name + "</th><td>" + Number(stats.value("cells", json()), "%.0f") +
-         "</td><td>" + Number(stats.value("mean_m", json()), "%.3f") + "</td><td>" +
-         Number(stats.value("stddev_m", json()), "%.3f") + "</td><td>" +
-         Number(stats.value("rms_m", json()), "%.3f") + "</td><td>" +
-         Number(stats.value("median_abs_m", json()), "%.3f") + "</td></tr>";
+std::string DifferenceRow(const std::string& name, const std::optional<DifferenceSummary>& d) {
+  const DifferenceSummary stats = d.value_or(DifferenceSummary{});
+  return "<tr><th>" + name + "</th><td>" + Number(stats.cells, "%.0f") + "</td><td>" +
+         Number(stats.mean_m, "%.3f") + "</td><td>" + Number(stats.stddev_m, "%.3f") + "</td><td>" +
+         Number(stats.rms_m, "%.3f") + "</td><td>" + Number(stats.median_abs_m, "%.3f") +
+         "</td></tr>";
 }
 
 // The whole-traverse DTM and orthomosaic, and how they sit on the orbital data.
-std::string ProductsSection(const fs::path& run_dir, const json& summary) {
-  const json& products = summary.value("products", json::object());
-  if (!products.is_object() || products.empty()) return "";
+std::string ProductsSection(const fs::path& run_dir, const RunSummary& summary) {
+  if (!summary.products || *summary.products == ProductsSummary{}) return "";
+  const ProductsSummary& products = *summary.products;
   std::string html =
       "<h2>Traverse DTM and orthomosaic (adjusted poses)</h2><p>Every site's stereo points "
       "gridded at " +
-      Number(products.value("posting_m", json()), "%.2f m") +
+      Number(products.posting_m, "%.2f m") +
       " with the bundle-adjusted site poses (<code>products/traverse_dtm.tif</code>, " +
-      Number(products.value("dtm_known_area_m2", json()), "%.0f") +
+      Number(products.dtm_known_area_m2, "%.0f") +
       " m&sup2;) and every site's images draped on it "
       "(<code>products/traverse_ortho.tif</code>, " +
-      Number(products.value("ortho_valid_area_m2", json()), "%.0f") + " m&sup2;).</p>" +
+      Number(products.ortho_valid_area_m2, "%.0f") + " m&sup2;).</p>" +
       EmbeddedPng(run_dir / "products" / "traverse_ortho.png", "traverse orthomosaic", 1000) +
       EmbeddedPng(run_dir / "products" / "traverse_dtm.png", "traverse DTM (shaded relief)", 1000);
-  if (products.contains("dtm_minus_orbital_adjusted")) {
+  if (products.dtm_minus_orbital_adjusted) {
     html +=
         "<h3>Rover DTM &minus; orbital DTM</h3><p>Over the cells both know; a misplaced site "
         "shows as a height difference where the ground slopes.</p><table><tr><th>site "
         "poses</th><th>cells</th><th>mean [m]</th><th>std [m]</th><th>RMS [m]</th><th>median "
         "|d| [m]</th></tr>" +
-        DifferenceRow("telemetry", products["dtm_minus_orbital_telemetry"]) +
-        DifferenceRow("adjusted", products["dtm_minus_orbital_adjusted"]) + "</table>";
+        DifferenceRow("telemetry", products.dtm_minus_orbital_telemetry) +
+        DifferenceRow("adjusted", products.dtm_minus_orbital_adjusted) + "</table>";
   }
-  if (products.contains("ortho_vs_orbital_adjusted")) {
-    const auto correlation = [&](const char* key) {
-      return Number(products[key].value("correlation", json()), "%.3f");
+  if (products.ortho_vs_orbital_adjusted) {
+    const auto correlation = [](const std::optional<OptionalNumber>& c) {
+      return Number(c.value_or(std::nullopt), "%.3f");
     };
     html += "<p>Orthomosaic vs orbital image, correlation over the cells both cover: " +
-            correlation("ortho_vs_orbital_telemetry") + " with the telemetry poses, " +
-            correlation("ortho_vs_orbital_adjusted") + " with the adjusted poses.</p>";
+            correlation(products.ortho_vs_orbital_telemetry) + " with the telemetry poses, " +
+            correlation(products.ortho_vs_orbital_adjusted) + " with the adjusted poses.</p>";
   }
   return html;
 }
 
-std::string CratersSection(const fs::path& run_dir, const json& summary) {
+std::string CratersSection(const fs::path& run_dir, const RunSummary& summary) {
   if (!fs::exists(run_dir / "craters")) return "";
-  const json& craters = summary.value("craters", json::object());
   std::string html = "<h2>Craters on the orbital image</h2>";
-  if (craters.is_object() && craters.contains("craters")) {
-    html += "<p>" + Number(craters["craters"], "%.0f") + " rims from " +
-            Number(craters.value("min_diameter_m", json()), "%.1f m") +
+  if (summary.craters && summary.craters->craters) {
+    const CratersSummary& craters = *summary.craters;
+    html += "<p>" + Number(craters.craters, "%.0f") + " rims from " +
+            Number(craters.min_diameter_m, "%.1f m") +
             " across (<code>craters/craters.csv</code>, <code>craters.gpkg</code>).";
-    if (craters.contains("score")) {
-      const json& s = craters["score"];
-      html += " Against the truth catalogue (" + Escape(s.value("rule", std::string())) +
-              "): " + Number(s.value("matched_truth", json()), "%.0f") + " of " +
-              Number(s.value("truth", json()), "%.0f") + " true craters found, precision " +
-              Number(s.value("precision", json()), "%.2f") + ", recall " +
-              Number(s.value("recall", json()), "%.2f") + ", median centre error " +
-              Number(s.value("median_center_error_px", json()), "%.2f px") + ".";
+    if (craters.score) {
+      const CraterScoreSummary& s = *craters.score;
+      html += " Against the truth catalogue (" + Escape(s.rule) +
+              "): " + Number(s.matched_truth, "%.0f") + " of " + Number(s.truth, "%.0f") +
+              " true craters found, precision " + Number(s.precision, "%.2f") + ", recall " +
+              Number(s.recall, "%.2f") + ", median centre error " +
+              Number(s.median_center_error_px, "%.2f px") + ".";
     }
     html += "</p>";
   }
@@ -254,26 +253,23 @@ std::string CratersSection(const fs::path& run_dir, const json& summary) {
 
 // The guided re-registration of a site (summary.json "guided_registration"), as a paragraph;
 // empty when the site was not re-registered.
-std::string GuidedSiteParagraph(const fs::path& run_dir, const json& guided, int number) {
-  for (const json& pass : guided.value("passes", json::array())) {
-    for (const json& a : pass.value("attempted", json::array())) {
-      if (a.value("site", -1) != number) continue;
-      const json& prior = a.value("prior", json::object());
-      const int p = pass.value("pass", 0);
+std::string GuidedSiteParagraph(const fs::path& run_dir, const GuidedSummary& guided, int number) {
+  for (const GuidedPassSummary& pass : guided.passes) {
+    for (const GuidedAttemptSummary& a : pass.attempted) {
+      if (a.site != number) continue;
       char folder[64];
-      std::snprintf(folder, sizeof(folder), "pass_%d/site_%03d", p, number);
-      std::string html = "<p>Guided registration, pass " + std::to_string(p) +
+      std::snprintf(folder, sizeof(folder), "pass_%d/site_%03d", pass.pass, number);
+      std::string html = "<p>Guided registration, pass " + std::to_string(pass.pass) +
                          " (around the adjusted position, turned " +
-                         Number(prior.value("rotation_deg", json()), "%.1f") + "&deg;, window " +
-                         Number(a.value("search_radius_px", json()), "&plusmn;%.0f px") +
-                         " = 3 &times; " + Number(prior.value("sigma_m", json()), "%.2f m") + "): ";
-      if (a.value("matched", false)) {
-        html += "<b>matched</b>, CC " + Number(a.value("correlation", json()), "%.3f") +
-                " (best at wrong offsets " +
-                Number(a.value("null_highest_correlation", json()), "%.3f") + "), " +
-                Number(a.value("control_points", json()), "%.0f") + " control points.";
+                         Number(a.prior_rotation_deg, "%.1f") + "&deg;, window " +
+                         Number(a.search_radius_px, "&plusmn;%.0f px") + " = 3 &times; " +
+                         Number(a.prior_sigma_m, "%.2f m") + "): ";
+      if (a.matched) {
+        html += "<b>matched</b>, CC " + Number(a.correlation, "%.3f") + " (best at wrong offsets " +
+                Number(a.null_highest_correlation, "%.3f") + "), " +
+                Number(a.control_points, "%.0f") + " control points.";
       } else {
-        html += "<b>no match</b> (" + Escape(a.value("reason", std::string("?"))) + ").";
+        html += "<b>no match</b> (" + Escape(a.reason) + ").";
       }
       return html + "</p>" +
              EmbeddedPng(run_dir / "guided" / folder / "correlation_surface.png",
@@ -283,107 +279,84 @@ std::string GuidedSiteParagraph(const fs::path& run_dir, const json& guided, int
   return "";
 }
 
-std::string SiteSection(const fs::path& run_dir, const json& site) {
-  const int number = site.value("site", -1);
+std::string SiteSection(const fs::path& run_dir, const SiteSummary& site) {
   char folder[32];
-  std::snprintf(folder, sizeof(folder), "site_%03d", number);
-  const json& r = site.value("registration", json::object());
-  std::string html = "<h3>Site " + std::to_string(number) + "</h3><p>" +
-                     Number(site.value("points", json()), "%.0f") + " stereo points; DTM " +
-                     Number(site.value("dtm_known_area_m2", json()), "%.0f") +
-                     " m&sup2;; orthophoto " +
-                     Number(site.value("ortho_valid_area_m2", json()), "%.0f") + " m&sup2;. ";
-  if (r.value("matched", false)) {
-    html += "Registration: <b>matched</b>, CC " + Number(r.value("correlation", json()), "%.3f") +
-            ", peak ratio " + Number(r.value("peak_ratio", json()), "%.2f") + ", " +
-            Number(r.value("control_points", json()), "%.0f") + " control points.";
+  std::snprintf(folder, sizeof(folder), "site_%03d", site.site);
+  const SiteRegistrationSummary& r = site.registration;
+  std::string html = "<h3>Site " + std::to_string(site.site) + "</h3><p>" +
+                     Number(site.points, "%.0f") + " stereo points; DTM " +
+                     Number(site.dtm_known_area_m2, "%.0f") + " m&sup2;; orthophoto " +
+                     Number(site.ortho_valid_area_m2, "%.0f") + " m&sup2;. ";
+  if (r.matched) {
+    html += "Registration: <b>matched</b>, CC " + Number(r.correlation, "%.3f") + ", peak ratio " +
+            Number(r.peak_ratio, "%.2f") + ", " + Number(r.control_points, "%.0f") +
+            " control points.";
   } else {
-    html += "Registration: <b>no match</b> (" + Escape(r.value("reason", std::string("?"))) + ").";
+    html += "Registration: <b>no match</b> (" + Escape(r.reason) + ").";
   }
   html += "</p><details><summary>registration details and correlation surface</summary><pre>" +
-          Escape(r.dump(2)) + "</pre>" +
+          Escape(r.record.dump(2)) + "</pre>" +
           EmbeddedPng(run_dir / "sites" / folder / "correlation_surface.png", "correlation surface",
                       320) +
           "</details>";
   return html;
 }
 
-std::string LegSection(const json& leg) {
-  std::string html = "<h3>Leg " + std::to_string(leg.value("site_a", -1)) + " &rarr; " +
-                     std::to_string(leg.value("site_b", -1)) + "</h3><p>Outcome: <b>" +
-                     Escape(leg.value("outcome", std::string("?"))) + "</b>, " +
-                     Number(leg.value("tie_points", json()), "%.0f") + " tie points, RE " +
-                     Number(leg.value("relative_error_percent", json()), "%.2f %%") +
-                     ", telemetry distance " +
-                     Number(leg.value("telemetry_distance_m", json()), "%.1f m") + ".";
-  const json& first = leg.value("first_pass", json::object());
-  if (first.contains("outcome")) {
-    html += " First pass (a-priori tie covariances): " +
-            Escape(first.value("outcome", std::string("?"))) + ", " +
-            Number(first.value("tie_points", json()), "%.0f") + " tie points, RE " +
-            Number(first.value("relative_error_percent", json()), "%.2f %%") +
-            "; this pass scaled them by " +
-            Number(leg.value("tie_variance_factor", json()), "%.3f") + ".";
+std::string LegSection(const LegSummary& leg) {
+  std::string html = "<h3>Leg " + std::to_string(leg.site_a) + " &rarr; " +
+                     std::to_string(leg.site_b) + "</h3><p>Outcome: <b>" + Escape(leg.outcome) +
+                     "</b>, " + Number(OptionalNumber(leg.tie_points), "%.0f") +
+                     " tie points, RE " + Number(leg.relative_error_percent, "%.2f %%") +
+                     ", telemetry distance " + Number(leg.telemetry_distance_m, "%.1f m") + ".";
+  if (leg.first_pass) {
+    html += " First pass (a-priori tie covariances): " + Escape(leg.first_pass->outcome) + ", " +
+            Number(leg.first_pass->tie_points, "%.0f") + " tie points, RE " +
+            Number(leg.first_pass->relative_error_percent, "%.2f %%") +
+            "; this pass scaled them by " + Number(leg.tie_variance_factor, "%.3f") + ".";
   }
   html += "</p>";
-  const json& checks = leg.value("faults", json::object()).value("rules", json::array());
   html +=
       "<table><tr><th>module</th><th>rule</th><th>value</th><th>threshold</th>"
       "<th>verdict</th></tr>";
-  for (const json& c : checks) {
-    const std::string verdict = c.value("verdict", std::string());
-    html += "<tr class=\"" + Escape(verdict) + "\"><td>" + Escape(c.value("module", "")) +
-            "</td><td>" + Escape(c.value("rule", "")) + "</td><td>" +
-            Number(c.value("value", json()), "%.3g") + " " + Escape(c.value("unit", "")) +
-            "</td><td>" + Number(c.value("threshold", json()), "%.3g") + "</td><td>" +
-            Escape(verdict) + "</td></tr>";
+  for (const FaultRuleSummary& c : leg.rules) {
+    html += "<tr class=\"" + Escape(c.verdict) + "\"><td>" + Escape(c.module) + "</td><td>" +
+            Escape(c.rule) + "</td><td>" + Number(c.value, "%.3g") + " " + Escape(c.unit) +
+            "</td><td>" + Number(c.threshold, "%.3g") + "</td><td>" + Escape(c.verdict) +
+            "</td></tr>";
   }
   return html + "</table>";
 }
 
-void WriteRunReportHtml(const fs::path& run_dir, const json& summary);
-
-}  // namespace
-
-void WriteRunReport(const fs::path& run_dir) {
-  std::ifstream in(run_dir / "summary.json");
-  if (!in) {
-    throw Error(run_dir.string() + ": no summary.json; expected the --out folder of areomap run");
-  }
-  const json summary = json::parse(in, nullptr, false);
-  if (summary.is_discarded() || !summary.contains("sites") || !summary.contains("legs")) {
-    throw Error((run_dir / "summary.json").string() +
-                ": not the summary of areomap run (expected \"sites\" and \"legs\")");
-  }
-  for (const char* key : {"sites", "legs"}) {
-    const json& list = summary[key];
-    if (!list.is_array() ||
-        !std::all_of(list.begin(), list.end(), [](const json& e) { return e.is_object(); })) {
-      throw Error((run_dir / "summary.json").string() + ": \"" + key + "\" is " +
-                  list.dump().substr(0, 40) + "; expected an array of objects (areomap run's)");
+// The paragraph over the sites' registrations: how many registered around telemetry and in each
+// guided pass.
+std::string RegistrationOverview(const RunSummary& summary) {
+  const GuidedSummary& guided = summary.guided;
+  if (!guided.registered_first_pass) return "";
+  std::string html = "<p>" + std::to_string(guided.registered_first_pass->size()) + " of " +
+                     std::to_string(summary.sites.size()) +
+                     " sites registered around their telemetry positions";
+  for (const GuidedPassSummary& pass : guided.passes) {
+    html += "; guided pass " + std::to_string(pass.pass) + " (around the adjusted " + "poses, " +
+            std::to_string(pass.attempted.size()) +
+            " sites tried): " + std::to_string(pass.registered.size()) + " more";
+    if (const size_t replaced = pass.replaced.size(); replaced > 0) {
+      html += " and " + std::to_string(replaced) +
+              " re-matched whose first turn was at the edge of the rotation search";
     }
   }
-  try {
-    WriteRunReportHtml(run_dir, summary);
-  } catch (const json::exception& e) {
-    // A field of another type than areomap run writes (the summary was edited, or is foreign).
-    throw Error((run_dir / "summary.json").string() +
-                ": a field has another type than areomap run writes: " + e.what());
-  }
+  return html + ".</p>";
 }
 
-namespace {
-
-void WriteRunReportHtml(const fs::path& run_dir, const json& summary) {
+void WriteRunReportHtml(const fs::path& run_dir, const RunSummary& summary) {
   std::string html =
       "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>areomap run: " +
-      Escape(summary.value("name", std::string())) +
+      Escape(summary.name) +
       "</title><style>body{font-family:sans-serif;max-width:1100px;margin:auto;padding:1em}"
       "table{border-collapse:collapse;margin:.5em 0;font-size:90%}td,th{border:1px solid #bbb;"
       "padding:2px 6px;text-align:right}th{background:#eee}tr.fail td{background:#fdd}"
       "table.figures th{text-align:left}pre{font-size:80%;background:#f6f6f6}</style></head><body>"
       "<h1>areomap run: " +
-      Escape(summary.value("name", std::string())) + "</h1>";
+      Escape(summary.name) + "</h1>";
   html += "<h2>Key figures</h2>" + KeyFigures(summary);
   html +=
       "<h2>Traverse</h2><p>Telemetry (red), adjusted with 1&sigma; ellipses (green, "
@@ -392,30 +365,12 @@ void WriteRunReportHtml(const fs::path& run_dir, const json& summary) {
   html += "<h3>Anchored sites</h3>" + CsvTable(run_dir / "adjustment" / "sites.csv");
   html += "<h3>Legs (relative error, Tables 4.6 / 5.2)</h3>" +
           CsvTable(run_dir / "adjustment" / "legs.csv");
-  html += "<h2>Orbital registration per site</h2>";
-  const json guided = summary.value("guided_registration", json::object());
-  if (guided.contains("registered_first_pass")) {
-    html += "<p>" + std::to_string(guided["registered_first_pass"].size()) + " of " +
-            std::to_string(summary["sites"].size()) +
-            " sites registered around their telemetry positions";
-    for (const json& pass : guided.value("passes", json::array())) {
-      html += "; guided pass " + std::to_string(pass.value("pass", 0)) + " (around the adjusted " +
-              "poses, " + std::to_string(pass.value("attempted", json::array()).size()) +
-              " sites tried): " + std::to_string(pass.value("registered", json::array()).size()) +
-              " more";
-      if (const size_t replaced = pass.value("replaced", json::array()).size(); replaced > 0) {
-        html += " and " + std::to_string(replaced) +
-                " re-matched whose first turn was at the edge of the rotation search";
-      }
-    }
-    html += ".</p>";
-  }
-  for (const json& site : summary["sites"]) {
-    html +=
-        SiteSection(run_dir, site) + GuidedSiteParagraph(run_dir, guided, site.value("site", -1));
+  html += "<h2>Orbital registration per site</h2>" + RegistrationOverview(summary);
+  for (const SiteSummary& site : summary.sites) {
+    html += SiteSection(run_dir, site) + GuidedSiteParagraph(run_dir, summary.guided, site.site);
   }
   html += "<h2>Tie points and fault detection per leg</h2>";
-  for (const json& leg : summary["legs"]) html += LegSection(leg);
+  for (const LegSummary& leg : summary.legs) html += LegSection(leg);
   html += ProductsSection(run_dir, summary);
   html += CratersSection(run_dir, summary);
   html += StageTimes(summary);
@@ -424,5 +379,9 @@ void WriteRunReportHtml(const fs::path& run_dir, const json& summary) {
 }
 
 }  // namespace
+
+void WriteRunReport(const fs::path& run_dir) {
+  WriteRunReportHtml(run_dir, ReadRunSummary(run_dir.string()));
+}
 
 }  // namespace areomap

@@ -22,6 +22,7 @@
 #include "areomap/map/orthophoto.h"
 #include "areomap/map/point_cloud_io.h"
 #include "areomap/pipeline/run_report.h"
+#include "areomap/pipeline/run_summary.h"
 #include "areomap/samples/mission.h"
 #include "test_support.h"
 
@@ -123,6 +124,17 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   }
   EXPECT_GT(first.json["computed_seconds"]["stereo"].get<double>(), 0.0);
   EXPECT_GT(first.json["computed_seconds"]["products"].get<double>(), 0.0);
+
+  // The typed summary (run_summary.h) holds what the report reads, and round-trips.
+  const RunSummary typed = RunSummary::FromJson(first.json, "summary.json");
+  ASSERT_EQ(typed.sites.size(), first.json["sites"].size());
+  EXPECT_EQ(typed.legs.size(), first.json["legs"].size());
+  EXPECT_EQ(typed.adjustment.sigma0, first.json["adjustment"]["sigma0"].get<double>());
+  ASSERT_TRUE(typed.craters && typed.craters->score);
+  EXPECT_EQ(typed.craters->score->truth, 1.0);
+  ASSERT_TRUE(typed.units.has_value());
+  EXPECT_EQ(typed.units->sites_computed, first.sites_computed);
+  EXPECT_EQ(RunSummary::FromJson(typed.ToJson(), "summary.json"), typed);
 
   std::ofstream(out / "summary.json") << first.json.dump();
   WriteRunReport(out);

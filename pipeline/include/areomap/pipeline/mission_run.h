@@ -25,8 +25,9 @@
 //   summary.json      key figures, wall time per stage ("stage_seconds"), the rock tie
 //                     points' a-posteriori variance factor pooled over the legs' conformal fits
 //                     ("rock_tie_variance", PoolVarianceFactor, and the factor the second pass
-//                     applied, "applied_factor"); report.html is written from the
-//                     folder by WriteRunReport.
+//                     applied, "applied_factor"); schema in docs/summary-format.md, read by
+//                     RunSummary (run_summary.h); report.html is written from the folder by
+//                     WriteRunReport.
 // A unit is finished when its `unit.json` exists (written last, atomically) and records the
 // same fingerprint as this run: the mission folder, the options, and the path, size and
 // modification time of every file the manifest names (products/: and the same adjusted poses),
