@@ -73,9 +73,9 @@ struct MissionRunOptions {
   // Navcam pixel covers ~2 mm, far finer than DTM postings or rock modeling need [m].
   double point_spacing_m = 0.02;
   // Pairs whose pixels are finer than fine_pair_max_ifov_mrad (Pancam: 0.28 mrad/px; Navcam
-  // 0.76, Hazcam 2.1) keep their points fine_pair_point_spacing_m apart instead: on 20-25 m legs
-  // 1 cm Pancam points accept 12 of 12 legs against 8 at 2 cm, while 1 cm Navcam points make
-  // noise peaks that end as wrong tie points (docs/notes/rocks-history.md) [m, mrad/px].
+  // 0.76, Hazcam 2.1) keep their points fine_pair_point_spacing_m apart instead: fine points
+  // sharpen precise pairs' rock models but turn Navcam noise into peaks (docs/rocks.md)
+  // [m, mrad/px].
   double fine_pair_point_spacing_m = 0.01;
   double fine_pair_max_ifov_mrad = 0.5;
   // The spacing for a pair whose rectified focal length is `focal_px`.
@@ -124,19 +124,15 @@ struct MissionRunOptions {
   bool leg_test = true;
   double leg_test_alpha = 0.001;
   LegConsistencyOptions LegTestOptions() const;  // The alpha above, matching's other figures.
-  // A second pass over the legs with the rock tie points' own precision. Eq. 4.3 (sigma_p
-  // 0.5 px) makes the tie covariances ~2x too wide in sigma on generated stereo and 1.3x too
-  // narrow along the pavement normal on the real K10 pair (docs/rocks.md), and RE (eq. 4.9)
-  // follows them. The first pass's conformal fits, pooled (PoolVarianceFactor, at the a-priori
-  // covariances), estimate the factor; when their pooled redundancy is at least
-  // rock_variance_pass_min_redundancy, every leg is matched again with
-  // RockMatchingOptions::tie_variance_factor at its one-sided 95 % upper bound (the conformal
-  // fit, its outlier test, RE and the written tie points use it) in place of matching's own.
-  // The adjustment still weighs the rock ties by their a-priori covariances: scaled there, they
-  // left the site errors as they were and made the sigmas less honest (docs/rocks.md). Applied
-  // when the legs are gathered, not in the options fingerprint; a leg unit records the factor it
-  // was matched with and its first pass ("first_pass"), and is matched again only when the
-  // factor changes.
+  // A second pass over the legs with the rock tie points' own precision, since eq. 4.3's
+  // covariances can be off by a factor either way (docs/rocks.md) and RE (eq. 4.9) follows
+  // them. The first pass's conformal fits, pooled (PoolVarianceFactor), estimate the factor;
+  // when their pooled redundancy is at least rock_variance_pass_min_redundancy, every leg is
+  // matched again with RockMatchingOptions::tie_variance_factor at its one-sided 95 % upper
+  // bound (conformal fit, outlier test, RE and the written tie points). The adjustment keeps
+  // the a-priori covariances. Applied when the legs are gathered, not in the options
+  // fingerprint; a leg unit records the factor it was matched with and its first pass
+  // ("first_pass"), and is matched again only when the factor changes.
   bool rock_variance_pass = true;
   int rock_variance_pass_min_redundancy = 20;
   // The factor the second pass applies given the first pass's pooled fits; nullopt when the
