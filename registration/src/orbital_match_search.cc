@@ -166,9 +166,9 @@ CoarseResult CoarseGridSearch(const PyramidSearch& search, const std::vector<dou
 // kMaxRefineWalk steps and within [lowest, highest] (the coarse level's choice can be off by
 // more than half a step where the correlation is low); then the vertex of the parabola through
 // the three samples, kept if its peak is at least as high. `*peak` and `*warped` follow
-// `*value`. Before the walk, the vertex came from samples half a step apart scaled as if they
-// were a step apart (twice the parabola's offset), and such overshoots failed the last test:
-// most rotations stayed on the half-step grid (docs/notes/benchmarks-history.md, registration).
+// `*value`. The vertex's offset is scaled by `delta`, the samples' spacing: scaled by a whole
+// step it overshoots and fails the last test (docs/notes/benchmarks-history.md, "The rotation
+// refined").
 template <class WarpAt>
 void RefineWarpAtFullResolution(const PyramidSearch& search, const WarpAt& warp_at, double delta,
                                 double lowest, double highest, double* value, NccPeak* peak,
