@@ -202,86 +202,107 @@ cv::Size PaddedSize(const Problem& p) {
       cv::getOptimalDFTSize(std::max(o.y + crop.height, tmpl.height + p.rows - 1 - o.y)));
 }
 
-// The surface by FFTs (MaskedNcc's header); `p` has at least one shift.
-MaskedNccSurface FftSurface(const Problem& p) {
-  MaskedNccSurface surface = EmptySurface(p);
+// Forward real DFT (CCS-packed, in place) of `src` placed at `offset` in a zero buffer of size
+// `padded`; rows below the source are known to be zero.
+void ForwardDft(const cv::Mat& src, cv::Point offset, cv::Size padded, cv::Mat* spectrum) {
+  *spectrum = cv::Mat::zeros(padded.height, padded.width, CV_64F);
+  src.copyTo((*spectrum)(cv::Rect(offset, src.size())));
+  cv::dft(*spectrum, *spectrum, 0, offset.y + src.rows);
+}
 
+// corr(a, b)(s) = sum_x a(x + s) b(x) as the spectrum product with b conjugated, inverse DFT in
+// place (only the first `rows` output rows are needed).
+void CorrelateSpectra(const cv::Mat& a, const cv::Mat& b, int rows, cv::Mat* out) {
+  cv::mulSpectrums(a, b, *out, 0, /*conjB=*/true);
+  cv::dft(*out, *out, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT, rows);
+}
+
+// The correlation of a template quantity `src` with an all-valid fixed crop: its sum over the
+// overlap rectangle at each shift, from an integral image.
+void OverlapSums(const Problem& p, const cv::Mat& src, cv::Mat* out) {
   const cv::Size crop = p.fixed.value.size();
   const cv::Size tmpl = p.moving.value.size();
+  cv::Mat integral;
+  cv::integral(src, integral, CV_64F);
+  out->create(p.rows, p.cols, CV_64F);
+  for (int r = 0; r < p.rows; ++r) {
+    const int dy = p.shift_y0 + r - p.crop_y;  // Shift relative to the crop.
+    const int i0 = std::max(0, -dy);
+    const int i1 = std::min(tmpl.height, crop.height - dy);
+    const double* top = integral.ptr<double>(i0);
+    const double* bottom = integral.ptr<double>(i1);
+    double* dst = out->ptr<double>(r);
+    for (int c = 0; c < p.cols; ++c) {
+      const int dx = p.shift_x0 + c - p.crop_x;
+      const int j0 = std::max(0, -dx);
+      const int j1 = std::min(tmpl.width, crop.width - dx);
+      dst[c] = bottom[j1] - bottom[j0] - top[j1] + top[j0];
+    }
+  }
+}
+
+// The six sums over the overlap (Padfield's correlations), CV_64F: row r, column c holds the sum
+// at shift (p.shift_x0 + c, p.shift_y0 + r) (rows past p.rows, if any, are not computed).
+struct OverlapCorrelations {
+  cv::Mat n, sum_f, sum_m, sum_ff, sum_mm, sum_fm;
+};
+
+// The six correlations by FFTs, run as parallel TBB tasks.
+OverlapCorrelations CorrelateByFft(const Problem& p) {
+  const cv::Size crop = p.fixed.value.size();
   const cv::Point fixed_offset = FixedOffset(p);
   const cv::Size padded = PaddedSize(p);
-  const int dft_rows = padded.height, dft_cols = padded.width;
-
-  // Forward real DFTs (CCS-packed, in place) and corr(a, b)(s) = sum_x a(x + s) b(x) as the
-  // spectrum product with b conjugated, inverse DFT in place (only the first p.rows output
-  // rows are needed).
-  auto forward = [&](const cv::Mat& src, cv::Point offset, cv::Mat* spectrum) {
-    *spectrum = cv::Mat::zeros(dft_rows, dft_cols, CV_64F);
-    src.copyTo((*spectrum)(cv::Rect(offset, src.size())));
-    cv::dft(*spectrum, *spectrum, 0, offset.y + src.rows);
+  const auto forward = [&](const cv::Mat& src, cv::Point offset, cv::Mat* spectrum) {
+    ForwardDft(src, offset, padded, spectrum);
   };
-  auto correlate = [&](const cv::Mat& a, const cv::Mat& b, cv::Mat* out) {
-    cv::mulSpectrums(a, b, *out, 0, /*conjB=*/true);
-    cv::dft(*out, *out, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT, p.rows);
+  const auto correlate = [&](const cv::Mat& a, const cv::Mat& b, cv::Mat* out) {
+    CorrelateSpectra(a, b, p.rows, out);
   };
   // With no invalid pixel in the crop (the usual orbital image), the three correlations
   // with the fixed validity are sums of template quantities over the overlap rectangle:
   // integral images replace one forward and three inverse DFTs, exactly.
   const bool fixed_all_valid = p.fixed.valid_count == crop.area();
-  auto overlap_sums = [&](const cv::Mat& src, cv::Mat* out) {
-    cv::Mat integral;
-    cv::integral(src, integral, CV_64F);
-    out->create(p.rows, p.cols, CV_64F);
-    for (int r = 0; r < p.rows; ++r) {
-      const int dy = p.shift_y0 + r - p.crop_y;  // Shift relative to the crop.
-      const int i0 = std::max(0, -dy);
-      const int i1 = std::min(tmpl.height, crop.height - dy);
-      const double* top = integral.ptr<double>(i0);
-      const double* bottom = integral.ptr<double>(i1);
-      double* dst = out->ptr<double>(r);
-      for (int c = 0; c < p.cols; ++c) {
-        const int dx = p.shift_x0 + c - p.crop_x;
-        const int j0 = std::max(0, -dx);
-        const int j1 = std::min(tmpl.width, crop.width - dx);
-        dst[c] = bottom[j1] - bottom[j0] - top[j1] + top[j0];
-      }
-    }
-  };
 
   cv::Mat f_valid, f_value, f_sq, m_valid, m_value, m_sq;
-  cv::Mat n, sum_f, sum_m, sum_ff, sum_mm, sum_fm;
+  OverlapCorrelations s;
   tbb::task_group tasks;
   tasks.run([&] { forward(p.fixed.value, fixed_offset, &f_value); });
   tasks.run([&] { forward(p.fixed.value_sq, fixed_offset, &f_sq); });
   tasks.run([&] { forward(p.moving.valid, cv::Point(0, 0), &m_valid); });
   tasks.run([&] { forward(p.moving.value, cv::Point(0, 0), &m_value); });
   if (fixed_all_valid) {
-    tasks.run([&] { overlap_sums(p.moving.valid, &n); });
-    tasks.run([&] { overlap_sums(p.moving.value, &sum_m); });
-    tasks.run([&] { overlap_sums(p.moving.value_sq, &sum_mm); });
+    tasks.run([&] { OverlapSums(p, p.moving.valid, &s.n); });
+    tasks.run([&] { OverlapSums(p, p.moving.value, &s.sum_m); });
+    tasks.run([&] { OverlapSums(p, p.moving.value_sq, &s.sum_mm); });
   } else {
     tasks.run([&] { forward(p.fixed.valid, fixed_offset, &f_valid); });
     tasks.run([&] { forward(p.moving.value_sq, cv::Point(0, 0), &m_sq); });
   }
   tasks.wait();
-  tasks.run([&] { correlate(f_value, m_valid, &sum_f); });
-  tasks.run([&] { correlate(f_sq, m_valid, &sum_ff); });
-  tasks.run([&] { correlate(f_value, m_value, &sum_fm); });
+  tasks.run([&] { correlate(f_value, m_valid, &s.sum_f); });
+  tasks.run([&] { correlate(f_sq, m_valid, &s.sum_ff); });
+  tasks.run([&] { correlate(f_value, m_value, &s.sum_fm); });
   if (!fixed_all_valid) {
-    tasks.run([&] { correlate(f_valid, m_valid, &n); });
-    tasks.run([&] { correlate(f_valid, m_value, &sum_m); });
-    tasks.run([&] { correlate(f_valid, m_sq, &sum_mm); });
+    tasks.run([&] { correlate(f_valid, m_valid, &s.n); });
+    tasks.run([&] { correlate(f_valid, m_value, &s.sum_m); });
+    tasks.run([&] { correlate(f_valid, m_sq, &s.sum_mm); });
   }
   tasks.wait();
+  return s;
+}
 
+// The surface by FFTs (MaskedNcc's header); `p` has at least one shift.
+MaskedNccSurface FftSurface(const Problem& p) {
+  MaskedNccSurface surface = EmptySurface(p);
+  const OverlapCorrelations s = CorrelateByFft(p);
   tbb::parallel_for(tbb::blocked_range<int>(0, p.rows), [&](const tbb::blocked_range<int>& range) {
     for (int r = range.begin(); r != range.end(); ++r) {
-      const double* pn = n.ptr<double>(r);
-      const double* pf = sum_f.ptr<double>(r);
-      const double* pm = sum_m.ptr<double>(r);
-      const double* pff = sum_ff.ptr<double>(r);
-      const double* pmm = sum_mm.ptr<double>(r);
-      const double* pfm = sum_fm.ptr<double>(r);
+      const double* pn = s.n.ptr<double>(r);
+      const double* pf = s.sum_f.ptr<double>(r);
+      const double* pm = s.sum_m.ptr<double>(r);
+      const double* pff = s.sum_ff.ptr<double>(r);
+      const double* pmm = s.sum_mm.ptr<double>(r);
+      const double* pfm = s.sum_fm.ptr<double>(r);
       float* out = surface.ncc.ptr<float>(r);
       std::int32_t* count = surface.overlap.ptr<std::int32_t>(r);
       for (int c = 0; c < p.cols; ++c) {
@@ -510,60 +531,51 @@ void RefineSubpixel(const cv::Mat& ncc, int r, int c, SubpixelFit fit, NccPeak* 
   peak->subpixel_y = peak->shift_y + (std::isfinite(offset_y) ? offset_y : 0.0);
 }
 
-}  // namespace
+// The best finite score of a surface; the first in row-major order on ties, for determinism.
+// r = c = -1 when no score is finite.
+struct SurfaceMax {
+  int r = -1;
+  int c = -1;
+  float value = -std::numeric_limits<float>::infinity();
+};
 
-NccPeak FindPeak(const MaskedNccSurface& surface, const PeakOptions& options) {
-  options.Check();
-  NccPeak peak;
-  const cv::Mat& ncc = surface.ncc;
-  if (surface.empty()) {
-    peak.reason = "empty correlation surface (the search window misses the fixed image)";
-    return peak;
-  }
-  CV_Assert(ncc.type() == CV_32FC1 && surface.overlap.type() == CV_32SC1 &&
-            surface.overlap.size() == ncc.size());
-
-  // Best finite score; the first in row-major order on ties, for determinism.
-  int best_r = -1;
-  int best_c = -1;
-  float best = -std::numeric_limits<float>::infinity();
+SurfaceMax HighestScore(const cv::Mat& ncc) {
+  SurfaceMax best;
   for (int r = 0; r < ncc.rows; ++r) {
     const float* row = ncc.ptr<float>(r);
     for (int c = 0; c < ncc.cols; ++c) {
-      if (std::isfinite(row[c]) && row[c] > best) {
-        best = row[c];
-        best_r = r;
-        best_c = c;
+      if (std::isfinite(row[c]) && row[c] > best.value) {
+        best.value = row[c];
+        best.r = r;
+        best.c = c;
       }
     }
   }
-  if (best_r < 0) {
-    peak.reason = "no finite NCC score (too little overlap or texture at every shift)";
-    return peak;
-  }
-  peak.found = true;
-  peak.value = best;
-  peak.shift_x = surface.shift_x0 + best_c;
-  peak.shift_y = surface.shift_y0 + best_r;
-  peak.overlap = surface.overlap.at<std::int32_t>(best_r, best_c);
-  peak.on_border = best_r == 0 || best_c == 0 || best_r == ncc.rows - 1 || best_c == ncc.cols - 1;
+  return best;
+}
 
+// Mean drop from `value` at (r, c) to its finite 8 neighbours; 0 without one.
+double Sharpness(const cv::Mat& ncc, int r, int c, double value) {
   double drop_sum = 0.0;
   int drop_count = 0;
   for (int dr = -1; dr <= 1; ++dr) {
     for (int dc = -1; dc <= 1; ++dc) {
-      const double v = At(ncc, best_r + dr, best_c + dc);
+      const double v = At(ncc, r + dr, c + dc);
       if ((dr != 0 || dc != 0) && std::isfinite(v)) {
-        drop_sum += peak.value - v;
+        drop_sum += value - v;
         ++drop_count;
       }
     }
   }
-  peak.sharpness = drop_count > 0 ? drop_sum / drop_count : 0.0;
-  RefineSubpixel(ncc, best_r, best_c, options.subpixel_fit, &peak);
+  return drop_count > 0 ? drop_sum / drop_count : 0.0;
+}
 
-  // Runner-up: the highest local maximum outside the exclusion radius.
-  const double radius_sq = options.exclusion_radius * options.exclusion_radius;
+// Runner-up: the highest local maximum farther than `exclusion_radius` from the best score at
+// (best_r, best_c); sets the peak's second-peak fields, ratio and difference.
+void FindRunnerUp(const MaskedNccSurface& surface, int best_r, int best_c, double exclusion_radius,
+                  NccPeak* peak) {
+  const cv::Mat& ncc = surface.ncc;
+  const double radius_sq = exclusion_radius * exclusion_radius;
   float second = -std::numeric_limits<float>::infinity();
   for (int r = 0; r < ncc.rows; ++r) {
     const float* row = ncc.ptr<float>(r);
@@ -573,20 +585,23 @@ NccPeak FindPeak(const MaskedNccSurface& surface, const PeakOptions& options) {
       const double dc = c - best_c;
       if (dr * dr + dc * dc <= radius_sq || !IsLocalMax(ncc, r, c, row[c])) continue;
       second = row[c];
-      peak.has_second = true;
-      peak.second_x = surface.shift_x0 + c;
-      peak.second_y = surface.shift_y0 + r;
+      peak->has_second = true;
+      peak->second_x = surface.shift_x0 + c;
+      peak->second_y = surface.shift_y0 + r;
     }
   }
-  if (peak.has_second) {
-    peak.second_value = second;
-    peak.peak_difference = peak.value - peak.second_value;
-    peak.peak_ratio = peak.second_value > 0.0 ? peak.value / peak.second_value : kInf;
+  if (peak->has_second) {
+    peak->second_value = second;
+    peak->peak_difference = peak->value - peak->second_value;
+    peak->peak_ratio = peak->second_value > 0.0 ? peak->value / peak->second_value : kInf;
   } else {
-    peak.peak_difference = kInf;
-    peak.peak_ratio = kInf;
+    peak->peak_difference = kInf;
+    peak->peak_ratio = kInf;
   }
+}
 
+// Which PeakOptions thresholds `peak` fails, "; "-separated; "" when it passes them all.
+std::string WhyNotConfident(const NccPeak& peak, const PeakOptions& options) {
   std::ostringstream why;
   auto fail = [&why](const std::string& text) { why << (why.tellp() > 0 ? "; " : "") << text; };
   if (peak.value < options.min_peak) {
@@ -604,7 +619,38 @@ NccPeak FindPeak(const MaskedNccSurface& surface, const PeakOptions& options) {
   if (options.reject_border_peaks && peak.on_border) {
     fail("peak on the edge of the surface (the maximum may lie outside the search window)");
   }
-  peak.reason = why.str();
+  return why.str();
+}
+
+}  // namespace
+
+NccPeak FindPeak(const MaskedNccSurface& surface, const PeakOptions& options) {
+  options.Check();
+  NccPeak peak;
+  const cv::Mat& ncc = surface.ncc;
+  if (surface.empty()) {
+    peak.reason = "empty correlation surface (the search window misses the fixed image)";
+    return peak;
+  }
+  CV_Assert(ncc.type() == CV_32FC1 && surface.overlap.type() == CV_32SC1 &&
+            surface.overlap.size() == ncc.size());
+
+  const SurfaceMax best = HighestScore(ncc);
+  if (best.r < 0) {
+    peak.reason = "no finite NCC score (too little overlap or texture at every shift)";
+    return peak;
+  }
+  const int best_r = best.r, best_c = best.c;
+  peak.found = true;
+  peak.value = best.value;
+  peak.shift_x = surface.shift_x0 + best_c;
+  peak.shift_y = surface.shift_y0 + best_r;
+  peak.overlap = surface.overlap.at<std::int32_t>(best_r, best_c);
+  peak.on_border = best_r == 0 || best_c == 0 || best_r == ncc.rows - 1 || best_c == ncc.cols - 1;
+  peak.sharpness = Sharpness(ncc, best_r, best_c, peak.value);
+  RefineSubpixel(ncc, best_r, best_c, options.subpixel_fit, &peak);
+  FindRunnerUp(surface, best_r, best_c, options.exclusion_radius, &peak);
+  peak.reason = WhyNotConfident(peak, options);
   peak.confident = peak.reason.empty();
   return peak;
 }

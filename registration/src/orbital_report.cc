@@ -24,6 +24,47 @@ nlohmann::json MatrixJson(const Eigen::Matrix3d& m) {
 // Finite values as JSON numbers, others as null (JSON has no inf/NaN).
 nlohmann::json Number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
+// The point's corrected position, its height the DTM's where `dtm` defines one there, else the
+// prior's `prior_h` (with no_dtm_sigma_m).
+void SetPosition(const Geographic& corrected, double prior_h,
+                 const std::optional<OrbitalImage>& dtm, const std::optional<PixelGrid>& dtm_grid,
+                 const ControlPointOptions& options, OrbitalControlPoint& p) {
+  p.geographic = corrected;
+  p.geographic.h = prior_h;
+  p.sigma_up_m = options.no_dtm_sigma_m;
+  if (dtm_grid) {
+    const Eigen::Vector2d q = dtm_grid->GeographicToPixel(corrected);
+    const double h = dtm->SampleBilinear(q.x(), q.y());
+    if (std::isfinite(h)) {
+      p.geographic.h = h;
+      p.sigma_up_m = options.dtm_sigma_m;
+      p.height_from_dtm = true;
+    }
+  }
+}
+
+// Each point's MBF covariance. The shift is one error shared by every point (see the header): n
+// times its covariance each. So is a low correlation's share of the rotation's error, which
+// moves each point across its offset from the pivot (OrbitalMatch::TurnLeverPx; `turn_levers_en`
+// per point [m/rad]).
+void ShareMatchCovariance(const OrbitalMatch& match,
+                          const std::vector<Eigen::Vector2d>& turn_levers_en, const Body& body,
+                          std::vector<OrbitalControlPoint>& out) {
+  const double shared_by = static_cast<double>(out.size());
+  const double turn_variance = std::pow(match.low_correlation_rotation_sigma_rad, 2);
+  for (size_t i = 0; i < out.size(); ++i) {
+    OrbitalControlPoint& p = out[i];
+    const Eigen::Vector2d& lever_en = turn_levers_en[i];
+    Eigen::Matrix3d cov_enu = Eigen::Matrix3d::Zero();
+    cov_enu.topLeftCorner<2, 2>() = shared_by * (match.template_shift_covariance_en_m2 +
+                                                 turn_variance * lever_en * lever_en.transpose());
+    cov_enu(2, 2) = p.sigma_up_m * p.sigma_up_m;
+    const Eigen::Matrix3d mbf_from_enu =
+        EnuFromMbf(body, p.geographic).RotationMatrix().transpose();
+    p.point.covariance_mbf = mbf_from_enu * cov_enu * mbf_from_enu.transpose();
+  }
+}
+
 }  // namespace
 
 void ControlPointOptions::Check() const {
@@ -65,18 +106,7 @@ std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
       const auto telemetry =
           orbital_grid.PixelToGeographic(template_px + Eigen::Vector2d(t.col0, t.row0));
       if (!corrected || !telemetry || !p.ortho_px.allFinite()) continue;
-      p.geographic = *corrected;
-      p.geographic.h = prior.position.h;
-      p.sigma_up_m = options.no_dtm_sigma_m;
-      if (dtm_grid) {
-        const Eigen::Vector2d q = dtm_grid->GeographicToPixel(*corrected);
-        const double h = dtm->SampleBilinear(q.x(), q.y());
-        if (std::isfinite(h)) {
-          p.geographic.h = h;
-          p.sigma_up_m = options.dtm_sigma_m;
-          p.height_from_dtm = true;
-        }
-      }
+      SetPosition(*corrected, prior.position.h, dtm, dtm_grid, options, p);
       p.sigma_east_m = std::sqrt(match.template_shift_covariance_en_m2(0, 0));
       p.sigma_north_m = std::sqrt(match.template_shift_covariance_en_m2(1, 1));
       p.false_match_probability = match.false_match_probability;
@@ -96,22 +126,7 @@ std::vector<OrbitalControlPoint> MakeControlPoints(const OrbitalMatch& match,
       out.push_back(std::move(p));
     }
   }
-  // The shift is one error shared by every point (see the header): n times its covariance each.
-  // So is a low correlation's share of the rotation's error, which moves each point across its
-  // offset from the pivot (OrbitalMatch::TurnLeverPx).
-  const double shared_by = static_cast<double>(out.size());
-  const double turn_variance = std::pow(match.low_correlation_rotation_sigma_rad, 2);
-  for (size_t i = 0; i < out.size(); ++i) {
-    OrbitalControlPoint& p = out[i];
-    const Eigen::Vector2d& lever_en = turn_levers_en[i];
-    Eigen::Matrix3d cov_enu = Eigen::Matrix3d::Zero();
-    cov_enu.topLeftCorner<2, 2>() = shared_by * (match.template_shift_covariance_en_m2 +
-                                                 turn_variance * lever_en * lever_en.transpose());
-    cov_enu(2, 2) = p.sigma_up_m * p.sigma_up_m;
-    const Eigen::Matrix3d mbf_from_enu =
-        EnuFromMbf(body, p.geographic).RotationMatrix().transpose();
-    p.point.covariance_mbf = mbf_from_enu * cov_enu * mbf_from_enu.transpose();
-  }
+  ShareMatchCovariance(match, turn_levers_en, body, out);
   return out;
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include <tbb/parallel_for.h>
@@ -41,6 +42,125 @@ cv::Mat ValidInRange(const OrthoImage& ortho, const PixelGrid& grid, const Eigen
   return valid;
 }
 
+// The orbital pixels the template covers: the footprint of the ortho's valid box on the orbital
+// grid (its outline, densely: CRSs may rotate); std::nullopt where it has no area.
+std::optional<cv::Rect> OrbitalFootprint(const cv::Rect& box, const GridMapping& to_orbital) {
+  double min_c = std::numeric_limits<double>::infinity(), max_c = -min_c;
+  double min_r = min_c, max_r = -min_c;
+  const int steps = 16;
+  for (int k = 0; k <= steps; ++k) {
+    const double t = static_cast<double>(k) / steps;
+    const double x0 = box.x, x1 = box.x + box.width, y0 = box.y, y1 = box.y + box.height;
+    for (const Eigen::Vector2d& p :
+         {Eigen::Vector2d(x0 + t * (x1 - x0), y0), Eigen::Vector2d(x0 + t * (x1 - x0), y1),
+          Eigen::Vector2d(x0, y0 + t * (y1 - y0)), Eigen::Vector2d(x1, y0 + t * (y1 - y0))}) {
+      const Eigen::Vector2d q = to_orbital.Apply(p);
+      if (!q.allFinite()) continue;
+      min_c = std::min(min_c, q.x());
+      max_c = std::max(max_c, q.x());
+      min_r = std::min(min_r, q.y());
+      max_r = std::max(max_r, q.y());
+    }
+  }
+  if (!(max_c > min_c) || !(max_r > min_r)) return std::nullopt;
+  const int col0 = static_cast<int>(std::floor(min_c));
+  const int row0 = static_cast<int>(std::floor(min_r));
+  return cv::Rect(col0, row0, static_cast<int>(std::ceil(max_c)) - col0,
+                  static_cast<int>(std::ceil(max_r)) - row0);
+}
+
+// The ortho low-passed in ortho pixels, nodata-aware (normalized convolution): the blur of value
+// x validity and the blur of the validity, by a Gaussian of `sigma` ortho pixels (none <= 0.3).
+struct NormalizedConvolution {
+  cv::Mat value;   // CV_32F.
+  cv::Mat weight;  // CV_32F, in [0, 1].
+};
+
+NormalizedConvolution LowPass(const OrthoImage& ortho, const cv::Mat& valid, double sigma) {
+  NormalizedConvolution out{cv::Mat(ortho.image.size(), CV_32F, cv::Scalar(0.0f)), cv::Mat()};
+  ortho.image.copyTo(out.value, valid);
+  valid.convertTo(out.weight, CV_32F, 1.0 / 255.0);
+  if (sigma > 0.3) {
+    cv::GaussianBlur(out.value, out.value, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
+    cv::GaussianBlur(out.weight, out.weight, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
+  }
+  return out;
+}
+
+// cv::remap's maps from template pixels to ortho pixels (pixel centres at integers; far off the
+// image where the CRSs cannot map).
+struct RemapMaps {
+  cv::Mat x;  // CV_32F.
+  cv::Mat y;
+};
+
+// Ortho pixel coordinates of each template pixel centre: exact on a lattice every `step` pixels,
+// bilinear between. Sets t.ortho_x and t.ortho_y (GDAL convention) of a template of `size`.
+RemapMaps OrthoCoordinates(const PixelGrid& orbital_grid, const PixelGrid& ortho_grid, int step,
+                           cv::Size size, OrbitalTemplate& t) {
+  const int rows = size.height, cols = size.width;
+  const int lat_rows = rows / step + 2, lat_cols = cols / step + 2;
+  cv::Mat lat_x(lat_rows, lat_cols, CV_64F), lat_y(lat_rows, lat_cols, CV_64F);
+  const GridMapping to_ortho(orbital_grid, ortho_grid);
+  for (int i = 0; i < lat_rows; ++i) {
+    for (int j = 0; j < lat_cols; ++j) {
+      const Eigen::Vector2d q = to_ortho.Apply({t.col0 + j * step + 0.5, t.row0 + i * step + 0.5});
+      lat_x.at<double>(i, j) = q.x();
+      lat_y.at<double>(i, j) = q.y();
+    }
+  }
+  t.ortho_x.create(rows, cols, CV_32F);
+  t.ortho_y.create(rows, cols, CV_32F);
+  RemapMaps maps{cv::Mat(rows, cols, CV_32F), cv::Mat(rows, cols, CV_32F)};
+  tbb::parallel_for(0, rows, [&](int r) {
+    const int i = r / step;
+    const double fr = static_cast<double>(r - i * step) / step;
+    for (int c = 0; c < cols; ++c) {
+      const int j = c / step;
+      const double fc = static_cast<double>(c - j * step) / step;
+      const auto bilinear = [&](const cv::Mat& m) {
+        return (1 - fr) * ((1 - fc) * m.at<double>(i, j) + fc * m.at<double>(i, j + 1)) +
+               fr * ((1 - fc) * m.at<double>(i + 1, j) + fc * m.at<double>(i + 1, j + 1));
+      };
+      const double x = bilinear(lat_x), y = bilinear(lat_y);
+      t.ortho_x.at<float>(r, c) = static_cast<float>(x);
+      t.ortho_y.at<float>(r, c) = static_cast<float>(y);
+      // cv::remap puts pixel centres at integers.
+      maps.x.at<float>(r, c) = std::isfinite(x) ? static_cast<float>(x - 0.5) : -1e6f;
+      maps.y.at<float>(r, c) = std::isfinite(y) ? static_cast<float>(y - 0.5) : -1e6f;
+    }
+  });
+  return maps;
+}
+
+// Samples the low-passed ortho at the maps: t.image, t.mask and t.valid_pixels. Pixels whose
+// footprint strays outside the range or the valid data are dropped; the nearest-neighbour
+// validity keeps a template pixel that samples mostly one invalid pixel out even when the
+// blurred weight is high.
+void SampleTemplate(const NormalizedConvolution& lowpassed, const cv::Mat& valid,
+                    const RemapMaps& maps, double min_coverage_fraction, OrbitalTemplate& t) {
+  const int rows = maps.x.rows, cols = maps.x.cols;
+  cv::Mat sampled_value, sampled_weight;
+  cv::remap(lowpassed.value, sampled_value, maps.x, maps.y, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+            0.0);
+  cv::remap(lowpassed.weight, sampled_weight, maps.x, maps.y, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+            0.0);
+  cv::Mat nearest_valid;
+  cv::remap(valid, nearest_valid, maps.x, maps.y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+  t.image.create(rows, cols, CV_32F);
+  t.mask.create(rows, cols, CV_8U);
+  const float min_coverage = static_cast<float>(min_coverage_fraction);
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      const float w = sampled_weight.at<float>(r, c);
+      const bool ok = w >= min_coverage && nearest_valid.at<uchar>(r, c) != 0;
+      t.image.at<float>(r, c) = ok ? sampled_value.at<float>(r, c) / w : kNaNf;
+      t.mask.at<uchar>(r, c) = ok ? 255 : 0;
+      t.valid_pixels += ok ? 1 : 0;
+    }
+  }
+}
+
 }  // namespace
 
 void TemplateOptions::Check() const {
@@ -68,101 +188,21 @@ OrbitalTemplate ResampleToOrbitalGrid(const OrthoImage& ortho, const PixelGrid& 
   cv::findNonZero(valid, points);
   if (points.empty()) return out;
   const cv::Rect box = cv::boundingRect(points);
-
-  // Footprint of the valid box on the orbital grid (its outline, densely: CRSs may rotate).
   const GridMapping to_orbital(ortho_grid, orbital_grid);
-  double min_c = std::numeric_limits<double>::infinity(), max_c = -min_c;
-  double min_r = min_c, max_r = -min_c;
-  const int steps = 16;
-  for (int k = 0; k <= steps; ++k) {
-    const double t = static_cast<double>(k) / steps;
-    const double x0 = box.x, x1 = box.x + box.width, y0 = box.y, y1 = box.y + box.height;
-    for (const Eigen::Vector2d& p :
-         {Eigen::Vector2d(x0 + t * (x1 - x0), y0), Eigen::Vector2d(x0 + t * (x1 - x0), y1),
-          Eigen::Vector2d(x0, y0 + t * (y1 - y0)), Eigen::Vector2d(x1, y0 + t * (y1 - y0))}) {
-      const Eigen::Vector2d q = to_orbital.Apply(p);
-      if (!q.allFinite()) continue;
-      min_c = std::min(min_c, q.x());
-      max_c = std::max(max_c, q.x());
-      min_r = std::min(min_r, q.y());
-      max_r = std::max(max_r, q.y());
-    }
-  }
-  if (!(max_c > min_c) || !(max_r > min_r)) return out;
-  out.col0 = static_cast<int>(std::floor(min_c));
-  out.row0 = static_cast<int>(std::floor(min_r));
-  const int cols = static_cast<int>(std::ceil(max_c)) - out.col0;
-  const int rows = static_cast<int>(std::ceil(max_r)) - out.row0;
+  const std::optional<cv::Rect> footprint = OrbitalFootprint(box, to_orbital);
+  if (!footprint) return out;
+  out.col0 = footprint->x;
+  out.row0 = footprint->y;
 
   const Eigen::Vector2d centre(box.x + 0.5 * box.width, box.y + 0.5 * box.height);
   const Eigen::Vector2d centre_on_orbital = to_orbital.Apply(centre);
   out.scale = PixelSizeM(orbital_grid, centre_on_orbital) / PixelSizeM(ortho_grid, centre);
 
-  // Low-pass in ortho pixels, nodata-aware (normalized convolution).
-  cv::Mat value(ortho.image.size(), CV_32F, cv::Scalar(0.0f));
-  ortho.image.copyTo(value, valid);
-  cv::Mat weight;
-  valid.convertTo(weight, CV_32F, 1.0 / 255.0);
-  const double sigma = options.lowpass_sigma_orbital_px * out.scale;
-  if (sigma > 0.3) {
-    cv::GaussianBlur(value, value, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
-    cv::GaussianBlur(weight, weight, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
-  }
-
-  // Ortho pixel coordinates of each template pixel centre: exact on a lattice, bilinear between.
-  const int step = options.lattice_step_px;
-  const int lat_rows = rows / step + 2, lat_cols = cols / step + 2;
-  cv::Mat lat_x(lat_rows, lat_cols, CV_64F), lat_y(lat_rows, lat_cols, CV_64F);
-  const GridMapping to_ortho(orbital_grid, ortho_grid);
-  for (int i = 0; i < lat_rows; ++i) {
-    for (int j = 0; j < lat_cols; ++j) {
-      const Eigen::Vector2d q =
-          to_ortho.Apply({out.col0 + j * step + 0.5, out.row0 + i * step + 0.5});
-      lat_x.at<double>(i, j) = q.x();
-      lat_y.at<double>(i, j) = q.y();
-    }
-  }
-  out.ortho_x.create(rows, cols, CV_32F);
-  out.ortho_y.create(rows, cols, CV_32F);
-  cv::Mat map_x(rows, cols, CV_32F), map_y(rows, cols, CV_32F);
-  tbb::parallel_for(0, rows, [&](int r) {
-    const int i = r / step;
-    const double fr = static_cast<double>(r - i * step) / step;
-    for (int c = 0; c < cols; ++c) {
-      const int j = c / step;
-      const double fc = static_cast<double>(c - j * step) / step;
-      const auto bilinear = [&](const cv::Mat& m) {
-        return (1 - fr) * ((1 - fc) * m.at<double>(i, j) + fc * m.at<double>(i, j + 1)) +
-               fr * ((1 - fc) * m.at<double>(i + 1, j) + fc * m.at<double>(i + 1, j + 1));
-      };
-      const double x = bilinear(lat_x), y = bilinear(lat_y);
-      out.ortho_x.at<float>(r, c) = static_cast<float>(x);
-      out.ortho_y.at<float>(r, c) = static_cast<float>(y);
-      // cv::remap puts pixel centres at integers.
-      map_x.at<float>(r, c) = std::isfinite(x) ? static_cast<float>(x - 0.5) : -1e6f;
-      map_y.at<float>(r, c) = std::isfinite(y) ? static_cast<float>(y - 0.5) : -1e6f;
-    }
-  });
-  cv::Mat sampled_value, sampled_weight;
-  cv::remap(value, sampled_value, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0.0);
-  cv::remap(weight, sampled_weight, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0.0);
-  // Pixels whose footprint strays outside the range or the valid data are dropped; the
-  // nearest-neighbour validity keeps a template pixel that samples mostly one invalid pixel
-  // out even when the blurred weight is high.
-  cv::Mat nearest_valid;
-  cv::remap(valid, nearest_valid, map_x, map_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
-  out.image.create(rows, cols, CV_32F);
-  out.mask.create(rows, cols, CV_8U);
-  const float min_coverage = static_cast<float>(options.min_coverage);
-  for (int r = 0; r < rows; ++r) {
-    for (int c = 0; c < cols; ++c) {
-      const float w = sampled_weight.at<float>(r, c);
-      const bool ok = w >= min_coverage && nearest_valid.at<uchar>(r, c) != 0;
-      out.image.at<float>(r, c) = ok ? sampled_value.at<float>(r, c) / w : kNaNf;
-      out.mask.at<uchar>(r, c) = ok ? 255 : 0;
-      out.valid_pixels += ok ? 1 : 0;
-    }
-  }
+  const NormalizedConvolution lowpassed =
+      LowPass(ortho, valid, options.lowpass_sigma_orbital_px * out.scale);
+  const RemapMaps maps =
+      OrthoCoordinates(orbital_grid, ortho_grid, options.lattice_step_px, footprint->size(), out);
+  SampleTemplate(lowpassed, valid, maps, options.min_coverage, out);
   return out;
 }
 

@@ -18,6 +18,9 @@
 //   pixel (i + y, j + x). Shifts may be negative (template hanging over the top/left edge).
 // - Per-shift failures (too little overlap, a flat overlap) are NaN in the surface, never an
 //   exception; bad arguments or options throw areomap::Error naming the argument or field.
+//
+// Speed and agreement against OpenCV's cv::matchTemplate: docs/benchmarks.md, "Masked NCC and
+// orbital registration".
 #pragma once
 
 #include <optional>
@@ -121,8 +124,8 @@ struct PeakOptions {
   double exclusion_radius = 3.0;  // [px], >= 0.
   double min_peak = 0.4;          // Confident only if the peak NCC is >= this, [-1, 1].
   double min_peak_ratio = 1.2;    // Confident only if peak / second peak >= this, >= 1.
-  double min_sharpness =
-      0.0;  // Confident only if the mean drop to the 8 neighbours >= this [NCC], >= 0.
+  // Confident only if the mean drop to the 8 neighbours is >= this [NCC], >= 0.
+  double min_sharpness = 0.0;
   // A peak on the edge of the surface (in practice: of a search window) may be the slope of a
   // maximum outside it; when true such a peak is never confident.
   bool reject_border_peaks = true;
@@ -139,8 +142,8 @@ struct NccPeak {
   bool confident = false;  // All PeakOptions thresholds pass; otherwise `reason` says which failed.
   int shift_x = 0;         // Best integer shift [px].
   int shift_y = 0;
-  double subpixel_x =
-      0.0;  // Refined shift [px]; equals the integer shift where no fit was possible.
+  // Refined shift [px]; equals the integer shift where no fit was possible.
+  double subpixel_x = 0.0;
   double subpixel_y = 0.0;
   bool subpixel_refined = false;  // Whether a fit refined at least one axis.
   double value = 0.0;             // NCC at the best integer shift.

@@ -1,28 +1,23 @@
 // Orbital-ground registration: where does the rover orthophoto lie on an orbital image?
 //
-// Method (ch. 3.4.2, made automatic and nodata-aware): the orthophoto is resampled to the
-// orbital grid (orbital_template.h), then matched by masked normalized cross-correlation in the
-// Fourier domain (masked_ncc.h, Padfield 2012) coarse-to-fine over a pyramid: the whole search
-// window (the prior position +- search_sigmas x its 1-sigma radius) at the coarsest level, then
-// the best `candidates` coarse peaks each followed down the pyramid in 3 x 3 windows, a
-// quadratic subpixel fit at full resolution. An optional grid of small rotations (heading
-// error) and scale changes is tried at the coarsest level, the best refined by a parabola there
-// and again at full resolution (walking half a grid step at a time to the maximum). Like JPL's Mars
-// Global Localization and VICAR marsautoloco, the answer comes with its confidence: the peak CC,
-// the ratio of the best to the best separated runner-up (both at full resolution), the peak's
-// sharpness relative to the template's own autocorrelation, and the probability that the peak
-// is a chance alignment (peak_significance.h). That probability is the one accept rule
-// (OrbitalMatchOptions::max_false_match); a refused match is reported as "no match" with the
-// reason, never as a position. The shift's covariance follows
-// Forstner's correlation precision plus a floor (OrbitalMatchOptions::subpixel_floor_px); with a
-// solved rotation, the rover's also holds the rotation's error (Forstner's, plus a floor that
-// grows at low correlation: rotation_floor_deg, rotation_floor_correlation) times its lever. Cost:
-// ~0.05-0.3 s per site (docs/benchmarks.md).
+// Contract: MatchOrthoToOrbital resamples the orthophoto to the orbital grid
+// (orbital_template.h) and matches it by masked NCC (masked_ncc.h) coarse-to-fine over a pyramid
+// within the prior's search window (search_sigmas x its 1-sigma radius), optionally over a grid
+// of small rotations and scale changes. It returns the correction with its covariance (Forstner's
+// correlation precision plus floors) and its confidence: peak CC, peak ratio, relative sharpness
+// and the probability that the peak is a chance alignment (peak_significance.h), which is the one
+// accept rule (OrbitalMatchOptions::max_false_match), with a parts test (part_consistency.h).
+// Rationale: like JPL's Mars Global Localization and VICAR marsautoloco, a position comes with
+// its confidence. Cost ~0.05-0.3 s per site; method and measurements in docs/benchmarks.md
+// ("Masked NCC and orbital registration"), history in docs/notes/benchmarks-history.md.
 //
 // Frames and units: shifts are in orbital pixels (columns, rows; GDAL pixel convention) and in
 // metres east/north in the local level frame at the rover; rotations in radians, counter-
 // clockwise on the map (east towards north). The correction maps where the telemetry
 // georeference puts a ground point on the orbital image to where the image shows it.
+//
+// Failure: a refused or impossible match is a result (matched = false with a reason), never a
+// position; bad options, a CRS not on Mars or a cancelled progress callback throw areomap::Error.
 #pragma once
 
 #include <limits>
@@ -87,26 +82,21 @@ struct OrbitalMatchOptions {
   double exclusion_radius_m = 3.0;  // Runner-ups lie farther than this [m] and 3 px from the best.
   int min_template_pixels = 400;    // Fewer valid template pixels at full resolution: no match.
   // Accuracy floor of area correlation between images of different sensors and illumination
-  // (shading moves edges; resampling), added in quadrature to the noise-driven sigma [px].
-  // Measured on 20 generated sites (OrbitalMatchStatistics, seeds 1000-1019): the shift's error
-  // is 0.097 px RMS per axis and the noise-driven part ~0.035 px, so the floor is 0.09 px; the
-  // former 0.15 px left 88 % of the per-axis errors inside 1 sigma (68 % when honest).
-  double subpixel_floor_px = 0.09;  // >= 0.
-  // The same for a solved rotation, added in quadrature to its noise-driven sigma [deg]: it
-  // moves the rover by this times its lever from where the template's texture pins the shift.
-  // Measured on 24 generated sites with heading errors (OrbitalMatchStatistics.
-  // HonestUnderHeadingErrors, seeds 2000-2023): the rotation's error is 0.11 deg RMS and its
-  // noise-driven sigma 0.02-0.07 deg.
-  double rotation_floor_deg = 0.1;  // >= 0.
-  // Below this peak correlation the rotation's floor grows as the square of the residual-to-
-  // signal variance ratio g(rho) = (1 - rho^2) / rho^2: rotation_floor_deg x (g(rho) /
-  // g(rotation_floor_correlation))^2 (0.28 deg at CC 0.5, 0.87 deg at 0.4). The trials above
-  // had CC 0.6-0.98; rover orthophotos of generated traverses match at 0.30-0.69, and below
-  // 0.5 their rotations err by up to 1.4 deg. The square was chosen on two traverses (67
-  // matches; areomap_bench_registration_truth, docs/notes/benchmarks-history.md): mean
-  // (rotation error / sigma)^2 4.2 with the constant floor, 0.72 with this one. Checked on two
-  // others (37 and 16 matches): 11.2 -> 1.69 and 11.0 -> 0.97.
-  double rotation_floor_correlation = 0.6;  // In (0, 1).
+  // (shading moves edges; resampling), added in quadrature to the noise-driven sigma [px], >= 0.
+  // Calibrated on generated sites (OrbitalMatchStatistics; docs/notes/benchmarks-history.md).
+  double subpixel_floor_px = 0.09;
+  // The same for a solved rotation, added in quadrature to its noise-driven sigma [deg], >= 0:
+  // it moves the rover by this times its lever from where the template's texture pins the
+  // shift. Calibrated on generated sites with heading errors (OrbitalMatchStatistics.
+  // HonestUnderHeadingErrors; docs/notes/benchmarks-history.md, "The rotation refined").
+  double rotation_floor_deg = 0.1;
+  // Below this peak correlation, in (0, 1), the rotation's floor grows as the square of the
+  // residual-to-signal variance ratio g(rho) = (1 - rho^2) / rho^2: rotation_floor_deg x
+  // (g(rho) / g(rotation_floor_correlation))^2 (0.28 deg at CC 0.5, 0.87 deg at 0.4); at or
+  // above it the floor is rotation_floor_deg. Chosen on generated traverses
+  // (areomap_bench_registration_truth; docs/notes/benchmarks-history.md, "The rotation's
+  // sigma at low correlation").
+  double rotation_floor_correlation = 0.6;
   // Where the chance level's null statistics come from: the full-resolution NCC of the template
   // at the match's rotation and scale, both images less their local mean (3 px), at wrong
   // shifts. With 0, the search window's four corner tiles of 48 x 48 shifts (the whole window

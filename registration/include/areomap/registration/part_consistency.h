@@ -17,10 +17,9 @@
 //   - its peak stands clear of its chance level, z_part = (peak - mean) / spread >= kMinPartZ
 //     (a part without texture has a best shift anywhere, which says nothing),
 //   - and its peak exceeds its NCC at the match by at least kMinContradiction spreads.
-// Calibration: on the evaluation set (eval/, 353 real and 20 generated positives) the largest
-// contradiction of a true match is 1.4 spreads (a cross-modal hillshade); the generated
-// look-alikes of tests/registration/orbital_statistics_test.cc reach 3.1 and 9.4.
-// docs/benchmarks.md, "Registration decision".
+// The thresholds separate the true matches of the evaluation set (eval/) from the generated
+// look-alikes of tests/registration/orbital_statistics_test.cc: docs/benchmarks.md,
+// "Registration decision"; figures in docs/notes/benchmarks-history.md.
 #pragma once
 
 #include <limits>
