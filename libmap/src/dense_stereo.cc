@@ -542,7 +542,7 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
 
   Report(progress, 0.8, "triangulate");
   const OutputFrame frame = OutputFrameOf(left, rect);
-  std::vector<RowPoints> rows =
+  const std::vector<RowPoints> rows =
       TriangulateRows(rect, disparity, overlap, frame, StereoErrorModelOf(rect, options), options);
   GatherPoints(rows, left, frame, options, &result);
   SummarizeStereo(&result);
