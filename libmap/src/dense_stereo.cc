@@ -268,11 +268,10 @@ cv::Mat ComputeDisparity(const cv::Mat& left8, const cv::Mat& right8, int min_di
   return out;
 }
 
-DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right_image,
-                                 const CameraFile& left, const CameraFile& right,
-                                 const DenseStereoOptions& options,
-                                 const ProgressCallback& progress) {
-  options.Check();
+namespace {
+
+void CheckStereoPair(const cv::Mat& left_image, const cv::Mat& right_image, const CameraFile& left,
+                     const CameraFile& right) {
   if (left_image.empty() || right_image.empty()) {
     throw Error("stereo pair: an image is empty (" + left.source + ", " + right.source + ")");
   }
@@ -294,15 +293,27 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
                   std::to_string(left_image.cols) + "x" + std::to_string(left_image.rows));
     }
   }
-  DenseStereoResult result;
-  Report(progress, 0.0, "rectify");
+}
+
+// What later stages need of the rectification stage to resample the right image again.
+struct RectifiedGrey {
+  cv::Mat right_grey;  // The right input image, single channel.
+  double gain = 0.0;   // From input DN to 8 bits.
+};
+
+// Rectifies the pair into result->rectification and the 8-bit images result->disparity.left8
+// and right8; with options.align_rows, when tracked corners show the rows disagree, fits the
+// relative orientation and rectifies again with it.
+RectifiedGrey RectifyToEightBit(const cv::Mat& left_image, const cv::Mat& right_image,
+                                const CameraFile& left, const CameraFile& right,
+                                const DenseStereoOptions& options, DenseStereoResult* result) {
   RectificationOptions rect_options;
   rect_options.output_size = options.output_size;
-  result.rectification =
+  result->rectification =
       RectifyStereoPair(left.model, right.model, {left_image.cols, left_image.rows}, rect_options);
-  const StereoRectification& rect = result.rectification;
+  const StereoRectification& rect = result->rectification;
   const cv::Mat left_grey = ToGrey(left_image), right_grey = ToGrey(right_image);
-  DisparityResult& disparity = result.disparity;
+  DisparityResult& disparity = result->disparity;
   double gain = 0.0;  // One gain for both images: the 99.9th percentile of the first pair.
   const auto rectify_images = [&] {
     const cv::Mat left_rect = RemapToRectified(left_grey, rect.left_map_x, rect.left_map_y);
@@ -314,68 +325,120 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
   rectify_images();
   if (options.align_rows && FitRelativeOrientation(rect, disparity.left8, disparity.right8,
                                                    &disparity, &rect_options.correction)) {
-    result.rectification = RectifyStereoPair(left.model, right.model,
-                                             {left_image.cols, left_image.rows}, rect_options);
+    result->rectification = RectifyStereoPair(left.model, right.model,
+                                              {left_image.cols, left_image.rows}, rect_options);
     rectify_images();
   }
-  disparity.valid_left = rect.left_map_x >= 0.0f;
+  return {right_grey, gain};
+}
+
+// The maps from rectified right pixel to input right pixel that matching uses.
+struct RightMaps {
+  cv::Mat x, y;
+};
+
+// The common right model's maps sampled at (x, y + row_shift(x, y)).
+RightMaps ShiftRightMaps(const StereoRectification& rect, const cv::Mat& row_shift) {
   // Own buffers: cv::remap below must not write into the maps it reads (rect's).
-  cv::Mat right_map_x = rect.right_map_x.clone(), right_map_y = rect.right_map_y.clone();
-  if (options.align_rows) {
-    EstimateRowShift(disparity.left8, disparity.right8, &disparity);
-    if (disparity.row_shift_features > 0) {
-      // Sample the common right model's maps at (x, y + dy(x, y)).
-      cv::Mat shift_x(rect.size.y(), rect.size.x(), CV_32F), shift_y(shift_x.size(), CV_32F);
-      for (int y = 0; y < shift_x.rows; ++y) {
-        for (int x = 0; x < shift_x.cols; ++x) {
-          shift_x.at<float>(y, x) = static_cast<float>(x);
-          shift_y.at<float>(y, x) = static_cast<float>(y) + disparity.row_shift.at<float>(y, x);
-        }
-      }
-      cv::remap(rect.right_map_x, right_map_x, shift_x, shift_y, cv::INTER_NEAREST,
-                cv::BORDER_CONSTANT, cv::Scalar(-1));
-      cv::remap(rect.right_map_y, right_map_y, shift_x, shift_y, cv::INTER_NEAREST,
-                cv::BORDER_CONSTANT, cv::Scalar(-1));
-      // Interpolate the maps where both neighbours are inside; nearest keeps -1 borders intact.
-      cv::Mat linear_x, linear_y;
-      cv::remap(rect.right_map_x, linear_x, shift_x, shift_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
-                cv::Scalar(-1));
-      cv::remap(rect.right_map_y, linear_y, shift_x, shift_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
-                cv::Scalar(-1));
-      linear_x.copyTo(right_map_x, (linear_x >= 0.0f) & (right_map_x >= 0.0f));
-      linear_y.copyTo(right_map_y, (linear_x >= 0.0f) & (right_map_x >= 0.0f));
-      RemapToRectified(right_grey, right_map_x, right_map_y)
-          .convertTo(disparity.right8, CV_8U, gain);
+  RightMaps maps{rect.right_map_x.clone(), rect.right_map_y.clone()};
+  cv::Mat shift_x(rect.size.y(), rect.size.x(), CV_32F), shift_y(shift_x.size(), CV_32F);
+  for (int y = 0; y < shift_x.rows; ++y) {
+    for (int x = 0; x < shift_x.cols; ++x) {
+      shift_x.at<float>(y, x) = static_cast<float>(x);
+      shift_y.at<float>(y, x) = static_cast<float>(y) + row_shift.at<float>(y, x);
     }
   }
+  cv::remap(rect.right_map_x, maps.x, shift_x, shift_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT,
+            cv::Scalar(-1));
+  cv::remap(rect.right_map_y, maps.y, shift_x, shift_y, cv::INTER_NEAREST, cv::BORDER_CONSTANT,
+            cv::Scalar(-1));
+  // Interpolate the maps where both neighbours are inside; nearest keeps -1 borders intact.
+  cv::Mat linear_x, linear_y;
+  cv::remap(rect.right_map_x, linear_x, shift_x, shift_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+            cv::Scalar(-1));
+  cv::remap(rect.right_map_y, linear_y, shift_x, shift_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+            cv::Scalar(-1));
+  linear_x.copyTo(maps.x, (linear_x >= 0.0f) & (maps.x >= 0.0f));
+  linear_y.copyTo(maps.y, (linear_x >= 0.0f) & (maps.x >= 0.0f));
+  return maps;
+}
+
+// With options.align_rows, the right image's residual row shift (EstimateRowShift) and, when
+// there is one, the right 8-bit image resampled through the shifted maps. Returns the maps
+// matching uses.
+RightMaps AlignRightRows(const cv::Mat& right_grey, const StereoRectification& rect, double gain,
+                         const DenseStereoOptions& options, DisparityResult* disparity) {
+  if (!options.align_rows) return {rect.right_map_x.clone(), rect.right_map_y.clone()};
+  EstimateRowShift(disparity->left8, disparity->right8, disparity);
+  if (disparity->row_shift_features == 0) {
+    return {rect.right_map_x.clone(), rect.right_map_y.clone()};
+  }
+  const RightMaps maps = ShiftRightMaps(rect, disparity->row_shift);
+  RemapToRectified(right_grey, maps.x, maps.y).convertTo(disparity->right8, CV_8U, gain);
+  return maps;
+}
+
+// The disparity search range: from -disparity_margin_px to the disparity at min_range_m.
+void SetDisparityRange(const StereoRectification& rect, const DenseStereoOptions& options,
+                       DisparityResult* disparity) {
   const double max_disparity = rect.baseline_m * rect.focal_px / options.min_range_m;
-  disparity.min_disparity = -options.disparity_margin_px;
-  disparity.num_disparities = std::clamp(
+  disparity->min_disparity = -options.disparity_margin_px;
+  disparity->num_disparities = std::clamp(
       16 * static_cast<int>(std::ceil(max_disparity / 16.0)) + options.disparity_margin_px, 16,
       std::max(16, (rect.size.x() / 2) / 16 * 16));
+}
 
-  Report(progress, 0.1, "match");
-  disparity.disparity = ComputeDisparity(disparity.left8, disparity.right8, disparity.min_disparity,
-                                         disparity.num_disparities, options);
+// Matches the 8-bit pair into disparity->disparity and counts overlap and valid pixels; returns
+// the overlap mask.
+cv::Mat MatchPair(const RightMaps& right_maps, const DenseStereoOptions& options,
+                  DisparityResult* disparity) {
+  disparity->disparity =
+      ComputeDisparity(disparity->left8, disparity->right8, disparity->min_disparity,
+                       disparity->num_disparities, options);
   // Overlap: rectified left pixels whose right partner at infinity is inside the right image.
-  const cv::Mat overlap = disparity.valid_left & (right_map_x >= 0.0f);
-  disparity.overlap_pixels = static_cast<size_t>(cv::countNonZero(overlap));
-  const cv::Mat has_disparity = disparity.disparity == disparity.disparity;  // Not NaN.
-  disparity.valid_pixels = static_cast<size_t>(cv::countNonZero(has_disparity & overlap));
+  const cv::Mat overlap = disparity->valid_left & (right_maps.x >= 0.0f);
+  disparity->overlap_pixels = static_cast<size_t>(cv::countNonZero(overlap));
+  const cv::Mat has_disparity = disparity->disparity == disparity->disparity;  // Not NaN.
+  disparity->valid_pixels = static_cast<size_t>(cv::countNonZero(has_disparity & overlap));
+  return overlap;
+}
 
-  Report(progress, 0.8, "triangulate");
+StereoErrorModel StereoErrorModelOf(const StereoRectification& rect,
+                                    const DenseStereoOptions& options) {
   StereoErrorModel error_model;
   error_model.baseline_m = rect.baseline_m;
   error_model.focal_px = rect.focal_px;
   error_model.parallax_sigma_px = options.parallax_sigma_px;
   error_model.azimuth_sigma_px = options.azimuth_sigma_px;
   error_model.Check();
-  const Rigid3d out_from_model = left.site_from_frame.value_or(Rigid3d());
-  const Eigen::Vector3d center_out = out_from_model * rect.left.c;
-  struct RowPoints {
-    std::vector<StereoPoint> points, beyond;  // beyond: kept only as line-of-sight witnesses
-    size_t beyond_count = 0, not_intersecting = 0;
-  };
+  return error_model;
+}
+
+// The frame the points are given in: the site frame when the left label places the camera
+// frame in it, the camera models' frame otherwise.
+struct OutputFrame {
+  Rigid3d out_from_model;
+  Eigen::Vector3d center_out;  // The left camera centre in that frame.
+};
+
+OutputFrame OutputFrameOf(const CameraFile& left, const StereoRectification& rect) {
+  OutputFrame frame;
+  frame.out_from_model = left.site_from_frame.value_or(Rigid3d());
+  frame.center_out = frame.out_from_model * rect.left.c;
+  return frame;
+}
+
+struct RowPoints {
+  std::vector<StereoPoint> points, beyond;  // beyond: kept only as line-of-sight witnesses
+  size_t beyond_count = 0, not_intersecting = 0;
+};
+
+// Triangulates every overlap pixel with a disparity, one image row per entry.
+std::vector<RowPoints> TriangulateRows(const StereoRectification& rect,
+                                       const DisparityResult& disparity, const cv::Mat& overlap,
+                                       const OutputFrame& frame,
+                                       const StereoErrorModel& error_model,
+                                       const DenseStereoOptions& options) {
   std::vector<RowPoints> rows(static_cast<size_t>(rect.size.y()));
   tbb::parallel_for(0, rect.size.y(), [&](int y) {
     RowPoints& row = rows[static_cast<size_t>(y)];
@@ -398,8 +461,8 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
         if (!options.check_line_of_sight) continue;
       }
       StereoPoint p;
-      p.position = out_from_model * hit->point;
-      p.covariance = StereoPointCovariance(p.position, center_out, error_model);
+      p.position = frame.out_from_model * hit->point;
+      p.covariance = StereoPointCovariance(p.position, frame.center_out, error_model);
       p.intensity = static_cast<float>(disparity.left8.at<uint8_t>(y, x)) / 255.0f;
       p.left_x = rect.left_map_x.at<float>(y, x);
       p.left_y = rect.left_map_y.at<float>(y, x);
@@ -408,8 +471,16 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
       (is_beyond ? row.beyond : row.points).push_back(p);
     }
   });
-  PointCloud& cloud = result.cloud;
-  cloud.camera_center = center_out;
+  return rows;
+}
+
+// The rows' points, in row order, into result->cloud, then the line-of-sight check; the
+// counts into result->summary.
+void GatherPoints(const std::vector<RowPoints>& rows, const CameraFile& left,
+                  const OutputFrame& frame, const DenseStereoOptions& options,
+                  DenseStereoResult* result) {
+  PointCloud& cloud = result->cloud;
+  cloud.camera_center = frame.center_out;
   if (left.site_from_frame) {
     cloud.frame = "SITE_FRAME";
     cloud.site = left.site;
@@ -417,9 +488,9 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
     cloud.frame = left.frame;
     cloud.site = -1;
   }
-  DenseStereoSummary& summary = result.summary;
+  DenseStereoSummary& summary = result->summary;
   std::vector<StereoPoint> beyond;
-  for (RowPoints& row : rows) {
+  for (const RowPoints& row : rows) {
     cloud.points.insert(cloud.points.end(), row.points.begin(), row.points.end());
     beyond.insert(beyond.end(), row.beyond.begin(), row.beyond.end());
     summary.beyond_range += row.beyond_count;
@@ -428,16 +499,53 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
   if (options.check_line_of_sight) {
     summary.line_of_sight = DropLineOfSightConflicts(&cloud, options.line_of_sight, beyond);
   }
+}
+
+// The rest of result->summary, from the disparity, the rectification and the cloud.
+void SummarizeStereo(DenseStereoResult* result) {
+  const DisparityResult& disparity = result->disparity;
+  const StereoRectification& rect = result->rectification;
+  DenseStereoSummary& summary = result->summary;
   summary.overlap_pixels = disparity.overlap_pixels;
   summary.valid_pixels = disparity.valid_pixels;
   summary.valid_fraction = disparity.overlap_pixels == 0
                                ? 0.0
                                : static_cast<double>(disparity.valid_pixels) /
                                      static_cast<double>(disparity.overlap_pixels);
-  summary.points = cloud.points.size();
+  summary.points = result->cloud.points.size();
   summary.baseline_m = rect.baseline_m;
   summary.focal_px = rect.focal_px;
   summary.num_disparities = disparity.num_disparities;
+}
+
+}  // namespace
+
+DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right_image,
+                                 const CameraFile& left, const CameraFile& right,
+                                 const DenseStereoOptions& options,
+                                 const ProgressCallback& progress) {
+  options.Check();
+  CheckStereoPair(left_image, right_image, left, right);
+  DenseStereoResult result;
+  Report(progress, 0.0, "rectify");
+  const RectifiedGrey grey =
+      RectifyToEightBit(left_image, right_image, left, right, options, &result);
+  const StereoRectification& rect = result.rectification;
+  DisparityResult& disparity = result.disparity;
+  disparity.valid_left = rect.left_map_x >= 0.0f;
+  const RightMaps right_maps =
+      AlignRightRows(grey.right_grey, rect, grey.gain, options, &disparity);
+  SetDisparityRange(rect, options, &disparity);
+
+  Report(progress, 0.1, "match");
+  const cv::Mat overlap = MatchPair(right_maps, options, &disparity);
+
+  Report(progress, 0.8, "triangulate");
+  const OutputFrame frame = OutputFrameOf(left, rect);
+  const std::vector<RowPoints> rows =
+      TriangulateRows(rect, disparity, overlap, frame, StereoErrorModelOf(rect, options), options);
+  GatherPoints(rows, left, frame, options, &result);
+  SummarizeStereo(&result);
   Report(progress, 1.0, "done");
   return result;
 }

@@ -125,6 +125,145 @@ MissionSite ReadSite(const json& entry, const fs::path& root, const fs::path& ma
   return site;
 }
 
+void CheckFormatAndVersion(const json& root_json, const fs::path& manifest) {
+  if (Get<std::string>(root_json, "format", "", manifest) != "areomap-mission") {
+    throw Error(manifest.string() + ": \"format\" is not \"areomap-mission\"");
+  }
+  if (const int version = GetInteger(root_json, "version", "", manifest, 0, 1000000);
+      version != 1) {
+    throw Error(manifest.string() + ": version " + std::to_string(version) +
+                " is not supported; expected 1");
+  }
+}
+
+Body ReadBody(const json& body_json, const fs::path& manifest) {
+  Body body;
+  body.name = Get<std::string>(body_json, "name", "body.", manifest);
+  constexpr double kHuge = 1e12;  // [m], any body's radius is below it
+  body.a = GetNumber(body_json, "a_m", "body.", manifest, 1.0, kHuge,
+                     "a finite equatorial radius > 0 [m]");
+  body.b = GetNumber(body_json, "b_m", "body.", manifest, 1.0, body.a,
+                     "a finite polar radius in (0, a_m] [m]");
+  return body;
+}
+
+Geographic ReadOrigin(const json& origin_json, const fs::path& manifest) {
+  Geographic origin;
+  origin.lat = GetNumber(origin_json, "lat_deg", "origin.", manifest, -90.0, 90.0,
+                         "a latitude in [-90, 90]") *
+               kRadPerDeg;
+  origin.lon = GetNumber(origin_json, "lon_deg", "origin.", manifest, -360.0, 360.0,
+                         "a longitude in [-360, 360]") *
+               kRadPerDeg;
+  // Heights above the ellipsoid: Olympus Mons is 22 km up, Hellas 8 km down.
+  origin.h = GetNumber(origin_json, "h_m", "origin.", manifest, -1e5, 1e5,
+                       "a height in [-100000, 100000] m above the ellipsoid");
+  return origin;
+}
+
+MissionOrbitalProduct ReadOrbitalProduct(const json& product, const fs::path& root,
+                                         const fs::path& manifest) {
+  MissionOrbitalProduct p;
+  p.id = Get<std::string>(product, "id", "orbital[].", manifest);
+  p.kind = Get<std::string>(product, "kind", "orbital[].", manifest);
+  if (p.kind != "image" && p.kind != "dtm") {
+    throw Error(manifest.string() + ": orbital[" + p.id + "].kind is \"" + p.kind +
+                "\"; expected \"image\" or \"dtm\"");
+  }
+  p.path = ExistingFile(root, Get<std::string>(product, "path", "orbital[].", manifest),
+                        "orbital[" + p.id + "].path", manifest);
+  p.gsd_m = GetNumber(product, "gsd_m", "orbital[].", manifest, 1e-6, 1e6,
+                      "a ground sample distance in (0, 1e6] m");
+  if (product.contains("sun_azimuth_deg")) {
+    p.sun_azimuth_deg = GetNumber(product, "sun_azimuth_deg", "orbital[].", manifest, -360.0, 360.0,
+                                  "an azimuth in [-360, 360] degrees from north");
+  }
+  if (product.contains("sun_elevation_deg")) {
+    p.sun_elevation_deg = GetNumber(product, "sun_elevation_deg", "orbital[].", manifest, -90.0,
+                                    90.0, "an elevation in [-90, 90] degrees");
+  }
+  return p;
+}
+
+// The "sites" list: at least one, each site number once.
+std::vector<MissionSite> ReadSites(const json& root_json, const fs::path& root,
+                                   const fs::path& manifest) {
+  std::vector<MissionSite> sites;
+  for (const json& site : Get<json>(root_json, "sites", "", manifest)) {
+    sites.push_back(ReadSite(site, root, manifest));
+  }
+  if (sites.empty()) throw Error(manifest.string() + ": \"sites\" is empty");
+  for (size_t i = 0; i < sites.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      if (sites[j].site == sites[i].site) {
+        throw Error(manifest.string() + ": sites[" + std::to_string(i) + "].site " +
+                    std::to_string(sites[i].site) + " repeats sites[" + std::to_string(j) +
+                    "]; expected each site once");
+      }
+    }
+  }
+  return sites;
+}
+
+// Reads the telemetry poses into `mission` (one per site, in the sites' order); returns the CSV.
+fs::path ReadTelemetry(const json& root_json, const fs::path& manifest, MissionManifest* mission) {
+  const json& telemetry = Get<json>(root_json, "telemetry", "", manifest);
+  const fs::path telemetry_csv =
+      ExistingFile(mission->root, Get<std::string>(telemetry, "sites", "telemetry.", manifest),
+                   "telemetry.sites", manifest);
+  mission->telemetry = ReadSitePosesCsv(telemetry_csv);
+  for (size_t i = 0; i < mission->sites.size(); ++i) {
+    if (i >= mission->telemetry.size() || mission->telemetry[i].site != mission->sites[i].site) {
+      throw Error(manifest.string() + ": telemetry has no pose for site " +
+                  std::to_string(mission->sites[i].site) + " (row " + std::to_string(i + 1) + ")");
+    }
+  }
+  return telemetry_csv;
+}
+
+// Reads the optional "truth" entries into `mission`; returns the truth sites CSV, if any.
+std::optional<fs::path> ReadTruth(const json& root_json, const fs::path& manifest,
+                                  MissionManifest* mission) {
+  std::optional<fs::path> truth_sites_csv;
+  if (!root_json.contains("truth")) return truth_sites_csv;
+  const json& truth = root_json["truth"];
+  if (truth.contains("sites")) {
+    truth_sites_csv =
+        ExistingFile(mission->root, Get<std::string>(truth, "sites", "truth.", manifest),
+                     "truth.sites", manifest);
+    mission->truth_sites = ReadSitePosesCsv(*truth_sites_csv);
+  }
+  if (truth.contains("craters")) {
+    mission->truth_craters_csv =
+        ExistingFile(mission->root, Get<std::string>(truth, "craters", "truth.", manifest),
+                     "truth.craters", manifest);
+  }
+  if (truth.contains("rocks")) {
+    mission->truth_rocks_csv =
+        ExistingFile(mission->root, Get<std::string>(truth, "rocks", "truth.", manifest),
+                     "truth.rocks", manifest);
+  }
+  return truth_sites_csv;
+}
+
+// Every file the manifest names, mission.json first.
+std::vector<fs::path> ListMissionFiles(const MissionManifest& mission, const fs::path& manifest,
+                                       const fs::path& telemetry_csv,
+                                       const std::optional<fs::path>& truth_sites_csv) {
+  std::vector<fs::path> files = {manifest, telemetry_csv};
+  for (const MissionOrbitalProduct& p : mission.orbital) files.push_back(p.path);
+  for (const MissionSite& site : mission.sites) {
+    for (const MissionStereoPair& pair : site.pairs) {
+      files.insert(files.end(),
+                   {pair.left_image, pair.left_label, pair.right_image, pair.right_label});
+    }
+  }
+  for (const auto& csv : {truth_sites_csv, mission.truth_craters_csv, mission.truth_rocks_csv}) {
+    if (csv) files.push_back(*csv);
+  }
+  return files;
+}
+
 }  // namespace
 
 const MissionOrbitalProduct* MissionManifest::FirstOrbital(const std::string& kind) const {
@@ -187,115 +326,20 @@ MissionManifest ReadMissionManifest(const fs::path& path) {
 MissionManifest ReadMissionManifest(std::istream& in, const fs::path& manifest) {
   const json root_json = json::parse(in, nullptr, false);
   if (root_json.is_discarded()) throw Error(manifest.string() + ": not valid JSON");
-  if (Get<std::string>(root_json, "format", "", manifest) != "areomap-mission") {
-    throw Error(manifest.string() + ": \"format\" is not \"areomap-mission\"");
-  }
-  if (const int version = GetInteger(root_json, "version", "", manifest, 0, 1000000);
-      version != 1) {
-    throw Error(manifest.string() + ": version " + std::to_string(version) +
-                " is not supported; expected 1");
-  }
+  CheckFormatAndVersion(root_json, manifest);
   MissionManifest mission;
   mission.root = manifest.parent_path();
   // Optional, but text when given (json::value would throw its own type_error).
   if (root_json.contains("name")) mission.name = Get<std::string>(root_json, "name", "", manifest);
-  const json& body = Get<json>(root_json, "body", "", manifest);
-  mission.body.name = Get<std::string>(body, "name", "body.", manifest);
-  constexpr double kHuge = 1e12;  // [m], any body's radius is below it
-  mission.body.a =
-      GetNumber(body, "a_m", "body.", manifest, 1.0, kHuge, "a finite equatorial radius > 0 [m]");
-  mission.body.b = GetNumber(body, "b_m", "body.", manifest, 1.0, mission.body.a,
-                             "a finite polar radius in (0, a_m] [m]");
-  const json& origin = Get<json>(root_json, "origin", "", manifest);
-  mission.origin.lat =
-      GetNumber(origin, "lat_deg", "origin.", manifest, -90.0, 90.0, "a latitude in [-90, 90]") *
-      kRadPerDeg;
-  mission.origin.lon = GetNumber(origin, "lon_deg", "origin.", manifest, -360.0, 360.0,
-                                 "a longitude in [-360, 360]") *
-                       kRadPerDeg;
-  // Heights above the ellipsoid: Olympus Mons is 22 km up, Hellas 8 km down.
-  mission.origin.h = GetNumber(origin, "h_m", "origin.", manifest, -1e5, 1e5,
-                               "a height in [-100000, 100000] m above the ellipsoid");
-
+  mission.body = ReadBody(Get<json>(root_json, "body", "", manifest), manifest);
+  mission.origin = ReadOrigin(Get<json>(root_json, "origin", "", manifest), manifest);
   for (const json& product : Get<json>(root_json, "orbital", "", manifest)) {
-    MissionOrbitalProduct p;
-    p.id = Get<std::string>(product, "id", "orbital[].", manifest);
-    p.kind = Get<std::string>(product, "kind", "orbital[].", manifest);
-    if (p.kind != "image" && p.kind != "dtm") {
-      throw Error(manifest.string() + ": orbital[" + p.id + "].kind is \"" + p.kind +
-                  "\"; expected \"image\" or \"dtm\"");
-    }
-    p.path = ExistingFile(mission.root, Get<std::string>(product, "path", "orbital[].", manifest),
-                          "orbital[" + p.id + "].path", manifest);
-    p.gsd_m = GetNumber(product, "gsd_m", "orbital[].", manifest, 1e-6, 1e6,
-                        "a ground sample distance in (0, 1e6] m");
-    if (product.contains("sun_azimuth_deg")) {
-      p.sun_azimuth_deg = GetNumber(product, "sun_azimuth_deg", "orbital[].", manifest, -360.0,
-                                    360.0, "an azimuth in [-360, 360] degrees from north");
-    }
-    if (product.contains("sun_elevation_deg")) {
-      p.sun_elevation_deg = GetNumber(product, "sun_elevation_deg", "orbital[].", manifest, -90.0,
-                                      90.0, "an elevation in [-90, 90] degrees");
-    }
-    mission.orbital.push_back(p);
+    mission.orbital.push_back(ReadOrbitalProduct(product, mission.root, manifest));
   }
-  for (const json& site : Get<json>(root_json, "sites", "", manifest)) {
-    mission.sites.push_back(ReadSite(site, mission.root, manifest));
-  }
-  if (mission.sites.empty()) throw Error(manifest.string() + ": \"sites\" is empty");
-  for (size_t i = 0; i < mission.sites.size(); ++i) {
-    for (size_t j = 0; j < i; ++j) {
-      if (mission.sites[j].site == mission.sites[i].site) {
-        throw Error(manifest.string() + ": sites[" + std::to_string(i) + "].site " +
-                    std::to_string(mission.sites[i].site) + " repeats sites[" + std::to_string(j) +
-                    "]; expected each site once");
-      }
-    }
-  }
-
-  const json& telemetry = Get<json>(root_json, "telemetry", "", manifest);
-  const fs::path telemetry_csv =
-      ExistingFile(mission.root, Get<std::string>(telemetry, "sites", "telemetry.", manifest),
-                   "telemetry.sites", manifest);
-  mission.telemetry = ReadSitePosesCsv(telemetry_csv);
-  for (size_t i = 0; i < mission.sites.size(); ++i) {
-    if (i >= mission.telemetry.size() || mission.telemetry[i].site != mission.sites[i].site) {
-      throw Error(manifest.string() + ": telemetry has no pose for site " +
-                  std::to_string(mission.sites[i].site) + " (row " + std::to_string(i + 1) + ")");
-    }
-  }
-  std::optional<fs::path> truth_sites_csv;
-  if (root_json.contains("truth")) {
-    const json& truth = root_json["truth"];
-    if (truth.contains("sites")) {
-      truth_sites_csv =
-          ExistingFile(mission.root, Get<std::string>(truth, "sites", "truth.", manifest),
-                       "truth.sites", manifest);
-      mission.truth_sites = ReadSitePosesCsv(*truth_sites_csv);
-    }
-    if (truth.contains("craters")) {
-      mission.truth_craters_csv =
-          ExistingFile(mission.root, Get<std::string>(truth, "craters", "truth.", manifest),
-                       "truth.craters", manifest);
-    }
-    if (truth.contains("rocks")) {
-      mission.truth_rocks_csv =
-          ExistingFile(mission.root, Get<std::string>(truth, "rocks", "truth.", manifest),
-                       "truth.rocks", manifest);
-    }
-  }
-  std::vector<fs::path>& files = mission.files;
-  files = {manifest, telemetry_csv};
-  for (const MissionOrbitalProduct& p : mission.orbital) files.push_back(p.path);
-  for (const MissionSite& site : mission.sites) {
-    for (const MissionStereoPair& pair : site.pairs) {
-      files.insert(files.end(),
-                   {pair.left_image, pair.left_label, pair.right_image, pair.right_label});
-    }
-  }
-  for (const auto& csv : {truth_sites_csv, mission.truth_craters_csv, mission.truth_rocks_csv}) {
-    if (csv) files.push_back(*csv);
-  }
+  mission.sites = ReadSites(root_json, mission.root, manifest);
+  const fs::path telemetry_csv = ReadTelemetry(root_json, manifest, &mission);
+  const std::optional<fs::path> truth_sites_csv = ReadTruth(root_json, manifest, &mission);
+  mission.files = ListMissionFiles(mission, manifest, telemetry_csv, truth_sites_csv);
   return mission;
 }
 

@@ -154,6 +154,101 @@ float Bilinear(const cv::Mat& image, double x, double y) {
       fy * ((1 - fx) * image.at<float>(y1, x0) + fx * image.at<float>(y1, x1)));
 }
 
+// The source images as CV_32F; throws naming an image that is empty or not single-channel.
+std::vector<cv::Mat> FloatImages(const std::vector<OrthoSourceImage>& images) {
+  std::vector<cv::Mat> float_images;
+  for (const OrthoSourceImage& source : images) {
+    const std::string name = "orthophoto: image " + std::to_string(source.id);
+    if (source.image.empty()) throw Error(name + " is empty");
+    if (source.image.channels() != 1) throw Error(name + ": expected a single-channel image");
+    cv::Mat f;
+    source.image.convertTo(f, CV_32F);
+    float_images.push_back(f);
+  }
+  return float_images;
+}
+
+// An orthophoto on `grid` with no valid cell yet.
+Orthophoto EmptyOrthophoto(const GridSpec& grid, const std::string& crs_wkt) {
+  Orthophoto ortho;
+  ortho.crs_wkt = crs_wkt;
+  ortho.grid = grid;
+  const int w = grid.width, h = grid.height;
+  ortho.image = cv::Mat(h, w, CV_32F, cv::Scalar(kNaNf));
+  ortho.resolution = cv::Mat(h, w, CV_32F, cv::Scalar(kNaNf));
+  ortho.valid = cv::Mat(h, w, CV_8U, cv::Scalar(0));
+  ortho.source_id = cv::Mat(h, w, CV_32S, cv::Scalar(-1));
+  return ortho;
+}
+
+// Each image's depth buffer of the ground cells, in parallel.
+std::vector<cv::Mat> DepthBuffers(const GroundCells& cells,
+                                  const std::vector<OrthoSourceImage>& images,
+                                  const std::vector<cv::Mat>& float_images,
+                                  const OrthoOptions& options) {
+  std::vector<cv::Mat> depth(images.size());
+  tbb::parallel_for(size_t{0}, images.size(), [&](size_t i) {
+    depth[i] = DepthBuffer(cells, images[i].camera_in_site, float_images[i].cols,
+                           float_images[i].rows, options.max_range_m);
+  });
+  return depth;
+}
+
+// The source images with what sampling needs of each: the CV_32F pixels and the depth buffer.
+struct OrthoSources {
+  const std::vector<OrthoSourceImage>& images;
+  const std::vector<cv::Mat>& float_images;
+  const std::vector<cv::Mat>& depth;
+};
+
+struct BestView {
+  double gsd = 0.0;       // Ground sample distance of the image at the cell [m].
+  size_t image = 0;       // Index into the source images.
+  Eigen::Vector2d pixel;  // Where the image sees the cell.
+};
+
+// The image that sees ground cell `k` (finite) at the finest resolution: within range, at most
+// the maximum incidence, inside the image and not hidden by nearer ground; nullopt if none.
+std::optional<BestView> BestViewOfCell(const GroundCells& cells, size_t k,
+                                       const OrthoSources& sources, const OrthoOptions& options,
+                                       double min_cos) {
+  const Eigen::Vector3d& p = cells.point[k];
+  double best_gsd = std::numeric_limits<double>::infinity();
+  int best = -1;
+  Eigen::Vector2d best_pixel;
+  for (size_t i = 0; i < sources.images.size(); ++i) {
+    const CahvorModel& camera = sources.images[i].camera_in_site;
+    const Eigen::Vector3d to_camera = camera.c - p;
+    const double range = to_camera.norm();
+    if (range > options.max_range_m) continue;
+    const double cos_incidence = cells.normal[k].dot(to_camera) / range;
+    if (cos_incidence < min_cos) continue;
+    const std::optional<Eigen::Vector2d> pixel = camera.Project(p);
+    const cv::Mat& image = sources.float_images[i];
+    if (!pixel || pixel->x() < 0.0 || pixel->y() < 0.0 || pixel->x() > image.cols - 1.0 ||
+        pixel->y() > image.rows - 1.0) {
+      continue;
+    }
+    const float buffer = sources.depth[i].at<float>(static_cast<int>(std::lround(pixel->y())),
+                                                    static_cast<int>(std::lround(pixel->x())));
+    // The surface's height error moves where a grazing ray meets it by sigma / cos(i).
+    const double tolerance = options.depth_tolerance_m + options.depth_tolerance_relative * range +
+                             options.depth_tolerance_sigmas * cells.sigma[k] / cos_incidence;
+    if (range > buffer + tolerance) {
+      continue;  // Something nearer hides the cell.
+    }
+    const Eigen::Vector2d focal = camera.FocalLengths();
+    const double gsd = range / (0.5 * (focal.x() + focal.y()) * cos_incidence);
+    if (gsd < best_gsd) {
+      best_gsd = gsd;
+      best = static_cast<int>(i);
+      best_pixel = *pixel;
+    }
+  }
+  if (best < 0) return std::nullopt;
+  return BestView{best_gsd, static_cast<size_t>(best), best_pixel};
+}
+
 }  // namespace
 
 void OrthoOptions::Check() const {
@@ -213,80 +308,29 @@ Orthophoto MakeOrthophoto(const Dtm& dtm, const SiteGeoreference& site, const Ma
                           const ProgressCallback& progress) {
   options.Check();
   if (images.empty()) throw Error("orthophoto: no images given");
-  std::vector<cv::Mat> float_images;
-  for (const OrthoSourceImage& source : images) {
-    const std::string name = "orthophoto: image " + std::to_string(source.id);
-    if (source.image.empty()) throw Error(name + " is empty");
-    if (source.image.channels() != 1) throw Error(name + ": expected a single-channel image");
-    cv::Mat f;
-    source.image.convertTo(f, CV_32F);
-    float_images.push_back(f);
-  }
-  Orthophoto ortho;
-  ortho.crs_wkt = dtm.crs_wkt;
+  const std::vector<cv::Mat> float_images = FloatImages(images);
   const std::optional<GridSpec> window =
       OrthophotoWindow(dtm.layers.grid, site, map, images, options);
   if (!window) throw Error("orthophoto: the DTM does not reach the cameras");
-  ortho.grid = *window;
-  const int w = window->width, h = window->height;
-  ortho.image = cv::Mat(h, w, CV_32F, cv::Scalar(kNaNf));
-  ortho.resolution = cv::Mat(h, w, CV_32F, cv::Scalar(kNaNf));
-  ortho.valid = cv::Mat(h, w, CV_8U, cv::Scalar(0));
-  ortho.source_id = cv::Mat(h, w, CV_32S, cv::Scalar(-1));
+  Orthophoto ortho = EmptyOrthophoto(*window, dtm.crs_wkt);
   Report(progress, 0.0, "orthophoto: ground");
   const GroundCells cells = GroundInSite(dtm.layers, *window, site, map, options.normal_baseline_m);
   Report(progress, 0.2, "orthophoto: depth buffers");
-  std::vector<cv::Mat> depth(images.size());
-  tbb::parallel_for(size_t{0}, images.size(), [&](size_t i) {
-    depth[i] = DepthBuffer(cells, images[i].camera_in_site, float_images[i].cols,
-                           float_images[i].rows, options.max_range_m);
-  });
+  const std::vector<cv::Mat> depth = DepthBuffers(cells, images, float_images, options);
   Report(progress, 0.6, "orthophoto: sampling");
+  const OrthoSources sources{images, float_images, depth};
   const double min_cos = std::cos(options.max_incidence_deg * 3.14159265358979323846 / 180.0);
-  tbb::parallel_for(0, h, [&](int row) {
-    for (int col = 0; col < w; ++col) {
-      const size_t k = static_cast<size_t>(row) * w + col;
-      const Eigen::Vector3d& p = cells.point[k];
-      if (!p.allFinite()) continue;
-      double best_gsd = std::numeric_limits<double>::infinity();
-      int best = -1;
-      Eigen::Vector2d best_pixel;
-      for (size_t i = 0; i < images.size(); ++i) {
-        const CahvorModel& camera = images[i].camera_in_site;
-        const Eigen::Vector3d to_camera = camera.c - p;
-        const double range = to_camera.norm();
-        if (range > options.max_range_m) continue;
-        const double cos_incidence = cells.normal[k].dot(to_camera) / range;
-        if (cos_incidence < min_cos) continue;
-        const std::optional<Eigen::Vector2d> pixel = camera.Project(p);
-        const cv::Mat& image = float_images[i];
-        if (!pixel || pixel->x() < 0.0 || pixel->y() < 0.0 || pixel->x() > image.cols - 1.0 ||
-            pixel->y() > image.rows - 1.0) {
-          continue;
-        }
-        const float buffer = depth[i].at<float>(static_cast<int>(std::lround(pixel->y())),
-                                                static_cast<int>(std::lround(pixel->x())));
-        // The surface's height error moves where a grazing ray meets it by sigma / cos(i).
-        const double tolerance = options.depth_tolerance_m +
-                                 options.depth_tolerance_relative * range +
-                                 options.depth_tolerance_sigmas * cells.sigma[k] / cos_incidence;
-        if (range > buffer + tolerance) {
-          continue;  // Something nearer hides the cell.
-        }
-        const Eigen::Vector2d focal = camera.FocalLengths();
-        const double gsd = range / (0.5 * (focal.x() + focal.y()) * cos_incidence);
-        if (gsd < best_gsd) {
-          best_gsd = gsd;
-          best = static_cast<int>(i);
-          best_pixel = *pixel;
-        }
-      }
-      if (best < 0) continue;
-      const size_t b = static_cast<size_t>(best);
-      ortho.image.at<float>(row, col) = Bilinear(float_images[b], best_pixel.x(), best_pixel.y());
-      ortho.resolution.at<float>(row, col) = static_cast<float>(best_gsd);
+  tbb::parallel_for(0, window->height, [&](int row) {
+    for (int col = 0; col < window->width; ++col) {
+      const size_t k = static_cast<size_t>(row) * window->width + col;
+      if (!cells.point[k].allFinite()) continue;
+      const std::optional<BestView> best = BestViewOfCell(cells, k, sources, options, min_cos);
+      if (!best) continue;
+      ortho.image.at<float>(row, col) =
+          Bilinear(float_images[best->image], best->pixel.x(), best->pixel.y());
+      ortho.resolution.at<float>(row, col) = static_cast<float>(best->gsd);
       ortho.valid.at<uint8_t>(row, col) = 1;
-      ortho.source_id.at<int32_t>(row, col) = images[b].id;
+      ortho.source_id.at<int32_t>(row, col) = images[best->image].id;
     }
   });
   ortho.valid_cells = cv::countNonZero(ortho.valid);

@@ -37,6 +37,117 @@ void BuildMaps(const CahvorModel& rectified, const CameraModel& model,
   });
 }
 
+using Vector5d = Eigen::Matrix<double, 5, 1>;
+
+// The rotation by angle |v| about v (the identity for v = 0).
+Eigen::Matrix3d RotationOfVector(const Eigen::Vector3d& v) {
+  const double angle = v.norm();
+  return angle > 0.0 ? Eigen::AngleAxisd(angle, v / angle).toRotationMatrix()
+                     : Eigen::Matrix3d::Identity();
+}
+
+// The vertical disparities of left-right correspondences as a function of a small correction
+// theta: the baseline turned about `down` (forward tilt) and about the axis (vertical tilt); the
+// right camera turned about x, down and the axis [rad].
+struct RowAlignment {
+  // The rectified frame: x along the baseline, `down`, and the common axis a.
+  Eigen::Vector3d x_axis, axis, down;
+  double vs = 0.0;  // Vertical focal length [px].
+  std::vector<Eigen::Vector3d> left_rays, right_rays;
+
+  // (turn of the baseline, turn of the right camera) for theta.
+  std::pair<Eigen::Matrix3d, Eigen::Matrix3d> Rotations(const Vector5d& t) const {
+    const Eigen::Vector3d b = t[0] * down + t[1] * axis;
+    const Eigen::Vector3d w = t[2] * x_axis + t[3] * down + t[4] * axis;
+    return {RotationOfVector(b), RotationOfVector(w)};
+  }
+
+  // Vertical disparity of every correspondence after the correction theta [px].
+  Eigen::VectorXd Residuals(const Vector5d& t) const {
+    const auto [turn_baseline, turn_right] = Rotations(t);
+    const Eigen::Vector3d x = turn_baseline * x_axis;
+    const Eigen::Vector3d a = (axis - axis.dot(x) * x).normalized();
+    const Eigen::Vector3d d = a.cross(x).normalized();
+    const size_t n = left_rays.size();
+    Eigen::VectorXd r(static_cast<Eigen::Index>(n));
+    for (size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d& l = left_rays[i];
+      const Eigen::Vector3d rr = turn_right * right_rays[i];
+      r[static_cast<Eigen::Index>(i)] = vs * (rr.dot(d) / rr.dot(a) - l.dot(d) / l.dot(a));
+    }
+    return r;
+  }
+};
+
+RowAlignment MakeRowAlignment(
+    const StereoRectification& rect,
+    const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& left_right_pixels) {
+  const size_t n = left_right_pixels.size();
+  RowAlignment problem;
+  problem.x_axis = (rect.right.c - rect.left.c).normalized();
+  problem.axis = rect.left.a;
+  problem.down = problem.axis.cross(problem.x_axis).normalized();
+  problem.vs = rect.left.FocalLengths().y();
+  problem.left_rays.resize(n);
+  problem.right_rays.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    problem.left_rays[i] = rect.left.Unproject(left_right_pixels[i].first);
+    problem.right_rays[i] = rect.right.Unproject(left_right_pixels[i].second);
+  }
+  return problem;
+}
+
+constexpr double kHuberPx = 1.0, kOutlierPx = 5.0, kPriorRad = 0.1, kStep = 1e-6;
+
+// Theta by 10 Gauss-Newton steps with forward-difference Jacobians, Huber weights (outliers
+// beyond kOutlierPx dropped after the first step) and a prior of kPriorRad on each angle.
+Vector5d SolveRowAlignment(const RowAlignment& problem) {
+  const size_t n = problem.left_rays.size();
+  Vector5d theta = Vector5d::Zero();
+  std::vector<double> weight(n, 1.0);
+  for (int iteration = 0; iteration < 10; ++iteration) {
+    const Eigen::VectorXd r = problem.Residuals(theta);
+    Eigen::Matrix<double, Eigen::Dynamic, 5> jacobian(r.size(), 5);
+    for (int k = 0; k < 5; ++k) {
+      Vector5d step = theta;
+      step[k] += kStep;
+      jacobian.col(k) = (problem.Residuals(step) - r) / kStep;
+    }
+    Eigen::Matrix<double, 5, 5> normal =
+        Eigen::Matrix<double, 5, 5>::Identity() / (kPriorRad * kPriorRad);
+    Vector5d gradient = -theta / (kPriorRad * kPriorRad);
+    for (size_t i = 0; i < n; ++i) {
+      const double e = std::abs(r[static_cast<Eigen::Index>(i)]);
+      weight[i] = iteration > 0 && e > kOutlierPx ? 0.0 : (e <= kHuberPx ? 1.0 : kHuberPx / e);
+      const auto row = jacobian.row(static_cast<Eigen::Index>(i)).transpose();
+      normal += weight[i] * row * row.transpose();
+      gradient -= weight[i] * row * r[static_cast<Eigen::Index>(i)];
+    }
+    theta += normal.ldlt().solve(gradient);
+  }
+  return theta;
+}
+
+// The inliers (within kOutlierPx after the correction) and their RMS vertical disparity before
+// and after it.
+void ScoreRowAlignment(const RowAlignment& problem, const Vector5d& theta, RectificationFit* fit) {
+  const size_t n = problem.left_rays.size();
+  const Eigen::VectorXd before = problem.Residuals(Vector5d::Zero());
+  const Eigen::VectorXd after = problem.Residuals(theta);
+  double sum_before = 0.0, sum_after = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    const auto k = static_cast<Eigen::Index>(i);
+    if (std::abs(after[k]) > kOutlierPx) continue;
+    sum_before += before[k] * before[k];
+    sum_after += after[k] * after[k];
+    ++fit->inliers;
+  }
+  if (fit->inliers > 0) {
+    fit->rms_before_px = std::sqrt(sum_before / static_cast<double>(fit->inliers));
+    fit->rms_after_px = std::sqrt(sum_after / static_cast<double>(fit->inliers));
+  }
+}
+
 }  // namespace
 
 void RectificationOptions::Check() const {
@@ -112,80 +223,11 @@ RectificationFit EstimateRectificationCorrection(
     throw Error("rectification correction: " + std::to_string(n) +
                 " correspondences: expected at least 20");
   }
-  // The rectified frame: x along the baseline, `down`, and the common axis a.
-  const Eigen::Vector3d x_axis = (rect.right.c - rect.left.c).normalized();
-  const Eigen::Vector3d axis = rect.left.a;
-  const Eigen::Vector3d down = axis.cross(x_axis).normalized();
-  const double vs = rect.left.FocalLengths().y();
-  std::vector<Eigen::Vector3d> left_rays(n), right_rays(n);
-  for (size_t i = 0; i < n; ++i) {
-    left_rays[i] = rect.left.Unproject(left_right_pixels[i].first);
-    right_rays[i] = rect.right.Unproject(left_right_pixels[i].second);
-  }
-  // theta: baseline turned about `down` (forward tilt) and about the axis (vertical tilt); the
-  // right camera turned about x, down and the axis [rad].
-  using Vector5d = Eigen::Matrix<double, 5, 1>;
-  const auto rotations = [&](const Vector5d& t) {
-    const Eigen::Vector3d b = t[0] * down + t[1] * axis;
-    const Eigen::Vector3d w = t[2] * x_axis + t[3] * down + t[4] * axis;
-    const auto rotation = [](const Eigen::Vector3d& v) -> Eigen::Matrix3d {
-      const double angle = v.norm();
-      return angle > 0.0 ? Eigen::AngleAxisd(angle, v / angle).toRotationMatrix()
-                         : Eigen::Matrix3d::Identity();
-    };
-    return std::pair<Eigen::Matrix3d, Eigen::Matrix3d>{rotation(b), rotation(w)};
-  };
-  const auto residuals = [&](const Vector5d& t) {
-    const auto [turn_baseline, turn_right] = rotations(t);
-    const Eigen::Vector3d x = turn_baseline * x_axis;
-    const Eigen::Vector3d a = (axis - axis.dot(x) * x).normalized();
-    const Eigen::Vector3d d = a.cross(x).normalized();
-    Eigen::VectorXd r(static_cast<Eigen::Index>(n));
-    for (size_t i = 0; i < n; ++i) {
-      const Eigen::Vector3d& l = left_rays[i];
-      const Eigen::Vector3d rr = turn_right * right_rays[i];
-      r[static_cast<Eigen::Index>(i)] = vs * (rr.dot(d) / rr.dot(a) - l.dot(d) / l.dot(a));
-    }
-    return r;
-  };
+  const RowAlignment problem = MakeRowAlignment(rect, left_right_pixels);
+  const Vector5d theta = SolveRowAlignment(problem);
   RectificationFit fit;
-  Vector5d theta = Vector5d::Zero();
-  std::vector<double> weight(n, 1.0);
-  constexpr double kHuberPx = 1.0, kOutlierPx = 5.0, kPriorRad = 0.1, kStep = 1e-6;
-  for (int iteration = 0; iteration < 10; ++iteration) {
-    const Eigen::VectorXd r = residuals(theta);
-    Eigen::Matrix<double, Eigen::Dynamic, 5> jacobian(r.size(), 5);
-    for (int k = 0; k < 5; ++k) {
-      Vector5d step = theta;
-      step[k] += kStep;
-      jacobian.col(k) = (residuals(step) - r) / kStep;
-    }
-    Eigen::Matrix<double, 5, 5> normal =
-        Eigen::Matrix<double, 5, 5>::Identity() / (kPriorRad * kPriorRad);
-    Vector5d gradient = -theta / (kPriorRad * kPriorRad);
-    for (size_t i = 0; i < n; ++i) {
-      const double e = std::abs(r[static_cast<Eigen::Index>(i)]);
-      weight[i] = iteration > 0 && e > kOutlierPx ? 0.0 : (e <= kHuberPx ? 1.0 : kHuberPx / e);
-      const auto row = jacobian.row(static_cast<Eigen::Index>(i)).transpose();
-      normal += weight[i] * row * row.transpose();
-      gradient -= weight[i] * row * r[static_cast<Eigen::Index>(i)];
-    }
-    theta += normal.ldlt().solve(gradient);
-  }
-  const Eigen::VectorXd before = residuals(Vector5d::Zero()), after = residuals(theta);
-  double sum_before = 0.0, sum_after = 0.0;
-  for (size_t i = 0; i < n; ++i) {
-    const auto k = static_cast<Eigen::Index>(i);
-    if (std::abs(after[k]) > kOutlierPx) continue;
-    sum_before += before[k] * before[k];
-    sum_after += after[k] * after[k];
-    ++fit.inliers;
-  }
-  if (fit.inliers > 0) {
-    fit.rms_before_px = std::sqrt(sum_before / static_cast<double>(fit.inliers));
-    fit.rms_after_px = std::sqrt(sum_after / static_cast<double>(fit.inliers));
-  }
-  const auto [turn_baseline, turn_right] = rotations(theta);
+  ScoreRowAlignment(problem, theta, &fit);
+  const auto [turn_baseline, turn_right] = problem.Rotations(theta);
   fit.correction.baseline_rotation = turn_baseline * current.baseline_rotation;
   fit.correction.right_rotation = turn_right * current.right_rotation;
   constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;

@@ -245,9 +245,10 @@ void MissionOptions::Check() const {
   orbital.Check();
   traverse.Check();
   // A longer leg would leave the scene from its centre (PlanTraverse turns back at 3/4 of it).
-  RequireOption(traverse.max_leg_m <= 0.75 * scene.half_extent_m, "MissionOptions.traverse.max_leg_m",
-                "at most 3/4 of scene.half_extent_m (" + std::to_string(0.75 * scene.half_extent_m) +
-                    " m for this preset) [m]");
+  RequireOption(traverse.max_leg_m <= 0.75 * scene.half_extent_m,
+                "MissionOptions.traverse.max_leg_m",
+                "at most 3/4 of scene.half_extent_m (" +
+                    std::to_string(0.75 * scene.half_extent_m) + " m for this preset) [m]");
   telemetry.Check();
   navcam.Check();
   render.Check();
@@ -260,136 +261,195 @@ void MissionOptions::Check() const {
                 "MissionOptions.navcam_elevation_deg", "in (-90, 90) degrees");
 }
 
-MissionSummary GenerateMission(const MissionOptions& options, const std::filesystem::path& out_dir,
-                               const ProgressCallback& progress) {
-  options.Check();
+namespace {
+
+void CreateMissionFolders(const std::filesystem::path& out_dir) {
   for (const char* sub : {"", "orbital", "truth", "telemetry", "sites"}) {
     std::error_code ec;
     std::filesystem::create_directories(out_dir / sub, ec);
     if (ec) throw Error((out_dir / sub).string() + ": cannot create folder: " + ec.message());
   }
-  Report(progress, 0.0, "traverse");
-  const Traverse traverse =
-      PlanTraverse(options.traverse, options.telemetry, options.scene.half_extent_m, options.seed);
+}
+
+// The mission's scene: the preset's terrain, with rocks along the true traverse.
+SceneOptions MissionSceneOptions(const MissionOptions& options, const Traverse& traverse) {
   SceneOptions scene_options = options.scene;
   scene_options.seed = options.seed;
   for (const SitePose& s : traverse.truth) {
     scene_options.rock_path.emplace_back(s.position.y(), s.position.x());  // (east, north)
   }
-  Report(progress, 0.02, "scene");
-  const Scene scene(scene_options);
+  return scene_options;
+}
 
+// The scene's ENU origin: the landing site, on the ground.
+SceneGeoreference MissionGeoreference(const MissionOptions& options, const Scene& scene) {
   SceneGeoreference georef;
   georef.origin = Geographic{RadFromDeg(options.site_lat_deg), RadFromDeg(options.site_lon_deg),
                              scene.GroundHeightAt(0.0, 0.0)};
-  const double ground_z0 = georef.origin.h;
+  return georef;
+}
 
-  // Orbital products.
-  const auto stage = [&](double from, double to) -> ProgressCallback {
-    return [&, from, to](double f, std::string_view name) {
-      return progress ? progress(from + (to - from) * f, name) : true;
-    };
+// `progress` rescaled so that a stage's [0, 1] reports as [from, to] of the whole.
+ProgressCallback ProgressRange(const ProgressCallback& progress, double from, double to) {
+  return [&progress, from, to](double f, std::string_view name) {
+    return progress ? progress(from + (to - from) * f, name) : true;
   };
-  nlohmann::json orbital = nlohmann::json::array();
+}
+
+nlohmann::json OrbitalEntry(const std::string& id, const std::string& kind, const std::string& path,
+                            double gsd, const OrbitalImageOptions* o) {
+  nlohmann::json j = {{"id", id}, {"kind", kind}, {"path", path}, {"gsd_m", gsd}};
+  if (o != nullptr) {
+    j["sun_azimuth_deg"] = o->sun_azimuth_deg;
+    j["sun_elevation_deg"] = o->sun_elevation_deg;
+    j["bits"] = o->bits;
+  }
+  return j;
+}
+
+// The orthoimage again, under another sun.
+OrbitalImageOptions SecondSunImageOptions(const MissionOptions& options) {
+  OrbitalImageOptions other = options.orbital;
+  other.sun_azimuth_deg = std::fmod(options.orbital.sun_azimuth_deg + 140.0, 360.0);
+  other.sun_elevation_deg = 45.0;
+  other.seed = options.seed + 101u;
+  return other;
+}
+
+// A CTX-like coarse image: 6 m pixels, 8 bits.
+OrbitalImageOptions CtxImageOptions(const MissionOptions& options) {
+  OrbitalImageOptions ctx = options.orbital;
+  ctx.gsd_m = 6.0;
+  ctx.supersample = 4;
+  ctx.mtf_sigma_px = 0.6;
+  ctx.bits = 8;
+  ctx.full_well_dn = 200.0;
+  ctx.seed = options.seed + 202u;
+  return ctx;
+}
+
+struct OrbitalStage {
+  OrbitalProducts hirise;                            // The main orthoimage and DTM.
+  nlohmann::json entries = nlohmann::json::array();  // The manifest's "orbital" list.
+};
+
+// Renders and writes the orbital products: the HiRISE-like image and DTM, and optionally the
+// image under a second sun and a CTX-like image.
+OrbitalStage WriteOrbitalProducts(const MissionOptions& options, const Scene& scene,
+                                  const SceneGeoreference& georef,
+                                  const std::filesystem::path& out_dir,
+                                  const ProgressCallback& progress) {
+  OrbitalStage out;
   const double half = options.scene.half_extent_m;
-  OrbitalProducts hirise = RenderOrbitalProducts(scene, georef, half, options.orbital_dtm_posting_m,
-                                                 options.orbital, stage(0.05, 0.3));
-  WriteGeoTiff(out_dir / "orbital/hirise_ortho.tif", hirise.image);
-  WriteGeoTiff(out_dir / "orbital/hirise_dtm.tif", hirise.dtm);
-  const auto orbital_entry = [](const std::string& id, const std::string& kind,
-                                const std::string& path, double gsd, const OrbitalImageOptions* o) {
-    nlohmann::json j = {{"id", id}, {"kind", kind}, {"path", path}, {"gsd_m", gsd}};
-    if (o != nullptr) {
-      j["sun_azimuth_deg"] = o->sun_azimuth_deg;
-      j["sun_elevation_deg"] = o->sun_elevation_deg;
-      j["bits"] = o->bits;
-    }
-    return j;
-  };
-  orbital.push_back(orbital_entry("hirise", "image", "orbital/hirise_ortho.tif",
-                                  options.orbital.gsd_m, &options.orbital));
-  orbital.push_back(orbital_entry("hirise_dtm", "dtm", "orbital/hirise_dtm.tif",
-                                  options.orbital_dtm_posting_m, nullptr));
+  out.hirise = RenderOrbitalProducts(scene, georef, half, options.orbital_dtm_posting_m,
+                                     options.orbital, ProgressRange(progress, 0.05, 0.3));
+  WriteGeoTiff(out_dir / "orbital/hirise_ortho.tif", out.hirise.image);
+  WriteGeoTiff(out_dir / "orbital/hirise_dtm.tif", out.hirise.dtm);
+  out.entries.push_back(OrbitalEntry("hirise", "image", "orbital/hirise_ortho.tif",
+                                     options.orbital.gsd_m, &options.orbital));
+  out.entries.push_back(OrbitalEntry("hirise_dtm", "dtm", "orbital/hirise_dtm.tif",
+                                     options.orbital_dtm_posting_m, nullptr));
   if (options.second_sun_image) {
-    OrbitalImageOptions other = options.orbital;
-    other.sun_azimuth_deg = std::fmod(options.orbital.sun_azimuth_deg + 140.0, 360.0);
-    other.sun_elevation_deg = 45.0;
-    other.seed = options.seed + 101u;
-    const OrbitalProducts second = RenderOrbitalProducts(
-        scene, georef, half, options.orbital_dtm_posting_m, other, stage(0.3, 0.4));
+    const OrbitalImageOptions other = SecondSunImageOptions(options);
+    const OrbitalProducts second =
+        RenderOrbitalProducts(scene, georef, half, options.orbital_dtm_posting_m, other,
+                              ProgressRange(progress, 0.3, 0.4));
     WriteGeoTiff(out_dir / "orbital/hirise_ortho_sun2.tif", second.image);
-    orbital.push_back(orbital_entry("hirise_sun2", "image", "orbital/hirise_ortho_sun2.tif",
-                                    other.gsd_m, &other));
+    out.entries.push_back(
+        OrbitalEntry("hirise_sun2", "image", "orbital/hirise_ortho_sun2.tif", other.gsd_m, &other));
   }
   if (options.ctx_image) {
-    OrbitalImageOptions ctx = options.orbital;
-    ctx.gsd_m = 6.0;
-    ctx.supersample = 4;
-    ctx.mtf_sigma_px = 0.6;
-    ctx.bits = 8;
-    ctx.full_well_dn = 200.0;
-    ctx.seed = options.seed + 202u;
+    const OrbitalImageOptions ctx = CtxImageOptions(options);
     const OrbitalProducts coarse =
-        RenderOrbitalProducts(scene, georef, half, 6.0, ctx, stage(0.4, 0.45));
+        RenderOrbitalProducts(scene, georef, half, 6.0, ctx, ProgressRange(progress, 0.4, 0.45));
     WriteGeoTiff(out_dir / "orbital/ctx_ortho.tif", coarse.image);
-    orbital.push_back(orbital_entry("ctx", "image", "orbital/ctx_ortho.tif", 6.0, &ctx));
+    out.entries.push_back(OrbitalEntry("ctx", "image", "orbital/ctx_ortho.tif", 6.0, &ctx));
   }
-  // Rover images: a Navcam (and optionally Pancam) panorama per site, rendered from the true pose;
-  // the labels carry the telemetry heading, as flight products carry the onboard estimate.
-  nlohmann::json sites = nlohmann::json::array();
+  return out;
+}
+
+// Where the rover stands at a site: its true pose (to render from) and the orientation the
+// telemetry believes (for the labels).
+struct RoverPoseAtSite {
+  Eigen::Vector3d site_in_enu;
+  Rigid3d enu_from_rover;
+  Rigid3d believed_site_from_rover;
+};
+
+RoverPoseAtSite RoverPoseAt(const Scene& scene, const SitePose& truth, const SitePose& telemetry) {
+  const Rigid3d site_from_enu_axes = SiteFromEnu();  // Axis permutation (N, E, D) <- (E, N, U).
+  RoverPoseAtSite pose;
+  pose.site_in_enu = Eigen::Vector3d(truth.position.y(), truth.position.x(),
+                                     scene.GroundHeightAt(truth.position.y(), truth.position.x()));
+  const Rigid3d enu_from_site(site_from_enu_axes.rotation.conjugate(), pose.site_in_enu);
+  pose.enu_from_rover =
+      enu_from_site * Rigid3d(SiteFromRoverRotation(truth.heading), Eigen::Vector3d::Zero());
+  pose.believed_site_from_rover =
+      Rigid3d(SiteFromRoverRotation(telemetry.heading), Eigen::Vector3d::Zero());
+  return pose;
+}
+
+struct RoverImagesStage {
+  nlohmann::json sites = nlohmann::json::array();  // The manifest's "sites" list.
+  int image_count = 0;
+};
+
+// Rover images: a Navcam (and optionally Pancam) panorama per site, rendered from the true pose;
+// the labels carry the telemetry heading, as flight products carry the onboard estimate.
+RoverImagesStage RenderRoverImages(const MissionOptions& options, const Scene& scene,
+                                   const Traverse& traverse, const std::filesystem::path& out_dir,
+                                   const ProgressCallback& progress) {
+  RoverImagesStage out;
   RenderOptions render = options.render;
   render.sun_azimuth_deg = options.orbital.sun_azimuth_deg;
   render.sun_elevation_deg = options.orbital.sun_elevation_deg;
   const std::vector<Instrument> instruments = {
       {&options.navcam, Panorama(options.navcam_pairs, RadFromDeg(options.navcam_elevation_deg))},
       {&options.pancam, Panorama(options.pancam_pairs, RadFromDeg(options.pancam_elevation_deg))}};
-  const Rigid3d site_from_enu_axes = SiteFromEnu();  // Axis permutation (N, E, D) <- (E, N, U).
-  int rover_images = 0;
   for (size_t k = 0; k < traverse.truth.size(); ++k) {
     Report(progress,
            0.45 + 0.5 * static_cast<double>(k) / static_cast<double>(traverse.truth.size()),
            "rover images");
     const SitePose& truth = traverse.truth[k];
-    const Eigen::Vector3d site_in_enu(truth.position.y(), truth.position.x(),
-                                      scene.GroundHeightAt(truth.position.y(), truth.position.x()));
     char folder_name[32];
     std::snprintf(folder_name, sizeof(folder_name), "sites/site_%03d", truth.site);
-    const std::filesystem::path folder = out_dir / folder_name;
-    std::filesystem::create_directories(folder);
+    std::filesystem::create_directories(out_dir / folder_name);
     nlohmann::json images = nlohmann::json::array();
     if (options.navcam_pairs + options.pancam_pairs > 0) {
-      const SiteMesh mesh(scene, site_in_enu, render);
-      const Rigid3d enu_from_site(site_from_enu_axes.rotation.conjugate(), site_in_enu);
-      const Rigid3d enu_from_rover =
-          enu_from_site * Rigid3d(SiteFromRoverRotation(truth.heading), Eigen::Vector3d::Zero());
-      const Rigid3d believed_site_from_rover(SiteFromRoverRotation(traverse.telemetry[k].heading),
-                                             Eigen::Vector3d::Zero());
+      const RoverPoseAtSite pose = RoverPoseAt(scene, truth, traverse.telemetry[k]);
+      const SiteMesh mesh(scene, pose.site_in_enu, render);
       for (const Instrument& instrument : instruments) {
         if (instrument.pointings.empty()) continue;
-        const std::vector<nlohmann::json> entries = RenderPanorama(
-            mesh, instrument, enu_from_rover, believed_site_from_rover, truth.site, out_dir,
-            folder_name, render.bits, options.seed * 7919u + static_cast<uint32_t>(k * 1000));
+        const std::vector<nlohmann::json> entries =
+            RenderPanorama(mesh, instrument, pose.enu_from_rover, pose.believed_site_from_rover,
+                           truth.site, out_dir, folder_name, render.bits,
+                           options.seed * 7919u + static_cast<uint32_t>(k * 1000));
         for (const auto& entry : entries) images.push_back(entry);
-        rover_images += static_cast<int>(entries.size());
+        out.image_count += static_cast<int>(entries.size());
       }
     }
-    sites.push_back({{"site", truth.site}, {"images", images}});
+    out.sites.push_back({{"site", truth.site}, {"images", images}});
   }
-  Report(progress, 0.95, "truth");
+  return out;
+}
 
-  // Truth and telemetry tables.
+// Planetocentric coordinates of a point given in the scene's ENU frame.
+Geographic GeographicOfEnu(const SceneGeoreference& georef, const Rigid3d& mbf_from_enu,
+                           double east, double north, double up) {
+  return GeographicFromMbf(georef.body, mbf_from_enu * Eigen::Vector3d(east, north, up));
+}
+
+// truth/craters.csv: each crater in ENU, geographic and orbital image pixel coordinates.
+std::string CraterTable(const Scene& scene, const SceneGeoreference& georef,
+                        const GeoTransform& image_transform) {
   const MapProjection projection = georef.Projection();
   const Rigid3d mbf_from_enu = georef.EnuFromMbf().Inverse();
-  const auto to_geographic = [&](double east, double north, double up) {
-    return GeographicFromMbf(georef.body, mbf_from_enu * Eigen::Vector3d(east, north, up));
-  };
-  const GeoTransform& image_transform = hirise.image.geotransform;
   CsvTable craters;
   craters.Row({"id", "east_m", "north_m", "lat_deg", "lon_deg", "col_px", "row_px", "semi_major_m",
                "semi_minor_m", "angle_deg", "depth_m", "rim_height_m", "floor_fraction",
                "flat_floor"});
   for (const Crater& c : scene.craters()) {
-    const Geographic g = to_geographic(c.center.x(), c.center.y(), 0.0);
+    const Geographic g = GeographicOfEnu(georef, mbf_from_enu, c.center.x(), c.center.y(), 0.0);
     const Spherical radial =
         SphericalFromMbf(mbf_from_enu * Eigen::Vector3d(c.center.x(), c.center.y(), 0.0));
     const Eigen::Vector2d map = projection.Forward({radial.lat, radial.lon, 0.0});
@@ -400,6 +460,11 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
                  Fixed(DegFromRad(c.angle), 4), Fixed(c.depth, 4), Fixed(c.rim_height, 4),
                  Fixed(c.floor_fraction, 4), c.flat_floor ? "1" : "0"});
   }
+  return craters.text;
+}
+
+// truth/rocks.csv: every rock's shape and placement.
+std::string RockTable(const Scene& scene) {
   CsvTable rocks;
   rocks.Row({"id", "shape", "east_m", "north_m", "ground_z_m", "height_m", "a_m", "b_m",
              "azimuth_deg", "tilt_x_deg", "tilt_y_deg"});
@@ -409,37 +474,54 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
                Fixed(r.b, 4), Fixed(DegFromRad(r.azimuth), 3), Fixed(DegFromRad(r.tilt_x), 3),
                Fixed(DegFromRad(r.tilt_y), 3)});
   }
-  // Heights come from the terrain under the true sites (telemetry's vertical, from the
-  // inclinometers, is taken as exact; its horizontal error is what the model describes).
-  const auto site_table = [&](const std::vector<SitePose>& poses, bool with_geographic) {
-    CsvTable table;
-    std::vector<std::string> header = {"site", "north_m", "east_m", "down_m", "heading_deg"};
-    if (with_geographic) header.insert(header.end(), {"lat_deg", "lon_deg", "h_m"});
-    table.Row(header);
-    for (const SitePose& s : poses) {
-      const SitePose& truth = traverse.truth[static_cast<size_t>(s.site)];
-      const double east = s.position.y(), north = s.position.x();
-      const double up = scene.GroundHeightAt(truth.position.y(), truth.position.x());
-      // Site 0's frame: origin on the ground at the ENU origin.
-      const Eigen::Vector3d in_site = SiteFromEnu() * Eigen::Vector3d(east, north, up - ground_z0);
-      std::vector<std::string> row = {
-          std::to_string(s.site), Fixed(in_site.x(), 4), Fixed(in_site.y(), 4),
-          Fixed(in_site.z(), 4),
-          Fixed(DegFromRad(WrapLongitude(s.heading, LongitudeDomain::kZeroTo360)), 4)};
-      if (with_geographic) {
-        const Geographic g = to_geographic(east, north, up - ground_z0);
-        row.insert(row.end(),
-                   {Fixed(DegFromRad(g.lat), 10), Fixed(DegFromRad(g.lon), 10), Fixed(g.h, 4)});
-      }
-      table.Row(row);
-    }
-    return table;
-  };
-  WriteFileAtomically(out_dir / "truth/craters.csv", craters.text);
-  WriteFileAtomically(out_dir / "truth/rocks.csv", rocks.text);
-  WriteFileAtomically(out_dir / "truth/sites.csv", site_table(traverse.truth, true).text);
-  WriteFileAtomically(out_dir / "telemetry/sites.csv", site_table(traverse.telemetry, false).text);
+  return rocks.text;
+}
 
+// A site poses table (truth/sites.csv with geographic coordinates, telemetry/sites.csv without).
+// Heights come from the terrain under the true sites (telemetry's vertical, from the
+// inclinometers, is taken as exact; its horizontal error is what the model describes).
+std::string SiteTable(const std::vector<SitePose>& poses, bool with_geographic,
+                      const Traverse& traverse, const Scene& scene,
+                      const SceneGeoreference& georef) {
+  const double ground_z0 = georef.origin.h;
+  const Rigid3d mbf_from_enu = georef.EnuFromMbf().Inverse();
+  CsvTable table;
+  std::vector<std::string> header = {"site", "north_m", "east_m", "down_m", "heading_deg"};
+  if (with_geographic) header.insert(header.end(), {"lat_deg", "lon_deg", "h_m"});
+  table.Row(header);
+  for (const SitePose& s : poses) {
+    const SitePose& truth = traverse.truth[static_cast<size_t>(s.site)];
+    const double east = s.position.y(), north = s.position.x();
+    const double up = scene.GroundHeightAt(truth.position.y(), truth.position.x());
+    // Site 0's frame: origin on the ground at the ENU origin.
+    const Eigen::Vector3d in_site = SiteFromEnu() * Eigen::Vector3d(east, north, up - ground_z0);
+    std::vector<std::string> row = {
+        std::to_string(s.site), Fixed(in_site.x(), 4), Fixed(in_site.y(), 4), Fixed(in_site.z(), 4),
+        Fixed(DegFromRad(WrapLongitude(s.heading, LongitudeDomain::kZeroTo360)), 4)};
+    if (with_geographic) {
+      const Geographic g = GeographicOfEnu(georef, mbf_from_enu, east, north, up - ground_z0);
+      row.insert(row.end(),
+                 {Fixed(DegFromRad(g.lat), 10), Fixed(DegFromRad(g.lon), 10), Fixed(g.h, 4)});
+    }
+    table.Row(row);
+  }
+  return table.text;
+}
+
+void WriteTruthTables(const Scene& scene, const Traverse& traverse, const SceneGeoreference& georef,
+                      const GeoTransform& image_transform, const std::filesystem::path& out_dir) {
+  const std::string craters = CraterTable(scene, georef, image_transform);
+  const std::string rocks = RockTable(scene);
+  WriteFileAtomically(out_dir / "truth/craters.csv", craters);
+  WriteFileAtomically(out_dir / "truth/rocks.csv", rocks);
+  WriteFileAtomically(out_dir / "truth/sites.csv",
+                      SiteTable(traverse.truth, true, traverse, scene, georef));
+  WriteFileAtomically(out_dir / "telemetry/sites.csv",
+                      SiteTable(traverse.telemetry, false, traverse, scene, georef));
+}
+
+MissionSummary Summarize(const Traverse& traverse, const Scene& scene,
+                         const OrbitalProducts& hirise, int rover_images) {
   MissionSummary summary;
   summary.site_count = static_cast<int>(traverse.truth.size());
   summary.crater_count = static_cast<int>(scene.craters().size());
@@ -452,8 +534,13 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
       (traverse.truth.back().position - traverse.telemetry.back().position).head<2>().norm();
   summary.orbital_size_px = hirise.image.bands.front().cols;
   summary.rover_images = rover_images;
+  return summary;
+}
 
-  const nlohmann::json manifest = {
+// mission.json (docs/mission-format.md).
+nlohmann::json MissionManifestJson(const MissionOptions& options, const SceneGeoreference& georef,
+                                   const nlohmann::json& orbital, const nlohmann::json& sites) {
+  return {
       {"format", "areomap-mission"},
       {"version", 1},
       {"name", "synthetic-" + options.preset + "-seed" + std::to_string(options.seed)},
@@ -461,7 +548,7 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
       {"origin",
        {{"lat_deg", options.site_lat_deg},
         {"lon_deg", options.site_lon_deg},
-        {"h_m", ground_z0},
+        {"h_m", georef.origin.h},
         {"latitude", "planetocentric"},
         {"longitude", "east"}}},
       {"site_frame", "MER site frame of site 0: x north, y east, z down [m], origin = origin"},
@@ -478,8 +565,29 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
         {"sites", "truth/sites.csv"},
         {"dtm", "orbital/hirise_dtm.tif"}}},
   };
+}
+
+}  // namespace
+
+MissionSummary GenerateMission(const MissionOptions& options, const std::filesystem::path& out_dir,
+                               const ProgressCallback& progress) {
+  options.Check();
+  CreateMissionFolders(out_dir);
+  Report(progress, 0.0, "traverse");
+  const Traverse traverse =
+      PlanTraverse(options.traverse, options.telemetry, options.scene.half_extent_m, options.seed);
+  Report(progress, 0.02, "scene");
+  const Scene scene(MissionSceneOptions(options, traverse));
+  const SceneGeoreference georef = MissionGeoreference(options, scene);
+  const OrbitalStage orbital = WriteOrbitalProducts(options, scene, georef, out_dir, progress);
+  const RoverImagesStage rover = RenderRoverImages(options, scene, traverse, out_dir, progress);
+  Report(progress, 0.95, "truth");
+  WriteTruthTables(scene, traverse, georef, orbital.hirise.image.geotransform, out_dir);
+  MissionSummary summary = Summarize(traverse, scene, orbital.hirise, rover.image_count);
   summary.manifest = out_dir / "mission.json";
-  WriteFileAtomically(summary.manifest, manifest.dump(2) + "\n");
+  WriteFileAtomically(
+      summary.manifest,
+      MissionManifestJson(options, georef, orbital.entries, rover.sites).dump(2) + "\n");
   Report(progress, 1.0, "done");
   return summary;
 }

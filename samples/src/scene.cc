@@ -81,6 +81,146 @@ Eigen::Matrix3d RockRotation(const Rock& r) {
   return rz * ry * rx;
 }
 
+// Explicit craters, then random non-overlapping fresh craters (d/D ~ 0.2) off the rock path,
+// numbered from 1.
+std::vector<Crater> PlaceCraters(const SceneOptions& options, std::mt19937& rng,
+                                 std::uniform_real_distribution<double>& unit) {
+  std::vector<Crater> craters = options.explicit_craters;
+  const double half = options.half_extent_m;
+  const double log_min = std::log(options.crater_min_diameter_m);
+  const double log_max = std::log(options.crater_max_diameter_m);
+  for (int attempt = 0;
+       static_cast<int>(craters.size()) <
+           options.crater_count + static_cast<int>(options.explicit_craters.size()) &&
+       attempt < 100 * (options.crater_count + 1);
+       ++attempt) {
+    Crater c;
+    const double diameter = std::exp(log_min + (log_max - log_min) * unit(rng));
+    c.semi_major = diameter / 2.0;
+    c.semi_minor = c.semi_major * (0.85 + 0.15 * unit(rng));
+    c.angle = kPi * unit(rng);
+    c.center = {(2.0 * unit(rng) - 1.0) * (half - c.semi_major),
+                (2.0 * unit(rng) - 1.0) * (half - c.semi_major)};
+    c.depth = diameter * (0.15 + 0.07 * unit(rng));
+    c.rim_height = diameter * (0.03 + 0.02 * unit(rng));
+    c.flat_floor = unit(rng) < 0.3;
+    c.floor_fraction = c.flat_floor ? 0.3 + 0.2 * unit(rng) : 0.0;
+    const bool overlaps = std::any_of(craters.begin(), craters.end(), [&](const Crater& o) {
+      return (o.center - c.center).norm() < 1.3 * (o.semi_major + c.semi_major);
+    });
+    const bool on_path = !options.rock_path.empty() &&
+                         DistanceToPolyline(c.center, options.rock_path) < c.semi_major * 1.5;
+    if (!overlaps && !on_path) craters.push_back(c);
+  }
+  for (size_t i = 0; i < craters.size(); ++i) craters[i].id = static_cast<int>(i) + 1;
+  return craters;
+}
+
+// Rock diameters for inverse-CDF sampling: the cumulative number density over kBins bins.
+struct RockSizeTable {
+  static constexpr int kBins = 2000;
+  std::vector<double> cdf;  // kBins + 1 values [rocks / m^2].
+  double d_min = 0.0;       // [m]
+  double step = 0.0;        // Bin width [m].
+  double rocks_per_m2 = 0.0;
+};
+
+RockSizeTable TabulateRockSizes(const SceneOptions& options) {
+  const double k = options.rock_abundance_k;
+  const double q = 1.79 + 0.152 / k;
+  // Number density n(D) = -dF/dD / (pi D^2 / 4), tabulated for inverse-CDF sampling.
+  constexpr int kBins = RockSizeTable::kBins;
+  RockSizeTable sizes;
+  std::vector<double>& cdf = sizes.cdf;
+  cdf.assign(kBins + 1, 0.0);
+  const double d_min = options.rock_min_diameter_m, d_max = options.rock_max_diameter_m;
+  const double step = (d_max - d_min) / kBins;
+  for (int i = 0; i < kBins; ++i) {
+    const double d = d_min + (i + 0.5) * step;
+    cdf[i + 1] = cdf[i] + k * q * std::exp(-q * d) / (kPi * d * d / 4.0) * step;
+  }
+  sizes.d_min = d_min;
+  sizes.step = step;
+  sizes.rocks_per_m2 = cdf.back();
+  return sizes;
+}
+
+// The box rock candidates are drawn in: the rock path's bounding box grown by the corridor,
+// within the scene.
+struct RockBox {
+  Eigen::Vector2d lo, hi;
+  double Area() const { return (hi - lo).prod(); }
+};
+
+RockBox RockSamplingBox(const SceneOptions& options) {
+  const double half = options.half_extent_m;
+  Eigen::Vector2d lo = options.rock_path.front(), hi = lo;
+  for (const auto& p : options.rock_path) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  lo.array() -= options.rock_corridor_m;
+  hi.array() += options.rock_corridor_m;
+  lo = lo.cwiseMax(Eigen::Vector2d::Constant(-half));
+  hi = hi.cwiseMin(Eigen::Vector2d::Constant(half));
+  return {lo, hi};
+}
+
+// One rock candidate anywhere in the box (every draw is made, whether or not it is kept).
+Rock DrawRockCandidate(const SceneOptions& options, const RockSizeTable& sizes, const RockBox& box,
+                       std::mt19937& rng, std::uniform_real_distribution<double>& unit) {
+  constexpr int kBins = RockSizeTable::kBins;
+  const std::vector<double>& cdf = sizes.cdf;
+  const Eigen::Vector2d& lo = box.lo;
+  const Eigen::Vector2d& hi = box.hi;
+  const double tilt_max = options.rock_max_tilt_deg * kPi / 180.0;
+  const Eigen::Vector2d p(lo.x() + (hi.x() - lo.x()) * unit(rng),
+                          lo.y() + (hi.y() - lo.y()) * unit(rng));
+  const double u = unit(rng) * cdf.back();
+  const int bin = static_cast<int>(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()) - 1;
+  Rock r;
+  const double diameter = sizes.d_min + (std::clamp(bin, 0, kBins - 1) + unit(rng)) * sizes.step;
+  r.shape = static_cast<RockShape>(static_cast<int>(unit(rng) * 4.0) % 4);
+  r.center = p;
+  r.a = diameter / 2.0;
+  r.b = r.shape == RockShape::kSemiEllipsoid ? r.a * (0.6 + 0.4 * unit(rng)) : r.a;
+  r.height = std::clamp(diameter * (0.3 + 0.3 * unit(rng)), 0.05, 0.6);
+  r.azimuth = 2.0 * kPi * unit(rng);
+  const bool tilted = unit(rng) < 0.3;
+  r.tilt_x = tilted ? tilt_max * (2.0 * unit(rng) - 1.0) : 0.0;
+  r.tilt_y = tilted ? tilt_max * (2.0 * unit(rng) - 1.0) : 0.0;
+  return r;
+}
+
+// Stopping at max_rocks would thin the rocks below the requested k everywhere: refuse instead.
+[[noreturn]] void ThrowTooManyRocks(const SceneOptions& options, long draws, long candidates) {
+  throw Error(
+      "SceneOptions.max_rocks: " + std::to_string(options.max_rocks) + " rocks reached after " +
+      std::to_string(draws) + " of " + std::to_string(candidates) + " draws at rock_abundance_k " +
+      std::to_string(options.rock_abundance_k) + "; raise max_rocks or lower the abundance");
+}
+
+// A uniform grid of n x n cells over the scene, each listing the rocks whose footprint may
+// reach into it.
+std::vector<std::vector<int>> GridRocks(const std::vector<Rock>& rocks, double half, double cell_m,
+                                        int n) {
+  std::vector<std::vector<int>> grid(static_cast<size_t>(n) * n);
+  for (size_t i = 0; i < rocks.size(); ++i) {
+    const Rock& r = rocks[i];
+    const double reach = r.FootprintRadius();
+    const int c0 = std::max(0, static_cast<int>((r.center.x() - reach + half) / cell_m));
+    const int c1 = std::min(n - 1, static_cast<int>((r.center.x() + reach + half) / cell_m));
+    const int r0 = std::max(0, static_cast<int>((r.center.y() - reach + half) / cell_m));
+    const int r1 = std::min(n - 1, static_cast<int>((r.center.y() + reach + half) / cell_m));
+    for (int row = r0; row <= r1; ++row) {
+      for (int col = c0; col <= c1; ++col) {
+        grid[static_cast<size_t>(row) * n + col].push_back(static_cast<int>(i));
+      }
+    }
+  }
+  return grid;
+}
+
 }  // namespace
 
 std::string ToString(RockShape shape) {
@@ -159,110 +299,27 @@ Scene::Scene(const SceneOptions& options) : options_(options) {
   std::mt19937 rng(options_.seed);
   noise_seed_ = static_cast<uint32_t>(rng());
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-
-  // Craters: explicit ones, then random non-overlapping fresh craters (d/D ~ 0.2).
-  craters_ = options_.explicit_craters;
-  const double half = options_.half_extent_m;
-  const double log_min = std::log(options_.crater_min_diameter_m);
-  const double log_max = std::log(options_.crater_max_diameter_m);
-  for (int attempt = 0;
-       static_cast<int>(craters_.size()) <
-           options_.crater_count + static_cast<int>(options_.explicit_craters.size()) &&
-       attempt < 100 * (options_.crater_count + 1);
-       ++attempt) {
-    Crater c;
-    const double diameter = std::exp(log_min + (log_max - log_min) * unit(rng));
-    c.semi_major = diameter / 2.0;
-    c.semi_minor = c.semi_major * (0.85 + 0.15 * unit(rng));
-    c.angle = kPi * unit(rng);
-    c.center = {(2.0 * unit(rng) - 1.0) * (half - c.semi_major),
-                (2.0 * unit(rng) - 1.0) * (half - c.semi_major)};
-    c.depth = diameter * (0.15 + 0.07 * unit(rng));
-    c.rim_height = diameter * (0.03 + 0.02 * unit(rng));
-    c.flat_floor = unit(rng) < 0.3;
-    c.floor_fraction = c.flat_floor ? 0.3 + 0.2 * unit(rng) : 0.0;
-    const bool overlaps = std::any_of(craters_.begin(), craters_.end(), [&](const Crater& o) {
-      return (o.center - c.center).norm() < 1.3 * (o.semi_major + c.semi_major);
-    });
-    const bool on_path = !options_.rock_path.empty() &&
-                         DistanceToPolyline(c.center, options_.rock_path) < c.semi_major * 1.5;
-    if (!overlaps && !on_path) craters_.push_back(c);
-  }
-  for (size_t i = 0; i < craters_.size(); ++i) craters_[i].id = static_cast<int>(i) + 1;
+  craters_ = PlaceCraters(options_, rng, unit);
 
   // Rocks along the path, diameters from the Golombek-Rapp size-frequency distribution.
   if (options_.rock_path.empty() || options_.max_rocks == 0) return;
-  const double k = options_.rock_abundance_k;
-  const double q = 1.79 + 0.152 / k;
-  // Number density n(D) = -dF/dD / (pi D^2 / 4), tabulated for inverse-CDF sampling.
-  constexpr int kBins = 2000;
-  std::vector<double> cdf(kBins + 1, 0.0);
-  const double d_min = options_.rock_min_diameter_m, d_max = options_.rock_max_diameter_m;
-  const double step = (d_max - d_min) / kBins;
-  for (int i = 0; i < kBins; ++i) {
-    const double d = d_min + (i + 0.5) * step;
-    cdf[i + 1] = cdf[i] + k * q * std::exp(-q * d) / (kPi * d * d / 4.0) * step;
-  }
-  const double rocks_per_m2 = cdf.back();
-  Eigen::Vector2d lo = options_.rock_path.front(), hi = lo;
-  for (const auto& p : options_.rock_path) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  lo.array() -= options_.rock_corridor_m;
-  hi.array() += options_.rock_corridor_m;
-  lo = lo.cwiseMax(Eigen::Vector2d::Constant(-half));
-  hi = hi.cwiseMin(Eigen::Vector2d::Constant(half));
-  const double box_area = (hi - lo).prod();
-  const auto candidates = static_cast<long>(std::llround(rocks_per_m2 * box_area));
-  const double tilt_max = options_.rock_max_tilt_deg * kPi / 180.0;
+  const RockSizeTable sizes = TabulateRockSizes(options_);
+  const RockBox box = RockSamplingBox(options_);
+  const auto candidates = static_cast<long>(std::llround(sizes.rocks_per_m2 * box.Area()));
   for (long i = 0; i < candidates; ++i) {
     if (static_cast<int>(rocks_.size()) == options_.max_rocks) {
-      // Stopping here would thin the rocks below the requested k everywhere: refuse instead.
-      throw Error("SceneOptions.max_rocks: " + std::to_string(options_.max_rocks) +
-                  " rocks reached after " + std::to_string(i) + " of " +
-                  std::to_string(candidates) + " draws at rock_abundance_k " + std::to_string(k) +
-                  "; raise max_rocks or lower the abundance");
+      ThrowTooManyRocks(options_, i, candidates);
     }
-    const Eigen::Vector2d p(lo.x() + (hi.x() - lo.x()) * unit(rng),
-                            lo.y() + (hi.y() - lo.y()) * unit(rng));
-    const double u = unit(rng) * cdf.back();
-    const int bin = static_cast<int>(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()) - 1;
-    Rock r;
-    const double diameter = d_min + (std::clamp(bin, 0, kBins - 1) + unit(rng)) * step;
-    r.shape = static_cast<RockShape>(static_cast<int>(unit(rng) * 4.0) % 4);
-    r.center = p;
-    r.a = diameter / 2.0;
-    r.b = r.shape == RockShape::kSemiEllipsoid ? r.a * (0.6 + 0.4 * unit(rng)) : r.a;
-    r.height = std::clamp(diameter * (0.3 + 0.3 * unit(rng)), 0.05, 0.6);
-    r.azimuth = 2.0 * kPi * unit(rng);
-    const bool tilted = unit(rng) < 0.3;
-    r.tilt_x = tilted ? tilt_max * (2.0 * unit(rng) - 1.0) : 0.0;
-    r.tilt_y = tilted ? tilt_max * (2.0 * unit(rng) - 1.0) : 0.0;
-    if (DistanceToPolyline(p, options_.rock_path) > options_.rock_corridor_m) continue;
+    Rock r = DrawRockCandidate(options_, sizes, box, rng, unit);
+    if (DistanceToPolyline(r.center, options_.rock_path) > options_.rock_corridor_m) continue;
     // Rocks sit on the plains, not on crater walls or floors.
-    if (CraterRelief(p.x(), p.y()) < -0.05) continue;
-    r.ground_z = GroundHeightAt(p.x(), p.y());
+    if (CraterRelief(r.center.x(), r.center.y()) < -0.05) continue;
+    r.ground_z = GroundHeightAt(r.center.x(), r.center.y());
     r.id = static_cast<int>(rocks_.size()) + 1;
     rocks_.push_back(r);
   }
-  rock_grid_n_ = static_cast<int>(std::ceil(2.0 * half / rock_cell_m_));
-  rock_grid_.assign(static_cast<size_t>(rock_grid_n_) * rock_grid_n_, {});
-  for (size_t i = 0; i < rocks_.size(); ++i) {
-    const Rock& r = rocks_[i];
-    const double reach = r.FootprintRadius();
-    const int c0 = std::max(0, static_cast<int>((r.center.x() - reach + half) / rock_cell_m_));
-    const int c1 =
-        std::min(rock_grid_n_ - 1, static_cast<int>((r.center.x() + reach + half) / rock_cell_m_));
-    const int r0 = std::max(0, static_cast<int>((r.center.y() - reach + half) / rock_cell_m_));
-    const int r1 =
-        std::min(rock_grid_n_ - 1, static_cast<int>((r.center.y() + reach + half) / rock_cell_m_));
-    for (int row = r0; row <= r1; ++row) {
-      for (int col = c0; col <= c1; ++col) {
-        rock_grid_[static_cast<size_t>(row) * rock_grid_n_ + col].push_back(static_cast<int>(i));
-      }
-    }
-  }
+  rock_grid_n_ = static_cast<int>(std::ceil(2.0 * options_.half_extent_m / rock_cell_m_));
+  rock_grid_ = GridRocks(rocks_, options_.half_extent_m, rock_cell_m_, rock_grid_n_);
 }
 
 double Scene::Background(double x, double y) const {
