@@ -145,6 +145,119 @@ CratersArgs ParseCratersArguments(const std::vector<std::string>& arguments) {
   return ParsePlanArguments(arguments, &AddCraterDetectionOptions, "craters");
 }
 
+namespace {
+
+// `areomap craters score DETECTIONS TRUTH [--out DIR [--image IMAGE]]`.
+struct CraterScoreArgs {
+  std::string detections, truth;
+  std::string out;            // Also write summary.json (and the overlay) here.
+  std::string image;          // With --out: draw score_overlay.png on this image.
+  double min_diameter = 8.0;  // Smallest diameter scored [px] (0: all).
+};
+
+void PrintCraterScoreLine(const CraterMatchStats& b) {
+  std::ostringstream range;
+  range << std::setprecision(0) << std::fixed << b.min_diameter << "-"
+        << (std::isfinite(b.max_diameter) ? std::to_string(static_cast<int>(b.max_diameter))
+                                          : std::string("inf"));
+  std::cout << std::left << std::setw(18) << range.str() << std::right << std::setw(6) << b.truth
+            << std::setw(10) << b.detected << std::setw(11) << b.precision << std::setw(8)
+            << b.recall << std::setw(7) << b.f1 << std::setw(10) << b.median_center_error << "\n";
+}
+
+void PrintCraterScoreTable(const CraterScore& s) {
+  std::cout << std::fixed << std::setprecision(3);
+  std::cout << "diameter_px        truth  detected  precision  recall  f1     center_err_px\n";
+  for (const auto& b : s.bins) PrintCraterScoreLine(b);
+  PrintCraterScoreLine(s.all);
+}
+
+nlohmann::json CraterScoreSummaryJson(const CraterScoreArgs& a, const CraterScore& s) {
+  nlohmann::json summary = {
+      {"command", "craters score"},
+      {"detections", a.detections},
+      {"truth", a.truth},
+      {"rule", "centre distance < 0.5 x truth radius and detected/true diameter in [0.7, 1.3]"},
+      {"all", CraterMatchStatsJson(s.all)},
+      {"bins", nlohmann::json::array()}};
+  for (const auto& b : s.bins) summary["bins"].push_back(CraterMatchStatsJson(b));
+  return summary;
+}
+
+void RunCraterScore(const CraterScoreArgs& a, const GlobalOptions& global) {
+  const std::vector<CraterCircle> detections = ReadCraterCsv(a.detections);
+  const std::vector<CraterCircle> truth = ReadCraterCsv(a.truth);
+  const double lo = a.min_diameter;
+  const double inf = std::numeric_limits<double>::infinity();
+  const CraterScore s = ScoreCraters(truth, detections, {lo, 2 * lo, 4 * lo, 8 * lo, inf});
+  nlohmann::json summary = CraterScoreSummaryJson(a, s);
+  if (!a.image.empty() && a.out.empty()) {
+    throw Error("craters score: --image needs --out DIR for the overlay");
+  }
+  if (!a.out.empty()) {
+    OutputFolder folder(a.out, OutputPolicy(global, "craters score", {"score_overlay.png"},
+                                            {a.detections, a.truth, a.image}));
+    if (!a.image.empty()) {
+      const RasterDataset image = RasterDataset::Open(a.image);
+      WriteScoreOverlay(folder / "score_overlay.png", image.ReadWindowFloat(1, image.FullWindow()),
+                        truth, detections, s, lo);
+      summary["overlay"] = "score_overlay.png";
+    }
+    WriteSummary(folder.dir(), summary);
+    folder.Commit();
+  }
+  PrintCraterScoreTable(s);
+}
+
+void AddCraterScoreCommand(CLI::App* cmd, const GlobalOptions& global) {
+  auto a = std::make_shared<CraterScoreArgs>();
+  auto* score = cmd->add_subcommand(
+      "score",
+      "Precision, recall, F1 of detections against truth (CSV with x_px, y_px, diameter_px). "
+      "Match: centre distance < 0.5 x truth radius and diameter ratio within +-30 %");
+  score->add_option("detections", a->detections, "Detections CSV")->required();
+  score->add_option("truth", a->truth, "Truth CSV")->required();
+  score->add_option("--min-diameter", a->min_diameter, "Smallest diameter scored [px] (0: all)")
+      ->check(NonNegativeNumber())
+      ->capture_default_str();
+  score->add_option("--out", a->out, "Also write DIR/summary.json");
+  score->add_option("--image", a->image,
+                    "With --out: also write DIR/score_overlay.png on this image (truth green when "
+                    "matched, red when missed; false alarms yellow)");
+  score->callback([a, &global] { RunCraterScore(*a, global); });
+}
+
+// `areomap craters INPUT... --out DIR`: one raster (RunDetect) or a catalogue, planned or not.
+// `detection_group` holds the detection options, recorded as given in a plan.
+void RunCratersCommand(const CratersArgs& args, const CLI::App& detection_group,
+                       const GlobalOptions& global) {
+  if (args.inputs.empty() && args.list.empty()) {
+    throw Error("craters: missing INPUT raster (or use 'craters score')");
+  }
+  if (args.out_dir.empty()) throw Error("craters: --out DIR is required");
+  ImageOptions(args).Check();
+  const bool planned = args.executor.plan_only || args.executor.executor != "local";
+  if (args.inputs.size() > 1 || !args.list.empty()) {
+    if (planned) {
+      RunPlannedCraterCatalogue(args, ArgumentsGiven(detection_group), global);
+    } else {
+      RunCraterCatalogue(args, global);
+    }
+    return;
+  }
+  if (planned) {
+    throw Error(
+        "craters: --plan and --executor belong to a catalogue (two or more images, or "
+        "--list)");
+  }
+  if (!args.crs.empty()) {
+    throw Error("craters: --crs belongs to a catalogue (two or more images, or --list)");
+  }
+  RunDetect(args, global);
+}
+
+}  // namespace
+
 void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
   auto args = std::make_shared<CratersArgs>();
   CLI::App* detection_group = nullptr;
@@ -162,93 +275,10 @@ void AddCratersCommand(CLI::App& app, const GlobalOptions& global) {
   detection_group = cmd->add_option_group("Detection options");
   AddCraterDetectionOptions(detection_group, args.get());
   AddExecutorOptions(cmd, &args->executor);
-
-  auto score_args = std::make_shared<std::array<std::string, 4>>();
-  auto min_score_diameter = std::make_shared<double>(8.0);
-  auto* score = cmd->add_subcommand(
-      "score",
-      "Precision, recall, F1 of detections against truth (CSV with x_px, y_px, diameter_px). "
-      "Match: centre distance < 0.5 x truth radius and diameter ratio within +-30 %");
-  score->add_option("detections", (*score_args)[0], "Detections CSV")->required();
-  score->add_option("truth", (*score_args)[1], "Truth CSV")->required();
-  score->add_option("--min-diameter", *min_score_diameter, "Smallest diameter scored [px] (0: all)")
-      ->check(NonNegativeNumber())
-      ->capture_default_str();
-  score->add_option("--out", (*score_args)[2], "Also write DIR/summary.json");
-  score->add_option("--image", (*score_args)[3],
-                    "With --out: also write DIR/score_overlay.png on this image (truth green when "
-                    "matched, red when missed; false alarms yellow)");
-  score->callback([score_args, min_score_diameter, &global] {
-    const std::vector<CraterCircle> detections = ReadCraterCsv((*score_args)[0]);
-    const std::vector<CraterCircle> truth = ReadCraterCsv((*score_args)[1]);
-    const double lo = *min_score_diameter;
-    const double inf = std::numeric_limits<double>::infinity();
-    const CraterScore s = ScoreCraters(truth, detections, {lo, 2 * lo, 4 * lo, 8 * lo, inf});
-    nlohmann::json summary = {
-        {"command", "craters score"},
-        {"detections", (*score_args)[0]},
-        {"truth", (*score_args)[1]},
-        {"rule", "centre distance < 0.5 x truth radius and detected/true diameter in [0.7, 1.3]"},
-        {"all", CraterMatchStatsJson(s.all)},
-        {"bins", nlohmann::json::array()}};
-    for (const auto& b : s.bins) summary["bins"].push_back(CraterMatchStatsJson(b));
-    if (!(*score_args)[3].empty() && (*score_args)[2].empty()) {
-      throw Error("craters score: --image needs --out DIR for the overlay");
-    }
-    if (!(*score_args)[2].empty()) {
-      OutputFolder folder((*score_args)[2],
-                          OutputPolicy(global, "craters score", {"score_overlay.png"},
-                                       {(*score_args)[0], (*score_args)[1], (*score_args)[3]}));
-      if (!(*score_args)[3].empty()) {
-        const RasterDataset image = RasterDataset::Open((*score_args)[3]);
-        WriteScoreOverlay(folder / "score_overlay.png",
-                          image.ReadWindowFloat(1, image.FullWindow()), truth, detections, s, lo);
-        summary["overlay"] = "score_overlay.png";
-      }
-      WriteSummary(folder.dir(), summary);
-      folder.Commit();
-    }
-    std::cout << std::fixed << std::setprecision(3);
-    std::cout << "diameter_px        truth  detected  precision  recall  f1     center_err_px\n";
-    const auto line = [](const CraterMatchStats& b) {
-      std::ostringstream range;
-      range << std::setprecision(0) << std::fixed << b.min_diameter << "-"
-            << (std::isfinite(b.max_diameter) ? std::to_string(static_cast<int>(b.max_diameter))
-                                              : std::string("inf"));
-      std::cout << std::left << std::setw(18) << range.str() << std::right << std::setw(6)
-                << b.truth << std::setw(10) << b.detected << std::setw(11) << b.precision
-                << std::setw(8) << b.recall << std::setw(7) << b.f1 << std::setw(10)
-                << b.median_center_error << "\n";
-    };
-    for (const auto& b : s.bins) line(b);
-    line(s.all);
-    (void)global;
-  });
+  AddCraterScoreCommand(cmd, global);
   cmd->callback([cmd, args, detection_group, &global] {
     if (!cmd->get_subcommands().empty()) return;  // `craters score` ran
-    if (args->inputs.empty() && args->list.empty()) {
-      throw Error("craters: missing INPUT raster (or use 'craters score')");
-    }
-    if (args->out_dir.empty()) throw Error("craters: --out DIR is required");
-    ImageOptions(*args).Check();
-    const bool planned = args->executor.plan_only || args->executor.executor != "local";
-    if (args->inputs.size() > 1 || !args->list.empty()) {
-      if (planned) {
-        RunPlannedCraterCatalogue(*args, ArgumentsGiven(*detection_group), global);
-      } else {
-        RunCraterCatalogue(*args, global);
-      }
-      return;
-    }
-    if (planned) {
-      throw Error(
-          "craters: --plan and --executor belong to a catalogue (two or more images, or "
-          "--list)");
-    }
-    if (!args->crs.empty()) {
-      throw Error("craters: --crs belongs to a catalogue (two or more images, or --list)");
-    }
-    RunDetect(*args, global);
+    RunCratersCommand(*args, *detection_group, global);
   });
 }
 

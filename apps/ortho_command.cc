@@ -80,111 +80,143 @@ constexpr const char* kOrthoDetails =
     "with the image, a validity mask, the resolution map [m] and the source-image id; a warning\n"
     "says why when nothing was painted.";
 
-void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
-  auto o = std::make_shared<OrthoCommandOptions>();
-  auto* cmd = app.add_subcommand(
-      "ortho", "Orthophoto of one site's rover images on a DTM (best image per cell, depth test)");
-  cmd->footer(kOrthoDetails);
-  cmd->add_option("images", o->images,
+namespace {
+
+void AddOrthoOptions(CLI::App* cmd, OrthoCommandOptions& o) {
+  cmd->add_option("images", o.images,
                   "Rover images of one site (PNG with a .json label beside it, or MER .IMG)")
       ->required();
-  cmd->add_option("--dtm", o->dtm, "DTM GeoTIFF (areomap dtm) covering the site")->required();
+  cmd->add_option("--dtm", o.dtm, "DTM GeoTIFF (areomap dtm) covering the site")->required();
   CheckLatLonHeight(
-      cmd->add_option("--origin", o->origin,
+      cmd->add_option("--origin", o.origin,
                       "Mission origin (site 0's frame): planetocentric lat, east lon [deg], h [m]")
           ->required()
           ->expected(3)
           ->delimiter(','));
-  cmd->add_option("--site-position", o->site_position,
+  cmd->add_option("--site-position", o.site_position,
                   "The site's origin in site 0's frame: north, east, down [m]")
       ->expected(3)
       ->delimiter(',')
       ->check(FiniteNumber())
       ->capture_default_str();
-  cmd->add_option("--heading-correction", o->heading_correction_deg,
+  cmd->add_option("--heading-correction", o.heading_correction_deg,
                   "True heading minus the labels' (telemetry) heading, e.g. from a bundle "
                   "adjustment [deg, clockwise]")
       ->check(FiniteNumber())
       ->capture_default_str();
-  cmd->add_option("--out", o->out, "Output folder (created if needed)")->required();
-  cmd->add_option("--max-range", o->ortho.max_range_m, "Paint cells up to this range [m]")
+  cmd->add_option("--out", o.out, "Output folder (created if needed)")->required();
+  cmd->add_option("--max-range", o.ortho.max_range_m, "Paint cells up to this range [m]")
       ->check(PositiveNumber())
       ->capture_default_str();
-  cmd->add_option("--max-incidence", o->ortho.max_incidence_deg,
+  cmd->add_option("--max-incidence", o.ortho.max_incidence_deg,
                   "Most oblique view accepted (ray vs surface normal) [deg]")
       ->check(NumberIn(0.0, 90.0, Bound::kOpen, Bound::kOpen))
       ->capture_default_str();
-  cmd->callback([o, &global] {
-    o->ortho.Check();
-    std::vector<std::filesystem::path> inputs(o->images.begin(), o->images.end());
-    inputs.push_back(o->dtm);
-    OutputFolder out(o->out, OutputPolicy(global, "ortho", {"ortho.tif"}, inputs));
-    const ProgressCallback progress = MakeProgressBar(global, "ortho");
-    const Body body = Body::Mars2000();
-    // Checked while parsing (CheckLatLonHeight).
-    const Geographic origin{RadFromDeg(o->origin[0]), RadFromDeg(o->origin[1]), o->origin[2]};
-    const SiteGeoreference site = SiteGeoreference::InMission(
-        body, origin,
-        Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(RadFromDeg(o->heading_correction_deg),
-                                                     Eigen::Vector3d::UnitZ())),
-                Eigen::Vector3d(o->site_position[0], o->site_position[1], o->site_position[2])));
-    std::vector<OrthoSourceImage> sources;
-    for (size_t i = 0; i < o->images.size(); ++i) {
-      sources.push_back(
-          {static_cast<int>(i), ReadAnyImage(o->images[i]), CameraInSite(o->images[i])});
+}
+
+// The site in the mission: --origin, --site-position and --heading-correction.
+SiteGeoreference OrthoSite(const OrthoCommandOptions& o, const Body& body) {
+  // Checked while parsing (CheckLatLonHeight).
+  const Geographic origin{RadFromDeg(o.origin[0]), RadFromDeg(o.origin[1]), o.origin[2]};
+  return SiteGeoreference::InMission(
+      body, origin,
+      Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(RadFromDeg(o.heading_correction_deg),
+                                                   Eigen::Vector3d::UnitZ())),
+              Eigen::Vector3d(o.site_position[0], o.site_position[1], o.site_position[2])));
+}
+
+std::vector<OrthoSourceImage> ReadOrthoSources(const std::vector<std::string>& images) {
+  std::vector<OrthoSourceImage> sources;
+  for (size_t i = 0; i < images.size(); ++i) {
+    sources.push_back({static_cast<int>(i), ReadAnyImage(images[i]), CameraInSite(images[i])});
+  }
+  return sources;
+}
+
+// Cells of the DTM window under the orthophoto that have an elevation.
+int KnownCellsUnderOrtho(const Orthophoto& ortho, const Dtm& dtm) {
+  int known_in_window = 0;
+  const Eigen::Vector2i offset = ortho.grid.OffsetIn(dtm.layers.grid);
+  for (int row = 0; row < ortho.grid.height; ++row) {
+    for (int col = 0; col < ortho.grid.width; ++col) {
+      known_in_window +=
+          std::isfinite(dtm.layers.elevation.at<float>(row + offset.y(), col + offset.x())) ? 1 : 0;
     }
-    // Only the DTM's cells within reach of the cameras are read (a DTM may be a whole orbital
-    // product): its metadata first, then that window.
-    const RasterInfo dtm_info = RasterDataset::Open(o->dtm).info();
-    if (dtm_info.crs_wkt.empty()) throw Error(o->dtm + ": the DTM has no CRS");
-    const MapFrame map = MapFrame::FromCrs(body, Crs::FromWkt(dtm_info.crs_wkt, o->dtm));
-    const std::optional<GridSpec> reach =
-        OrthophotoWindow(GridOfRaster(dtm_info, o->dtm), site, map, sources, o->ortho);
-    if (!reach) {
-      throw Error(o->dtm +
-                  ": the DTM does not reach the cameras (no cell within --max-range of "
-                  "them)");
-    }
-    const Dtm dtm = ReadDtm(o->dtm, *reach);
-    const Orthophoto ortho = MakeOrthophoto(dtm, site, map, sources, o->ortho, progress);
-    WriteOrthophoto(out / "ortho.tif", ortho);
-    const std::filesystem::path path = out.final_dir() / "ortho.tif";
-    int known_in_window = 0;
-    const Eigen::Vector2i offset = ortho.grid.OffsetIn(dtm.layers.grid);
-    for (int row = 0; row < ortho.grid.height; ++row) {
-      for (int col = 0; col < ortho.grid.width; ++col) {
-        known_in_window +=
-            std::isfinite(dtm.layers.elevation.at<float>(row + offset.y(), col + offset.x())) ? 1
-                                                                                              : 0;
-      }
-    }
-    WriteSummary(
-        out.dir(),
-        {{"command", "ortho"},
-         {"orthophoto", path.filename().string()},
-         {"dtm", o->dtm},
-         {"source_ids", o->images},
-         {"width", ortho.grid.width},
-         {"height", ortho.grid.height},
-         {"posting_m", ortho.grid.posting},
-         {"valid_cells", ortho.valid_cells},
-         {"dtm_cells_in_reach", known_in_window},
-         {"coverage_of_dtm",
-          known_in_window > 0 ? static_cast<double>(ortho.valid_cells) / known_in_window : 0.0}});
-    out.Commit();
-    if (ortho.valid_cells == 0) {
-      std::cerr << "warning: nothing was painted: "
-                << (known_in_window == 0
-                        ? "the DTM has no elevation within --max-range of the cameras"
-                        : "no valid image pixel sees the DTM within reach (images all nodata, "
-                          "or looking away from it?)")
-                << "\n";
-    }
-    if (!global.quiet) {
-      std::cout << "wrote " << path.string() << " (" << ortho.valid_cells << " cells painted of "
-                << known_in_window << " DTM cells within reach)\n";
-    }
-  });
+  }
+  return known_in_window;
+}
+
+nlohmann::json OrthoSummaryJson(const OrthoCommandOptions& o, const Orthophoto& ortho,
+                                int known_in_window) {
+  return {{"command", "ortho"},
+          {"orthophoto", "ortho.tif"},
+          {"dtm", o.dtm},
+          {"source_ids", o.images},
+          {"width", ortho.grid.width},
+          {"height", ortho.grid.height},
+          {"posting_m", ortho.grid.posting},
+          {"valid_cells", ortho.valid_cells},
+          {"dtm_cells_in_reach", known_in_window},
+          {"coverage_of_dtm",
+           known_in_window > 0 ? static_cast<double>(ortho.valid_cells) / known_in_window : 0.0}};
+}
+
+// The warning when nothing was painted, and (without --quiet) the one-line summary.
+void ReportOrtho(const Orthophoto& ortho, int known_in_window, const std::filesystem::path& path,
+                 const GlobalOptions& global) {
+  if (ortho.valid_cells == 0) {
+    std::cerr << "warning: nothing was painted: "
+              << (known_in_window == 0
+                      ? "the DTM has no elevation within --max-range of the cameras"
+                      : "no valid image pixel sees the DTM within reach (images all nodata, "
+                        "or looking away from it?)")
+              << "\n";
+  }
+  if (!global.quiet) {
+    std::cout << "wrote " << path.string() << " (" << ortho.valid_cells << " cells painted of "
+              << known_in_window << " DTM cells within reach)\n";
+  }
+}
+
+void RunOrthoCommand(const OrthoCommandOptions& o, const GlobalOptions& global) {
+  o.ortho.Check();
+  std::vector<std::filesystem::path> inputs(o.images.begin(), o.images.end());
+  inputs.push_back(o.dtm);
+  OutputFolder out(o.out, OutputPolicy(global, "ortho", {"ortho.tif"}, inputs));
+  const ProgressCallback progress = MakeProgressBar(global, "ortho");
+  const Body body = Body::Mars2000();
+  const SiteGeoreference site = OrthoSite(o, body);
+  const std::vector<OrthoSourceImage> sources = ReadOrthoSources(o.images);
+  // Only the DTM's cells within reach of the cameras are read (a DTM may be a whole orbital
+  // product): its metadata first, then that window.
+  const RasterInfo dtm_info = RasterDataset::Open(o.dtm).info();
+  if (dtm_info.crs_wkt.empty()) throw Error(o.dtm + ": the DTM has no CRS");
+  const MapFrame map = MapFrame::FromCrs(body, Crs::FromWkt(dtm_info.crs_wkt, o.dtm));
+  const std::optional<GridSpec> reach =
+      OrthophotoWindow(GridOfRaster(dtm_info, o.dtm), site, map, sources, o.ortho);
+  if (!reach) {
+    throw Error(o.dtm +
+                ": the DTM does not reach the cameras (no cell within --max-range of "
+                "them)");
+  }
+  const Dtm dtm = ReadDtm(o.dtm, *reach);
+  const Orthophoto ortho = MakeOrthophoto(dtm, site, map, sources, o.ortho, progress);
+  WriteOrthophoto(out / "ortho.tif", ortho);
+  const int known_in_window = KnownCellsUnderOrtho(ortho, dtm);
+  WriteSummary(out.dir(), OrthoSummaryJson(o, ortho, known_in_window));
+  out.Commit();
+  ReportOrtho(ortho, known_in_window, out.final_dir() / "ortho.tif", global);
+}
+
+}  // namespace
+
+void AddOrthoCommand(CLI::App& app, const GlobalOptions& global) {
+  auto o = std::make_shared<OrthoCommandOptions>();
+  auto* cmd = app.add_subcommand(
+      "ortho", "Orthophoto of one site's rover images on a DTM (best image per cell, depth test)");
+  cmd->footer(kOrthoDetails);
+  AddOrthoOptions(cmd, *o);
+  cmd->callback([o, &global] { RunOrthoCommand(*o, global); });
 }
 
 }  // namespace areomap::cli

@@ -58,92 +58,114 @@ void PrintStatus(const fs::path& dir, const WorkPlan& plan, const std::vector<Un
   }
 }
 
-}  // namespace
+struct RunUnitOptions {
+  std::string dir;
+  std::vector<std::string> units;
+  std::string stage;
+  int task_index = -1;
+  UnitClaimOptions claims;
+};
 
-void AddRunUnitCommands(CLI::App& app, const GlobalOptions& global) {
-  struct Options {
-    std::string dir;
-    std::vector<std::string> units;
-    std::string stage;
-    int task_index = -1;
-    UnitClaimOptions claims;
-  };
-  auto o = std::make_shared<Options>();
-  auto* unit = app.add_subcommand("run-unit", "Runs units of a planned job (docs/cluster.md)");
-  unit->footer(kRunUnitDetails);
-  unit->add_option("DIR", o->dir, "The folder holding plan.json")->required();
-  unit->add_option("UNIT", o->units, "Unit ids, e.g. site_003 leg_003_004 finish");
-  unit->add_option("--stage", o->stage, "With --task-index: the stage whose unit to run");
-  unit->add_option("--task-index", o->task_index,
+void AddRunUnitOptions(CLI::App* unit, RunUnitOptions& o) {
+  unit->add_option("DIR", o.dir, "The folder holding plan.json")->required();
+  unit->add_option("UNIT", o.units, "Unit ids, e.g. site_003 leg_003_004 finish");
+  unit->add_option("--stage", o.stage, "With --task-index: the stage whose unit to run");
+  unit->add_option("--task-index", o.task_index,
                    "The unit at this index (from 0) in --stage, e.g. $SLURM_ARRAY_TASK_ID")
       ->check(CLI::NonNegativeNumber);
-  unit->add_option("--stale-after", o->claims.stale_after_s,
+  unit->add_option("--stale-after", o.claims.stale_after_s,
                    "A claim untouched this long is taken over [s]")
       ->check(CLI::Range(20.0, 86400.0))
       ->capture_default_str();
-  unit->callback([o, &global] {
-    const WorkPlan plan = ReadWorkPlan(o->dir);
-    std::vector<std::string> ids = o->units;
-    if (!o->stage.empty() || o->task_index >= 0) {
-      if (o->stage.empty() || o->task_index < 0) {
-        throw Error("--stage and --task-index go together");
-      }
-      const PlannedStage& stage = plan.Stage(o->stage);
-      if (static_cast<size_t>(o->task_index) >= stage.units.size()) {
-        throw Error("--task-index " + std::to_string(o->task_index) + ": stage " + stage.name +
-                    " has " + std::to_string(stage.units.size()) + " units (0 to " +
-                    std::to_string(stage.units.size() - 1) + ")");
-      }
-      ids.push_back(stage.units[o->task_index].id);
-    }
-    if (ids.empty()) throw Error("name the units to run, or --stage and --task-index");
-    std::vector<UnitRunRecord> records;
-    if (plan.job == "run") {
-      records = RunMissionPlanUnits(o->dir, plan, ParseMissionRunArguments(plan.arguments), ids,
-                                    o->claims, MakeProgressBar(global, "run-unit"));
-    } else if (plan.job == "craters") {
-      const CratersArgs args = ParseCratersArguments(plan.arguments);
-      CatalogueMergeOptions merge;
-      merge.crs = args.crs;
-      records =
-          RunCataloguePlanUnits(o->dir, plan, ImageOptions(args), merge, CatalogueSummaryHead(args),
-                                ids, o->claims, MakeProgressBar(global, "run-unit"));
-    } else {
-      throw Error((fs::path(o->dir) / kPlanFileName).string() + ": unknown job \"" + plan.job +
-                  "\" (expected run or craters)");
-    }
-    if (!global.quiet) PrintRecords(records);
-    std::string failed;
-    for (const UnitRunRecord& r : records) {
-      if (r.outcome == UnitOutcome::kFailed) failed += (failed.empty() ? "" : ", ") + r.id;
-    }
-    if (!failed.empty()) {
-      throw Error("units failed: " + failed + " (error.txt in their folders)");
-    }
-  });
+}
 
-  auto status_dir = std::make_shared<std::string>();
-  auto json_output = std::make_shared<bool>(false);
+// The units named, then the one at --task-index in --stage.
+std::vector<std::string> UnitIdsToRun(const RunUnitOptions& o, const WorkPlan& plan) {
+  std::vector<std::string> ids = o.units;
+  if (!o.stage.empty() || o.task_index >= 0) {
+    if (o.stage.empty() || o.task_index < 0) {
+      throw Error("--stage and --task-index go together");
+    }
+    const PlannedStage& stage = plan.Stage(o.stage);
+    if (static_cast<size_t>(o.task_index) >= stage.units.size()) {
+      throw Error("--task-index " + std::to_string(o.task_index) + ": stage " + stage.name +
+                  " has " + std::to_string(stage.units.size()) + " units (0 to " +
+                  std::to_string(stage.units.size() - 1) + ")");
+    }
+    ids.push_back(stage.units[o.task_index].id);
+  }
+  if (ids.empty()) throw Error("name the units to run, or --stage and --task-index");
+  return ids;
+}
+
+// Runs `ids` with the job the plan names (a mission run or a crater catalogue).
+std::vector<UnitRunRecord> RunPlanUnits(const RunUnitOptions& o, const WorkPlan& plan,
+                                        const std::vector<std::string>& ids,
+                                        const GlobalOptions& global) {
+  if (plan.job == "run") {
+    return RunMissionPlanUnits(o.dir, plan, ParseMissionRunArguments(plan.arguments), ids, o.claims,
+                               MakeProgressBar(global, "run-unit"));
+  }
+  if (plan.job == "craters") {
+    const CratersArgs args = ParseCratersArguments(plan.arguments);
+    CatalogueMergeOptions merge;
+    merge.crs = args.crs;
+    return RunCataloguePlanUnits(o.dir, plan, ImageOptions(args), merge, CatalogueSummaryHead(args),
+                                 ids, o.claims, MakeProgressBar(global, "run-unit"));
+  }
+  throw Error((fs::path(o.dir) / kPlanFileName).string() + ": unknown job \"" + plan.job +
+              "\" (expected run or craters)");
+}
+
+void RunRunUnitCommand(const RunUnitOptions& o, const GlobalOptions& global) {
+  const WorkPlan plan = ReadWorkPlan(o.dir);
+  const std::vector<std::string> ids = UnitIdsToRun(o, plan);
+  const std::vector<UnitRunRecord> records = RunPlanUnits(o, plan, ids, global);
+  if (!global.quiet) PrintRecords(records);
+  std::string failed;
+  for (const UnitRunRecord& r : records) {
+    if (r.outcome == UnitOutcome::kFailed) failed += (failed.empty() ? "" : ", ") + r.id;
+  }
+  if (!failed.empty()) {
+    throw Error("units failed: " + failed + " (error.txt in their folders)");
+  }
+}
+
+struct RunStatusOptions {
+  std::string dir;
+  bool json = false;  // --json: the units' states as JSON.
+};
+
+void RunRunStatusCommand(const RunStatusOptions& o) {
+  const WorkPlan plan = ReadWorkPlan(o.dir);
+  const std::vector<UnitStatus> units = ReadPlanStatus(o.dir, plan);
+  if (o.json) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const UnitStatus& s : units) {
+      out.push_back(
+          {{"stage", s.stage}, {"unit", s.id}, {"state", ToString(s.state)}, {"detail", s.detail}});
+    }
+    std::printf("%s\n", out.dump(2).c_str());
+  } else {
+    PrintStatus(o.dir, plan, units);
+  }
+}
+
+}  // namespace
+
+void AddRunUnitCommands(CLI::App& app, const GlobalOptions& global) {
+  auto o = std::make_shared<RunUnitOptions>();
+  auto* unit = app.add_subcommand("run-unit", "Runs units of a planned job (docs/cluster.md)");
+  unit->footer(kRunUnitDetails);
+  AddRunUnitOptions(unit, *o);
+  unit->callback([o, &global] { RunRunUnitCommand(*o, global); });
+
+  auto status_options = std::make_shared<RunStatusOptions>();
   auto* status = app.add_subcommand("run-status", "The state of a planned job's units");
   status->footer(kRunStatusDetails);
-  status->add_option("DIR", *status_dir, "The folder holding plan.json")->required();
-  status->add_flag("--json", *json_output, "Print the units' states as JSON");
-  status->callback([status_dir, json_output] {
-    const WorkPlan plan = ReadWorkPlan(*status_dir);
-    const std::vector<UnitStatus> units = ReadPlanStatus(*status_dir, plan);
-    if (*json_output) {
-      nlohmann::json out = nlohmann::json::array();
-      for (const UnitStatus& s : units) {
-        out.push_back({{"stage", s.stage},
-                       {"unit", s.id},
-                       {"state", ToString(s.state)},
-                       {"detail", s.detail}});
-      }
-      std::printf("%s\n", out.dump(2).c_str());
-    } else {
-      PrintStatus(*status_dir, plan, units);
-    }
-  });
+  status->add_option("DIR", status_options->dir, "The folder holding plan.json")->required();
+  status->add_flag("--json", status_options->json, "Print the units' states as JSON");
+  status->callback([status_options] { RunRunStatusCommand(*status_options); });
 }
 
 }  // namespace areomap::cli
