@@ -324,6 +324,100 @@ class Extractor {
   PointGrid grid_;
 };
 
+// The rock grown from each peak (in parallel); none where the peak gives none.
+std::vector<std::optional<ExtractedRock>> ProcessPeaks(const Extractor& extractor,
+                                                       const std::vector<int>& peaks) {
+  std::vector<std::optional<ExtractedRock>> processed(peaks.size());
+  tbb::parallel_for(size_t{0}, peaks.size(),
+                    [&](size_t k) { processed[k] = extractor.Process(peaks[k]); });
+  return processed;
+}
+
+// The rocks, highest first (ties: the lower peak index); counts the peaks that gave none as too
+// low.
+std::vector<ExtractedRock> RocksByHeight(std::vector<std::optional<ExtractedRock>> processed,
+                                         RockExtractionSummary* s) {
+  std::vector<ExtractedRock> candidates;
+  for (auto& rock : processed) {
+    if (rock) {
+      candidates.push_back(std::move(*rock));
+    } else {
+      ++s->too_low;
+    }
+  }
+  std::sort(
+      candidates.begin(), candidates.end(), [](const ExtractedRock& a, const ExtractedRock& b) {
+        return a.height_m != b.height_m ? a.height_m > b.height_m : a.peak_index < b.peak_index;
+      });
+  return candidates;
+}
+
+// The rocks kept so far, highest first, their peaks in a 1 m hash grid.
+class KeptRocks {
+ public:
+  // A peak on a higher rock's surface is part of that rock; so is a lower peak closer to a higher
+  // one than the higher rock's reach plus twice their separation's sigma (range noise smears a
+  // far rock's points along the line of sight).
+  bool Swallow(const ExtractedRock& rock) const {
+    const long cx = std::lround(std::floor(rock.peak.x() / kCell));
+    const long cy = std::lround(std::floor(rock.peak.y() / kCell));
+    for (long dy = -3; dy <= 3; ++dy) {
+      for (long dx = -3; dx <= 3; ++dx) {
+        const auto it = cells_.find(Key(cx + dx, cy + dy));
+        if (it == cells_.end()) continue;
+        for (int k : it->second) {
+          const ExtractedRock& high = rocks_[k];
+          const Eigen::Vector2d d = (rock.peak - high.peak).head<2>();
+          const double distance = d.norm();
+          if (distance < 1e-9) return true;
+          const Eigen::Vector2d u = d / distance;
+          const double sigma = std::sqrt(
+              u.dot((rock.peak_covariance + high.peak_covariance).topLeftCorner<2, 2>() * u));
+          const double reach = std::max(high.surface_radius_m, 0.5 * high.height_m);
+          if (distance <= std::min(reach + 2.0 * sigma, 3.0 * kCell)) return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  // Keeps `rock` with the next id.
+  void Add(ExtractedRock rock) {
+    rock.id = static_cast<int>(rocks_.size()) + 1;
+    cells_[Key(std::lround(std::floor(rock.peak.x() / kCell)),
+               std::lround(std::floor(rock.peak.y() / kCell)))]
+        .push_back(static_cast<int>(rocks_.size()));
+    rocks_.push_back(std::move(rock));
+  }
+
+  std::vector<ExtractedRock> Release() { return std::move(rocks_); }
+
+ private:
+  static constexpr double kCell = 1.0;
+  static long long Key(long cx, long cy) {
+    return (static_cast<long long>(cx) << 32) ^ (cy & 0xffffffffLL);
+  }
+  std::vector<ExtractedRock> rocks_;
+  std::unordered_map<long long, std::vector<int>> cells_;
+};
+
+// Keeps each rock, highest first, unless a kept rock owns its peak point or swallows it; a kept
+// rock owns its surface points.
+std::vector<ExtractedRock> MergeRocks(std::vector<ExtractedRock> candidates, size_t point_count,
+                                      RockExtractionSummary* s) {
+  std::vector<char> owned(point_count, 0);
+  KeptRocks kept;
+  for (ExtractedRock& rock : candidates) {
+    if (owned[rock.peak_index] || kept.Swallow(rock)) {
+      ++s->merged;
+      continue;
+    }
+    for (int j : rock.surface_indices) owned[j] = 1;
+    kept.Add(std::move(rock));
+  }
+  return kept.Release();
+}
+
 }  // namespace
 
 void RockExtractionOptions::Check() const {
@@ -362,66 +456,10 @@ std::vector<ExtractedRock> ExtractRocks(const PointCloud& cloud,
   const Extractor extractor(cloud, options);
   const std::vector<int> peaks = extractor.FindPeakCandidates(&s);
   report(0.3, "rocks");
-  std::vector<std::optional<ExtractedRock>> processed(peaks.size());
-  tbb::parallel_for(size_t{0}, peaks.size(),
-                    [&](size_t k) { processed[k] = extractor.Process(peaks[k]); });
+  std::vector<std::optional<ExtractedRock>> processed = ProcessPeaks(extractor, peaks);
   report(0.9, "merge");
-  std::vector<ExtractedRock> candidates;
-  for (auto& rock : processed) {
-    if (rock) {
-      candidates.push_back(std::move(*rock));
-    } else {
-      ++s.too_low;
-    }
-  }
-  std::sort(
-      candidates.begin(), candidates.end(), [](const ExtractedRock& a, const ExtractedRock& b) {
-        return a.height_m != b.height_m ? a.height_m > b.height_m : a.peak_index < b.peak_index;
-      });
-  // A peak on a higher rock's surface is part of that rock; so is a lower peak closer to a higher
-  // one than the higher rock's reach plus twice their separation's sigma (range noise smears a
-  // far rock's points along the line of sight). Kept peaks sit in a 1 m hash grid.
-  std::vector<char> owned(cloud.points.size(), 0);
-  std::vector<ExtractedRock> rocks;
-  constexpr double kCell = 1.0;
-  std::unordered_map<long long, std::vector<int>> kept_cells;
-  const auto cell_key = [](long cx, long cy) {
-    return (static_cast<long long>(cx) << 32) ^ (cy & 0xffffffffLL);
-  };
-  const auto swallowed = [&](const ExtractedRock& rock) {
-    const long cx = std::lround(std::floor(rock.peak.x() / kCell));
-    const long cy = std::lround(std::floor(rock.peak.y() / kCell));
-    for (long dy = -3; dy <= 3; ++dy) {
-      for (long dx = -3; dx <= 3; ++dx) {
-        const auto it = kept_cells.find(cell_key(cx + dx, cy + dy));
-        if (it == kept_cells.end()) continue;
-        for (int k : it->second) {
-          const ExtractedRock& high = rocks[k];
-          const Eigen::Vector2d d = (rock.peak - high.peak).head<2>();
-          const double distance = d.norm();
-          if (distance < 1e-9) return true;
-          const Eigen::Vector2d u = d / distance;
-          const double sigma = std::sqrt(
-              u.dot((rock.peak_covariance + high.peak_covariance).topLeftCorner<2, 2>() * u));
-          const double reach = std::max(high.surface_radius_m, 0.5 * high.height_m);
-          if (distance <= std::min(reach + 2.0 * sigma, 3.0 * kCell)) return true;
-        }
-      }
-    }
-    return false;
-  };
-  for (ExtractedRock& rock : candidates) {
-    if (owned[rock.peak_index] || swallowed(rock)) {
-      ++s.merged;
-      continue;
-    }
-    for (int j : rock.surface_indices) owned[j] = 1;
-    rock.id = static_cast<int>(rocks.size()) + 1;
-    kept_cells[cell_key(std::lround(std::floor(rock.peak.x() / kCell)),
-                        std::lround(std::floor(rock.peak.y() / kCell)))]
-        .push_back(static_cast<int>(rocks.size()));
-    rocks.push_back(std::move(rock));
-  }
+  std::vector<ExtractedRock> rocks =
+      MergeRocks(RocksByHeight(std::move(processed), &s), cloud.points.size(), &s);
   report(0.95, "models");
   tbb::parallel_for(size_t{0}, rocks.size(), [&](size_t k) { extractor.FitModels(&rocks[k]); });
   for (const ExtractedRock& rock : rocks) s.modeled += rock.modeled() ? 1 : 0;

@@ -1,7 +1,9 @@
 // Least-squares fitting of the rock models (ch. 2.3.2) with Ceres.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
+#include <vector>
 
 #include <ceres/ceres.h>
 #include <Eigen/Dense>
@@ -97,6 +99,117 @@ double WrapAngle(double angle, double period) {
   return angle < 0.0 ? angle + period : angle;
 }
 
+// The best of the starts: its final cost (infinite when every start failed), parameters, free
+// parameter indices and Jacobian.
+struct BestStart {
+  double cost = std::numeric_limits<double>::infinity();
+  double q[kCount] = {};
+  std::vector<int> free_indices;
+  Eigen::MatrixXd jacobian;
+};
+
+// Solves from every start and keeps the lowest cost. Start: the given centre; height from the
+// highest point, radius from the widest point.
+BestStart SolveFromStarts(const std::vector<Eigen::Vector3d>& points_in_rock, RockModelShape shape,
+                          const RockModelFitOptions& options, const RockModelParameters& start) {
+  double top = 0.0, reach = 0.0;
+  for (const Eigen::Vector3d& p : points_in_rock) {
+    top = std::max(top, p.z());
+    reach = std::max(reach, std::hypot(p.x() - start.center_x, p.y() - start.center_y));
+  }
+  const auto inside = [&](double value, double upper) {
+    return std::clamp(value, 1.01 * options.min_size_m, 0.99 * upper);
+  };
+  const double h0 =
+      inside(start.height > 0.0 ? start.height : std::max(top, 1e-2), options.max_height_m);
+  const double a0 = inside(start.a > 0.0 ? start.a : std::max(reach, 1e-2), options.max_radius_m);
+  // Starts for the azimuth of the anisotropic shapes (their cost has several basins).
+  std::vector<double> phi_starts = {start.phi};
+  // (An ellipse's azimuth has period pi and a/b swap at pi/2; a triangle's period is 2 pi/3.)
+  if (shape == RockModelShape::kSemiEllipsoid) phi_starts = {0.0, kPi / 4.0};
+  if (shape == RockModelShape::kTetrahedron) phi_starts = {0.0, kPi / 3.0};
+  BestStart best;
+  for (double phi : phi_starts) {
+    double q[kCount] = {h0,
+                        a0,
+                        UsesB(shape) ? 0.8 * a0 : a0,
+                        phi,
+                        options.complex_model ? start.alpha : 0.0,
+                        options.complex_model ? start.beta : 0.0,
+                        start.center_x,
+                        start.center_y};
+    std::vector<int> indices;
+    Eigen::MatrixXd j;
+    const double cost = Solve(points_in_rock, shape, options, q, &indices, &j);
+    if (cost < best.cost) {
+      best.cost = cost;
+      std::copy(q, q + kCount, best.q);
+      best.free_indices = indices;
+      best.jacobian = j;
+    }
+  }
+  return best;
+}
+
+// The fitted parameters of `shape` (b = a and phi = 0 where the shape has none).
+void SetParameters(const BestStart& best, RockModelShape shape, RockModelParameters* m) {
+  m->height = best.q[kHeight];
+  m->a = best.q[kA];
+  m->b = UsesB(shape) ? best.q[kB] : best.q[kA];
+  m->phi = UsesPhi(shape) ? best.q[kPhi] : 0.0;
+  m->alpha = best.q[kAlpha];
+  m->beta = best.q[kBeta];
+  m->center_x = best.q[kCenterX];
+  m->center_y = best.q[kCenterY];
+}
+
+// 1-sigma: (J^T J)^-1 scaled by the residual variance (redundancy n - u); NaN where J^T J is
+// singular, 0 where nothing is left over.
+void SetSigmas(const BestStart& best, RockModelShape shape, RockModelFit* fit) {
+  const int unknowns = static_cast<int>(best.free_indices.size());
+  const int redundancy = fit->point_count - unknowns;
+  if (redundancy > 0 && best.jacobian.cols() == unknowns) {
+    const Eigen::MatrixXd normal = best.jacobian.transpose() * best.jacobian;
+    Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
+    if (ldlt.info() == Eigen::Success && ldlt.rcond() > 1e-14) {
+      const Eigen::MatrixXd cov = ldlt.solve(Eigen::MatrixXd::Identity(unknowns, unknowns)) *
+                                  (2.0 * best.cost / redundancy);
+      for (int k = 0; k < unknowns; ++k) {
+        fit->sigma[best.free_indices[k]] = std::sqrt(std::max(cov(k, k), 0.0));
+      }
+    } else {
+      fit->sigma.fill(std::nan(""));
+    }
+  }
+  if (!UsesB(shape)) fit->sigma[kB] = fit->sigma[kA];
+}
+
+// Canonical form: a >= b for the semi-ellipsoid; azimuths in their period.
+void Canonicalize(RockModelShape shape, RockModelFit* fit) {
+  RockModelParameters& m = fit->parameters;
+  if (shape == RockModelShape::kSemiEllipsoid) {
+    if (m.b > m.a) {
+      std::swap(m.a, m.b);
+      std::swap(fit->sigma[kA], fit->sigma[kB]);
+      m.phi += kPi / 2.0;
+    }
+    m.phi = WrapAngle(m.phi, kPi);
+  } else if (shape == RockModelShape::kTetrahedron) {
+    m.phi = WrapAngle(m.phi, 2.0 * kPi / 3.0);
+  }
+}
+
+// Eq. 2.13: the RMS of the points' vertical distances from the model's surface [m].
+double VerticalRms(const std::vector<Eigen::Vector3d>& points_in_rock,
+                   const RockModelParameters& m) {
+  double sum = 0.0;
+  for (const Eigen::Vector3d& p : points_in_rock) {
+    const double dz = p.z() - m.SurfaceZ(p.x(), p.y(), p.z());
+    sum += dz * dz;
+  }
+  return std::sqrt(sum / static_cast<double>(points_in_rock.size()));
+}
+
 }  // namespace
 
 void RockModelFitOptions::Check() const {
@@ -123,95 +236,18 @@ RockModelFit FitRockModel(const std::vector<Eigen::Vector3d>& points_in_rock, Ro
                   std::to_string(options.min_points) + ")";
     return fit;
   }
-  // Start: the given centre; height from the highest point, radius from the widest point.
-  const RockModelParameters start = initial.value_or(RockModelParameters{});
-  double top = 0.0, reach = 0.0;
-  for (const Eigen::Vector3d& p : points_in_rock) {
-    top = std::max(top, p.z());
-    reach = std::max(reach, std::hypot(p.x() - start.center_x, p.y() - start.center_y));
-  }
-  const auto inside = [&](double value, double upper) {
-    return std::clamp(value, 1.01 * options.min_size_m, 0.99 * upper);
-  };
-  const double h0 =
-      inside(start.height > 0.0 ? start.height : std::max(top, 1e-2), options.max_height_m);
-  const double a0 = inside(start.a > 0.0 ? start.a : std::max(reach, 1e-2), options.max_radius_m);
-  // Starts for the azimuth of the anisotropic shapes (their cost has several basins).
-  std::vector<double> phi_starts = {start.phi};
-  // (An ellipse's azimuth has period pi and a/b swap at pi/2; a triangle's period is 2 pi/3.)
-  if (shape == RockModelShape::kSemiEllipsoid) phi_starts = {0.0, kPi / 4.0};
-  if (shape == RockModelShape::kTetrahedron) phi_starts = {0.0, kPi / 3.0};
-  double best_cost = std::numeric_limits<double>::infinity();
-  double best[kCount] = {};
-  std::vector<int> free_indices;
-  Eigen::MatrixXd jacobian;
-  for (double phi : phi_starts) {
-    double q[kCount] = {h0,
-                        a0,
-                        UsesB(shape) ? 0.8 * a0 : a0,
-                        phi,
-                        options.complex_model ? start.alpha : 0.0,
-                        options.complex_model ? start.beta : 0.0,
-                        start.center_x,
-                        start.center_y};
-    std::vector<int> indices;
-    Eigen::MatrixXd j;
-    const double cost = Solve(points_in_rock, shape, options, q, &indices, &j);
-    if (cost < best_cost) {
-      best_cost = cost;
-      std::copy(q, q + kCount, best);
-      free_indices = indices;
-      jacobian = j;
-    }
-  }
-  if (!std::isfinite(best_cost)) {
+  const BestStart best =
+      SolveFromStarts(points_in_rock, shape, options, initial.value_or(RockModelParameters{}));
+  if (!std::isfinite(best.cost)) {
     fit.message = "solver failed";
     return fit;
   }
-  RockModelParameters& m = fit.parameters;
-  m.height = best[kHeight];
-  m.a = best[kA];
-  m.b = UsesB(shape) ? best[kB] : best[kA];
-  m.phi = UsesPhi(shape) ? best[kPhi] : 0.0;
-  m.alpha = best[kAlpha];
-  m.beta = best[kBeta];
-  m.center_x = best[kCenterX];
-  m.center_y = best[kCenterY];
-  // 1-sigma: (J^T J)^-1 scaled by the residual variance (redundancy n - u).
-  const int unknowns = static_cast<int>(free_indices.size());
-  const int redundancy = fit.point_count - unknowns;
-  fit.geometric_rms_m = std::sqrt(2.0 * best_cost / fit.point_count);
-  if (redundancy > 0 && jacobian.cols() == unknowns) {
-    const Eigen::MatrixXd normal = jacobian.transpose() * jacobian;
-    Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
-    if (ldlt.info() == Eigen::Success && ldlt.rcond() > 1e-14) {
-      const Eigen::MatrixXd cov = ldlt.solve(Eigen::MatrixXd::Identity(unknowns, unknowns)) *
-                                  (2.0 * best_cost / redundancy);
-      for (int k = 0; k < unknowns; ++k) {
-        fit.sigma[free_indices[k]] = std::sqrt(std::max(cov(k, k), 0.0));
-      }
-    } else {
-      fit.sigma.fill(std::nan(""));
-    }
-  }
-  if (!UsesB(shape)) fit.sigma[kB] = fit.sigma[kA];
-  // Canonical form: a >= b for the semi-ellipsoid; azimuths in their period.
-  if (shape == RockModelShape::kSemiEllipsoid) {
-    if (m.b > m.a) {
-      std::swap(m.a, m.b);
-      std::swap(fit.sigma[kA], fit.sigma[kB]);
-      m.phi += kPi / 2.0;
-    }
-    m.phi = WrapAngle(m.phi, kPi);
-  } else if (shape == RockModelShape::kTetrahedron) {
-    m.phi = WrapAngle(m.phi, 2.0 * kPi / 3.0);
-  }
-  double sum = 0.0;
-  for (const Eigen::Vector3d& p : points_in_rock) {
-    const double dz = p.z() - m.SurfaceZ(p.x(), p.y(), p.z());
-    sum += dz * dz;
-  }
-  fit.rms_m = std::sqrt(sum / fit.point_count);  // Eq. 2.13.
+  SetParameters(best, shape, &fit.parameters);
+  fit.geometric_rms_m = std::sqrt(2.0 * best.cost / fit.point_count);
+  SetSigmas(best, shape, &fit);
+  Canonicalize(shape, &fit);
+  const RockModelParameters& m = fit.parameters;
+  fit.rms_m = VerticalRms(points_in_rock, m);
   const bool at_bound =
       m.height < 2e-3 || m.a < 2e-3 || m.b < 2e-3 || m.height > 19.0 || m.a > 19.0;
   if (at_bound) {

@@ -7,43 +7,32 @@
 // radius must exceed it). Tie points carry each site's own peak position and its stereo covariance
 // plus `peak_definition_sigma_m` horizontally.
 //
-// Steps (ch. 3.2): (1) rocks failing a Table 4.5 per-rock rule are set aside (too far, too low, too
-// few surface points, implausible model, distance ratio); (2) significant rocks of site a: the
-// highest ones per grid cell in the overlap (within max_peak_range_m of both cameras); (3) pattern
-// matching: a translation vote V = P_k - Q_m (eq. 3.29) per candidate of b within the search radius
-// counts the rocks of a that b's rocks, shifted by V, bring within epsilon (eqs. 3.30, 3.31;
-// epsilon widened to twice the peaks' combined sigma along each principal direction of their
-// horizontal covariance: a far peak smears along its line of sight, not across it); the two best
-// candidates per significant rock are kept (Fig. 3.3); (4) model matching among those two: the
-// smallest cost: the relative difference of the two measured peak-to-plane heights, or with
-// `compare_models` 1/2 f_h + 1/3 f_r + 1/6 f_S (eq. 3.28; f = relative differences of height, mean
-// radius and exact surface area of the best models; of the measured heights where either model
-// rests on fewer than `min_shape_points` points), then the local terrain check (angle between
-// the background-plane normals); the pattern candidate whose V is nearer the global V (the
-// median of the largest group of rocks whose candidate vectors agree, `consensus_translation`),
-// by the chi-square of the two peaks' covariances, wins (global consistency).
-// Beyond the dissertation, a winner whose V lies farther than `max_vector_deviation_m` from the
-// global V, or beyond its chi-square bound given the peaks' covariances, is dropped (it contradicts
-// the global pattern), and so is a rock of either site with a neighbour (at least
-// `ambiguity_min_height_m` high, or at least `ambiguity_similar_min_height_m` high and of about
-// the rock's own height) closer than epsilon plus `ambiguity_sigmas` sigmas of the two
-// partners' combined horizontal covariance, along each of its principal directions (no vote can
-// tell them apart; tested at both sites once the partner is known); rocks whose peak sigma exceeds
-// `max_peak_sigma_m` are not used, nor pairs with both rocks lower than `low_pair_max_height_m`
-// and a peak sigma above `low_rock_max_peak_sigma_m`. The global pattern vouches for a winner
-// whose V lies within `pattern_vouch_deviation_m` of the global V with `pattern_vouch_votes`
-// votes (with `consensus_turn`, V is measured from the V the pattern's fitted turn expects at
-// the candidate: the prior's heading error turns b's rocks about b's camera): such a pair is
-// exempt from that low-pair limit and from the pair cost's limit, and a rock that would put V off
-// the pattern in its place is no alternative to it (neither a neighbour that makes it ambiguous
-// nor model matching's other choice). (5) A
-// pair is matched only where both methods agree (or the pattern vouches where no cost passed), or
-// (`pattern_settles_disagreement`) where the model's choice fails the global pattern test and the
-// pattern's winner has an acceptable cost of its own; when several rocks of a take the same rock of
-// b, only the lowest-cost one is kept. (6) Data snooping in the 2D conformal fit of the matches
-// (eq. 4.4), each tie point tested against the fit of the others, drops outliers while more than
-// min_tie_points remain. Pair-level rules (traverse, peaks, tie-point count, distance ratio, RE)
-// decide the outcome.
+// Steps (ch. 3.2; docs/rocks.md, "Matching", gives each rule's reason and option):
+//  1. Per-rock rules (Table 4.5, CheckRockRules): rocks too far, too low, with too few surface
+//     points or an implausible model, with a low distance ratio or an imprecise peak are set aside.
+//  2. Significant rocks of site a: the `significant_per_cell` highest unambiguous ones per grid
+//     cell in the overlap (within max_peak_range_m of both cameras).
+//  3. Pattern matching: each candidate of b within the search radius votes with V = P_k - Q_m
+//     (eq. 3.29): the rocks of a that b's rocks, shifted by V, bring within epsilon (eqs. 3.30,
+//     3.31; epsilon widened to twice the peaks' combined sigma along each principal direction of
+//     their horizontal covariance: a far peak smears along its line of sight, not across it). The
+//     two best candidates per significant rock are kept (Fig. 3.3).
+//  4. Model matching among those two: the smaller PairCost, the relative difference of the two
+//     measured peak-to-plane heights or, with `compare_models`, 1/2 f_h + 1/3 f_r + 1/6 f_S
+//     (eq. 3.28; relative differences of the best models' height, mean radius and exact surface
+//     area, where both rest on `min_shape_points` points); then the local terrain check (angle
+//     between the background-plane normals).
+//  5. Global consistency: the candidate whose V is nearer, by the chi-square of the two peaks'
+//     covariances, the V the global pattern expects there (`consensus_translation`,
+//     `consensus_turn`) wins; a winner beyond `max_vector_deviation_m` or `max_vector_chi2` is
+//     dropped. A pair is matched where both methods agree, where the pattern vouches for it
+//     (`pattern_vouch_*`) or settles the disagreement (`pattern_settles_disagreement`); beyond
+//     the dissertation, low pairs seen from afar (`low_pair_max_height_m`) and rocks ambiguous at
+//     either site (`ambiguity_*`) are dropped. Of several rocks of a taking one rock of b, the
+//     lowest cost is kept.
+//  6. Data snooping in the 2D conformal fit of the matches (eq. 4.4), each tie point tested
+//     against the fit of the others, drops outliers while more than min_tie_points remain.
+//     Pair-level rules (traverse, peaks, tie-point count, distance ratio, RE) decide the outcome.
 //
 // Failures: invalid options throw areomap::Error; everything about the data (no overlap, no
 // rocks, too few tie points) is a verdict in the report, never an exception.
@@ -84,16 +73,15 @@ struct RockMatchingPrior {
 
 struct RockMatchingOptions {
   double significant_cell_m = 3.0;  // Grid cell for significant rocks [m].
-  // Highest rocks kept per cell. Ch. 3.2 keeps one; three give 7 % more legs and 18 % more tie
-  // points on eight generated missions, every one still >= 99 % right by the sight ray, and
-  // equal no limit at all there (docs/rocks.md, "Three significant rocks per cell").
+  // Highest rocks kept per cell (ch. 3.2 keeps one, which throws away good rocks beside the
+  // highest; docs/rocks.md, "Three significant rocks per cell").
   int significant_per_cell = 3;
   double search_radius_m = 2.5;         // Largest search radius around a rock of a (prior) [m].
   double pattern_tolerance_m = 0.6;     // epsilon of eq. 3.31 [m].
   double max_vector_deviation_m = 1.0;  // Winner's V from the global V [m], and ...
   // ... its chi-square against the two peaks' covariances plus the prior's heading error acting
   // on the rock's distance from site a (chi-square 3 dof, 99 %: 11.34). The heading sigma is the
-  // one of a prior given as a bare pose (the first MatchSitePair overload).
+  // one of a prior given as a bare pose (the first MatchSitePair overload) [deg].
   double prior_heading_sigma_deg = 2.0;
   double max_vector_chi2 = 11.34;
   // The highest point of a rock seen from two sides is not the same surface point: this sigma
@@ -114,23 +102,17 @@ struct RockMatchingOptions {
   double cost_area_weight = 1.0 / 6.0;
   double max_model_cost = 0.6;  // Model matching accepts costs up to this.
   // Eq. 3.28 compares two models only when both rest on at least this many surface points (half
-  // of RockExtractionOptions::max_model_points, the most a fit uses). A model fitted to fewer is
-  // not determined: on a generated traverse, true partners lost to the cost had mean radii of
-  // 0.03-0.12 m from 5-25 points against 0.3-0.5 m at the other site, while their measured
-  // heights agreed (docs/rocks.md, "Models from few points"). Such a pair is compared by its
+  // of RockExtractionOptions::max_model_points, the most a fit uses): a model fitted to fewer is
+  // not determined (docs/rocks.md, "Models from few points"). Such a pair is compared by its
   // measured peak-to-plane heights instead, as the ambiguity test compares a rock with its
   // neighbours: a relative difference up to ambiguity_similar_height_difference is a cost up to
   // max_model_cost (PairCost). 0 compares every pair's models (ch. 3.2). Applies only with
   // compare_models.
   int min_shape_points = 40;
-  // Eq. 3.28 compares the fitted models. On generated Navcam stereo, where a rock is seen from one
-  // side 8-17 m away, the models do not tell a rock's true partner from an eligible look-alike
-  // within 1.5 m of it: on six missions eq. 3.28 passes 89 % of true partners and 78 % of
-  // look-alikes whose models both rest on 40 points or more, the measured peak-to-plane heights
-  // 96 % and 59 % (the model heights run into their bound, 1.5 H + 5 cm, in 15 % of the fits;
-  // docs/rocks.md, "Measured heights, not models"). False compares every pair by its measured
-  // heights (PairCost); true uses eq. 3.28 for pairs whose models both rest on min_shape_points
-  // surface points or more.
+  // False compares every pair by its measured peak-to-plane heights (PairCost); true uses eq. 3.28
+  // of the fitted models for pairs whose models both rest on min_shape_points surface points or
+  // more. A rock seen from one side 8-17 m away does not determine its model well enough to tell
+  // its partner from a look-alike (docs/rocks.md, "Measured heights, not models").
   bool compare_models = false;
   // When model matching prefers the other pattern candidate ("methods disagree"), but that
   // candidate's V fails the global pattern test (max_vector_deviation_m, max_vector_chi2), the
@@ -146,14 +128,10 @@ struct RockMatchingOptions {
   // translation to the V of the rocks that agree on the global V (each rock's candidate nearest
   // it, within max_vector_deviation_m; least squares, then again on those within
   // consensus_turn_trim_m of the first fit), so that a candidate's deviation is measured from the
-  // V the pattern expects where the candidate lies. The prior's heading error turns b's rocks
-  // about b's camera: V changes across the scene by its turn times the distance (3.5 cm per metre
-  // at 2 degrees), which the vouching's 0.2 m cannot absorb across a 10 m scene. No turn where
-  // fewer than three rocks agree, where they spread less than 1 m (rms) about their centre, or
-  // where the turn exceeds three sigmas of the prior's heading. On six generated Navcam missions
-  // the legs up to 25 m with three tie points or more rise from 116 to 119 of 126 (two held-out
-  // missions 55 to 56 of 60), tie points 1,310 -> 1,423, wrong by the sight ray 7 -> 8
-  // (docs/rocks.md, "The pattern's turn"). False: the translation alone.
+  // V the pattern expects where it lies: the prior's heading error turns b's rocks about b's
+  // camera (3.5 cm per metre at 2 degrees). No turn where fewer than three rocks agree, where they
+  // spread less than 1 m (rms) about their centre, or where the turn exceeds three sigmas of the
+  // prior's heading (docs/rocks.md, "The pattern's turn"). False: the translation alone.
   bool consensus_turn = true;
   double consensus_turn_trim_m = 0.3;  // [m], > 0.
   double ambiguity_sigmas = 1.0;       // Neighbour within epsilon + this many sigmas: ambiguous.
@@ -170,34 +148,25 @@ struct RockMatchingOptions {
   double ambiguity_similar_min_height_m = 0.10;
   double ambiguity_similar_height_difference = 0.3;
   // Rocks whose peak's largest horizontal sigma exceeds this are not used as tie points (eq. 4.3
-  // range error grows as r^2: 0.6 m at ~17 m for the Navcam with sigma_p = 0.5 px; on the demo
-  // mission's dense stereo the peaks of such rocks lie within 0.3 m of the true rock tops) [m].
+  // range error grows as r^2: 0.6 m at ~17 m for the Navcam with sigma_p = 0.5 px) [m].
   double max_peak_sigma_m = 0.6;
   // A pair in which both rocks are lower than `low_pair_max_height_m` is matched only while both
-  // peaks' largest horizontal sigma is at most `low_rock_max_peak_sigma_m` [m]. Low rocks are the
-  // commonest (the size-frequency law), and many of a far peak's look-alike neighbours are
-  // measured too low to be extracted at all, so the ambiguity test cannot see them (docs/rocks.md,
-  // "The height rule at 12 cm"); a peak sigma of 0.3 m is reached ~12 m from a
-  // Navcam. A pair with one rock measured from 16 cm up is a rock that stands out at one site at
-  // least, the measured height running 2-6 cm under the true one: on six generated Navcam
-  // missions exempting such pairs (rather than limiting every pair with either rock under
-  // 15 cm) accepted 104 legs up to 25 m of 126 instead of 97, with 999 of 1,002 tie
-  // points right by the sight ray (908 of 910 before), while a 15 cm bound let more wrong ones
-  // through (docs/rocks.md, "Low pairs").
+  // peaks' largest horizontal sigma is at most `low_rock_max_peak_sigma_m` [m] (0.3 m is reached
+  // ~12 m from a Navcam). Low rocks are the commonest (the size-frequency law), and many of a far
+  // peak's look-alike neighbours are measured too low to be extracted at all, so the ambiguity
+  // test cannot see them (docs/rocks.md, "The height rule at 12 cm", "Low pairs"). A pair with
+  // one rock measured from 16 cm up has a rock that stands out at one site at least (measured
+  // heights run 2-6 cm under the true ones). The pattern can vouch for a low pair (below).
   double low_rock_max_peak_sigma_m = 0.3;
   double low_pair_max_height_m = 0.16;
   // The global pattern vouches for a pair whose translation V lies within
-  // `pattern_vouch_deviation_m` of the global V while at least `pattern_vouch_votes` rocks of a
-  // (the rock itself included) vote for it (eq. 3.31); such a pair is matched even if it is a low
-  // pair seen from afar (above) or its pair cost exceeds max_model_cost (no pattern candidate
-  // passed it). A wrong pair joins a rock to a neighbour of its partner 0.3-1.5 m away, a few
-  // decimetres off the pattern. On six generated Navcam missions, 197 low pairs seen from afar
-  // passed every other test with the limit off, 21 of them wrong by the sight ray (median
-  // |V - global V| 0.49 m against 0.17 m of the right ones); 0.2 m and 3 votes keep 97 right ones
-  // and 1 wrong; the missions' legs up to 25 m with three tie points or more rise from 104 to 111
-  // of 126 with the low pairs vouched for and to 112 with the pair costs too, no tie point more
-  // wrong (docs/rocks.md, "Pairs the pattern vouches for"). A lone rock's V is the global V,
-  // hence the votes. 0 m: no pair is vouched for.
+  // `pattern_vouch_deviation_m` of the global V (with consensus_turn, of the V the pattern
+  // expects there) while at least `pattern_vouch_votes` rocks of a (the rock itself included)
+  // vote for it (eq. 3.31); such a pair is matched even if it is a low pair seen from afar
+  // (above) or its pair cost exceeds max_model_cost (no pattern candidate passed it). A wrong
+  // pair joins a rock to a neighbour of its partner 0.3-1.5 m away, a few decimetres off the
+  // pattern; a lone rock's V is the global V, hence the votes (docs/rocks.md, "Pairs the pattern
+  // vouches for"). 0 m: no pair is vouched for.
   double pattern_vouch_deviation_m = 0.2;
   int pattern_vouch_votes = 3;
   // A rock that, put in the place of either rock of a pair the pattern vouches for, would move V
@@ -207,11 +176,8 @@ struct RockMatchingOptions {
   // to the pair: a neighbour so placed does not make it ambiguous, nor does model matching's
   // preference for such a candidate make the methods disagree. The ambiguity test's gate allows
   // for the prior's heading error (2 degrees: 0.7 m at 20 m), which the global V has already
-  // measured for the rocks that vote for it. On six generated Navcam missions the legs up to 25 m
-  // with three tie points or more rise from 112 to 116 of 126 and on two held-out ones from 54 to
-  // 55 of 60; the six's tie points from 1,178 to 1,310, wrong by the sight ray 5 -> 7 (pairs the
-  // legs' outlier test dropped before; docs/rocks.md, "Alternatives the pattern rules out").
-  // False: such a rock counts as an alternative like any other.
+  // measured for the rocks that vote for it (docs/rocks.md, "Alternatives the pattern rules
+  // out"). False: such a rock counts as an alternative like any other.
   bool pattern_vouch_rules_out_alternatives = true;
   FaultDetectionOptions fault_detection;
   void Check() const;  // Throws areomap::Error naming the field.
