@@ -387,10 +387,10 @@ std::string EllipseFitSummary::BriefReport() const {
   return out.str();
 }
 
-EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
-                                         const std::vector<Eigen::Vector2d>& points,
-                                         const GeometricFitOptions& options) {
-  options.Check();
+namespace {
+
+// The summary before any fit: the initial ellipse, every statistic NaN.
+EllipseFitSummary UnfittedSummary(const Ellipse& initial) {
   EllipseFitSummary summary;
   summary.ellipse = initial;
   summary.covariance.setConstant(kNaN);
@@ -399,26 +399,26 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
   summary.sigma0 = kNaN;
   summary.center_x_sigma = summary.center_y_sigma = kNaN;
   summary.semi_major_sigma = summary.semi_minor_sigma = summary.angle_sigma = kNaN;
+  return summary;
+}
 
-  const std::vector<Eigen::Vector2d> finite = FinitePoints(points);
-  summary.num_points = static_cast<int>(finite.size());
-  if (!HasPositiveAxes(initial)) {
-    summary.message = "initial ellipse needs finite fields and positive axes";
-    return summary;
-  }
-  summary.initial_rms_residual = RmsDistance(initial, finite);
-  if (finite.size() < 5) {
-    summary.message = "need at least 5 finite points, got " + std::to_string(finite.size());
-    return summary;
-  }
+// Ceres' solution of the orthogonal distance fit: the ellipse (normalized) and Ceres' summary.
+struct GeometricSolution {
+  Ellipse fitted;
+  ceres::Solver::Summary ceres_summary;
+};
 
+// Minimises the orthogonal distances of `finite` to the ellipse from `initial`, with `loss`
+// (null: least squares) applied inside the one residual block (OrthogonalDistancesCost).
+GeometricSolution SolveOrthogonalDistances(const Ellipse& initial,
+                                           const std::vector<Eigen::Vector2d>& finite,
+                                           const ceres::LossFunction* loss,
+                                           const GeometricFitOptions& options) {
   double shape[4] = {initial.center.x(), initial.center.y(), initial.semi_major,
                      initial.semi_minor};
   double angle[1] = {initial.angle};
-  // The cost function and the loss outlive the problem (no ownership bookkeeping); the loss is
-  // applied inside the one residual block (OrthogonalDistancesCost).
-  const std::unique_ptr<ceres::LossFunction> loss(MakeLoss(options));
-  OrthogonalDistancesCost cost(finite, loss.get());
+  // The cost function outlives the problem (no ownership bookkeeping).
+  OrthogonalDistancesCost cost(finite, loss);
   ceres::Problem::Options problem_options;
   problem_options.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.disable_all_safety_checks = true;
@@ -433,15 +433,65 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
   solver_options.num_threads = options.num_threads;
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
-  ceres::Solver::Summary ceres_summary;
-  ceres::Solve(solver_options, &problem, &ceres_summary);
+  GeometricSolution solution;
+  ceres::Solve(solver_options, &problem, &solution.ceres_summary);
 
   Ellipse fitted;
   fitted.center = Eigen::Vector2d(shape[0], shape[1]);
   fitted.semi_major = shape[2];
   fitted.semi_minor = shape[3];
   fitted.angle = angle[0];
-  fitted = fitted.Normalized();
+  solution.fitted = fitted.Normalized();
+  return solution;
+}
+
+// The final rms residual and, when asked for and defined (dof > 0, a regular Jacobian), the
+// covariance scaled by sigma0^2 and the sigmas, into `summary`.
+void AddResidualAndCovariance(const Ellipse& fitted, const std::vector<Eigen::Vector2d>& finite,
+                              const ceres::LossFunction* loss, const GeometricFitOptions& options,
+                              double dof, EllipseFitSummary* summary) {
+  // The covariance's Jacobian, at the normalized ellipse (the same curve as the parameter
+  // blocks'), also gives the final distances.
+  Eigen::Matrix<double, Eigen::Dynamic, 5> jacobian;
+  Eigen::VectorXd residuals;
+  const bool with_jacobian = options.compute_covariance && dof > 0.0 &&
+                             DistanceJacobian(fitted, finite, &jacobian, &residuals);
+  summary->rms_residual = with_jacobian ? RootMeanSquare(residuals) : RmsDistance(fitted, finite);
+  Eigen::Matrix<double, 5, 5> covariance;
+  if (!with_jacobian || !ComputeCovariance(jacobian, residuals, loss, &covariance)) return;
+  summary->covariance = covariance * (summary->sigma0 * summary->sigma0);
+  if (std::isinf(covariance(4, 4))) summary->covariance(4, 4) = kInf;  // even when sigma0 = 0
+  summary->covariance_valid = true;
+  summary->center_x_sigma = std::sqrt(summary->covariance(0, 0));
+  summary->center_y_sigma = std::sqrt(summary->covariance(1, 1));
+  summary->semi_major_sigma = std::sqrt(summary->covariance(2, 2));
+  summary->semi_minor_sigma = std::sqrt(summary->covariance(3, 3));
+  summary->angle_sigma = std::sqrt(summary->covariance(4, 4));
+}
+
+}  // namespace
+
+EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
+                                         const std::vector<Eigen::Vector2d>& points,
+                                         const GeometricFitOptions& options) {
+  options.Check();
+  EllipseFitSummary summary = UnfittedSummary(initial);
+  const std::vector<Eigen::Vector2d> finite = FinitePoints(points);
+  summary.num_points = static_cast<int>(finite.size());
+  if (!HasPositiveAxes(initial)) {
+    summary.message = "initial ellipse needs finite fields and positive axes";
+    return summary;
+  }
+  summary.initial_rms_residual = RmsDistance(initial, finite);
+  if (finite.size() < 5) {
+    summary.message = "need at least 5 finite points, got " + std::to_string(finite.size());
+    return summary;
+  }
+  // The loss outlives the solve: the covariance below weights the distances with it.
+  const std::unique_ptr<ceres::LossFunction> loss(MakeLoss(options));
+  const GeometricSolution solution = SolveOrthogonalDistances(initial, finite, loss.get(), options);
+  const Ellipse& fitted = solution.fitted;
+  const ceres::Solver::Summary& ceres_summary = solution.ceres_summary;
   summary.num_iterations = static_cast<int>(ceres_summary.iterations.size()) - 1;
   summary.message = ceres_summary.message;
   if (!fitted.IsValid()) {
@@ -452,26 +502,7 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
   summary.converged = ceres_summary.termination_type == ceres::CONVERGENCE;
   const double dof = static_cast<double>(finite.size()) - 5.0;
   if (dof > 0.0) summary.sigma0 = std::sqrt(2.0 * ceres_summary.final_cost / dof);
-
-  // The covariance's Jacobian, at the normalized ellipse (the same curve as the parameter
-  // blocks'), also gives the final distances.
-  Eigen::Matrix<double, Eigen::Dynamic, 5> jacobian;
-  Eigen::VectorXd residuals;
-  const bool with_jacobian = options.compute_covariance && dof > 0.0 &&
-                             DistanceJacobian(fitted, finite, &jacobian, &residuals);
-  summary.rms_residual = with_jacobian ? RootMeanSquare(residuals) : RmsDistance(fitted, finite);
-  Eigen::Matrix<double, 5, 5> covariance;
-  if (!with_jacobian || !ComputeCovariance(jacobian, residuals, loss.get(), &covariance)) {
-    return summary;
-  }
-  summary.covariance = covariance * (summary.sigma0 * summary.sigma0);
-  if (std::isinf(covariance(4, 4))) summary.covariance(4, 4) = kInf;  // even when sigma0 = 0
-  summary.covariance_valid = true;
-  summary.center_x_sigma = std::sqrt(summary.covariance(0, 0));
-  summary.center_y_sigma = std::sqrt(summary.covariance(1, 1));
-  summary.semi_major_sigma = std::sqrt(summary.covariance(2, 2));
-  summary.semi_minor_sigma = std::sqrt(summary.covariance(3, 3));
-  summary.angle_sigma = std::sqrt(summary.covariance(4, 4));
+  AddResidualAndCovariance(fitted, finite, loss.get(), options, dof, &summary);
   return summary;
 }
 

@@ -14,14 +14,19 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "canny_hysteresis.h"
 #include "cpu_dispatch.h"
 #include "edge_scratch.h"
 
 namespace areomap {
 namespace {
 
-// AREOMAP_ALSO_FOR_AVX2 (cpu_dispatch.h): the wider registers with native blends and absolute
-// values halve the Canny suppression's instructions.
+using internal::ForEachEdge;
+using internal::kEdge;
+using internal::NonMaximumHysteresis;
+
+// AREOMAP_ALSO_FOR_AVX2 (cpu_dispatch.h): the per-pixel loops marked with it also get an AVX2
+// build (the Canny suppression's, canny_hysteresis.cc, gain the most).
 
 // Pixels whose edges are kept: those whose 5x5 neighbourhood is all valid (edges there see no
 // filled values through a 3x3 operator on a smoothed image). Without nodata (the common case)
@@ -89,32 +94,6 @@ double UsableMax(const cv::Mat& m, const UsableArea& usable) {
     max_value = std::max(cv::v_reduce_max(lanes), tail);
   }
   return max_value;
-}
-
-// Edge maps: kEdge marks an edge; Canny's maps also hold kCandidate (below) and 0.
-constexpr uchar kCandidate = 1;
-constexpr uchar kEdge = 2;
-
-// Calls f(c) for each c in [begin, end) with row[c] == kEdge, in increasing order; row values
-// are 0, kCandidate or kEdge. Edges are sparse: words of 8 pixels without one are skipped.
-template <class F>
-void ForEachEdge(const uchar* row, int begin, int end, F&& f) {
-  constexpr uint64_t kEdgeBits = 0x0202020202020202ull;  // kEdge's bit in each byte
-  int c = begin;
-  while (c < end) {
-    if (c + 8 <= end) {
-      uint64_t word;
-      std::memcpy(&word, row + c, sizeof(word));
-      if ((word & kEdgeBits) == 0) {
-        c += 8;
-        continue;
-      }
-    }
-    const int stop = std::min(end, c + 8);
-    for (; c < stop; ++c) {
-      if (row[c] == kEdge) f(c);
-    }
-  }
 }
 
 inline float Bilinear(const cv::Mat& m, float x, float y) {
@@ -257,6 +236,37 @@ class SubPixelRow {
     const size_t n = n_;
     n_ = 0;
     if (n == 0) return;
+    NormalsAndSamplePositions(strength, r, n);
+    GatherSamples(strength, r, n);
+    ParabolaVertices(n);
+    AppendPoints(r, n, out);
+  }
+
+ private:
+  enum FloatArray {
+    kDx,
+    kDy,
+    kNx,
+    kNy,
+    kNorm,
+    kFxMinus,
+    kFyMinus,
+    kFxPlus,
+    kFyPlus,
+    kM0,
+    kDelta,
+    kCorner0,
+    kFloatArrays = kCorner0 + 8
+  };
+  float* Float(int array) { return floats_.data() + static_cast<size_t>(array) * size_; }
+  int* Int(int array) { return ints_.data() + static_cast<size_t>(array) * size_; }
+
+  // The steps of Flush, each one loop over the `n` queued edges of row `r` (inlined there, so
+  // that they vectorise in its AVX2 build too).
+
+  // The unit normals (norm 0: no direction) and the two sample positions one pixel behind and
+  // ahead along them, as the top-left pixel of their 2 x 2 neighbourhood and the fractions.
+  void NormalsAndSamplePositions(const cv::Mat& strength, int r, size_t n) {
     const float* dx = Float(kDx);
     const float* dy = Float(kDy);
     float* nx = Float(kNx);
@@ -301,7 +311,15 @@ class SubPixelRow {
       fx_plus[k] = xp - static_cast<float>(c_plus[k]);
       fy_plus[k] = yp - static_cast<float>(r_plus[k]);
     }
-    // The samples' 2 x 2 neighbourhoods and the centre values.
+  }
+
+  // The samples' 2 x 2 neighbourhoods and the centre values.
+  void GatherSamples(const cv::Mat& strength, int r, size_t n) {
+    const int* column = column_.data();
+    const int* c_minus = Int(0);
+    const int* r_minus = Int(1);
+    const int* c_plus = Int(2);
+    const int* r_plus = Int(3);
     const float* base = strength.ptr<float>(0);
     const size_t stride = strength.step1();
     const float* centre_row = strength.ptr<float>(r);
@@ -327,6 +345,24 @@ class SubPixelRow {
       s10p[k] = pp[stride];
       s11p[k] = pp[stride + 1];
     }
+  }
+
+  // The sub-pixel offset along the normal: the vertex of the parabola through the two samples
+  // and the centre, within half a pixel (0 where the strength does not peak).
+  void ParabolaVertices(size_t n) {
+    const float* fx_minus = Float(kFxMinus);
+    const float* fy_minus = Float(kFyMinus);
+    const float* fx_plus = Float(kFxPlus);
+    const float* fy_plus = Float(kFyPlus);
+    const float* m0 = Float(kM0);
+    const float* s00m = Float(kCorner0);
+    const float* s01m = Float(kCorner0 + 1);
+    const float* s10m = Float(kCorner0 + 2);
+    const float* s11m = Float(kCorner0 + 3);
+    const float* s00p = Float(kCorner0 + 4);
+    const float* s01p = Float(kCorner0 + 5);
+    const float* s10p = Float(kCorner0 + 6);
+    const float* s11p = Float(kCorner0 + 7);
     float* delta = Float(kDelta);
     AREOMAP_INDEPENDENT_ITERATIONS
     for (size_t k = 0; k < n; ++k) {
@@ -338,6 +374,17 @@ class SubPixelRow {
       const float vertex = 0.5f * (mm - mp) / denom;
       delta[k] = Clamp(denom < 0.0f ? vertex : 0.0f, -0.5f, 0.5f);
     }
+  }
+
+  // The edge points with a direction, in column order.
+  void AppendPoints(int r, size_t n, RimEdges* out) {
+    const int* column = column_.data();
+    const float* nx = Float(kNx);
+    const float* ny = Float(kNy);
+    const float* norm = Float(kNorm);
+    const float* m0 = Float(kM0);
+    const float* delta = Float(kDelta);
+    const float fr = static_cast<float>(r);
     for (size_t k = 0; k < n; ++k) {
       if (norm[k] == 0.0f) continue;
       RimEdgePoint p;
@@ -351,185 +398,12 @@ class SubPixelRow {
     }
   }
 
- private:
-  enum FloatArray {
-    kDx,
-    kDy,
-    kNx,
-    kNy,
-    kNorm,
-    kFxMinus,
-    kFyMinus,
-    kFxPlus,
-    kFyPlus,
-    kM0,
-    kDelta,
-    kCorner0,
-    kFloatArrays = kCorner0 + 8
-  };
-  float* Float(int array) { return floats_.data() + static_cast<size_t>(array) * size_; }
-  int* Int(int array) { return ints_.data() + static_cast<size_t>(array) * size_; }
-
   size_t size_;
   size_t n_ = 0;
   std::vector<int> column_;
   std::vector<int> ints_;
   std::vector<float> floats_;
 };
-
-// cv::Canny's input: `g` x `scale` rounded to 16 bits exactly as cv::Mat::convertTo(CV_16S,
-// scale) does (the float product rounded to the nearest integer, saturated; OpenCV's own
-// vector operations where it uses them, saturate_cast for the rest).
-void ToInt16(const float* g, float scale, int n, short* out) {
-  int i = 0;
-#if CV_SIMD128
-  const cv::v_float32x4 factor = cv::v_setall_f32(scale);
-  for (; i + 8 <= n; i += 8) {
-    const cv::v_int32x4 lo = cv::v_round(cv::v_load(g + i) * factor);
-    const cv::v_int32x4 hi = cv::v_round(cv::v_load(g + i + 4) * factor);
-    cv::v_store(out + i, cv::v_pack(lo, hi));
-  }
-#endif
-  for (; i < n; ++i) out[i] = cv::saturate_cast<short>(g[i] * scale);
-}
-
-// out[c] = dx[c]^2 + dy[c]^2 for c in [0, n), at most INT_MAX. Usable pixels' gradients stay
-// below 2^15 / sqrt(2) per component (the 16-bit scale comes from their largest magnitude), but
-// those outside the usable area (a window's border, next to nodata filled with a mean) may
-// saturate at -2^15 in both, whose sum 2^31 an int cannot hold; capped, they still exceed every
-// usable pixel's magnitude, as before.
-AREOMAP_ALSO_FOR_AVX2
-void SquaredMagnitudes(const short* dx, const short* dy, int n, int* out) {
-  constexpr uint32_t kIntMax = std::numeric_limits<int>::max();
-  for (int c = 0; c < n; ++c) {
-    const uint32_t sum =
-        static_cast<uint32_t>(int{dx[c]} * dx[c]) + static_cast<uint32_t>(int{dy[c]} * dy[c]);
-    out[c] = static_cast<int>(sum < kIntMax ? sum : kIntMax);
-  }
-}
-
-// OpenCV's CANNY_SHIFT and TG22 = round(tan(22.5 degrees) 2^15); tan(67.5 degrees) 2^15 =
-// TG22 + 2^16. Unsigned: |dy| 2^15 and |dx| (TG22 + 2^16) fit in 32 bits.
-constexpr uint32_t kCannyShift = 15;
-constexpr uint32_t kTg22 = 13573;
-constexpr uint32_t kTg67 = kTg22 + (1u << (kCannyShift + 1));
-
-// One row of NonMaximumHysteresis's suppression (below): `out[c]` for c in [0, cols) from the
-// squared magnitudes of the rows above (`up`), at (`m`) and below (`down`), each readable at
-// -1 and cols, and the row's 16-bit gradients. Branch-free, so that the compiler vectorises
-// it: the neighbour behind (strict) and ahead along the quantised gradient direction.
-AREOMAP_ALSO_FOR_AVX2
-void SuppressRow(const int* up, const int* m, const int* down, const short* dx, const short* dy,
-                 int cols, int low, int high, uchar* out) {
-  for (int c = 0; c < cols; ++c) {
-    const int v = m[c], left = m[c - 1], right = m[c + 1];
-    const int up_left = up[c - 1], up_mid = up[c], up_right = up[c + 1];
-    const int down_left = down[c - 1], down_mid = down[c], down_right = down[c + 1];
-    const uint32_t ax = static_cast<uint32_t>(std::abs(int{dx[c]}));
-    const uint32_t ay = static_cast<uint32_t>(std::abs(int{dy[c]})) << kCannyShift;
-    const bool horizontal = ay < ax * kTg22;
-    const bool vertical = ay > ax * kTg67;
-    const bool rising = (dx[c] ^ dy[c]) < 0;  // signs differ: gradient up-right or down-left
-    const int diagonal_behind = rising ? down_left : up_left;
-    const int diagonal_ahead = rising ? up_right : down_right;
-    const int axis_behind = horizontal ? left : up_mid;
-    const int axis_ahead = horizontal ? right : down_mid;
-    const bool axis = horizontal | vertical;
-    const int behind = axis ? axis_behind : diagonal_behind;
-    const int ahead = axis ? axis_ahead : diagonal_ahead;
-    const bool maximum = (v > low) & (v > behind) & ((v > ahead) | (axis & (v == ahead)));
-    const int value = maximum ? (v > high ? kEdge : kCandidate) : 0;
-    out[c] = static_cast<uchar>(value);
-  }
-}
-
-// Canny's non-maximum suppression and hysteresis, as cv::Canny computes them from 16-bit
-// gradients (`gx`, `gy` x `scale`, rounded as ToInt16) with the L2 norm (OpenCV 4.x canny.cpp;
-// the same edges): a pixel is a candidate when its squared magnitude dx^2 + dy^2 exceeds `low`
-// and is a maximum across its gradient direction, quantised to 0, 45, 90 or 135 degrees at the
-// tan(22.5 degree) boundaries in OpenCV's fixed point (along the axes: above the neighbour
-// behind, at least the one ahead; along a diagonal: above both), with magnitude 0 outside the
-// raster; candidates 8-connected through candidates to one above `high` are edges. Written here
-// so that the 16-bit gradients are made row by row (no full-size copies) and the suppression
-// runs branch-free (vectorised); cv::Canny spends most of its time in data-dependent branches.
-// `map`: (rows + 2) x (cols + 2) CV_8U, pixel (r, c) at (r + 1, c + 1) inside a frame of zeros;
-// on return kEdge marks the edges. Returns the number of edges.
-size_t NonMaximumHysteresis(const cv::Mat& gx, const cv::Mat& gy, float scale, int low, int high,
-                            cv::Mat* map) {
-  const int rows = gx.rows, cols = gx.cols;
-  const size_t step = map->step1();
-  // The frame stays zero; every other pixel is written below.
-  map->row(0).setTo(0);
-  map->row(rows + 1).setTo(0);
-  map->col(0).setTo(0);
-  map->col(cols + 1).setTo(0);
-  std::vector<uchar*> stack;
-  // The 16-bit gradients and squared magnitudes of the rows above, at and below; magnitudes
-  // with one column of zeros on each side.
-  struct Row {
-    std::vector<short> dx, dy;
-    std::vector<int> magnitude;
-  };
-  std::array<Row, 3> buffers;
-  for (Row& row : buffers) {
-    row.dx.resize(static_cast<size_t>(cols));
-    row.dy.resize(static_cast<size_t>(cols));
-    row.magnitude.assign(static_cast<size_t>(cols) + 2, 0);
-  }
-  Row* padded_above = &buffers[0];
-  Row* padded_row = &buffers[1];
-  Row* padded_below = &buffers[2];
-  const auto load = [&](int r, Row* row) {
-    int* out = row->magnitude.data() + 1;
-    if (r < 0 || r >= rows) {
-      std::fill_n(out, cols, 0);
-      return;
-    }
-    short* qx = row->dx.data();
-    short* qy = row->dy.data();
-    ToInt16(gx.ptr<float>(r), scale, cols, qx);
-    ToInt16(gy.ptr<float>(r), scale, cols, qy);
-    SquaredMagnitudes(qx, qy, cols, out);
-  };
-  load(-1, padded_above);
-  load(0, padded_row);
-  load(1, padded_below);
-  for (int r = 0; r < rows; ++r) {
-    if (r > 0) {
-      std::swap(padded_above, padded_row);
-      std::swap(padded_row, padded_below);
-      load(r + 1, padded_below);
-    }
-    const int* up = padded_above->magnitude.data() + 1;
-    const int* m = padded_row->magnitude.data() + 1;
-    const int* down = padded_below->magnitude.data() + 1;
-    uchar* out = map->ptr<uchar>(r + 1) + 1;
-    SuppressRow(up, m, down, padded_row->dx.data(), padded_row->dy.data(), cols, low, high, out);
-    ForEachEdge(out, 0, cols, [&](int c) { stack.push_back(out + c); });
-  }
-  // Hysteresis: a depth-first walk from the seeds; each pixel is pushed once (marked first).
-  const std::ptrdiff_t s = static_cast<std::ptrdiff_t>(step);
-  const std::array<std::ptrdiff_t, 8> neighbours = {-s - 1, -s, -s + 1, -1, 1, s - 1, s, s + 1};
-  size_t edges = stack.size();
-  size_t top = stack.size();
-  stack.resize(std::max<size_t>(2 * top, 1024));
-  while (top > 0) {
-    uchar* p = stack[--top];
-    if (top + neighbours.size() > stack.size()) stack.resize(2 * stack.size());
-    uchar** next = stack.data() + top;
-    for (const std::ptrdiff_t o : neighbours) {
-      uchar* q = p + o;
-      if (*q == kCandidate) {
-        *q = kEdge;
-        *next++ = q;
-      }
-    }
-    const size_t pushed = static_cast<size_t>(next - (stack.data() + top));
-    top += pushed;
-    edges += pushed;
-  }
-  return edges;
-}
 
 // `edge_map`: kEdge marks edges. `dx`, `dy`: a direction field (any length, e.g. the gradient),
 // normalised per edge point. `count`: the number of edges, or an upper bound (reserved).

@@ -224,6 +224,168 @@ SunLineRim FindSunLineRim(const RimEdges& edges, const ShadingHypothesis& h,
   return out;
 }
 
+// The template radii: radii_per_octave per octave over [min_radius_px, max_radius_px], with one
+// beyond each end, each on the coarsest image copy where it stays within kMaxCopyRadius.
+std::vector<Scale> TemplateScales(double min_radius_px, double max_radius_px, double step) {
+  std::vector<Scale> scales;
+  // One template beyond each end of the range, so that the radius interpolates there too.
+  for (double r = std::max(1.0, min_radius_px / step); r <= max_radius_px * step * 1.0001;
+       r *= step) {
+    int copy = 0;
+    while (r / std::ldexp(1.0, copy) > kMaxCopyRadius * 1.0001) ++copy;
+    Scale s;
+    s.radius = r;
+    s.copy = copy;
+    s.half = static_cast<int>(std::ceil(kWindowHalfWidth * r / std::ldexp(1.0, copy)));
+    scales.push_back(s);
+  }
+  // The template below the range only interpolates the radius: not worth a finer copy.
+  if (scales.size() > 1 && scales[0].radius < min_radius_px / std::sqrt(step) &&
+      scales[0].copy < scales[1].copy) {
+    scales.erase(scales.begin());
+  }
+  return scales;
+}
+
+// The image copies the templates correlate with: full resolution, then 2x2 averages (the GDAL
+// grid scales exactly by 2). Those a template uses are filled (nodata by the mean) and have
+// zero mean, with their squares and, where they had nodata, the count of nodata pixels in each
+// window of the largest template.
+struct ImageCopies {
+  std::vector<cv::Mat> copies, nodata, squares;
+};
+
+// Nodata of `copy` filled with the mean of the rest, `count` the nodata pixels in each window of
+// 2 half_max + 1 px (left empty without nodata); then the copy's mean subtracted.
+void PrepareCopy(cv::Mat& copy, cv::Mat& count, int half_max) {
+  cv::Mat mask = copy != copy;  // NaN
+  if (cv::countNonZero(mask) > 0) {
+    const double fill = cv::mean(copy, ~mask)[0];
+    copy.setTo(std::isfinite(fill) ? fill : 0.0, mask);
+    mask.convertTo(count, CV_32F, 1.0 / 255.0);
+    cv::boxFilter(count, count, -1, {2 * half_max + 1, 2 * half_max + 1}, {-1, -1}, false);
+  }
+  // Zero mean: the window sums of squares below keep their float precision.
+  copy -= cv::mean(copy)[0];
+}
+
+ImageCopies MakeImageCopies(const cv::Mat& image, const std::vector<Scale>& scales) {
+  ImageCopies out;
+  std::vector<cv::Mat>& copies = out.copies;
+  copies.resize(1);
+  out.nodata.resize(1);
+  image.convertTo(copies[0], CV_32F);
+  const int copies_needed = scales.empty() ? 0 : scales.back().copy + 1;
+  // Unfilled copies first (2x2 averages keep NaN where any input is nodata), then filled.
+  for (int k = 1; k < copies_needed; ++k) {
+    const cv::Mat& src = copies.back();
+    if (src.cols < 4 || src.rows < 4) break;
+    cv::Mat next;
+    cv::resize(src(cv::Rect(0, 0, src.cols / 2 * 2, src.rows / 2 * 2)), next,
+               cv::Size(src.cols / 2, src.rows / 2), 0, 0, cv::INTER_AREA);
+    copies.push_back(next);
+  }
+  out.nodata.resize(copies.size());
+  const int half_max = static_cast<int>(std::ceil(kWindowHalfWidth * kMaxCopyRadius)) + 1;
+  out.squares.resize(copies.size());
+  for (size_t k = 0; k < copies.size(); ++k) {
+    if (std::none_of(scales.begin(), scales.end(),
+                     [&](const Scale& sc) { return sc.copy == static_cast<int>(k); })) {
+      continue;  // only a step of the pyramid
+    }
+    PrepareCopy(copies[k], out.nodata[k], half_max);
+    out.squares[k] = copies[k].mul(copies[k]);
+  }
+  return out;
+}
+
+// The correlation and amplitude maps of `s` on its copy, and the amplitude's robust statistics.
+void CorrelateScale(const ImageCopies& copies, double sun_azimuth_deg, Scale& s) {
+  const cv::Mat t = BowlShadingTemplate(s.radius / std::ldexp(1.0, s.copy), sun_azimuth_deg);
+  const cv::Mat& image_copy = copies.copies[s.copy];
+  // Normalised cross-correlation (as cv::matchTemplate's TM_CCOEFF_NORMED) from one filter2D
+  // (OpenCV's filter2D correlates) and box sums over the template's window: T has zero mean,
+  // so sum T I = sum T (I - window mean). Maps keep matchTemplate's layout (valid windows).
+  const cv::Size window(t.cols, t.rows);
+  cv::Mat response, sum, sum_sq;
+  cv::filter2D(image_copy, response, CV_32F, t);
+  cv::boxFilter(image_copy, sum, CV_32F, window, {-1, -1}, false);
+  cv::boxFilter(copies.squares[s.copy], sum_sq, CV_32F, window, {-1, -1}, false);
+  const cv::Rect valid(s.half, s.half, image_copy.cols - 2 * s.half, image_copy.rows - 2 * s.half);
+  const double t_norm = cv::norm(t);
+  cv::Mat spread = sum_sq(valid) - sum(valid).mul(sum(valid)) / window.area();
+  // A window flatter than 1e-3 DN RMS has no correlation.
+  const cv::Mat flat = spread < 1e-6 * window.area();
+  cv::max(spread, 1e-6 * window.area(), spread);
+  cv::sqrt(spread, spread);
+  cv::divide(response(valid), spread, s.correlation, 1.0 / t_norm);
+  s.correlation.setTo(0.0, flat);
+  cv::min(cv::max(s.correlation, -1.0), 1.0, s.correlation);
+  // Least-squares amplitude of the template: sum T I / sum T^2.
+  s.amplitude = response(valid) / (t_norm * t_norm);
+  // Robust statistics of the amplitude over the map (every 4th row and column).
+  std::vector<float> values;
+  for (int r = 0; r < s.amplitude.rows; r += 4) {
+    for (int c = 0; c < s.amplitude.cols; c += 4) values.push_back(s.amplitude.at<float>(r, c));
+  }
+  if (values.size() < 16) return;
+  const auto median = [](std::vector<float>& v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return static_cast<double>(v[v.size() / 2]);
+  };
+  s.amplitude_median = median(values);
+  for (float& v : values) v = std::abs(v - static_cast<float>(s.amplitude_median));
+  s.amplitude_spread = 1.4826 * median(values);
+}
+
+// The hypotheses of scale `i` (none for the templates beyond the range): its local maxima that
+// are also maxima over the radius, the radius interpolated between the templates.
+std::vector<ShadingHypothesis> ScaleHypotheses(const std::vector<Scale>& scales, size_t i,
+                                               const ImageCopies& copies, double min_radius_px,
+                                               double max_radius_px, double step,
+                                               double min_correlation) {
+  if (scales[i].radius < min_radius_px / std::sqrt(step) ||
+      scales[i].radius > max_radius_px * std::sqrt(step)) {
+    return {};  // the templates beyond the range only interpolate the radius
+  }
+  std::vector<ShadingHypothesis> found =
+      LocalMaxima(scales[i], min_correlation, copies.nodata[scales[i].copy]);
+  // Maxima over the radius too (the neighbouring templates correlate less at the same
+  // point); the radius between the templates from the parabola in log radius through them.
+  std::erase_if(found, [&](ShadingHypothesis& h) {
+    const double below = i > 0 ? CorrelationAt(scales[i - 1], h.center) : kNaN;
+    const double above = i + 1 < scales.size() ? CorrelationAt(scales[i + 1], h.center) : kNaN;
+    if (below > h.correlation || above > h.correlation) return true;
+    if (std::isfinite(below) && std::isfinite(above)) {
+      h.radius *= std::pow(step, ParabolaPeak(below, h.correlation, above));
+    }
+    return false;
+  });
+  return found;
+}
+
+// Duplicates over neighbouring positions and radii suppressed: the detector's rule, correlation
+// as confidence.
+std::vector<ShadingHypothesis> DistinctHypotheses(
+    const std::vector<std::vector<ShadingHypothesis>>& per_scale) {
+  std::vector<CraterDetection> as_craters;
+  for (const auto& list : per_scale) {
+    for (const ShadingHypothesis& h : list) {
+      CraterDetection d;
+      d.ellipse = {h.center, h.radius, h.radius, 0.0};
+      d.confidence = h.correlation;
+      d.shading_correlation = h.correlation;
+      d.signature = h.significance;
+      as_craters.push_back(d);
+    }
+  }
+  std::vector<ShadingHypothesis> out;
+  for (const CraterDetection& d : SuppressDuplicateCraters(std::move(as_craters))) {
+    out.push_back({d.ellipse.center, d.ellipse.semi_major, d.shading_correlation, d.signature});
+  }
+  return out;
+}
+
 }  // namespace
 
 void ShadingTemplateOptions::Check() const {
@@ -266,138 +428,22 @@ std::vector<ShadingHypothesis> FindShadingHypotheses(const cv::Mat& image, doubl
   RequireOption(std::isfinite(sun_azimuth_deg), "FindShadingHypotheses sun_azimuth_deg", "finite");
   if (image.channels() != 1) throw Error("shading hypotheses: expected a single-band image");
   if (image.empty() || !(max_radius_px >= min_radius_px)) return {};
-  // Image copies: full resolution, then 2x2 averages (the GDAL grid scales exactly by 2).
-  std::vector<cv::Mat> copies(1), nodata(1);
-  image.convertTo(copies[0], CV_32F);
-  const auto prepare = [](cv::Mat& copy, cv::Mat& count, int half_max) {
-    cv::Mat mask = copy != copy;  // NaN
-    if (cv::countNonZero(mask) > 0) {
-      const double fill = cv::mean(copy, ~mask)[0];
-      copy.setTo(std::isfinite(fill) ? fill : 0.0, mask);
-      mask.convertTo(count, CV_32F, 1.0 / 255.0);
-      cv::boxFilter(count, count, -1, {2 * half_max + 1, 2 * half_max + 1}, {-1, -1}, false);
-    }
-    // Zero mean: the window sums of squares below keep their float precision.
-    copy -= cv::mean(copy)[0];
-  };
-  std::vector<Scale> scales;
   const double step = std::exp2(1.0 / options.radii_per_octave);
-  // One template beyond each end of the range, so that the radius interpolates there too.
-  for (double r = std::max(1.0, min_radius_px / step); r <= max_radius_px * step * 1.0001;
-       r *= step) {
-    int copy = 0;
-    while (r / std::ldexp(1.0, copy) > kMaxCopyRadius * 1.0001) ++copy;
-    Scale s;
-    s.radius = r;
-    s.copy = copy;
-    s.half = static_cast<int>(std::ceil(kWindowHalfWidth * r / std::ldexp(1.0, copy)));
-    scales.push_back(s);
-  }
-  // The template below the range only interpolates the radius: not worth a finer copy.
-  if (scales.size() > 1 && scales[0].radius < min_radius_px / std::sqrt(step) &&
-      scales[0].copy < scales[1].copy) {
-    scales.erase(scales.begin());
-  }
-  const int copies_needed = scales.empty() ? 0 : scales.back().copy + 1;
-  // Unfilled copies first (2x2 averages keep NaN where any input is nodata), then filled.
-  for (int k = 1; k < copies_needed; ++k) {
-    const cv::Mat& src = copies.back();
-    if (src.cols < 4 || src.rows < 4) break;
-    cv::Mat next;
-    cv::resize(src(cv::Rect(0, 0, src.cols / 2 * 2, src.rows / 2 * 2)), next,
-               cv::Size(src.cols / 2, src.rows / 2), 0, 0, cv::INTER_AREA);
-    copies.push_back(next);
-  }
-  nodata.resize(copies.size());
-  const int half_max = static_cast<int>(std::ceil(kWindowHalfWidth * kMaxCopyRadius)) + 1;
-  std::vector<cv::Mat> squares(copies.size());
-  for (size_t k = 0; k < copies.size(); ++k) {
-    if (std::none_of(scales.begin(), scales.end(),
-                     [&](const Scale& sc) { return sc.copy == static_cast<int>(k); })) {
-      continue;  // only a step of the pyramid
-    }
-    prepare(copies[k], nodata[k], half_max);
-    squares[k] = copies[k].mul(copies[k]);
-  }
+  std::vector<Scale> scales = TemplateScales(min_radius_px, max_radius_px, step);
+  const ImageCopies copies = MakeImageCopies(image, scales);
   std::erase_if(scales, [&](const Scale& s) {
-    const cv::Mat& c = copies.size() > static_cast<size_t>(s.copy) ? copies[s.copy] : cv::Mat();
+    const cv::Mat& c =
+        copies.copies.size() > static_cast<size_t>(s.copy) ? copies.copies[s.copy] : cv::Mat();
     return c.empty() || c.cols < 2 * s.half + 3 || c.rows < 2 * s.half + 3;
   });
-  tbb::parallel_for(size_t{0}, scales.size(), [&](size_t i) {
-    Scale& s = scales[i];
-    const cv::Mat t = BowlShadingTemplate(s.radius / std::ldexp(1.0, s.copy), sun_azimuth_deg);
-    const cv::Mat& image_copy = copies[s.copy];
-    // Normalised cross-correlation (as cv::matchTemplate's TM_CCOEFF_NORMED) from one filter2D
-    // (OpenCV's filter2D correlates) and box sums over the template's window: T has zero mean,
-    // so sum T I = sum T (I - window mean). Maps keep matchTemplate's layout (valid windows).
-    const cv::Size window(t.cols, t.rows);
-    cv::Mat response, sum, sum_sq;
-    cv::filter2D(image_copy, response, CV_32F, t);
-    cv::boxFilter(image_copy, sum, CV_32F, window, {-1, -1}, false);
-    cv::boxFilter(squares[s.copy], sum_sq, CV_32F, window, {-1, -1}, false);
-    const cv::Rect valid(s.half, s.half, image_copy.cols - 2 * s.half,
-                         image_copy.rows - 2 * s.half);
-    const double t_norm = cv::norm(t);
-    cv::Mat spread = sum_sq(valid) - sum(valid).mul(sum(valid)) / window.area();
-    // A window flatter than 1e-3 DN RMS has no correlation.
-    const cv::Mat flat = spread < 1e-6 * window.area();
-    cv::max(spread, 1e-6 * window.area(), spread);
-    cv::sqrt(spread, spread);
-    cv::divide(response(valid), spread, s.correlation, 1.0 / t_norm);
-    s.correlation.setTo(0.0, flat);
-    cv::min(cv::max(s.correlation, -1.0), 1.0, s.correlation);
-    // Least-squares amplitude of the template: sum T I / sum T^2.
-    s.amplitude = response(valid) / (t_norm * t_norm);
-    // Robust statistics of the amplitude over the map (every 4th row and column).
-    std::vector<float> values;
-    for (int r = 0; r < s.amplitude.rows; r += 4) {
-      for (int c = 0; c < s.amplitude.cols; c += 4) values.push_back(s.amplitude.at<float>(r, c));
-    }
-    if (values.size() < 16) return;
-    const auto median = [](std::vector<float>& v) {
-      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-      return static_cast<double>(v[v.size() / 2]);
-    };
-    s.amplitude_median = median(values);
-    for (float& v : values) v = std::abs(v - static_cast<float>(s.amplitude_median));
-    s.amplitude_spread = 1.4826 * median(values);
-  });
+  tbb::parallel_for(size_t{0}, scales.size(),
+                    [&](size_t i) { CorrelateScale(copies, sun_azimuth_deg, scales[i]); });
   std::vector<std::vector<ShadingHypothesis>> per_scale(scales.size());
   tbb::parallel_for(size_t{0}, scales.size(), [&](size_t i) {
-    if (scales[i].radius < min_radius_px / std::sqrt(step) ||
-        scales[i].radius > max_radius_px * std::sqrt(step)) {
-      return;  // the templates beyond the range only interpolate the radius
-    }
-    per_scale[i] = LocalMaxima(scales[i], options.min_correlation, nodata[scales[i].copy]);
-    // Maxima over the radius too (the neighbouring templates correlate less at the same
-    // point); the radius between the templates from the parabola in log radius through them.
-    std::erase_if(per_scale[i], [&](ShadingHypothesis& h) {
-      const double below = i > 0 ? CorrelationAt(scales[i - 1], h.center) : kNaN;
-      const double above = i + 1 < scales.size() ? CorrelationAt(scales[i + 1], h.center) : kNaN;
-      if (below > h.correlation || above > h.correlation) return true;
-      if (std::isfinite(below) && std::isfinite(above)) {
-        h.radius *= std::pow(step, ParabolaPeak(below, h.correlation, above));
-      }
-      return false;
-    });
+    per_scale[i] = ScaleHypotheses(scales, i, copies, min_radius_px, max_radius_px, step,
+                                   options.min_correlation);
   });
-  // Duplicates over neighbouring positions and radii: the detector's rule, correlation as
-  // confidence.
-  std::vector<CraterDetection> as_craters;
-  for (const auto& list : per_scale) {
-    for (const ShadingHypothesis& h : list) {
-      CraterDetection d;
-      d.ellipse = {h.center, h.radius, h.radius, 0.0};
-      d.confidence = h.correlation;
-      d.shading_correlation = h.correlation;
-      d.signature = h.significance;
-      as_craters.push_back(d);
-    }
-  }
-  std::vector<ShadingHypothesis> out;
-  for (const CraterDetection& d : SuppressDuplicateCraters(std::move(as_craters))) {
-    out.push_back({d.ellipse.center, d.ellipse.semi_major, d.shading_correlation, d.signature});
-  }
+  std::vector<ShadingHypothesis> out = DistinctHypotheses(per_scale);
   // Hypotheses from the averaged copies: centre from the full-resolution peak.
   cv::Mat full;
   image.convertTo(full, CV_32F);

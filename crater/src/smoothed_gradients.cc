@@ -63,6 +63,106 @@ int Reflect101(int p, int length) {
   return cv::borderInterpolate(p, length, cv::BORDER_REFLECT_101);
 }
 
+// cv::GaussianBlur's kernel for a float image and this sigma, from its centre: w[k] for k in
+// [0, radius].
+std::vector<float> GaussianHalfKernel(double sigma_px) {
+  const int ksize = cvRound(sigma_px * 8.0 + 1.0) | 1;
+  const int radius = ksize / 2;
+  const cv::Mat kernel = cv::getGaussianKernel(ksize, sigma_px, CV_32F);
+  std::vector<float> w(static_cast<size_t>(radius) + 1);
+  for (int k = 0; k <= radius; ++k) w[static_cast<size_t>(k)] = kernel.at<float>(radius + k);
+  return w;
+}
+
+// The Gaussian-smoothed rows of a CV_32F view, made in increasing order: a ring of 2 radius + 1
+// rows blurred along, and a ring of the last 3 smoothed rows with one column of reflection on
+// each side.
+//
+// A view reads its parent image beyond its border (reflected at the parent's border), as
+// GaussianBlur does; the derivatives reflect at the view's border, as Sobel on the smoothed
+// view does.
+class SmoothedRows {
+ public:
+  SmoothedRows(const cv::Mat& image, double sigma_px)
+      : cols_(image.cols),
+        w_(GaussianHalfKernel(sigma_px)),
+        radius_(static_cast<int>(w_.size()) - 1),
+        taps_(2 * radius_ + 1),
+        stride_(static_cast<std::ptrdiff_t>(image.step1())),
+        view_origin_(image.ptr<float>(0)),
+        smoothed_step_(static_cast<size_t>(cols_) + 2) {
+    image.locateROI(whole_, offset_);
+    // Columns [inside_begin, inside_end) blur from the parent row directly; the few whose taps
+    // leave the parent are summed one by one, in the same order.
+    inside_begin_ = std::clamp(radius_ - offset_.x, 0, cols_);
+    inside_end_ = std::clamp(whole_.width - offset_.x - radius_, inside_begin_, cols_);
+    memory_.resize(static_cast<size_t>(taps_) * static_cast<size_t>(cols_) + 3 * smoothed_step_);
+    along_ = memory_.data();
+    smoothed_ = along_ + static_cast<size_t>(taps_) * static_cast<size_t>(cols_);
+  }
+
+  // Smooths the rows up to `s` not smoothed yet, in order.
+  void SmoothThrough(int s) {
+    while (next_smoothed_ <= s) Smooth(next_smoothed_++);
+  }
+
+  // Smoothed row `s`, one of the last 3 smoothed, readable at -1 and cols.
+  float* Row(int s) { return smoothed_ + static_cast<size_t>(s % 3) * smoothed_step_ + 1; }
+
+ private:
+  float* AlongRow(int v) {
+    return along_ + static_cast<size_t>(((v % taps_) + taps_) % taps_) * static_cast<size_t>(cols_);
+  }
+
+  // View row v in [-radius, rows + radius) blurred along into its ring slot.
+  void BlurAlong(int v) {
+    const int parent_row = Reflect101(offset_.y + v, whole_.height);
+    const float* source =
+        view_origin_ + static_cast<std::ptrdiff_t>(parent_row - offset_.y) * stride_;
+    float* out = AlongRow(v);
+    SymmetricBlur(
+        w_.data(), radius_, inside_end_ - inside_begin_,
+        [&](int k) { return source + inside_begin_ + k; }, out + inside_begin_);
+    const auto at = [&](int c) {
+      return source[Reflect101(offset_.x + c, whole_.width) - offset_.x];
+    };
+    const auto blur_one = [&](int c) {
+      float value = w_[0] * at(c);
+      for (int k = 1; k <= radius_; ++k)
+        value += w_[static_cast<size_t>(k)] * (at(c - k) + at(c + k));
+      out[c] = value;
+    };
+    for (int c = 0; c < inside_begin_; ++c) blur_one(c);
+    for (int c = inside_end_; c < cols_; ++c) blur_one(c);
+  }
+
+  // Row s blurred across the rows blurred along (those still missing first).
+  void Smooth(int s) {
+    while (next_along_ <= s + radius_) BlurAlong(next_along_++);
+    float* out = Row(s);
+    SymmetricBlur(
+        w_.data(), radius_, cols_, [&](int k) { return AlongRow(s + k); }, out);
+    out[-1] = out[Reflect101(-1, cols_)];
+    out[cols_] = out[Reflect101(cols_, cols_)];
+  }
+
+  int cols_;
+  std::vector<float> w_;
+  int radius_;
+  int taps_;
+  cv::Size whole_;
+  cv::Point offset_;
+  std::ptrdiff_t stride_;
+  const float* view_origin_;
+  int inside_begin_ = 0, inside_end_ = 0;
+  size_t smoothed_step_;
+  std::vector<float> memory_;
+  float* along_ = nullptr;
+  float* smoothed_ = nullptr;
+  int next_along_ = -radius_;
+  int next_smoothed_ = 0;
+};
+
 }  // namespace
 
 void SmoothedImageGradients(const cv::Mat& image, double sigma_px, cv::Mat* gx, cv::Mat* gy,
@@ -77,74 +177,11 @@ void SmoothedImageGradients(const cv::Mat& image, double sigma_px, cv::Mat* gx, 
   gy->create(rows, cols, CV_32F);
   magnitude->create(rows, cols, CV_32F);
   if (rows == 0 || cols == 0) return;
-
-  // cv::GaussianBlur's kernel for a float image and this sigma.
-  const int ksize = cvRound(sigma_px * 8.0 + 1.0) | 1;
-  const int radius = ksize / 2;
-  const cv::Mat kernel = cv::getGaussianKernel(ksize, sigma_px, CV_32F);
-  std::vector<float> w(static_cast<size_t>(radius) + 1);
-  for (int k = 0; k <= radius; ++k) w[static_cast<size_t>(k)] = kernel.at<float>(radius + k);
-
-  // A view reads its parent image beyond its border (reflected at the parent's border), as
-  // GaussianBlur does; the derivatives reflect at the view's border, as Sobel on the smoothed
-  // view does.
-  cv::Size whole;
-  cv::Point offset;
-  image.locateROI(whole, offset);
-  const std::ptrdiff_t stride = static_cast<std::ptrdiff_t>(image.step1());
-  const float* view_origin = image.ptr<float>(0);
-  // Columns [inside_begin, inside_end) blur from the parent row directly; the few whose taps
-  // leave the parent are summed one by one, in the same order.
-  const int inside_begin = std::clamp(radius - offset.x, 0, cols);
-  const int inside_end = std::clamp(whole.width - offset.x - radius, inside_begin, cols);
-
-  // Working rows: the ring of 2 radius + 1 rows blurred along, and 3 smoothed rows with one
-  // column of reflection on each side.
-  const int taps = 2 * radius + 1;
-  const size_t smoothed_step = static_cast<size_t>(cols) + 2;
-  std::vector<float> memory(static_cast<size_t>(taps) * static_cast<size_t>(cols) +
-                            3 * smoothed_step);
-  float* along = memory.data();
-  float* smoothed = along + static_cast<size_t>(taps) * static_cast<size_t>(cols);
-  const auto along_row = [&](int v) {
-    return along + static_cast<size_t>(((v % taps) + taps) % taps) * static_cast<size_t>(cols);
-  };
-  const auto smoothed_row = [&](int s) {
-    return smoothed + static_cast<size_t>(s % 3) * smoothed_step + 1;
-  };
-
-  const auto blur_along = [&](int v) {  // view row v in [-radius, rows + radius)
-    const int parent_row = Reflect101(offset.y + v, whole.height);
-    const float* source = view_origin + static_cast<std::ptrdiff_t>(parent_row - offset.y) * stride;
-    float* out = along_row(v);
-    SymmetricBlur(
-        w.data(), radius, inside_end - inside_begin,
-        [&](int k) { return source + inside_begin + k; }, out + inside_begin);
-    const auto at = [&](int c) { return source[Reflect101(offset.x + c, whole.width) - offset.x]; };
-    const auto blur_one = [&](int c) {
-      float value = w[0] * at(c);
-      for (int k = 1; k <= radius; ++k)
-        value += w[static_cast<size_t>(k)] * (at(c - k) + at(c + k));
-      out[c] = value;
-    };
-    for (int c = 0; c < inside_begin; ++c) blur_one(c);
-    for (int c = inside_end; c < cols; ++c) blur_one(c);
-  };
-  int next_along = -radius;
-  const auto smooth = [&](int s) {
-    while (next_along <= s + radius) blur_along(next_along++);
-    float* out = smoothed_row(s);
-    SymmetricBlur(
-        w.data(), radius, cols, [&](int k) { return along_row(s + k); }, out);
-    out[-1] = out[Reflect101(-1, cols)];
-    out[cols] = out[Reflect101(cols, cols)];
-  };
-
-  int next_smoothed = 0;
+  SmoothedRows smoothed(image, sigma_px);
   for (int y = 0; y < rows; ++y) {
-    while (next_smoothed <= std::min(y + 1, rows - 1)) smooth(next_smoothed++);
-    SobelRow(smoothed_row(Reflect101(y - 1, rows)), smoothed_row(y),
-             smoothed_row(Reflect101(y + 1, rows)), cols, gx->ptr<float>(y), gy->ptr<float>(y),
+    smoothed.SmoothThrough(std::min(y + 1, rows - 1));
+    SobelRow(smoothed.Row(Reflect101(y - 1, rows)), smoothed.Row(y),
+             smoothed.Row(Reflect101(y + 1, rows)), cols, gx->ptr<float>(y), gy->ptr<float>(y),
              magnitude->ptr<float>(y));
   }
 }

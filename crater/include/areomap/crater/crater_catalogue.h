@@ -7,7 +7,8 @@
 // projected Mars CRS), overlay.png and summary.json as `areomap craters IMAGE` writes them, and
 // image.json: {"image", "status": "ok" | "failed", "error", "craters", "seconds", "warnings"}.
 // A catalogue needs ground positions: an image without a geotransform and a projected Mars CRS
-// (a plain PNG) fails with a message saying so.
+// (a plain PNG) fails with a message saying so. The catalogue's files and merge rules:
+// docs/crater-catalogue.md.
 #pragma once
 
 #include <filesystem>

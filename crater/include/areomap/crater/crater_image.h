@@ -12,6 +12,7 @@
 // Failure: a missing or unreadable raster or model, a CRS not on Mars, and options that cannot
 // apply to this raster throw areomap::Error naming the file or the option and what is expected.
 // Nothing is printed: notes and warnings are returned for the caller to show.
+// The command's options and outputs: docs/cli.md (`areomap craters`).
 #pragma once
 
 #include <cstdint>

@@ -37,7 +37,7 @@ struct CraterDetection;  // crater_detection.h
 
 struct ShadingTemplateOptions {
   // Run the shading-template hypotheses in DetectCraters (image with a sun azimuth only).
-  // Off by default: on the real HRSC image it adds ~0.02 F1 for ~1.35x the detector's CPU time
+  // Off by default: about 1.35x the detector's CPU time for a small gain on typical images
   // (docs/benchmarks.md); worth it on fields of degraded, shallow bowls (CLI --shading-templates).
   bool enabled = false;
   // Template radii per octave of crater size (each template covers +-1/(2 x this) octave).

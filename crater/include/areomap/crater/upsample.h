@@ -14,8 +14,7 @@ namespace areomap {
 // values of cv::resize(image, *out, {2 cols, 2 rows}, 0, 0, cv::INTER_LINEAR), the input's border
 // replicated, a non-finite input pixel spreading to the output pixels whose two-by-two taps
 // include it (with weight 0 at the left column). Output rows are written with streaming stores:
-// on one core about twice as fast as cv::resize on the detector's tiles (85 MB written per
-// 2304^2 tile, never read back before it leaves the cache; docs/notes/benchmarks-history.md,
+// a tile's copy is not read back before it leaves the cache (docs/notes/benchmarks-history.md,
 // crater speed round 13). Rows in parallel (TBB). Throws areomap::Error for another image type;
 // an image under 2 x 2 px goes to cv::resize.
 void UpsampleTwice(const cv::Mat& image, cv::Mat* out);
