@@ -381,7 +381,7 @@ void WriteRunReportHtml(const fs::path& run_dir, const RunSummary& summary) {
 }  // namespace
 
 void WriteRunReport(const fs::path& run_dir) {
-  WriteRunReportHtml(run_dir, ReadRunSummary(run_dir.string()));
+  WriteRunReportHtml(run_dir, ReadRunSummary(run_dir));
 }
 
 }  // namespace areomap

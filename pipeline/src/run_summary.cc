@@ -437,10 +437,11 @@ json RunSummary::ToJson() const {
   return j;
 }
 
-RunSummary ReadRunSummary(const std::string& out_dir) {
-  const std::filesystem::path path = std::filesystem::path(out_dir) / "summary.json";
+RunSummary ReadRunSummary(const std::filesystem::path& out_dir) {
+  const std::filesystem::path path = out_dir / "summary.json";
   std::ifstream in(path);
-  if (!in) throw Error(out_dir + ": no summary.json; expected the --out folder of areomap run");
+  if (!in)
+    throw Error(out_dir.string() + ": no summary.json; expected the --out folder of areomap run");
   const json summary = json::parse(in, nullptr, false);
   if (summary.is_discarded()) {
     throw Error(path.string() +

@@ -12,6 +12,7 @@
 // another type than RunMission writes, or "sites" / "legs" is not an array of objects.
 #pragma once
 
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <string>
@@ -172,6 +173,6 @@ struct RunSummary {
 
 // out_dir/summary.json read by RunSummary::FromJson; throws areomap::Error naming the folder
 // when there is none, or the file when it is not JSON or not a run's (no "sites" and "legs").
-RunSummary ReadRunSummary(const std::string& out_dir);
+RunSummary ReadRunSummary(const std::filesystem::path& out_dir);
 
 }  // namespace areomap
