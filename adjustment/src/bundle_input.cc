@@ -21,13 +21,16 @@ void CheckSite(int site, int count, const std::string& what) {
   }
 }
 
+}  // namespace bundle_internal
+
+namespace {
+
 void CheckFinite(const Eigen::MatrixXd& m, const std::string& what) {
   if (!m.allFinite()) throw Error("bundle input: " + what + " is not finite");
 }
 
-}  // namespace bundle_internal
+}  // namespace
 
-using bundle_internal::CheckFinite;
 using bundle_internal::CheckSite;
 
 Matrix6d PoseCovarianceFromSigmas(const Eigen::Vector3d& rotation_sigma_rad,

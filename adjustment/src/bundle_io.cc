@@ -205,7 +205,7 @@ void ReadPriorArray(const json& doc, const Where& w, std::vector<RelativePosePri
 
 // A control point's MBF position: from "position_traverse_m", "position_mbf_m" or
 // "lat_deg"/"lon_deg"/"h_m", the first present.
-Eigen::Vector3d ControlPositionMbf(const json& c, const Where& wc, const BundleInput& input,
+Eigen::Vector3d ControlPositionMbf(const json& c, const Where& wc, const Body& body,
                                    const Rigid3d& mbf_from_traverse) {
   if (c.contains("position_traverse_m")) {
     return mbf_from_traverse * Position(c.at("position_traverse_m"), wc / "position_traverse_m");
@@ -215,12 +215,12 @@ Eigen::Vector3d ControlPositionMbf(const json& c, const Where& wc, const BundleI
                      RadFromDeg(Number(Field(c, "lon_deg", wc), wc / "lon_deg")),
                      Number(Field(c, "h_m", wc), wc / "h_m")};
   if (!IsValid(g)) (wc / "lat_deg").Fail("a latitude in [-90, 90] degrees");
-  return MbfFromGeographic(input.body, g);
+  return MbfFromGeographic(body, g);
 }
 
 // A control point's MBF covariance: from "covariance_mbf_m2", "covariance_traverse_m2" or
 // "sigma_horizontal_m"/"sigma_vertical_m" (local level frame at `position_mbf`).
-Eigen::Matrix3d ControlCovarianceMbf(const json& c, const Where& wc, const BundleInput& input,
+Eigen::Matrix3d ControlCovarianceMbf(const json& c, const Where& wc, const Body& body,
                                      const Rigid3d& mbf_from_traverse,
                                      const Eigen::Vector3d& position_mbf) {
   if (c.contains("covariance_mbf_m2")) {
@@ -236,15 +236,14 @@ Eigen::Matrix3d ControlCovarianceMbf(const json& c, const Where& wc, const Bundl
   const double v = Number(Field(c, "sigma_vertical_m", wc), wc / "sigma_vertical_m");
   if (!(h > 0.0) || !(v > 0.0)) (wc / "sigma_horizontal_m").Fail("positive sigmas");
   const Eigen::Matrix3d mbf_from_enu =
-      EnuFromMbf(input.body, GeographicFromMbf(input.body, position_mbf))
-          .RotationMatrix()
-          .transpose();
+      EnuFromMbf(body, GeographicFromMbf(body, position_mbf)).RotationMatrix().transpose();
   return mbf_from_enu * Eigen::Vector3d(h * h, h * h, v * v).asDiagonal() *
          mbf_from_enu.transpose();
 }
 
 void ReadControlPointArray(const json& doc, const Where& w, BundleInput& input) {
   const json& controls = Array(doc, "control_points", w);
+  const Rigid3d mbf_from_traverse = SiteFromMbf(input.body, input.origin).Inverse();
   for (size_t i = 0; i < controls.size(); ++i) {
     const Where wc = (w / "control_points")[i];
     const json& c = controls[i];
@@ -255,10 +254,9 @@ void ReadControlPointArray(const json& doc, const Where& w, BundleInput& input) 
         Position(Field(c, "position_in_site_m", wc), wc / "position_in_site_m");
     control.covariance_in_site =
         Matrix<3>(Field(c, "covariance_in_site_m2", wc), wc / "covariance_in_site_m2");
-    const Rigid3d mbf_from_traverse = SiteFromMbf(input.body, input.origin).Inverse();
-    control.position_mbf = ControlPositionMbf(c, wc, input, mbf_from_traverse);
+    control.position_mbf = ControlPositionMbf(c, wc, input.body, mbf_from_traverse);
     control.covariance_mbf =
-        ControlCovarianceMbf(c, wc, input, mbf_from_traverse, control.position_mbf);
+        ControlCovarianceMbf(c, wc, input.body, mbf_from_traverse, control.position_mbf);
     control.source = Text(c, "source", control.source, wc);
     input.control_points.push_back(control);
   }

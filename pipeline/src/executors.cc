@@ -173,12 +173,20 @@ std::string NotDone(const fs::path& dir, const WorkPlan& plan,
   return lines;
 }
 
-// True when no unit of `stage` was started: none done, running or failed.
-bool NoneStarted(const fs::path& dir, const WorkPlan& plan, const std::string& stage) {
-  for (const UnitStatus& s : ReadPlanStatus(dir, plan)) {
-    if (s.stage == stage && s.state != UnitState::kPending) return false;
+// How the units of one stage stand after its executor ran.
+struct StageOutcome {
+  bool all_done = true;
+  bool none_started = true;  // None done, running or failed.
+};
+
+StageOutcome OutcomeOf(const std::vector<UnitStatus>& status, const std::string& stage) {
+  StageOutcome outcome;
+  for (const UnitStatus& s : status) {
+    if (s.stage != stage) continue;
+    outcome.all_done = outcome.all_done && s.state == UnitState::kDone;
+    outcome.none_started = outcome.none_started && s.state == UnitState::kPending;
   }
-  return true;
+  return outcome;
 }
 
 }  // namespace
@@ -287,9 +295,10 @@ void RunPlanWithGnuParallel(const fs::path& dir_in, const WorkPlan& plan,
     argv.insert(argv.end(), options.executor.run_unit_arguments.begin(),
                 options.executor.run_unit_arguments.end());
     RunProgram(argv, /*capture=*/false);
-    if (!NotDone(dir, plan, {stage.name}).empty()) {
+    const StageOutcome outcome = OutcomeOf(ReadPlanStatus(dir, plan), stage.name);
+    if (!outcome.all_done) {
       failed_stages.push_back(stage.name);
-      if (NoneStarted(dir, plan, stage.name)) none_started.append(" ").append(stage.name);
+      if (outcome.none_started) none_started.append(" ").append(stage.name);
     } else if (stage_done) {
       stage_done(stage.name);
     }
