@@ -17,6 +17,9 @@ find_package(nlohmann_json 3 REQUIRED)                 # nlohmann_json::nlohmann
 find_package(GTest REQUIRED)                           # GTest::gtest, GTest::gtest_main
 find_package(benchmark REQUIRED)                       # benchmark::benchmark
 find_package(PROJ REQUIRED CONFIG)                     # PROJ::proj
+find_package(PkgConfig REQUIRED)
+# FFTW (GPL-2+, like CGAL's triangulations that libmap links): the masked NCC's transforms.
+pkg_check_modules(FFTW3 REQUIRED IMPORTED_TARGET GLOBAL fftw3)  # PkgConfig::FFTW3
 
 # OpenCV's config exports plain target names; give them one namespaced target.
 if(NOT TARGET areomap_opencv)

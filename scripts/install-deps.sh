@@ -24,6 +24,7 @@ packages=(
   libopenimageio-dev openimageio-tools
   libgdal-dev gdal-bin proj-bin
   libtbb-dev
+  libfftw3-dev
   libcli11-dev
   nlohmann-json3-dev
   libgtest-dev libgmock-dev

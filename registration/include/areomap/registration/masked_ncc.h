@@ -85,8 +85,9 @@ struct MaskedNccSurface {
 
 // Masked NCC of `moving` (the template, e.g. the rover orthophoto) against `fixed` (e.g. the
 // orbital image) for all shifts, or those of options.search_window. By direct summation where
-// that costs less (options.method, DirectNccIsCheaper), else through FFTs (cv::dft on
-// cv::getOptimalDFTSize sizes, in double precision, run as parallel TBB tasks): six
+// that costs less (options.method, DirectNccIsCheaper), else through FFTs (FFTW, double
+// precision, on cv::getOptimalDFTSize sizes, run as parallel TBB tasks; the first use of a
+// padded size in a process plans its transforms, about 1 ms): six
 // correlations, or three plus integral images where the fixed image has no invalid pixel in
 // reach. Agrees with MaskedNccNaive to ~1e-6 or better. Cost O(P log P) with P the padded
 // size, per axis at most shifts + template - 1: fixed + template - 1 for all shifts, the fixed
