@@ -24,23 +24,43 @@ std::size_t RealBytes(cv::Size size) {
   return static_cast<std::size_t>(size.area()) * sizeof(double);
 }
 
-// The plans of one size, made on first use. FFTW's planner is not thread-safe, so planning is
-// serialised; the plans run through fftw_execute_dft_* on other arrays of the same alignment
-// (fftw_malloc's), which FFTW allows from any thread.
-const PlanPair& PlansFor(cv::Size size) {
-  static std::mutex mutex;
-  static std::map<std::pair<int, int>, PlanPair> plans;
-  const std::lock_guard<std::mutex> lock(mutex);
-  PlanPair& p = plans[{size.height, size.width}];
-  if (p.forward == nullptr) {
-    const FftBuffer real(RealBytes(size)), spectrum(HalfSpectrumBytes(size));
-    p.forward = fftw_plan_dft_r2c_2d(size.height, size.width, real.as<double>(),
-                                     spectrum.as<fftw_complex>(), FFTW_ESTIMATE);
-    p.inverse = fftw_plan_dft_c2r_2d(size.height, size.width, spectrum.as<fftw_complex>(),
-                                     real.as<double>(), FFTW_ESTIMATE);
-    if (p.forward == nullptr || p.inverse == nullptr) throw std::bad_alloc();
+// The plans of each size, made on first use and destroyed at exit. FFTW's planner is not
+// thread-safe, so planning is serialised; the plans run through fftw_execute_dft_* on other
+// arrays of the same alignment (fftw_malloc's), which FFTW allows from any thread.
+class PlanCache {
+ public:
+  PlanCache() = default;
+  PlanCache(const PlanCache&) = delete;
+  PlanCache& operator=(const PlanCache&) = delete;
+  ~PlanCache() {
+    for (auto& [size, p] : plans_) {
+      if (p.forward != nullptr) fftw_destroy_plan(p.forward);
+      if (p.inverse != nullptr) fftw_destroy_plan(p.inverse);
+    }
   }
-  return p;
+
+  const PlanPair& For(cv::Size size) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    PlanPair& p = plans_[{size.height, size.width}];
+    if (p.forward == nullptr) {
+      const FftBuffer real(RealBytes(size)), spectrum(HalfSpectrumBytes(size));
+      p.forward = fftw_plan_dft_r2c_2d(size.height, size.width, real.as<double>(),
+                                       spectrum.as<fftw_complex>(), FFTW_ESTIMATE);
+      p.inverse = fftw_plan_dft_c2r_2d(size.height, size.width, spectrum.as<fftw_complex>(),
+                                       real.as<double>(), FFTW_ESTIMATE);
+      if (p.forward == nullptr || p.inverse == nullptr) throw std::bad_alloc();
+    }
+    return p;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::map<std::pair<int, int>, PlanPair> plans_;
+};
+
+const PlanPair& PlansFor(cv::Size size) {
+  static PlanCache cache;
+  return cache.For(size);
 }
 
 // Free buffers by size. They are never returned to the system: the pool holds at most as many
