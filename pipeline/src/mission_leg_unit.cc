@@ -7,12 +7,10 @@
 #include <optional>
 #include <string>
 
-#include "areomap/adjustment/bundle_io.h"
 #include "areomap/landmarks/rock_matching.h"
-#include "areomap/landmarks/rock_output.h"
-#include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 #include "areomap/map/point_cloud_io.h"
+#include "areomap/pipeline/rock_pair.h"
 #include "mission_units.h"
 
 namespace areomap::mission_run {
@@ -153,13 +151,7 @@ LegUnitResult RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
   LegUnitResult leg;
   leg.prior.emplace();
   const RockMatchingPrior prior = LegPrior(run, index_a, index_b, &*leg.prior);
-  const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, prior, matching);
-  WriteFileAtomically(dir / "faults.json", match.report.ToJson().dump(2));
-  WriteFileAtomically(dir / "faults.txt", match.report.ToText());
-  WriteRockMatchesCsv(dir / "matches.csv", rocks_a, rocks_b, match);
-
-  WriteFileAtomically(dir / "tie_points.json",
-                      json{{"tie_points", TiePointsToJson(match.tie_points)}}.dump(2));
+  const SitePairMatch match = MatchRockPair(rocks_a, rocks_b, prior, matching, dir);
   if (progress) progress(1.0, "matching");
 
   leg.site_a = site_a;
