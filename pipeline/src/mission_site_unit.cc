@@ -129,6 +129,8 @@ SiteRegistrationResult RegisterSiteOrtho(const RunContext& run, const Orthophoto
   }
   WriteFileAtomically(dir / "control_points.json",
                       json{{"control_points", ControlPointsToJson(controls)}}.dump(2));
+  // registration.json is the match's record (MatchJson); the result is that record read back, as
+  // a later run (a leg's prior, a resumed unit) reads the file.
   json report = MatchJson(match);
   report["prior_sigma_m"] = prior.sigma_m;
   report["control_points"] = controls.size();
