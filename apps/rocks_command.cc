@@ -7,12 +7,11 @@
 #include <numbers>
 #include <sstream>
 
-#include "areomap/adjustment/bundle_io.h"
 #include "areomap/landmarks/rock_output.h"
-#include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "areomap/map/point_cloud_io.h"
+#include "areomap/pipeline/rock_pair.h"
 #include "commands.h"
 
 namespace areomap::cli {
@@ -123,14 +122,9 @@ void RunMatch(const RocksArgs& a, const GlobalOptions& global) {
   SiteRocks rocks_a = ExtractFrom(a.cloud, a, 0, &summary_a, global);
   SiteRocks rocks_b = ExtractFrom(a.cloud_b, a, 1, &summary_b, global);
   if (rocks_a.site == rocks_b.site) rocks_b.site = rocks_a.site + 1;  // Tie-point ids differ.
-  const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, prior, a.matching);
+  const SitePairMatch match = MatchRockPair(rocks_a, rocks_b, prior, a.matching, out.dir());
   WriteRocksCsv(out / "rocks_a.csv", rocks_a.rocks);
   WriteRocksCsv(out / "rocks_b.csv", rocks_b.rocks);
-  WriteRockMatchesCsv(out / "matches.csv", rocks_a, rocks_b, match);
-  WriteFileAtomically(out / "tie_points.json",
-                      nlohmann::json{{"tie_points", TiePointsToJson(match.tie_points)}}.dump(2));
-  WriteFileAtomically(out / "faults.json", match.report.ToJson().dump(2));
-  WriteFileAtomically(out / "faults.txt", match.report.ToText());
   nlohmann::json summary = {
       {"command", "rocks match"},
       {"input_a", a.cloud},

@@ -4,6 +4,7 @@
 // generator's truth/craters.csv.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -60,10 +61,14 @@ std::vector<CraterCircle> ReadTruthCraters(const fs::path& path, double pixel_si
 
 }  // namespace
 
-json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
+CratersUnitResult RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
+  CratersUnitResult summary;
   const MissionOrbitalProduct* image = run.mission->FirstOrbital("image");
-  if (image == nullptr)
-    return {{"status", "skipped"}, {"reason", "the mission has no orbital image"}};
+  if (image == nullptr) {
+    summary.skipped = true;
+    summary.reason = "the mission has no orbital image";
+    return summary;
+  }
   const fs::path dir = run.out_dir / "craters";
   fs::create_directories(dir);
   const RasterDataset dataset = RasterDataset::Open(image->path);
@@ -78,14 +83,14 @@ json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
   options.Check();
   // A manifest without the image's sun: estimated from its craters' shading (sun_azimuth.h) for
   // the edge detector (alone or combined with the network); the network alone needs none.
-  json sun = {{"sun_azimuth_source", options.sun_azimuth_deg ? "manifest" : "none"}};
+  summary.sun_azimuth_source = options.sun_azimuth_deg ? "manifest" : "none";
   if (!options.sun_azimuth_deg && options.method != CraterMethod::kLearned) {
     const SunAzimuthEstimate e = EstimateSunAzimuthInRaster(dataset, options);
-    sun = {{"sun_azimuth_source", e.reliable ? "estimated" : "none"},
-           {"sun_azimuth_estimate", SunAzimuthEstimateJson(e)}};
+    summary.sun_azimuth_source = e.reliable ? "estimated" : "none";
+    summary.sun_azimuth_estimate = SunAzimuthEstimateJson(e);
     if (e.reliable) options.sun_azimuth_deg = e.azimuth_deg;
   }
-  sun["sun_azimuth_deg"] = options.sun_azimuth_deg ? json(*options.sun_azimuth_deg) : json();
+  summary.sun_azimuth_deg = options.sun_azimuth_deg;
   const std::vector<CraterDetection> found =
       DetectCratersInRaster(dataset, RimSource::kImage, options, progress);
   const CraterCatalog catalog = MakeCraterCatalog(found, info);
@@ -96,21 +101,20 @@ json RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
   WriteCraterOverlay(dir / "overlay.png", ReadDecimated(dataset, dataset.FullWindow(), factor),
                      found, 2048);
 
-  json summary = {{"image", image->path.filename().string()},
-                  {"pixel_size_m", probe.pixel_size_m},
-                  {"min_diameter_m", run.options->crater_min_diameter_m},
-                  {"method", ToString(options.method)},
-                  {"craters", found.size()},
-                  {"files", {"craters.csv", "craters.json", "craters.gpkg", "overlay.png"}}};
-  summary.update(sun);
+  summary.image = image->path.filename().string();
+  summary.pixel_size_m = probe.pixel_size_m;
+  summary.min_diameter_m = run.options->crater_min_diameter_m;
+  summary.method = ToString(options.method);
+  summary.craters = static_cast<int64_t>(found.size());
+  summary.files = {"craters.csv", "craters.json", "craters.gpkg", "overlay.png"};
   if (run.mission->truth_craters_csv) {
     const std::vector<CraterCircle> truth =
         ReadTruthCraters(*run.mission->truth_craters_csv, probe.pixel_size_m);
     const double lo = options.min_diameter_px;
     const CraterScore score = ScoreCraters(truth, CirclesOf(found),
                                            {lo, 4 * lo, std::numeric_limits<double>::infinity()});
-    summary["score"] = CraterMatchStatsJson(score.all);
-    summary["score"]["rule"] =
+    summary.score = CraterMatchStatsJson(score.all);
+    summary.score["rule"] =
         "centre distance < 0.5 x truth radius and detected/true diameter in [0.7, 1.3]";
   }
   return summary;

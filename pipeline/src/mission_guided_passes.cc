@@ -12,11 +12,12 @@ namespace areomap::mission_run {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-json AdjustmentStage::Run(const ProgressCallback& progress) const {
+AdjustmentResult AdjustmentStage::Run(const ProgressCallback& progress) const {
   std::vector<fs::path> inputs = {dir / "network.json"};
   inputs.insert(inputs.end(), site_controls.begin(), site_controls.end());
   inputs.insert(inputs.end(), leg_tie_files.begin(), leg_tie_files.end());
-  return AdjustTraverse(inputs, dir, options, progress);
+  return AdjustmentResult::FromJson(AdjustTraverse(inputs, dir, options, progress),
+                                    (dir / "adjustment.json").string() + " (figures)");
 }
 
 namespace {
@@ -28,15 +29,16 @@ struct SiteRegistrationState {
   std::vector<bool> turn_at_edge;  // Matched at the rotation grid's edge (first pass only).
 };
 
-SiteRegistrationState FirstRegistrations(const RunContext& run, const std::vector<json>& sites) {
+SiteRegistrationState FirstRegistrations(const RunContext& run,
+                                         const std::vector<SiteUnitResult>& sites) {
   const OrbitalMatchOptions& match = run.options->match;
   SiteRegistrationState s;
-  for (const json& site : sites) {
-    const json& r = site.value("registration", json::object());
-    const bool registered = r.value("matched", false) && r.value("control_points", 0) > 0;
-    const double turn = std::abs(r.value("rotation_deg", 0.0));
+  for (const SiteUnitResult& site : sites) {
+    const SiteRegistrationResult& r = site.registration;
+    const bool registered = r.Registered();
+    const double turn = std::abs(r.rotation_deg.value_or(0.0));
     s.registered.push_back(registered);
-    s.eligible.push_back(r.value("template_pixels", 0) >= match.min_template_pixels);
+    s.eligible.push_back(r.template_pixels >= match.min_template_pixels);
     s.turn_at_edge.push_back(registered && match.max_rotation_deg > 0.0 &&
                              turn >= match.max_rotation_deg - 0.5 * match.rotation_step_deg);
   }
@@ -44,76 +46,72 @@ SiteRegistrationState FirstRegistrations(const RunContext& run, const std::vecto
 }
 
 // One attempted site of a pass, as summary.json records it.
-json AttemptRecord(int site, const json& result, bool turn_at_edge) {
-  const json& r = result["registration"];
-  return {{"site", site},
-          {"prior", result["prior"]},
-          {"matched", r.value("matched", false)},
-          {"reason", r.value("reason", "")},
-          {"correlation", r.value("correlation", json())},
-          {"null_highest_correlation", r.value("null_highest_correlation", json())},
-          {"search_radius_px", r.value("search_radius_px", 0)},
-          {"control_points", r.value("control_points", 0)},
-          {"turn_at_edge", turn_at_edge}};
+GuidedAttemptRecord AttemptRecord(const GuidedUnitResult& result, bool turn_at_edge) {
+  const SiteRegistrationResult& r = result.registration;
+  return {result.site,        result.prior,     r.matched,
+          r.reason,           r.correlation,    r.null_highest_correlation,
+          r.search_radius_px, r.control_points, turn_at_edge};
+}
+
+// The sites pass `pass` matches again: those not registered with enough template pixels, and in
+// the first pass those whose turn was at the rotation grid's edge.
+std::vector<size_t> SitesToTry(const SiteRegistrationState& state, int pass) {
+  std::vector<size_t> todo;
+  for (size_t i = 0; i < state.registered.size(); ++i) {
+    if ((!state.registered[i] && state.eligible[i]) || (pass == 1 && state.turn_at_edge[i])) {
+      todo.push_back(i);
+    }
+  }
+  return todo;
 }
 
 }  // namespace
 
-json RunGuidedPasses(const RunContext& run, const std::vector<json>& site_summaries,
-                     AdjustmentStage& adjustment, json& adjusted,
-                     const std::function<void()>& announce) {
+GuidedPassesResult RunGuidedPasses(const RunContext& run, const std::vector<SiteUnitResult>& sites,
+                                   AdjustmentStage& adjustment, AdjustmentResult& adjusted,
+                                   const std::function<void()>& announce) {
   const MissionManifest& mission = *run.mission;
   const size_t site_count = mission.sites.size();
-  SiteRegistrationState state = FirstRegistrations(run, site_summaries);
-  json first_pass_sites = json::array();
+  SiteRegistrationState state = FirstRegistrations(run, sites);
+  GuidedPassesResult guided;
   for (size_t i = 0; i < site_count; ++i) {
-    if (state.registered[i]) first_pass_sites.push_back(mission.sites[i].site);
+    if (state.registered[i]) guided.registered_first_pass.push_back(mission.sites[i].site);
   }
-  json guided = {{"registered_first_pass", first_pass_sites},
-                 {"first_adjustment", adjusted},
-                 {"passes", json::array()}};
+  guided.first_adjustment = adjusted;
   const fs::path adjustment_json = adjustment.dir / "adjustment.json";
   for (int pass = 1; pass <= run.options->guided_passes; ++pass) {
-    std::vector<size_t> todo;
-    for (size_t i = 0; i < site_count; ++i) {
-      if ((!state.registered[i] && state.eligible[i]) || (pass == 1 && state.turn_at_edge[i])) {
-        todo.push_back(i);
-      }
-    }
+    const std::vector<size_t> todo = SitesToTry(state, pass);
     if (todo.empty() || !mission.FirstOrbital("image")) break;
     if (announce) announce();
-    const json sites = ReadJsonOrNull(adjustment_json).value("sites", json());
-    if (!sites.is_array() || sites.size() != site_count) {
+    const json adjusted_sites = ReadJsonOrNull(adjustment_json).value("sites", json());
+    if (!adjusted_sites.is_array() || adjusted_sites.size() != site_count) {
       throw Error(adjustment_json.string() + ": expected " + std::to_string(site_count) + " sites");
     }
-    std::vector<json> results(todo.size());
+    std::vector<GuidedUnitResult> results(todo.size());
     tbb::parallel_for(size_t{0}, todo.size(), [&](size_t k) {
       const GuidedPrior prior =
-          GuidedPriorFromAdjustment(sites[todo[k]], run.options->guided_sigma_floor_m);
+          GuidedPriorFromAdjustment(adjusted_sites[todo[k]], run.options->guided_sigma_floor_m);
       results[k] = RunGuidedRegistrationUnit(run, todo[k], pass, prior);
     });
-    json record = {{"pass", pass},
-                   {"attempted", json::array()},
-                   {"registered", json::array()},
-                   {"replaced", json::array()}};
+    GuidedPassRecord record;
+    record.pass = pass;
     for (size_t k = 0; k < todo.size(); ++k) {
       const size_t i = todo[k];
       const int site = mission.sites[i].site;
-      const json& r = results[k]["registration"];
-      record["attempted"].push_back(AttemptRecord(site, results[k], state.turn_at_edge[i]));
-      if (r.value("matched", false) && r.value("control_points", 0) > 0) {
-        record[state.registered[i] ? "replaced" : "registered"].push_back(site);
+      record.attempted.push_back(AttemptRecord(results[k], state.turn_at_edge[i]));
+      if (results[k].registration.Registered()) {
+        (state.registered[i] ? record.replaced : record.registered).push_back(site);
         state.registered[i] = true;
         adjustment.site_controls[i] = GuidedDir(run, pass, site) / "control_points.json";
       }
       state.turn_at_edge[i] = false;
     }
-    const bool any = !record["registered"].empty() || !record["replaced"].empty();
+    const bool any = !record.registered.empty() || !record.replaced.empty();
     if (any) {
       adjusted = adjustment.Run();
-      record["adjustment"] = adjusted;
+      record.adjustment = adjusted;
     }
-    guided["passes"].push_back(record);
+    guided.passes.push_back(record);
     if (!any) break;
   }
   return guided;

@@ -40,25 +40,18 @@ Eigen::Quaterniond Quaternion(const json& value, const std::string& what) {
   return Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
 }
 
-json PriorJson(const GuidedPrior& prior) {
-  return {{"shift_east_m", prior.shift_en_m.x()},
-          {"shift_north_m", prior.shift_en_m.y()},
-          {"rotation_deg", prior.rotation_rad * 180.0 / std::numbers::pi},
-          {"sigma_m", prior.sigma_m}};
+GuidedPriorRecord PriorRecord(const GuidedPrior& prior) {
+  return {prior.shift_en_m.x(), prior.shift_en_m.y(), prior.rotation_rad * 180.0 / std::numbers::pi,
+          prior.sigma_m};
 }
 
 // Whether a finished unit was guided by (practically) the same prior: 1 mm, 1e-4 degrees.
-bool SamePrior(const json& recorded, const GuidedPrior& prior) {
-  if (!recorded.is_object()) return false;
-  const json now = PriorJson(prior);
-  for (const auto& [key, value] : now.items()) {
-    const double tolerance = key == "rotation_deg" ? 1e-4 : 1e-3;
-    if (!recorded.contains(key) || !recorded[key].is_number() ||
-        std::abs(recorded[key].get<double>() - value.get<double>()) > tolerance) {
-      return false;
-    }
-  }
-  return true;
+bool SamePrior(const GuidedPriorRecord& recorded, const GuidedPrior& prior) {
+  const GuidedPriorRecord now = PriorRecord(prior);
+  return std::abs(recorded.shift_east_m - now.shift_east_m) <= 1e-3 &&
+         std::abs(recorded.shift_north_m - now.shift_north_m) <= 1e-3 &&
+         std::abs(recorded.rotation_deg - now.rotation_deg) <= 1e-4 &&
+         std::abs(recorded.sigma_m - now.sigma_m) <= 1e-3;
 }
 
 }  // namespace
@@ -113,17 +106,16 @@ fs::path GuidedDir(const RunContext& run, int pass, int site) {
   return run.out_dir / "guided" / ("pass_" + std::to_string(pass)) / ("site_" + ThreeDigits(site));
 }
 
-json RunGuidedRegistrationUnit(const RunContext& run, size_t site_index, int pass,
-                               const GuidedPrior& guided) {
+GuidedUnitResult RunGuidedRegistrationUnit(const RunContext& run, size_t site_index, int pass,
+                                           const GuidedPrior& guided) {
   const MissionSite& site = run.mission->sites.at(site_index);
   const fs::path dir = GuidedDir(run, pass, site.site);
-  const json settings = {{"null_windows", run.options->guided_null_windows},
-                         {"max_false_match", run.options->match.max_false_match},
-                         {"sigma_floor_m", run.options->guided_sigma_floor_m}};
-  if (const json done = FinishedUnit(run, dir); done.is_object() &&
-                                                SamePrior(done.value("prior", json()), guided) &&
-                                                done.value("settings", json()) == settings) {
-    return done;
+  const GuidedSettings settings{run.options->guided_null_windows,
+                                run.options->match.max_false_match,
+                                run.options->guided_sigma_floor_m};
+  if (const std::optional<GuidedUnitResult> done = FinishedUnitResult<GuidedUnitResult>(run, dir);
+      done && SamePrior(done->prior, guided) && done->settings == settings) {
+    return *done;
   }
   fs::create_directories(dir);
   const fs::path ortho_path = SiteDir(run, site.site) / "ortho.tif";
@@ -136,14 +128,13 @@ json RunGuidedRegistrationUnit(const RunContext& run, size_t site_index, int pas
   prior.expected_rotation_rad = guided.rotation_rad;
   OrbitalMatchOptions options = run.options->match;
   options.null_windows = run.options->guided_null_windows;
-  const json registration =
-      RegisterSiteOrtho(run, ortho, ortho_path, site.site, prior, options, dir);
-  const json summary = {{"site", site.site},
-                        {"pass", pass},
-                        {"prior", PriorJson(guided)},
-                        {"settings", settings},
-                        {"registration", registration}};
-  FinishUnit(run, dir, summary);
+  GuidedUnitResult summary;
+  summary.site = site.site;
+  summary.pass = pass;
+  summary.prior = PriorRecord(guided);
+  summary.settings = settings;
+  summary.registration = RegisterSiteOrtho(run, ortho, ortho_path, site.site, prior, options, dir);
+  FinishUnit(run, dir, summary.ToJson());
   return summary;
 }
 

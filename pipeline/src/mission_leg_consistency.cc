@@ -1,5 +1,7 @@
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <string>
 
 #include "areomap/adjustment/bundle_io.h"
@@ -19,10 +21,11 @@ namespace {
 // Where site b lies in site a's frame, for RE: the leg's prior (RunLegUnit's "prior"), or, in a
 // leg unit of a run from before it recorded that, telemetry (the same up to the prior's sigma,
 // which moves RE's traverse length by a few per cent at most).
-Eigen::Vector2d AdjacentInCurrent(const RunContext& run, size_t leg_index, const json& leg) {
-  const json t = leg.value("prior", json::object()).value("a_from_b_translation_m", json());
-  if (t.is_array() && t.size() >= 2 && t[0].is_number() && t[1].is_number()) {
-    return {t[0].get<double>(), t[1].get<double>()};
+Eigen::Vector2d AdjacentInCurrent(const RunContext& run, size_t leg_index,
+                                  const LegUnitResult& leg) {
+  if (leg.prior && leg.prior->a_from_b_translation_m) {
+    const std::array<double, 3>& t = *leg.prior->a_from_b_translation_m;
+    return {t[0], t[1]};
   }
   const MissionManifest& mission = *run.mission;
   const Rigid3d a_from_b = TelemetryTraverseFromSite(mission.telemetry.at(leg_index)).Inverse() *
@@ -30,15 +33,15 @@ Eigen::Vector2d AdjacentInCurrent(const RunContext& run, size_t leg_index, const
   return a_from_b.translation.head<2>();
 }
 
-void Exclude(json& leg) {
-  leg["outcome"] = ToString(PairOutcome::kExcludedByFaultDetection);
-  leg["faults"]["outcome"] = ToString(PairOutcome::kExcludedByFaultDetection);
-  leg["faults"]["outcome_code"] = static_cast<int>(PairOutcome::kExcludedByFaultDetection);
+void Exclude(LegUnitResult& leg) {
+  leg.match.outcome = ToString(PairOutcome::kExcludedByFaultDetection);
+  leg.faults.outcome = PairOutcome::kExcludedByFaultDetection;
 }
 
 }  // namespace
 
-std::vector<fs::path> TestLegsAgainstEachOther(const RunContext& run, std::vector<json>& legs,
+std::vector<fs::path> TestLegsAgainstEachOther(const RunContext& run,
+                                               std::vector<LegUnitResult>& legs,
                                                const fs::path& ties_dir) {
   const MissionManifest& mission = *run.mission;
   const MissionRunOptions& options = *run.options;
@@ -47,8 +50,7 @@ std::vector<fs::path> TestLegsAgainstEachOther(const RunContext& run, std::vecto
   for (size_t i = 0; i < legs.size(); ++i) {
     files.push_back(LegDir(run, mission.sites[i].site, mission.sites[i + 1].site) /
                     "tie_points.json");
-    if (options.leg_test &&
-        legs[i].value("outcome", std::string()) == ToString(PairOutcome::kMatched)) {
+    if (options.leg_test && legs[i].match.outcome == ToString(PairOutcome::kMatched)) {
       ties[i] = ReadTiePoints(files[i]);
     }
   }
@@ -64,25 +66,21 @@ std::vector<fs::path> TestLegsAgainstEachOther(const RunContext& run, std::vecto
   const std::vector<LegConsistency> verdicts = TestLegConsistency(ties, options.LegTestOptions());
   for (size_t i = 0; i < legs.size(); ++i) {
     const LegConsistency& v = verdicts[i];
-    json& leg = legs[i];
-    json record = v.ToJson();
-    if (!v.tested) {
-      leg["leg_test"] = record;
-      continue;
-    }
-    record["dropped_ids"] = json::array();
-    for (int k : v.dropped) record["dropped_ids"].push_back(ties[i][static_cast<size_t>(k)].id);
-    leg["leg_test"] = record;
+    LegUnitResult& leg = legs[i];
+    leg.leg_test = v;
+    leg.leg_test_dropped_ids.clear();
+    if (!v.tested) continue;
+    for (int k : v.dropped) leg.leg_test_dropped_ids.push_back(ties[i][static_cast<size_t>(k)].id);
     // The rule as first tested; when tie points were dropped, again on those left (the one
     // that decides whether the leg stays).
     const char* rule = "leg's variance factor / other legs' (F test)";
-    leg["faults"]["rules"].push_back(ToJson(MaxCheck("IV adjustment", rule, v.first_f_statistic,
-                                                     v.f_threshold, "", v.dropped.empty())));
+    leg.faults.checks.push_back(
+        MaxCheck("IV adjustment", rule, v.first_f_statistic, v.f_threshold, "", v.dropped.empty()));
     if (!v.dropped.empty()) {
-      leg["faults"]["rules"].push_back(ToJson(MaxCheck(
+      leg.faults.checks.push_back(MaxCheck(
           "IV adjustment",
           std::string(rule) + " without " + std::to_string(v.dropped.size()) + " tie point(s)",
-          v.f_statistic, v.f_threshold, "")));
+          v.f_statistic, v.f_threshold, ""));
     }
     if (v.dropped.empty() && !v.excluded) continue;
     std::vector<TiePoint> kept;
@@ -97,19 +95,15 @@ std::vector<fs::path> TestLegsAgainstEachOther(const RunContext& run, std::vecto
       const std::optional<SitePairError> error =
           EvaluateSitePair(planar, AdjacentInCurrent(run, i, leg));
       const double re = error ? error->relative_error_percent : std::nan("");
-      if (error) {
-        leg["relative_error_percent"] = re;
-      } else {
-        leg.erase("relative_error_percent");
-      }
+      leg.match.relative_error_percent = error ? std::optional<double>(re) : std::nullopt;
       const FaultCheck check =
           MaxCheck("IV adjustment", "relative error RE (eq. 4.9) after the legs' test", re,
                    options.matching.fault_detection.max_relative_error_percent, "%");
-      leg["faults"]["rules"].push_back(ToJson(check));
+      leg.faults.checks.push_back(check);
       if (check.verdict != FaultVerdict::kPass) kept.clear();
     }
     if (kept.empty()) Exclude(leg);
-    leg["tie_points"] = kept.size();
+    leg.match.tie_points = static_cast<int64_t>(kept.size());
     fs::create_directories(ties_dir);
     files[i] = ties_dir / (files[i].parent_path().filename().string() + ".json");
     WriteFileAtomically(files[i], json{{"tie_points", TiePointsToJson(kept)}}.dump(2));

@@ -1,18 +1,16 @@
 // One leg of a mission run (two consecutive sites): rocks extracted from both sites' clouds,
 // matched across the sites with fault detection (ch. 3.2, 4.2), tie points for the adjustment.
 #include <algorithm>
+#include <array>
 #include <cmath>
-#include <fstream>
 #include <numbers>
 #include <optional>
 #include <string>
 
-#include "areomap/adjustment/bundle_io.h"
 #include "areomap/landmarks/rock_matching.h"
-#include "areomap/landmarks/rock_output.h"
-#include "areomap/map/atomic_file.h"
 #include "areomap/map/error.h"
 #include "areomap/map/point_cloud_io.h"
+#include "areomap/pipeline/rock_pair.h"
 #include "mission_units.h"
 
 namespace areomap::mission_run {
@@ -37,17 +35,16 @@ std::optional<RegisteredSite> RegisteredTraverseFromSite(const RunContext& run, 
                                                          const MissionSitePose& telemetry) {
   const fs::path path = SiteDir(run, site) / "registration.json";
   if (!fs::exists(path)) return std::nullopt;
-  std::ifstream in(path);
-  const json reg = json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (!reg.is_object() || !reg.value("matched", false) || !reg.contains("rotation_deg")) {
-    return std::nullopt;
-  }
+  const json recorded = ReadJsonOrNull(path);
+  if (!recorded.is_object()) return std::nullopt;
+  const SiteRegistrationResult reg = SiteRegistrationResult::FromJson(recorded, path.string());
+  if (!reg.matched || !reg.rotation_deg) return std::nullopt;
   const OrbitalMatchOptions& match = run.options->match;
-  const double north = reg.value("shift_north_m", 0.0), east = reg.value("shift_east_m", 0.0);
-  const double rotation_deg = reg.value("rotation_deg", 0.0);
+  const double north = reg.shift_north_m.value_or(0.0), east = reg.shift_east_m.value_or(0.0);
+  const double rotation_deg = *reg.rotation_deg;
   RegisteredSite out;
-  out.position_sigma_m = std::max({reg.value("sigma_north_m", 0.0), reg.value("sigma_east_m", 0.0),
-                                   0.25 * reg.value("gsd_m", 0.0)});
+  out.position_sigma_m = std::max({reg.sigma_north_m.value_or(0.0), reg.sigma_east_m.value_or(0.0),
+                                   0.25 * reg.gsd_m.value_or(0.0)});
   const bool at_edge =
       std::abs(rotation_deg) >= match.max_rotation_deg - 0.5 * match.rotation_step_deg - 1e-9;
   out.heading_sigma_deg = (at_edge ? 1.0 : 0.5) * match.rotation_step_deg;
@@ -66,7 +63,8 @@ std::optional<RegisteredSite> RegisteredTraverseFromSite(const RunContext& run, 
 // registrations are confident and agree with telemetry within three combined sigmas, else from
 // telemetry (dead reckoning: leg_scale_sigma x length, leg_heading_sigma_deg). `info` records
 // which and why.
-RockMatchingPrior LegPrior(const RunContext& run, size_t index_a, size_t index_b, json* info) {
+RockMatchingPrior LegPrior(const RunContext& run, size_t index_a, size_t index_b,
+                           LegPriorRecord* info) {
   const MissionManifest& mission = *run.mission;
   const MissionRunOptions& options = *run.options;
   RockMatchingPrior telemetry;
@@ -80,9 +78,10 @@ RockMatchingPrior LegPrior(const RunContext& run, size_t index_a, size_t index_b
       RegisteredTraverseFromSite(run, mission.sites[index_a].site, mission.telemetry[index_a]);
   const std::optional<RegisteredSite> reg_b =
       RegisteredTraverseFromSite(run, mission.sites[index_b].site, mission.telemetry[index_b]);
-  *info = {{"source", "telemetry"}};
+  *info = LegPriorRecord{};
+  info->source = "telemetry";
   if (!reg_a || !reg_b) {
-    (*info)["reason"] = "orbital registration not confident at both sites";
+    info->reason = "orbital registration not confident at both sites";
   } else {
     RockMatchingPrior registered;
     registered.a_from_b = reg_a->traverse_from_site.Inverse() * reg_b->traverse_from_site;
@@ -99,26 +98,23 @@ RockMatchingPrior LegPrior(const RunContext& run, size_t index_a, size_t index_b
         3.0 * std::sqrt(2.0) * std::hypot(telemetry.position_sigma_m, registered.position_sigma_m);
     const double turn_limit =
         3.0 * std::hypot(telemetry.heading_sigma_deg, registered.heading_sigma_deg);
-    (*info)["registration_minus_telemetry_m"] = shift;
-    (*info)["registration_minus_telemetry_deg"] = turn;
+    info->registration_minus_telemetry_m = shift;
+    info->registration_minus_telemetry_deg = turn;
     if (shift <= shift_limit && turn <= turn_limit) {
-      *info = {{"source", registered.source},
-               {"registration_minus_telemetry_m", shift},
-               {"registration_minus_telemetry_deg", turn}};
+      info->source = registered.source;
       telemetry = registered;
     } else {
-      (*info)["reason"] = "orbital registration disagrees with telemetry beyond 3 sigma";
+      info->reason = "orbital registration disagrees with telemetry beyond 3 sigma";
     }
   }
   // The prior pose itself (site b in site a: translation and turn about z, down), so that a run
   // can be re-matched offline (bench/rock_funnel_bench.cc).
   const Eigen::Matrix3d r = telemetry.a_from_b.RotationMatrix();
-  (*info)["a_from_b_translation_m"] = {telemetry.a_from_b.translation.x(),
-                                       telemetry.a_from_b.translation.y(),
-                                       telemetry.a_from_b.translation.z()};
-  (*info)["a_from_b_turn_deg"] = std::atan2(r(1, 0), r(0, 0)) * 180.0 / std::numbers::pi;
-  (*info)["position_sigma_m"] = telemetry.position_sigma_m;
-  (*info)["heading_sigma_deg"] = telemetry.heading_sigma_deg;
+  const Eigen::Vector3d& t = telemetry.a_from_b.translation;
+  info->a_from_b_translation_m = std::array<double, 3>{t.x(), t.y(), t.z()};
+  info->a_from_b_turn_deg = std::atan2(r(1, 0), r(0, 0)) * 180.0 / std::numbers::pi;
+  info->position_sigma_m = telemetry.position_sigma_m;
+  info->heading_sigma_deg = telemetry.heading_sigma_deg;
   return telemetry;
 }
 
@@ -136,8 +132,9 @@ const SiteRocksCache::Entry& SiteRocksCache::Get(size_t site_index) {
   return entries_.emplace(site_index, std::move(entry)).first->second;
 }
 
-json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b, SiteRocksCache& rocks,
-                const RockMatchingOptions& matching, const ProgressCallback& progress) {
+LegUnitResult RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
+                         SiteRocksCache& rocks, const RockMatchingOptions& matching,
+                         const ProgressCallback& progress) {
   const MissionManifest& mission = *run.mission;
   const int site_a = mission.sites.at(index_a).site;
   const int site_b = mission.sites.at(index_b).site;
@@ -151,39 +148,31 @@ json RunLegUnit(const RunContext& run, size_t index_a, size_t index_b, SiteRocks
   const SiteRocks& rocks_a = a.rocks;
   const SiteRocks& rocks_b = b.rocks;
 
-  json prior_info;
-  const RockMatchingPrior prior = LegPrior(run, index_a, index_b, &prior_info);
-  const SitePairMatch match = MatchSitePair(rocks_a, rocks_b, prior, matching);
-  WriteFileAtomically(dir / "faults.json", match.report.ToJson().dump(2));
-  WriteFileAtomically(dir / "faults.txt", match.report.ToText());
-  WriteRockMatchesCsv(dir / "matches.csv", rocks_a, rocks_b, match);
-
-  WriteFileAtomically(dir / "tie_points.json",
-                      json{{"tie_points", TiePointsToJson(match.tie_points)}}.dump(2));
+  LegUnitResult leg;
+  leg.prior.emplace();
+  const RockMatchingPrior prior = LegPrior(run, index_a, index_b, &*leg.prior);
+  const SitePairMatch match = MatchRockPair(rocks_a, rocks_b, prior, matching, dir);
   if (progress) progress(1.0, "matching");
 
-  json summary = {{"site_a", site_a},
-                  {"site_b", site_b},
-                  {"telemetry_distance_m",
-                   (mission.telemetry[index_b].position - mission.telemetry[index_a].position)
-                       .head<2>()
-                       .norm()},
-                  {"prior", prior_info},
-                  {"outcome", ToString(match.report.outcome)},
-                  {"tie_points", match.tie_points.size()},
-                  {"rock_matches", match.matches.size()},
-                  {"rocks_a", RockExtractionSummaryToJson(a.summary)},
-                  {"rocks_b", RockExtractionSummaryToJson(b.summary)},
-                  {"faults", match.report.ToJson()}};
+  leg.site_a = site_a;
+  leg.site_b = site_b;
+  leg.telemetry_distance_m =
+      (mission.telemetry[index_b].position - mission.telemetry[index_a].position).head<2>().norm();
+  leg.match.outcome = ToString(match.report.outcome);
+  leg.match.tie_points = static_cast<int64_t>(match.tie_points.size());
+  leg.match.rock_matches = static_cast<int64_t>(match.matches.size());
+  leg.rocks_a = a.summary;
+  leg.rocks_b = b.summary;
+  leg.faults = match.report;
   if (match.error) {
-    summary["relative_error_percent"] = match.error->relative_error_percent;
+    leg.match.relative_error_percent = match.error->relative_error_percent;
     // The conformal fit's residuals, pooled over the legs into the run's a-posteriori variance
     // factor of the rock tie points (mission_run.cc, FirstPassTieVariance).
-    summary["conformal_chi2"] = match.error->chi2;
-    summary["conformal_redundancy"] = match.error->redundancy;
+    leg.match.conformal_chi2 = match.error->chi2;
+    leg.match.conformal_redundancy = match.error->redundancy;
   }
-  summary["tie_variance_factor"] = matching.tie_variance_factor;
-  return summary;
+  leg.match.tie_variance_factor = matching.tie_variance_factor;
+  return leg;
 }
 
 }  // namespace areomap::mission_run

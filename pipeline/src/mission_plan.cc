@@ -100,15 +100,16 @@ std::optional<double> PlannedSecondPassFactor(const RunContext& run) {
     const json factor = kept.value("factor", json());
     return factor.is_number() ? std::optional<double>(factor.get<double>()) : std::nullopt;
   }
-  std::vector<json> legs;
+  std::vector<LegUnitResult> legs;
   const std::vector<MissionSite>& sites = run.mission->sites;
   for (size_t i = 0; i + 1 < sites.size(); ++i) {
-    json leg = FinishedUnit(run, LegDir(run, sites[i].site, sites[i + 1].site));
-    if (leg.is_null()) {
+    std::optional<LegUnitResult> leg =
+        FinishedUnitResult<LegUnitResult>(run, LegDir(run, sites[i].site, sites[i + 1].site));
+    if (!leg) {
       throw Error("the legs' second pass needs every leg's first pass; " +
                   LegUnitId(sites[i].site, sites[i + 1].site) + " is not finished");
     }
-    legs.push_back(std::move(leg));
+    legs.push_back(std::move(*leg));
   }
   const std::optional<double> factor = SecondPassFactor(run, legs);
   fs::create_directories(record.parent_path());
@@ -133,12 +134,13 @@ bool RunOneMissionUnit(const RunContext& run, const fs::path& mission_folder,
     const std::optional<double> factor = PlannedSecondPassFactor(run);
     const MissionSite& a = run.mission->sites[index];
     const MissionSite& b = run.mission->sites[index + 1];
-    json leg = FinishedUnit(run, LegDir(run, a.site, b.site));
-    if (leg.is_null()) {
+    std::optional<LegUnitResult> leg =
+        FinishedUnitResult<LegUnitResult>(run, LegDir(run, a.site, b.site));
+    if (!leg) {
       throw Error(SecondPassUnitId(a.site, b.site) + " needs the leg unit " +
                   LegUnitId(a.site, b.site) + " finished first");
     }
-    reused = !EnsureLegSecondPass(run, index, rocks, factor, leg, progress);
+    reused = !EnsureLegSecondPass(run, index, rocks, factor, *leg, progress);
   } else if (stage.name == "craters") {
     EnsureCratersUnit(run, progress, &reused);
   } else if (stage.name == "finish") {

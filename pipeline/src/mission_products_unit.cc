@@ -6,8 +6,10 @@
 // common traverse grid (with both poses) and dropped; the windows are merged afterwards
 // (MergeGriddedLayers), as MakeDtm does for clouds held together.
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <limits>
 #include <optional>
@@ -84,7 +86,7 @@ cv::Mat ResampleOntoGrid(const OrbitalImage& raster, const GridSpec& grid,
 }
 
 // Differences rover DTM - orbital DTM over the cells both know [m].
-json DifferenceStats(const cv::Mat& rover, const cv::Mat& orbital) {
+TraverseDifference DifferenceStats(const cv::Mat& rover, const cv::Mat& orbital) {
   double sum = 0.0, sum_sq = 0.0;
   std::vector<double> absolute;
   for (int row = 0; row < rover.rows; ++row) {
@@ -96,23 +98,20 @@ json DifferenceStats(const cv::Mat& rover, const cv::Mat& orbital) {
       absolute.push_back(std::abs(d));
     }
   }
-  if (absolute.empty()) return {{"cells", 0}};
+  if (absolute.empty()) return {};
   const double n = static_cast<double>(absolute.size());
   const double mean = sum / n;
   auto middle = absolute.begin() + static_cast<std::ptrdiff_t>(absolute.size() / 2);
   std::nth_element(absolute.begin(), middle, absolute.end());
-  return {{"cells", absolute.size()},
-          {"mean_m", mean},
-          {"rms_m", std::sqrt(sum_sq / n)},
-          {"stddev_m", std::sqrt(std::max(0.0, sum_sq / n - mean * mean))},
-          {"median_abs_m", *middle}};
+  return {static_cast<int64_t>(absolute.size()), mean, std::sqrt(sum_sq / n),
+          std::sqrt(std::max(0.0, sum_sq / n - mean * mean)), *middle};
 }
 
 // Pearson correlation of two images over the cells where both are finite.
-json Correlation(const cv::Mat& a, const cv::Mat& b) {
+TraverseCorrelation Correlation(const cv::Mat& a, const cv::Mat& b) {
   cv::Mat valid = (a == a) & (b == b);  // NaN != NaN.
   const int n = cv::countNonZero(valid);
-  if (n < 2) return {{"cells", n}};
+  if (n < 2) return {n, std::nullopt};
   cv::Mat a64, b64;
   a.convertTo(a64, CV_64F);
   b.convertTo(b64, CV_64F);
@@ -121,7 +120,7 @@ json Correlation(const cv::Mat& a, const cv::Mat& b) {
   cv::meanStdDev(b64, mean_b, std_b, valid);
   cv::Mat product = (a64 - mean_a[0]).mul(b64 - mean_b[0]);
   const double covariance = cv::mean(product, valid)[0];
-  return {{"cells", n}, {"correlation", covariance / (std_a[0] * std_b[0])}};
+  return {n, covariance / (std_a[0] * std_b[0])};
 }
 
 // An 8-bit picture of `values` stretched between its 1st and 99th percentiles (NaN black),
@@ -195,8 +194,8 @@ SiteLayers GridSite(const RunContext& run, size_t index, const SiteGeoreference&
   return layers;
 }
 
-json PosesJson(const std::vector<Rigid3d>& poses) {
-  json out = json::array();
+std::vector<std::array<double, 7>> PoseRecords(const std::vector<Rigid3d>& poses) {
+  std::vector<std::array<double, 7>> out;
   for (const Rigid3d& pose : poses) {
     const Eigen::Quaterniond& q = pose.rotation;
     out.push_back({pose.translation.x(), pose.translation.y(), pose.translation.z(), q.w(), q.x(),
@@ -207,17 +206,15 @@ json PosesJson(const std::vector<Rigid3d>& poses) {
 
 }  // namespace
 
-bool SamePoses(const json& recorded, const std::vector<Rigid3d>& poses) {
-  const json now = PosesJson(poses);
-  if (!recorded.is_array() || recorded.size() != now.size()) return false;
+bool SamePoses(const std::vector<std::array<double, 7>>& recorded,
+               const std::vector<Rigid3d>& poses) {
+  const std::vector<std::array<double, 7>> now = PoseRecords(poses);
+  if (recorded.size() != now.size()) return false;
   for (size_t i = 0; i < now.size(); ++i) {
     for (size_t k = 0; k < 7; ++k) {
       // 0.1 mm, 1e-4 in a quaternion component (~2e-4 rad, 3 mm at 15 m): far below the
-      // products' posting, above solver round-off.
-      if (!recorded[i][k].is_number() ||
-          std::abs(recorded[i][k].get<double>() - now[i][k].get<double>()) > 1e-4) {
-        return false;
-      }
+      // products' posting, above solver round-off. (A NaN recorded: not the same.)
+      if (!(std::abs(recorded[i][k] - now[i][k]) <= 1e-4)) return false;
     }
   }
   return true;
@@ -307,30 +304,30 @@ TraverseMosaics MakeTraverseMosaics(const RunContext& run, const TraversePlaceme
 // The products against the mission's orbital DTM and image (each when the mission has one),
 // added to `summary`.
 void CompareWithOrbital(const RunContext& run, const GridSpec& grid, const TraverseDtms& dtms,
-                        const TraverseMosaics& mosaics, json& summary) {
+                        const TraverseMosaics& mosaics, ProductsUnitResult& summary) {
   const MissionManifest& mission = *run.mission;
   if (const MissionOrbitalProduct* orbital_dtm = mission.FirstOrbital("dtm")) {
     const cv::Mat reference =
         ResampleOntoGrid(OrbitalImage::Open(orbital_dtm->path), grid, run.map.Wkt());
-    summary["orbital_dtm"] = orbital_dtm->path.filename().string();
-    summary["dtm_minus_orbital_adjusted"] =
-        DifferenceStats(dtms.adjusted.layers.elevation, reference);
-    summary["dtm_minus_orbital_telemetry"] =
+    summary.orbital_dtm = orbital_dtm->path.filename().string();
+    summary.dtm_minus_orbital_adjusted = DifferenceStats(dtms.adjusted.layers.elevation, reference);
+    summary.dtm_minus_orbital_telemetry =
         DifferenceStats(dtms.telemetry.layers.elevation, reference);
   }
   if (const MissionOrbitalProduct* image = mission.FirstOrbital("image")) {
     const cv::Mat reference =
         ResampleOntoGrid(OrbitalImage::Open(image->path), grid, run.map.Wkt());
-    summary["orbital_image"] = image->path.filename().string();
-    summary["ortho_vs_orbital_adjusted"] = Correlation(mosaics.adjusted.image, reference);
-    summary["ortho_vs_orbital_telemetry"] = Correlation(mosaics.telemetry.image, reference);
+    summary.orbital_image = image->path.filename().string();
+    summary.ortho_vs_orbital_adjusted = Correlation(mosaics.adjusted.image, reference);
+    summary.ortho_vs_orbital_telemetry = Correlation(mosaics.telemetry.image, reference);
   }
 }
 
 }  // namespace
 
-json RunProductsUnit(const RunContext& run, const std::vector<Rigid3d>& traverse_from_site,
-                     const ProgressCallback& progress) {
+ProductsUnitResult RunProductsUnit(const RunContext& run,
+                                   const std::vector<Rigid3d>& traverse_from_site,
+                                   const ProgressCallback& progress) {
   const size_t site_count = run.mission->sites.size();
   if (traverse_from_site.size() != site_count) {
     throw Error("traverse products: " + std::to_string(traverse_from_site.size()) +
@@ -344,11 +341,11 @@ json RunProductsUnit(const RunContext& run, const std::vector<Rigid3d>& traverse
   const TraversePlacement placement = PlaceSites(run, traverse_from_site);
   const GridSpec& grid = placement.grid;
 
-  // Wall time of the unit's parts [s].
-  json seconds = json::object();
+  ProductsUnitResult summary;
   auto clock = std::chrono::steady_clock::now();
   const auto lap = [&](const char* part) {
-    seconds[part] = std::chrono::duration<double>(std::chrono::steady_clock::now() - clock).count();
+    summary.seconds[part] =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - clock).count();
     clock = std::chrono::steady_clock::now();
   };
 
@@ -367,18 +364,16 @@ json RunProductsUnit(const RunContext& run, const std::vector<Rigid3d>& traverse
 
   report(0.9, "comparison with the orbital data");
   const double cell_area = grid.posting * grid.posting;
-  json summary = {
-      {"posting_m", grid.posting},
-      {"width", grid.width},
-      {"height", grid.height},
-      {"dtm_known_area_m2", dtms.adjusted.layers.known_cells * cell_area},
-      {"ortho_valid_area_m2", mosaics.adjusted.valid_cells * cell_area},
-      {"files",
-       {"traverse_dtm.tif", "traverse_dtm.png", "traverse_ortho.tif", "traverse_ortho.png"}},
-      {"poses", PosesJson(traverse_from_site)}};
+  summary.posting_m = grid.posting;
+  summary.width = grid.width;
+  summary.height = grid.height;
+  summary.dtm_known_area_m2 = dtms.adjusted.layers.known_cells * cell_area;
+  summary.ortho_valid_area_m2 = mosaics.adjusted.valid_cells * cell_area;
+  summary.files = {"traverse_dtm.tif", "traverse_dtm.png", "traverse_ortho.tif",
+                   "traverse_ortho.png"};
+  summary.poses = PoseRecords(traverse_from_site);
   CompareWithOrbital(run, grid, dtms, mosaics, summary);
   lap("comparison");
-  summary["seconds"] = seconds;
   report(1.0, "traverse products");
   return summary;
 }

@@ -380,10 +380,10 @@ class RunProgress {
 };
 
 // Every site unit, in parallel (TBB), computed or reused; counts them in `summary`.
-std::vector<json> RunSiteStage(const RunContext& run, RunProgress& bar,
-                               MissionRunSummary& summary) {
+std::vector<SiteUnitResult> RunSiteStage(const RunContext& run, RunProgress& bar,
+                                         MissionRunSummary& summary) {
   const size_t site_count = run.mission->sites.size();
-  std::vector<json> sites(site_count);
+  std::vector<SiteUnitResult> sites(site_count);
   std::vector<char> reused(site_count, 0);  // Not vector<bool>: written from parallel tasks.
   tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
     if (bar.cancelled()) return;
@@ -402,7 +402,7 @@ std::vector<json> RunSiteStage(const RunContext& run, RunProgress& bar,
 // matched with is not the one wanted), then the legs tested against each other (a leg the test
 // changed is read from adjustment/rock_ties/).
 struct LegStage {
-  std::vector<json> legs;
+  std::vector<LegUnitResult> legs;
   PooledVarianceFactor first_pass;
   std::optional<double> variance_pass;  // The factor the second pass applied.
   std::vector<fs::path> tie_files;      // Each leg's tie points for the adjustment.
@@ -458,47 +458,60 @@ AdjustmentStage PrepareAdjustment(const RunContext& run, const LegStage& legs) {
 }
 
 // The products unit with the adjusted poses: computed, or reused when it was made with the same
-// poses; `*unit` says which. Null when products are off.
-json EnsureProductsUnit(const RunContext& run, const ProgressCallback& progress,
-                        std::string* unit) {
+// poses; `*unit` says which. Nullopt when products are off.
+std::optional<ProductsUnitResult> EnsureProductsUnit(const RunContext& run,
+                                                     const ProgressCallback& progress,
+                                                     std::string* unit) {
   const size_t site_count = run.mission->sites.size();
-  if (!run.options->traverse_products || site_count == 0) return nullptr;
+  if (!run.options->traverse_products || site_count == 0) return std::nullopt;
   const std::vector<Rigid3d> poses =
       AdjustedPoses(run.out_dir / "adjustment" / "adjustment.json", site_count);
   const fs::path dir = run.out_dir / "products";
-  json products = FinishedUnit(run, dir);
+  std::optional<ProductsUnitResult> products = FinishedUnitResult<ProductsUnitResult>(run, dir);
   *unit = "reused";
-  if (products.is_null() || !SamePoses(products.value("poses", json()), poses)) {
+  if (!products || !SamePoses(products->poses, poses)) {
     *unit = "computed";
     products = RunProductsUnit(run, poses, progress);
-    FinishUnit(run, dir, products);
+    FinishUnit(run, dir, products->ToJson());
   }
-  products.erase("poses");  // In products/unit.json; summary.json keeps the figures.
+  products->poses.clear();  // In products/unit.json; summary.json keeps the figures.
   return products;
 }
 
 // What each stage cost when its units were computed (this run or an earlier one), from the
 // units' records: per-site stages and legs summed (sites ran two or more at a time).
-json ComputedSeconds(const std::vector<json>& sites, const std::vector<json>& legs,
-                     const json& craters, double adjustment_seconds, const json& products) {
-  json computed = {{"stereo", 0.0}, {"dtm", 0.0}, {"ortho", 0.0}, {"registration", 0.0}};
-  for (const json& site : sites) {
-    for (auto& [stage, value] : computed.items()) {
-      value = value.get<double>() + site.value("seconds", json::object()).value(stage, 0.0);
+json ComputedSeconds(const std::vector<SiteUnitResult>& sites,
+                     const std::vector<LegUnitResult>& legs,
+                     const std::optional<CratersUnitResult>& craters, double adjustment_seconds,
+                     const std::optional<ProductsUnitResult>& products) {
+  json computed = json::object();
+  for (const char* stage : {"stereo", "dtm", "ortho", "registration"}) {
+    double sum = 0.0;
+    for (const SiteUnitResult& site : sites) {
+      const auto found = site.seconds.find(stage);
+      if (found != site.seconds.end()) sum += found->second;
     }
+    computed[stage] = sum;
   }
   double legs_seconds = 0.0;
-  for (const json& leg : legs) legs_seconds += leg.value("seconds", 0.0);
+  for (const LegUnitResult& leg : legs) legs_seconds += leg.match.seconds.value_or(0.0);
   computed["legs"] = legs_seconds;
-  computed["craters"] = craters.is_object() ? craters.value("seconds", 0.0) : 0.0;
+  computed["craters"] = craters ? craters->seconds : 0.0;
   computed["adjustment"] = adjustment_seconds;
   double products_seconds = 0.0;
-  if (products.is_object()) {
-    const json parts = products.value("seconds", json::object());
-    for (const auto& [part, value] : parts.items()) products_seconds += value.get<double>();
+  if (products) {
+    for (const auto& [part, value] : products->seconds) products_seconds += value;
   }
   computed["products"] = products_seconds;
   return computed;
+}
+
+// summary.json's "sites" or "legs": each unit's record.
+template <typename Result>
+json Records(const std::vector<Result>& results) {
+  json records = json::array();
+  for (const Result& r : results) records.push_back(r.ToJson());
+  return records;
 }
 
 }  // namespace
@@ -521,13 +534,13 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   };
 
   MissionRunSummary summary;
-  const std::vector<json> sites = RunSiteStage(run, bar, summary);
+  const std::vector<SiteUnitResult> sites = RunSiteStage(run, bar, summary);
   lap("sites");
   const LegStage legs = RunLegStage(run, bar, summary);
   lap("legs");
   // How the whole-run units went: "computed", "reused" or "off".
   std::string craters_unit = "off", products_unit = "off";
-  json craters;
+  std::optional<CratersUnitResult> craters;
   if (options.detect_craters) {
     bool was_reused = false;
     craters =
@@ -538,26 +551,27 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   // The adjustment reads everything the units wrote: the network, every site's control
   // points and every leg's tie points.
   AdjustmentStage adjustment = PrepareAdjustment(run, legs);
-  json adjusted = adjustment.Run(bar.Span(RunProgress::kCraters, RunProgress::kAdjustment));
+  AdjustmentResult adjusted =
+      adjustment.Run(bar.Span(RunProgress::kCraters, RunProgress::kAdjustment));
   lap("adjustment");
-  const json guided = RunGuidedPasses(run, sites, adjustment, adjusted, [&] {
+  const GuidedPassesResult guided = RunGuidedPasses(run, sites, adjustment, adjusted, [&] {
     bar.Report(RunProgress::kAdjustment, "guided registration");
   });
   lap("guided_registration");
-  const json products =
+  const std::optional<ProductsUnitResult> products =
       EnsureProductsUnit(run, bar.Span(RunProgress::kAdjustment, 1.0), &products_unit);
   lap("products");
   bar.Report(1.0, "done");
 
   summary.json = {{"mission", mission.root.string()},
                   {"name", mission.name},
-                  {"sites", sites},
-                  {"legs", legs.legs},
+                  {"sites", Records(sites)},
+                  {"legs", Records(legs.legs)},
                   {"rock_tie_variance", TieVarianceJson(legs.first_pass, legs.variance_pass)},
-                  {"craters", craters},
-                  {"adjustment", adjusted},
-                  {"guided_registration", guided},
-                  {"products", products},
+                  {"craters", craters ? craters->ToJson() : json()},
+                  {"adjustment", adjusted.ToJson()},
+                  {"guided_registration", guided.ToJson()},
+                  {"products", products ? products->ToJson() : json()},
                   {"units",
                    {{"sites_computed", summary.sites_computed},
                     {"sites_reused", summary.sites_reused},

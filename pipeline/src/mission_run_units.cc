@@ -18,27 +18,6 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-json EnsureUnit(const RunContext& run, const std::string& unit_id, const fs::path& unit_dir,
-                const std::function<json()>& compute, bool* reused,
-                const std::function<bool(const json&)>& accept) {
-  json summary;
-  std::string error;
-  const UnitOutcome outcome = RunClaimedUnit(
-      ClaimFile(run.out_dir, unit_id), unit_dir / "error.txt", unit_id,
-      [&] {
-        summary = FinishedUnit(run, unit_dir);
-        return !summary.is_null() && (!accept || accept(summary));
-      },
-      [&] {
-        summary = compute();
-        if (fs::exists(unit_dir)) FinishUnit(run, unit_dir, summary);
-      },
-      run.claims, /*wait=*/true, &error);
-  if (outcome == UnitOutcome::kFailed) throw Error(error);
-  if (reused) *reused = outcome == UnitOutcome::kReused;
-  return summary;
-}
-
 namespace {
 
 std::string Digits(int n) {
@@ -57,49 +36,37 @@ std::string SecondPassUnitId(int site_a, int site_b) {
   return LegUnitId(site_a, site_b) + "_pass2";
 }
 
-json EnsureSiteUnit(const RunContext& run, size_t site_index, const ProgressCallback& progress,
-                    bool* reused) {
+SiteUnitResult EnsureSiteUnit(const RunContext& run, size_t site_index,
+                              const ProgressCallback& progress, bool* reused) {
   const int site = run.mission->sites[site_index].site;
-  return EnsureUnit(
+  return EnsureUnit<SiteUnitResult>(
       run, SiteUnitId(site), SiteDir(run, site),
       [&] { return RunSiteUnit(run, site_index, progress); }, reused);
 }
 
 namespace {
 
-json MatchLeg(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
-              const RockMatchingOptions& matching, const ProgressCallback& progress) {
+LegUnitResult MatchLeg(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
+                       const RockMatchingOptions& matching, const ProgressCallback& progress) {
   const auto start = std::chrono::steady_clock::now();
-  json done = RunLegUnit(run, index_a, index_a + 1, rocks, matching, progress);
-  done["seconds"] = SecondsSince(start);
+  LegUnitResult done = RunLegUnit(run, index_a, index_a + 1, rocks, matching, progress);
+  done.match.seconds = SecondsSince(start);
   return done;
 }
 
-// A leg's first-pass figures: "first_pass" after the second pass matched it again, else the leg.
-const json& FirstPass(const json& leg) {
-  const auto found = leg.find("first_pass");
-  return found != leg.end() && found->is_object() ? *found : leg;
-}
-
-// The first-pass figures a leg keeps when the second pass matches it again.
-json FirstPassRecord(const json& leg) {
-  const json& first = FirstPass(leg);
-  json record = json::object();
-  for (const char* key :
-       {"outcome", "tie_points", "rock_matches", "relative_error_percent", "conformal_chi2",
-        "conformal_redundancy", "tie_variance_factor", "seconds"}) {
-    if (first.contains(key)) record[key] = first[key];
-  }
-  return record;
+// A leg's first-pass figures: its first_pass after the second pass matched it again, else its
+// own.
+const LegPassRecord& FirstPass(const LegUnitResult& leg) {
+  return leg.first_pass ? *leg.first_pass : leg.match;
 }
 
 }  // namespace
 
-json EnsureLegUnit(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
-                   const ProgressCallback& progress, bool* reused) {
+LegUnitResult EnsureLegUnit(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
+                            const ProgressCallback& progress, bool* reused) {
   const int site_a = run.mission->sites[index_a].site;
   const int site_b = run.mission->sites[index_a + 1].site;
-  return EnsureUnit(
+  return EnsureUnit<LegUnitResult>(
       run, LegUnitId(site_a, site_b), LegDir(run, site_a, site_b),
       [&] {
         for (const int site : {site_a, site_b}) {
@@ -116,15 +83,14 @@ json EnsureLegUnit(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
 // The rock tie points' a-posteriori variance factor over the run's legs: their first-pass
 // conformal fits' chi2 (recorded at the pass's tie_variance_factor, scaled back to the a-priori
 // covariances) and redundancy, pooled (PoolVarianceFactor).
-PooledVarianceFactor FirstPassTieVariance(const std::vector<json>& legs) {
+PooledVarianceFactor FirstPassTieVariance(const std::vector<LegUnitResult>& legs) {
   std::vector<SitePairError> fits;
-  for (const json& leg : legs) {
-    const json& first = FirstPass(leg);
-    const json chi2 = first.value("conformal_chi2", json());
-    if (!chi2.is_number() || !std::isfinite(chi2.get<double>())) continue;  // null when resumed
+  for (const LegUnitResult& leg : legs) {
+    const LegPassRecord& first = FirstPass(leg);
+    if (!first.conformal_chi2 || !std::isfinite(*first.conformal_chi2)) continue;  // null: resumed
     SitePairError fit;
-    fit.chi2 = chi2.get<double>() * first.value("tie_variance_factor", 1.0);
-    fit.redundancy = first.value("conformal_redundancy", 0);
+    fit.chi2 = *first.conformal_chi2 * first.tie_variance_factor;
+    fit.redundancy = static_cast<int>(first.conformal_redundancy.value_or(0));
     fits.push_back(fit);
   }
   return PoolVarianceFactor(fits);
@@ -142,37 +108,39 @@ json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional<double> a
           {"applied_factor", applied ? json(*applied) : json()}};
 }
 
-std::optional<double> SecondPassFactor(const RunContext& run, const std::vector<json>& legs) {
+std::optional<double> SecondPassFactor(const RunContext& run,
+                                       const std::vector<LegUnitResult>& legs) {
   return run.options->RockVariancePassFactor(FirstPassTieVariance(legs));
 }
 
 bool EnsureLegSecondPass(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
-                         std::optional<double> factor, json& leg,
+                         std::optional<double> factor, LegUnitResult& leg,
                          const ProgressCallback& progress) {
   RockMatchingOptions matching = run.options->matching;
   if (factor) matching.tie_variance_factor = *factor;
   const double wanted = matching.tie_variance_factor;
-  const auto matched_with_wanted = [wanted](const json& summary) {
-    return std::abs(summary.value("tie_variance_factor", 1.0) - wanted) <= 1e-12 * wanted;
+  const auto matched_with_wanted = [wanted](const LegUnitResult& summary) {
+    return std::abs(summary.match.tie_variance_factor - wanted) <= 1e-12 * wanted;
   };
   if (matched_with_wanted(leg)) return false;
   const int site_a = run.mission->sites[index_a].site;
   const int site_b = run.mission->sites[index_a + 1].site;
   bool reused = false;
-  leg = EnsureUnit(
+  leg = EnsureUnit<LegUnitResult>(
       run, SecondPassUnitId(site_a, site_b), LegDir(run, site_a, site_b),
       [&] {
         // The first pass as recorded now (another process may have finished it meanwhile).
-        const json recorded = FinishedUnit(run, LegDir(run, site_a, site_b));
-        if (recorded.is_null()) {
+        const std::optional<LegUnitResult> recorded =
+            FinishedUnitResult<LegUnitResult>(run, LegDir(run, site_a, site_b));
+        if (!recorded) {
           throw Error(SecondPassUnitId(site_a, site_b) + " needs the leg unit " +
                       LegUnitId(site_a, site_b) + " finished first");
         }
-        const json first = FirstPassRecord(recorded);
-        json done = MatchLeg(run, index_a, rocks, matching, progress);
+        const LegPassRecord first = FirstPass(*recorded);
+        LegUnitResult done = MatchLeg(run, index_a, rocks, matching, progress);
         if (factor) {
-          done["first_pass"] = first;
-          done["seconds"] = done["seconds"].get<double>() + first.value("seconds", 0.0);
+          done.first_pass = first;
+          done.match.seconds = done.match.seconds.value_or(0.0) + first.seconds.value_or(0.0);
         }
         return done;
       },
@@ -180,14 +148,15 @@ bool EnsureLegSecondPass(const RunContext& run, size_t index_a, SiteRocksCache& 
   return !reused;
 }
 
-json EnsureCratersUnit(const RunContext& run, const ProgressCallback& progress, bool* reused) {
-  if (!run.options->detect_craters) return nullptr;
-  return EnsureUnit(
+std::optional<CratersUnitResult> EnsureCratersUnit(const RunContext& run,
+                                                   const ProgressCallback& progress, bool* reused) {
+  if (!run.options->detect_craters) return std::nullopt;
+  return EnsureUnit<CratersUnitResult>(
       run, "craters", run.out_dir / "craters",
       [&] {
         const auto start = std::chrono::steady_clock::now();
-        json craters = RunCratersUnit(run, progress);
-        craters["seconds"] = SecondsSince(start);
+        CratersUnitResult craters = RunCratersUnit(run, progress);
+        craters.seconds = SecondsSince(start);
         return craters;
       },
       reused);

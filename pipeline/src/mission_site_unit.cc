@@ -2,8 +2,10 @@
 // orthophoto on the mission map at the telemetry pose, and the orthophoto's registration onto
 // the orbital image, which yields the site's control points.
 #include <chrono>
+#include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -17,6 +19,7 @@
 #include "areomap/map/image_io.h"
 #include "areomap/map/point_cloud_io.h"
 #include "areomap/registration/orbital_image.h"
+#include "areomap/registration/ortho_registration.h"
 #include "mission_units.h"
 
 namespace areomap::mission_run {
@@ -28,7 +31,7 @@ using nlohmann::json;
 struct SiteStereo {
   PointCloud cloud;
   std::vector<OrthoSourceImage> images;  // Left images with their cameras in the site frame.
-  json pairs = json::array();
+  std::vector<StereoPairRecord> pairs;
   size_t coarse_points_dropped = 0;  // Where a more precise pair saw the same ground.
 };
 
@@ -73,15 +76,12 @@ SiteStereo RunSiteStereo(const RunContext& run, const MissionSite& site,
                                thinned.points.end());
     centre_sum += dense.cloud.camera_center;
     result.images.push_back({static_cast<int>(i), left_image, CameraInSite(left)});
-    result.pairs.push_back({{"instrument", pair.instrument},
-                            {"pair", pair.pair},
-                            {"image_id", i},
-                            {"points", dense.summary.points},
-                            {"points_buried", dense.summary.line_of_sight.buried},
-                            {"points_floating", dense.summary.line_of_sight.floating},
-                            {"points_kept", thinned.points.size()},
-                            {"point_spacing_m", spacing_m},
-                            {"valid_fraction", dense.summary.valid_fraction}});
+    result.pairs.push_back({pair.instrument, pair.pair, static_cast<int>(i),
+                            static_cast<int64_t>(dense.summary.points),
+                            static_cast<int64_t>(dense.summary.line_of_sight.buried),
+                            static_cast<int64_t>(dense.summary.line_of_sight.floating),
+                            static_cast<int64_t>(thinned.points.size()), spacing_m,
+                            dense.summary.valid_fraction});
   }
   if (!site.pairs.empty()) centre_sum /= static_cast<double>(site.pairs.size());
   result.cloud.camera_center = centre_sum;
@@ -95,39 +95,47 @@ SiteStereo RunSiteStereo(const RunContext& run, const MissionSite& site,
 
 }  // namespace
 
-json RegisterSiteOrtho(const RunContext& run, const Orthophoto& ortho, const fs::path& ortho_path,
-                       int site, const OrbitalPrior& prior, const OrbitalMatchOptions& options,
-                       const fs::path& dir) {
+SiteRegistrationResult RegisterSiteOrtho(const RunContext& run, const Orthophoto& ortho,
+                                         const fs::path& ortho_path, int site,
+                                         const OrbitalPrior& prior,
+                                         const OrbitalMatchOptions& options, const fs::path& dir) {
   const MissionOrbitalProduct* image = run.mission->FirstOrbital("image");
-  if (image == nullptr)
-    return {{"status", "skipped"}, {"reason", "the mission has no orbital image"}};
-  const OrbitalImage orbital = OrbitalImage::Open(image->path);
+  if (image == nullptr) {
+    SiteRegistrationResult skipped;
+    skipped.skipped = true;
+    skipped.reason = "the mission has no orbital image";
+    return skipped;
+  }
   std::optional<OrbitalImage> orbital_dtm;
   if (const MissionOrbitalProduct* dtm = run.mission->FirstOrbital("dtm")) {
     orbital_dtm = OrbitalImage::Open(dtm->path);
   }
-  const OrthoImage ortho_image =
-      OrthoImageFromOrthophoto(ortho, ortho_path.string(), site, prior.position);
-  const OrbitalMatch match = MatchOrthoToOrbital(ortho_image, orbital, prior, options);
-  json report = MatchJson(match);
-  report["prior_sigma_m"] = prior.sigma_m;
+  OrthoRegistrationOptions job;
+  job.verify_edges = false;
+  job.match = options;
+  job.control = run.options->control;
+  const OrthoRegistration registration =
+      RegisterOrthoImage(OrthoImageFromOrthophoto(ortho, ortho_path.string(), site, prior.position),
+                         {OrbitalImage::Open(image->path)}, orbital_dtm, prior, job);
+  const OrbitalMatch& match = registration.result.matches.front();
   if (const cv::Mat surface = CorrelationSurfaceImage(match); !surface.empty()) {
     WriteImage(dir / "correlation_surface.png", surface);
   }
   std::vector<ControlPoint> controls;
-  if (match.matched) {
-    for (const OrbitalControlPoint& point :
-         MakeControlPoints(match, ortho_image, orbital, prior, orbital_dtm, run.options->control)) {
-      ControlPoint control = point.point;
-      control.id = "site" + std::to_string(site) + "-" + control.id;  // Unique in the run.
-      controls.push_back(control);
-    }
+  for (const OrbitalControlPoint& point : registration.control_points) {
+    ControlPoint control = point.point;
+    control.id = "site" + std::to_string(site) + "-" + control.id;  // Unique in the run.
+    controls.push_back(control);
   }
   WriteFileAtomically(dir / "control_points.json",
                       json{{"control_points", ControlPointsToJson(controls)}}.dump(2));
+  // registration.json is the match's record (MatchJson); the result is that record read back, as
+  // a later run (a leg's prior, a resumed unit) reads the file.
+  json report = MatchJson(match);
+  report["prior_sigma_m"] = prior.sigma_m;
   report["control_points"] = controls.size();
   WriteFileAtomically(dir / "registration.json", report.dump(2));
-  return report;
+  return SiteRegistrationResult::FromJson(report, (dir / "registration.json").string());
 }
 
 std::vector<OrthoSourceImage> SiteOrthoImages(const MissionSite& site, int first_id) {
@@ -139,7 +147,8 @@ std::vector<OrthoSourceImage> SiteOrthoImages(const MissionSite& site, int first
   return images;
 }
 
-json RunSiteUnit(const RunContext& run, size_t site_index, const ProgressCallback& progress) {
+SiteUnitResult RunSiteUnit(const RunContext& run, size_t site_index,
+                           const ProgressCallback& progress) {
   const MissionSite& site = run.mission->sites.at(site_index);
   const fs::path dir = SiteDir(run, site.site);
   fs::create_directories(dir);
@@ -151,8 +160,8 @@ json RunSiteUnit(const RunContext& run, size_t site_index, const ProgressCallbac
     if (!progress) return nullptr;
     return [=](double f, std::string_view name) { return progress(from + (to - from) * f, name); };
   };
-  // Wall time of each stage [s] (the summary.json timing table).
-  json seconds = json::object();
+  SiteUnitResult result;
+  result.site = site.site;
   auto clock = std::chrono::steady_clock::now();
   SiteStereo stereo = RunSiteStereo(run, site, stage(0.0, 0.5));
   if (stereo.cloud.points.empty()) {
@@ -160,38 +169,36 @@ json RunSiteUnit(const RunContext& run, size_t site_index, const ProgressCallbac
                 std::to_string(site.pairs.size()) + " pairs; check the images and labels");
   }
   WritePointCloudPly(stereo.cloud, dir / "points.ply");
-  seconds["stereo"] = SecondsSince(clock);
+  result.seconds["stereo"] = SecondsSince(clock);
   clock = std::chrono::steady_clock::now();
 
   const Dtm dtm =
       MakeDtm({SiteCloud{&stereo.cloud, georef}}, run.map, run.options->dtm, stage(0.5, 0.6));
   WriteDtm(dir / "dtm.tif", dtm);
-  seconds["dtm"] = SecondsSince(clock);
+  result.seconds["dtm"] = SecondsSince(clock);
   clock = std::chrono::steady_clock::now();
   const Orthophoto ortho =
       MakeOrthophoto(dtm, georef, run.map, stereo.images, run.options->ortho, stage(0.6, 0.8));
   WriteOrthophoto(dir / "ortho.tif", ortho);
-  seconds["ortho"] = SecondsSince(clock);
+  result.seconds["ortho"] = SecondsSince(clock);
   clock = std::chrono::steady_clock::now();
 
   const double prior_sigma =
       run.options->prior_sigma_floor_m +
       run.options->prior_sigma_per_m * DrivenDistance(*run.mission, site_index);
   const OrbitalPrior prior{georef.Origin(), georef.body, prior_sigma};
-  json registration =
+  result.registration =
       RegisterSiteOrtho(run, ortho, dir / "ortho.tif", site.site, prior, run.options->match, dir);
-  seconds["registration"] = SecondsSince(clock);
+  result.seconds["registration"] = SecondsSince(clock);
   if (progress) progress(1.0, "registration");
 
   const double cell_area = dtm.layers.grid.posting * dtm.layers.grid.posting;
-  return {{"site", site.site},
-          {"pairs", stereo.pairs},
-          {"points", stereo.cloud.points.size()},
-          {"coarse_points_dropped", stereo.coarse_points_dropped},
-          {"dtm_known_area_m2", dtm.layers.known_cells * cell_area},
-          {"ortho_valid_area_m2", ortho.valid_cells * cell_area},
-          {"registration", registration},
-          {"seconds", seconds}};
+  result.pairs = std::move(stereo.pairs);
+  result.points = static_cast<int64_t>(stereo.cloud.points.size());
+  result.coarse_points_dropped = static_cast<int64_t>(stereo.coarse_points_dropped);
+  result.dtm_known_area_m2 = dtm.layers.known_cells * cell_area;
+  result.ortho_valid_area_m2 = ortho.valid_cells * cell_area;
+  return result;
 }
 
 }  // namespace areomap::mission_run

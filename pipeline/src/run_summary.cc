@@ -7,92 +7,15 @@
 #include <utility>
 
 #include "areomap/map/error.h"
+#include "json_fields.h"
 
 namespace areomap {
 namespace {
 
 using nlohmann::json;
 
-// One JSON object of the summary being read, with its place for error messages
-// ("summary.json: legs[2].faults").
-class Fields {
- public:
-  Fields(const json& object, std::string where) : object_(object), where_(std::move(where)) {}
-
-  const json& object() const { return object_; }
-  // Present and not null.
-  bool Has(const char* key) const {
-    const auto it = object_.find(key);
-    return it != object_.end() && !it->is_null();
-  }
-  OptionalNumber Number(const char* key) const {
-    if (!Has(key)) return std::nullopt;
-    const json& v = object_.at(key);
-    if (!v.is_number()) Fail(key, v, "a number");
-    return v.get<double>();
-  }
-  int Integer(const char* key, int fallback) const {
-    if (!Has(key)) return fallback;
-    const json& v = object_.at(key);
-    if (!v.is_number_integer()) Fail(key, v, "an integer");
-    return v.get<int>();
-  }
-  bool Flag(const char* key, bool fallback) const {
-    if (!Has(key)) return fallback;
-    const json& v = object_.at(key);
-    if (!v.is_boolean()) Fail(key, v, "true or false");
-    return v.get<bool>();
-  }
-  std::string Text(const char* key, const std::string& fallback) const {
-    if (!Has(key)) return fallback;
-    const json& v = object_.at(key);
-    if (!v.is_string()) Fail(key, v, "a string");
-    return v.get<std::string>();
-  }
-  // The object at `key`; nullopt when absent or null (a stage that was off).
-  std::optional<Fields> Object(const char* key) const {
-    if (!Has(key)) return std::nullopt;
-    const json& v = object_.at(key);
-    if (!v.is_object()) Fail(key, v, "an object");
-    return Fields(v, Where(key));
-  }
-  // The elements of the array at `key` (none when absent).
-  const json& Array(const char* key) const {
-    static const json kEmpty = json::array();
-    if (!Has(key)) return kEmpty;
-    const json& v = object_.at(key);
-    if (!v.is_array()) Fail(key, v, "an array");
-    return v;
-  }
-  std::vector<int> Integers(const char* key) const {
-    std::vector<int> out;
-    const json& array = Array(key);
-    for (size_t i = 0; i < array.size(); ++i) {
-      if (!array[i].is_number_integer()) Fail(key, array[i], "an array of integers");
-      out.push_back(array[i].get<int>());
-    }
-    return out;
-  }
-  // Element `i` of the array at `key`, which must be an object.
-  Fields Element(const char* key, size_t i) const {
-    const json& e = Array(key)[i];
-    const std::string where = Where(key) + "[" + std::to_string(i) + "]";
-    if (!e.is_object()) {
-      throw Error(where + " is " + e.dump().substr(0, 40) + "; expected an object");
-    }
-    return Fields(e, where);
-  }
-
- private:
-  std::string Where(const char* key) const { return where_ + "." + key; }
-  [[noreturn]] void Fail(const char* key, const json& value, const char* expected) const {
-    throw Error(Where(key) + " is " + value.dump().substr(0, 40) + "; expected " + expected +
-                " (the type areomap run writes)");
-  }
-
-  const json& object_;
-  std::string where_;
-};
+using json_fields::Fields;
+using json_fields::Put;
 
 SiteSummary ReadSite(const Fields& f) {
   SiteSummary s;
@@ -236,11 +159,6 @@ std::map<std::string, double> ReadSeconds(const Fields& f, const char* key) {
     }
   }
   return out;
-}
-
-// `value` under `key` unless nullopt.
-void Put(json& object, const char* key, const OptionalNumber& value) {
-  if (value) object[key] = *value;
 }
 
 json SiteToJson(const SiteSummary& s) {

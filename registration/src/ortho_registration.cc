@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <utility>
 
 #include "areomap/map/error.h"
 #include "areomap/map/raster.h"
@@ -41,10 +42,8 @@ OrthoRegistration RegisterOrtho(const std::filesystem::path& ortho_path,
                                 const OrthoRegistrationOptions& options,
                                 const ProgressCallback& progress) {
   options.Check();
-  OrthoRegistration registration;
-  registration.ortho = ReadOrthoImage(ortho_path);
-  OrthoImage& ortho = registration.ortho;
-  OrbitalPrior& prior = registration.prior;
+  OrthoImage ortho = ReadOrthoImage(ortho_path);
+  OrbitalPrior prior;
   prior.sigma_m = options.prior_sigma_m;
   if (options.prior_position) {
     prior.position = *options.prior_position;
@@ -67,10 +66,10 @@ OrthoRegistration RegisterOrtho(const std::filesystem::path& ortho_path,
   }
   std::optional<OrbitalImage> dtm;
   if (orbital_dtm) dtm = OrbitalImage::Open(*orbital_dtm);
-
-  registration.result = MatchOrthoToOrbitals(ortho, orbitals, prior, options.match, progress);
+  OrthoRegistration done =
+      RegisterOrthoImage(std::move(ortho), orbitals, dtm, prior, options, progress);
   bool any_overlap = false;
-  for (const OrbitalMatch& m : registration.result.matches) any_overlap = any_overlap || m.overlaps;
+  for (const OrbitalMatch& m : done.result.matches) any_overlap = any_overlap || m.overlaps;
   if (!any_overlap) {
     char where[160];  // %.0f: a radius beyond int (prior_sigma_m 1e9) printed as it is
     std::snprintf(where, sizeof(where), "%.0f m around latitude %.6f, longitude %.6f deg",
@@ -78,16 +77,32 @@ OrthoRegistration RegisterOrtho(const std::filesystem::path& ortho_path,
                   DegFromRad(prior.position.lon));
     throw Error(std::string("no orbital image overlaps the search window: ") + where);
   }
+  return done;
+}
+
+OrthoRegistration RegisterOrthoImage(OrthoImage ortho, const std::vector<OrbitalImage>& orbitals,
+                                     const std::optional<OrbitalImage>& orbital_dtm,
+                                     const OrbitalPrior& prior,
+                                     const OrthoRegistrationOptions& options,
+                                     const ProgressCallback& progress) {
+  options.Check();
+  OrthoRegistration registration;
+  registration.ortho = std::move(ortho);
+  registration.prior = prior;
+  registration.result =
+      MatchOrthoToOrbitals(registration.ortho, orbitals, prior, options.match, progress);
   const int best = registration.result.best;
   if (best >= 0) {
     const OrbitalMatch& match = registration.result.matches[best];
     const OrbitalImage& orbital = orbitals[best];
-    EdgeVerificationOptions edge_options;
-    edge_options.fit_similarity = options.similarity;
-    registration.edges = VerifyMatchWithEdges(match, edge_options);
+    if (options.verify_edges) {
+      EdgeVerificationOptions edge_options;
+      edge_options.fit_similarity = options.similarity;
+      registration.edges = VerifyMatchWithEdges(match, edge_options);
+    }
     registration.control_points =
-        MakeControlPoints(match, ortho, orbital, prior, dtm, options.control);
-    registration.corrected_geotransform = CorrectedGeoTransform(match, ortho, orbital);
+        MakeControlPoints(match, registration.ortho, orbital, prior, orbital_dtm, options.control);
+    registration.corrected_geotransform = CorrectedGeoTransform(match, registration.ortho, orbital);
   }
   return registration;
 }

@@ -1,11 +1,14 @@
 #include "areomap/landmarks/leg_consistency.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <numbers>
 #include <random>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
@@ -169,7 +172,7 @@ TEST(LegConsistency, BadOptionsNameTheField) {
 struct GatheredLegs {
   MissionManifest mission;
   MissionRunOptions options;
-  std::vector<nlohmann::json> summaries;
+  std::vector<mission_run::LegUnitResult> summaries;
 };
 
 GatheredLegs Gather(const std::filesystem::path& out,
@@ -188,14 +191,15 @@ GatheredLegs Gather(const std::filesystem::path& out,
     std::filesystem::create_directories(dir);
     WriteFileAtomically(dir / "tie_points.json",
                         nlohmann::json{{"tie_points", TiePointsToJson(traverse[i])}}.dump());
-    g.summaries.push_back(
-        {{"site_a", i},
-         {"site_b", i + 1},
-         {"outcome", "matched"},
-         {"tie_points", traverse[i].size()},
-         {"relative_error_percent", 1.0},
-         {"prior", {{"a_from_b_translation_m", {12.0, -1.5, 0.0}}}},
-         {"faults", {{"outcome", "matched"}, {"rules", nlohmann::json::array()}}}});
+    mission_run::LegUnitResult leg;
+    leg.site_a = static_cast<int>(i);
+    leg.site_b = static_cast<int>(i) + 1;
+    leg.match.outcome = "matched";
+    leg.match.tie_points = static_cast<int64_t>(traverse[i].size());
+    leg.match.relative_error_percent = 1.0;
+    leg.prior.emplace();
+    leg.prior->a_from_b_translation_m = std::array<double, 3>{12.0, -1.5, 0.0};
+    g.summaries.push_back(leg);
   }
   return g;
 }
@@ -211,57 +215,58 @@ TEST(LegConsistency, ARunReadsTheTiePointsTheLegsTestLeft) {
   GatheredLegs g = Gather(dir.path(), traverse);
   // A leg unit from before legs recorded their prior pose: RE falls back to telemetry.
   GatheredLegs without_prior = Gather(dir.path() / "without_prior", traverse);
-  without_prior.summaries[2].erase("prior");
+  without_prior.summaries[2].prior.reset();
   const mission_run::RunContext run(g.mission, g.options, dir.path());
   const std::filesystem::path ties_dir = dir.path() / "adjustment" / "rock_ties";
   const std::vector<std::filesystem::path> files =
       mission_run::TestLegsAgainstEachOther(run, g.summaries, ties_dir);
   ASSERT_EQ(files.size(), 8u);
   for (size_t i = 0; i < 8; ++i) {
-    const nlohmann::json& leg = g.summaries[i];
-    ASSERT_TRUE(leg["leg_test"].value("tested", false)) << i;
-    const nlohmann::json& rules = leg["faults"]["rules"];
+    const mission_run::LegUnitResult& leg = g.summaries[i];
+    ASSERT_TRUE(leg.leg_test && leg.leg_test->tested) << i;
+    const std::vector<FaultCheck>& rules = leg.faults.checks;
     ASSERT_GE(rules.size(), 1u);
-    EXPECT_EQ(rules[0]["rule"], "leg's variance factor / other legs' (F test)");
+    EXPECT_EQ(rules[0].rule, "leg's variance factor / other legs' (F test)");
     if (i == 2 || i == 5) continue;
     EXPECT_EQ(files[i], mission_run::LegDir(run, static_cast<int>(i), static_cast<int>(i) + 1) /
                             "tie_points.json");
-    EXPECT_EQ(leg["outcome"], "matched");
-    EXPECT_TRUE(leg["leg_test"]["dropped_ids"].empty());
+    EXPECT_EQ(leg.match.outcome, "matched");
+    EXPECT_TRUE(leg.leg_test_dropped_ids.empty());
   }
   // The dropped tie point is gone from what the adjustment reads; RE re-evaluated without it.
   EXPECT_EQ(files[2], ties_dir / "leg_002_003.json");
   const std::vector<TiePoint> kept = ReadTiePoints(files[2]);
   ASSERT_EQ(kept.size(), 5u);
   for (const TiePoint& t : kept) EXPECT_NE(t.id, "r3");
-  EXPECT_EQ(g.summaries[2]["leg_test"]["dropped_ids"], nlohmann::json::array({"r3"}));
-  EXPECT_EQ(g.summaries[2]["outcome"], "matched");
-  EXPECT_EQ(g.summaries[2]["tie_points"], 5);
-  EXPECT_NE(g.summaries[2]["relative_error_percent"].get<double>(), 1.0);
+  EXPECT_EQ(g.summaries[2].leg_test_dropped_ids, std::vector<std::string>{"r3"});
+  EXPECT_EQ(g.summaries[2].match.outcome, "matched");
+  EXPECT_EQ(g.summaries[2].match.tie_points, 5);
+  ASSERT_TRUE(g.summaries[2].match.relative_error_percent);
+  EXPECT_NE(*g.summaries[2].match.relative_error_percent, 1.0);
   const mission_run::RunContext run_without(without_prior.mission, without_prior.options,
                                             dir.path() / "without_prior");
   mission_run::TestLegsAgainstEachOther(run_without, without_prior.summaries,
                                         dir.path() / "without_prior" / "rock_ties");
-  EXPECT_NEAR(without_prior.summaries[2]["relative_error_percent"].get<double>(),
-              g.summaries[2]["relative_error_percent"].get<double>(), 1e-9);
+  EXPECT_NEAR(without_prior.summaries[2].match.relative_error_percent.value_or(-1.0),
+              *g.summaries[2].match.relative_error_percent, 1e-9);
   // The rule failed as first tested, passes without the dropped one; RE after the test passes.
-  const nlohmann::json& rules2 = g.summaries[2]["faults"]["rules"];
+  const std::vector<FaultCheck>& rules2 = g.summaries[2].faults.checks;
   ASSERT_EQ(rules2.size(), 3u);
-  EXPECT_EQ(rules2[0]["verdict"], "fail");
-  EXPECT_FALSE(rules2[0]["excludes_pair"].get<bool>());
-  EXPECT_EQ(rules2[1]["verdict"], "pass");
-  EXPECT_EQ(rules2[2]["verdict"], "pass");
+  EXPECT_EQ(rules2[0].verdict, FaultVerdict::kFail);
+  EXPECT_FALSE(rules2[0].excludes_pair);
+  EXPECT_EQ(rules2[1].verdict, FaultVerdict::kPass);
+  EXPECT_EQ(rules2[2].verdict, FaultVerdict::kPass);
   // The excluded leg: no tie point for the adjustment, and its outcome says so.
   EXPECT_TRUE(ReadTiePoints(files[5]).empty());
-  EXPECT_EQ(g.summaries[5]["outcome"], "excluded by fault detection");
-  EXPECT_EQ(g.summaries[5]["faults"]["outcome"], "excluded by fault detection");
-  EXPECT_EQ(g.summaries[5]["tie_points"], 0);
-  EXPECT_TRUE(g.summaries[5]["leg_test"]["excluded"].get<bool>());
+  EXPECT_EQ(g.summaries[5].match.outcome, "excluded by fault detection");
+  EXPECT_EQ(g.summaries[5].faults.outcome, PairOutcome::kExcludedByFaultDetection);
+  EXPECT_EQ(g.summaries[5].match.tie_points, 0);
+  EXPECT_TRUE(g.summaries[5].leg_test->excluded);
 
   // Switched off: every leg's own file, summaries untouched.
   GatheredLegs off = Gather(dir.path() / "off", traverse);
   off.options.leg_test = false;
-  const std::vector<nlohmann::json> before = off.summaries;
+  const std::vector<mission_run::LegUnitResult> before = off.summaries;
   const mission_run::RunContext run_off(off.mission, off.options, dir.path() / "off");
   const std::vector<std::filesystem::path> own =
       mission_run::TestLegsAgainstEachOther(run_off, off.summaries, ties_dir);

@@ -25,6 +25,7 @@
 #include "areomap/pipeline/run_summary.h"
 #include "areomap/samples/mission.h"
 #include "test_support.h"
+#include "unit_results.h"
 
 namespace areomap {
 namespace {
@@ -52,6 +53,15 @@ std::string ReadText(const fs::path& path) {
   std::stringstream buffer;
   buffer << in.rdbuf();
   return buffer.str();
+}
+
+// The unit's record (unit.json's "summary") read into its typed result (unit_results.h) writes
+// back as it was.
+template <typename Result>
+void ExpectUnitReadsBack(const fs::path& unit_dir) {
+  const nlohmann::json summary = nlohmann::json::parse(ReadText(unit_dir / "unit.json"))["summary"];
+  EXPECT_EQ(Result::FromJson(summary, "unit.json: summary").ToJson().dump(), summary.dump())
+      << unit_dir;
 }
 
 TEST(MissionRun, WritesEveryUnitAndResumes) {
@@ -124,6 +134,10 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   }
   EXPECT_GT(first.json["computed_seconds"]["stereo"].get<double>(), 0.0);
   EXPECT_GT(first.json["computed_seconds"]["products"].get<double>(), 0.0);
+  ExpectUnitReadsBack<mission_run::SiteUnitResult>(out / "sites" / "site_001");
+  ExpectUnitReadsBack<mission_run::LegUnitResult>(out / "legs" / "leg_000_001");
+  ExpectUnitReadsBack<mission_run::CratersUnitResult>(out / "craters");
+  ExpectUnitReadsBack<mission_run::ProductsUnitResult>(out / "products");
 
   // The typed summary (run_summary.h) holds what the report reads, and round-trips.
   const RunSummary typed = RunSummary::FromJson(first.json, "summary.json");

@@ -36,6 +36,9 @@ struct OrthoRegistrationOptions {
   // MER site index: control points also in its site frame, with its origin at the prior.
   std::optional<int> site;
   bool similarity = false;  // Edge refinement fits a similarity instead of a translation.
+  // Verify the best match by its edges (OrthoRegistration::edges); `areomap run` does not (its
+  // sites' confidence is the match's chance level), the CLI and the Python module do.
+  bool verify_edges = true;
   OrbitalMatchOptions match;
   ControlPointOptions control;
 
@@ -44,10 +47,11 @@ struct OrthoRegistrationOptions {
 };
 
 struct OrthoRegistration {
-  OrthoImage ortho;                       // As read (site and site origin set with options.site).
-  OrbitalPrior prior;                     // The prior searched around.
-  MultiOrbitalMatch result;               // One match per orbital image, and the best.
-  std::optional<EdgeVerification> edges;  // Of the best match, when there is one.
+  OrthoImage ortho;          // As read (site and site origin set with options.site).
+  OrbitalPrior prior;        // The prior searched around.
+  MultiOrbitalMatch result;  // One match per orbital image, and the best.
+  // Of the best match, when there is one and options.verify_edges.
+  std::optional<EdgeVerification> edges;
   std::vector<OrbitalControlPoint> control_points;     // Of the best match (empty without one).
   std::optional<GeoTransform> corrected_geotransform;  // The ortho's, corrected by the best.
 };
@@ -59,6 +63,17 @@ OrthoRegistration RegisterOrtho(const std::filesystem::path& ortho,
                                 const std::optional<std::filesystem::path>& orbital_dtm,
                                 const OrthoRegistrationOptions& options = {},
                                 const ProgressCallback& progress = nullptr);
+
+// The same job on inputs already open: `ortho` (e.g. OrthoImageFromOrthophoto) matched on
+// `orbitals` around `prior` (options' prior_* and site are not used). Unlike RegisterOrtho, an
+// ortho that no orbital image overlaps is a result (every match's overlaps = false, no best).
+// Throws areomap::Error for bad options, a CRS not on Mars or a progress callback that asks to
+// stop. What `areomap run` runs for each site.
+OrthoRegistration RegisterOrthoImage(OrthoImage ortho, const std::vector<OrbitalImage>& orbitals,
+                                     const std::optional<OrbitalImage>& orbital_dtm,
+                                     const OrbitalPrior& prior,
+                                     const OrthoRegistrationOptions& options = {},
+                                     const ProgressCallback& progress = nullptr);
 
 // The edge verification as JSON (Table 3.7 counts and rates, the residual fit, the verdict).
 nlohmann::json EdgeVerificationJson(const EdgeVerification& edges);
