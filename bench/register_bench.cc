@@ -2,7 +2,9 @@
 // image (generated: tests/registration/orbital_trial.h) by MatchOrthoToOrbital (resampling,
 // masked FFT NCC coarse to fine, subpixel, confidence), against OpenCV cv::matchTemplate
 // (TM_CCOEFF_NORMED) brute force at full resolution over the same search window, on the same
-// resampled template, in this process. Both must find the same shift (to 1 px).
+// resampled template, in this process. Both must find the same shift (to 1 px). The methods run
+// in turn, round after round; the times are medians over the rounds, the ratios the median of
+// the rounds' ratios.
 //
 // Run: build/release/bench/areomap_bench_register [repetitions] [largest search radius, px]
 #include <algorithm>
@@ -24,15 +26,23 @@
 namespace areomap {
 namespace {
 
-double MedianSeconds(int repetitions, const std::function<void()>& run) {
-  std::vector<double> times;
-  for (int k = 0; k < repetitions; ++k) {
-    const auto t0 = std::chrono::steady_clock::now();
-    run();
-    times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-  std::sort(times.begin(), times.end());
-  return times[times.size() / 2];
+double SecondsOf(const std::function<void()>& run) {
+  const auto t0 = std::chrono::steady_clock::now();
+  run();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// One round of the benchmark: each method once [s]; theirs[use_mask].
+struct Round {
+  double ours = 0.0, resample = 0.0;
+  double theirs[2] = {0.0, 0.0};
+};
+
+double Median(const std::vector<Round>& rounds, const std::function<double(const Round&)>& of) {
+  std::vector<double> values;
+  for (const Round& r : rounds) values.push_back(of(r));
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
 }
 
 struct Baseline {
@@ -89,24 +99,39 @@ int Main(int argc, char** argv) {
     trial.prior.sigma_m = c.prior_sigma_m;
     const double radius_estimate = 3.0 * c.prior_sigma_m / 0.25;
     if (radius_estimate > largest_radius + 1.0) continue;
-    OrbitalMatch match;
-    const double ours = MedianSeconds(repetitions, [&] {
-      match = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);
-    });
+    // One match first, for the search radius the baseline covers.
+    OrbitalMatch match = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);
     const int radius = match.search_radius_px;
     // The resampling alone (both methods need the template on the orbital grid).
     const PixelGrid ortho_grid(trial.ortho.geotransform, trial.ortho.crs_wkt, "ortho");
     const PixelGrid orbital_grid(trial.orbital->geotransform(), trial.orbital->crs_wkt(),
                                  "orbital");
     const Eigen::Vector2d rover = ortho_grid.GeographicToPixel(trial.prior.position);
-    const double resample = MedianSeconds(
-        repetitions, [&] { ResampleToOrbitalGrid(trial.ortho, ortho_grid, orbital_grid, rover); });
+    // Rounds of every method in turn: a shared machine's load changes from second to second, so
+    // each round's ratio compares runs made under the same load; the median round is reported.
+    std::vector<Round> rounds(repetitions);
+    Baseline base[2];
+    for (Round& round : rounds) {
+      round.ours =
+          SecondsOf([&] { match = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior); });
+      round.resample =
+          SecondsOf([&] { ResampleToOrbitalGrid(trial.ortho, ortho_grid, orbital_grid, rover); });
+      for (const bool use_mask : {true, false}) {
+        round.theirs[use_mask] =
+            SecondsOf([&] { base[use_mask] = MatchTemplateBaseline(match, radius, use_mask); });
+      }
+    }
+    const double ours = Median(rounds, [](const Round& r) { return r.ours; });
+    const double resample = Median(rounds, [](const Round& r) { return r.resample; });
     for (const bool use_mask : {true, false}) {
-      Baseline base;
-      const double theirs = MedianSeconds(
-          repetitions, [&] { base = MatchTemplateBaseline(match, radius, use_mask); });
-      const bool same = std::abs(base.shift.x - match.shift_px.x()) <= 1.0 &&
-                        std::abs(base.shift.y - match.shift_px.y()) <= 1.0;
+      const double theirs = Median(rounds, [&](const Round& r) { return r.theirs[use_mask]; });
+      const double ratio =
+          Median(rounds, [&](const Round& r) { return r.theirs[use_mask] / r.ours; });
+      const double matching_ratio = Median(
+          rounds, [&](const Round& r) { return r.theirs[use_mask] / (r.ours - r.resample); });
+      const Baseline& b = base[use_mask];
+      const bool same = std::abs(b.shift.x - match.shift_px.x()) <= 1.0 &&
+                        std::abs(b.shift.y - match.shift_px.y()) <= 1.0;
       char name[128];
       std::snprintf(name, sizeof(name), "%dx%d px template, matchTemplate%s",
                     match.templ.image.cols, match.templ.image.rows,
@@ -114,10 +139,9 @@ int Main(int argc, char** argv) {
       std::printf(
           "%-46s %4d px %8.1f ms %8.1f ms %8.1f ms %7.1fx %7.1fx %s (ours %s %+.2f %+.2f "
           "px CC %.3f, OpenCV %+d %+d CC %.3f)\n",
-          name, radius, 1e3 * ours, 1e3 * (ours - resample), 1e3 * theirs, theirs / ours,
-          theirs / (ours - resample), same ? "yes" : "NO", match.matched ? "match" : "no match",
-          match.shift_px.x(), match.shift_px.y(), match.correlation, base.shift.x, base.shift.y,
-          base.value);
+          name, radius, 1e3 * ours, 1e3 * (ours - resample), 1e3 * theirs, ratio, matching_ratio,
+          same ? "yes" : "NO", match.matched ? "match" : "no match", match.shift_px.x(),
+          match.shift_px.y(), match.correlation, b.shift.x, b.shift.y, b.value);
     }
   }
   return 0;
