@@ -98,14 +98,11 @@ PooledVarianceFactor FirstPassTieVariance(const std::vector<LegUnitResult>& legs
 
 // summary.json's "rock_tie_variance": the pooled figures (null when no leg had redundancy) and
 // the factor the second pass applied (null when it did not run).
-json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional<double> applied) {
-  const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(); };
-  return {{"legs", pooled.fits},
-          {"chi2", pooled.chi2},
-          {"redundancy", pooled.redundancy},
-          {"sigma0_squared", number(pooled.estimate)},
-          {"sigma0_squared_upper_95", number(pooled.upper_95)},
-          {"applied_factor", applied ? json(*applied) : json()}};
+TieVarianceRecord TieVariance(const PooledVarianceFactor& pooled, std::optional<double> applied) {
+  const auto number = [](double v) { return std::isfinite(v) ? Figure(v) : std::nullopt; };
+  return {
+      pooled.fits, pooled.redundancy, pooled.chi2, number(pooled.estimate), number(pooled.upper_95),
+      applied};
 }
 
 std::optional<double> SecondPassFactor(const RunContext& run,

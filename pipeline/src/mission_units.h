@@ -25,8 +25,8 @@
 #include "areomap/map/site_georeference.h"
 #include "areomap/pipeline/mission_run.h"
 #include "areomap/pipeline/unit_claim.h"
+#include "areomap/pipeline/unit_results.h"
 #include "areomap/pipeline/work_plan.h"
-#include "unit_results.h"
 
 namespace areomap::mission_run {
 
@@ -113,7 +113,7 @@ LegUnitResult EnsureLegUnit(const RunContext& run, size_t index_a, SiteRocksCach
 // The rock tie points' a-posteriori variance factor pooled over the legs' first passes
 // (PoolVarianceFactor), and summary.json's record of it and of the factor applied.
 PooledVarianceFactor FirstPassTieVariance(const std::vector<LegUnitResult>& legs);
-nlohmann::json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional<double> applied);
+TieVarianceRecord TieVariance(const PooledVarianceFactor& pooled, std::optional<double> applied);
 // The variance factor the legs' second pass applies given every leg's summary (first pass or
 // after): the pooled factor (MissionRunOptions::RockVariancePassFactor), nullopt when the pass
 // does not apply.

@@ -23,9 +23,9 @@
 #include "areomap/map/point_cloud_io.h"
 #include "areomap/pipeline/run_report.h"
 #include "areomap/pipeline/run_summary.h"
+#include "areomap/pipeline/unit_results.h"
 #include "areomap/samples/mission.h"
 #include "test_support.h"
-#include "unit_results.h"
 
 namespace areomap {
 namespace {
@@ -143,12 +143,16 @@ TEST(MissionRun, WritesEveryUnitAndResumes) {
   const RunSummary typed = RunSummary::FromJson(first.json, "summary.json");
   ASSERT_EQ(typed.sites.size(), first.json["sites"].size());
   EXPECT_EQ(typed.legs.size(), first.json["legs"].size());
-  EXPECT_EQ(typed.adjustment.sigma0, first.json["adjustment"]["sigma0"].get<double>());
+  ASSERT_TRUE(typed.adjustment.has_value());
+  EXPECT_EQ(typed.adjustment->sigma0, first.json["adjustment"]["sigma0"].get<double>());
   ASSERT_TRUE(typed.craters && typed.craters->score);
   EXPECT_EQ(typed.craters->score->truth, 1.0);
   ASSERT_TRUE(typed.units.has_value());
   EXPECT_EQ(typed.units->sites_computed, first.sites_computed);
-  EXPECT_EQ(RunSummary::FromJson(typed.ToJson(), "summary.json"), typed);
+  EXPECT_EQ(typed.units->craters, "computed");
+  // Read back and written again, the summary is the same text (integers stay integers).
+  EXPECT_EQ(typed.ToJson().dump(2), first.json.dump(2));
+  EXPECT_EQ(first.record.ToJson().dump(2), first.json.dump(2));
 
   std::ofstream(out / "summary.json") << first.json.dump();
   WriteRunReport(out);
