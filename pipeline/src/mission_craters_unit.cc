@@ -61,7 +61,8 @@ std::vector<CraterCircle> ReadTruthCraters(const fs::path& path, double pixel_si
 
 }  // namespace
 
-CratersUnitResult RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
+CratersUnitResult DetectOrbitalCraters(const MissionRunContext& run,
+                                       const ProgressCallback& progress) {
   CratersUnitResult summary;
   const MissionOrbitalProduct* image = run.mission->FirstOrbital("image");
   if (image == nullptr) {

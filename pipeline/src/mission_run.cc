@@ -38,16 +38,20 @@ json ReadJsonOrNull(const fs::path& path) {
   return parsed.is_discarded() ? json(nullptr) : parsed;
 }
 
-RunContext::RunContext(const MissionManifest& mission_in, const MissionRunOptions& options_in,
-                       fs::path out_dir_in)
+MissionRunContext::MissionRunContext(const MissionManifest& mission_in,
+                                     const MissionRunOptions& options_in, fs::path out_dir_in)
     : mission(&mission_in),
       options(&options_in),
       out_dir(std::move(out_dir_in)),
+      map(MapFrame::LocalEquirectangular(mission_in.body, mission_in.origin)) {}
+
+RunContext::RunContext(const MissionManifest& mission_in, const MissionRunOptions& options_in,
+                       fs::path out_dir_in)
+    : MissionRunContext(mission_in, options_in, std::move(out_dir_in)),
       fingerprint(json{{"mission", fs::absolute(mission_in.root).lexically_normal().string()},
                        {"inputs", FilesIdentity(mission_in.files, mission_in.root)},
                        {"options", options_in.ToJson()}}
-                      .dump()),
-      map(MapFrame::LocalEquirectangular(mission_in.body, mission_in.origin)) {}
+                      .dump()) {}
 
 OutputFolderOptions RunFolderPolicy(const fs::path& mission, bool overwrite) {
   OutputFolderOptions policy;
@@ -62,11 +66,11 @@ OutputFolderOptions RunFolderPolicy(const fs::path& mission, bool overwrite) {
   return policy;
 }
 
-fs::path SiteDir(const RunContext& run, int site) {
+fs::path SiteDir(const MissionRunContext& run, int site) {
   return run.out_dir / "sites" / SiteUnitId(site);
 }
 
-fs::path LegDir(const RunContext& run, int site_a, int site_b) {
+fs::path LegDir(const MissionRunContext& run, int site_a, int site_b) {
   return run.out_dir / "legs" / LegUnitId(site_a, site_b);
 }
 
@@ -435,9 +439,9 @@ LegStage RunLegStage(const RunContext& run, RunProgress& bar, MissionRunSummary&
 }
 
 // The adjustment's inputs and options: network.json written, each site's own control points.
-AdjustmentStage PrepareAdjustment(const RunContext& run, const LegStage& legs) {
+AdjustmentInputs PrepareAdjustment(const RunContext& run, const LegStage& legs) {
   const MissionManifest& mission = *run.mission;
-  AdjustmentStage adjustment;
+  AdjustmentInputs adjustment;
   adjustment.dir = run.out_dir / "adjustment";
   fs::create_directories(adjustment.dir);
   WriteFileAtomically(adjustment.dir / "network.json", NetworkJson(mission, *run.options).dump(2));
@@ -471,7 +475,7 @@ std::optional<ProductsUnitResult> EnsureProductsUnit(const RunContext& run,
   *unit = "reused";
   if (!products || !SamePoses(products->poses, poses)) {
     *unit = "computed";
-    products = RunProductsUnit(run, poses, progress);
+    products = MakeTraverseProducts(run, poses, progress);
     FinishUnit(run, dir, products->ToJson());
   }
   products->poses.clear();  // In products/unit.json; summary.json keeps the figures.
@@ -543,9 +547,9 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   lap("craters");
   // The adjustment reads everything the units wrote: the network, every site's control
   // points and every leg's tie points.
-  AdjustmentStage adjustment = PrepareAdjustment(run, legs);
+  AdjustmentInputs adjustment = PrepareAdjustment(run, legs);
   AdjustmentResult adjusted =
-      adjustment.Run(bar.Span(RunProgress::kCraters, RunProgress::kAdjustment));
+      AdjustTraverse(adjustment, bar.Span(RunProgress::kCraters, RunProgress::kAdjustment));
   lap("adjustment");
   const GuidedPassesResult guided = RunGuidedPasses(run, sites, adjustment, adjusted, [&] {
     bar.Report(RunProgress::kAdjustment, "guided registration");
