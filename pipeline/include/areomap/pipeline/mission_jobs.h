@@ -8,7 +8,7 @@
 // (DetectOrbitalCraters), adjustment/ (AdjustTraverse), products/ (MakeTraverseProducts). Units
 // are as unit_results.h says. Failure: a job throws areomap::Error naming the file or step that
 // failed (a missing input of an earlier job included: MatchLeg needs both sites' points.ply,
-// AdjustTraverse the control and tie point files it names); what it wrote stays.
+// AdjustTraverse every file it names, and throws before writing anything); what it wrote stays.
 #pragma once
 
 #include <cstddef>
@@ -54,13 +54,13 @@ LegUnitResult MatchLeg(const MissionRunContext& run, size_t index_a,
 
 // Craters on the mission's first orbital image: catalogue (CSV, JSON, GeoPackage), overlay PNG,
 // and the score against truth/craters.csv when the mission has it. Skipped (`skipped`) without
-// an orbital image.
+// an orbital image. `seconds` is left 0: the run records the unit's wall time around the job.
 CratersUnitResult DetectOrbitalCraters(const MissionRunContext& run,
                                        const ProgressCallback& progress = nullptr);
 
-// The bundle adjustment's inputs: `dir` holds network.json and receives adjustment.json and its
-// files; one control point file per mission site and one tie point file per leg (a missing
-// control point file: the site has none).
+// The bundle adjustment's inputs: `dir` holds network.json (the mission's sites and legs) and
+// receives adjustment.json and its files; one control point file per mission site (as
+// RegisterSite writes it) and one tie point file per leg (as MatchLeg writes it).
 struct AdjustmentInputs {
   std::filesystem::path dir;
   std::vector<std::filesystem::path> site_controls;
