@@ -25,33 +25,32 @@ double Number(const OptionalNumber& value) {
   return value.value_or(std::numeric_limits<double>::quiet_NaN());
 }
 
-int Count(const OptionalNumber& value) { return value ? static_cast<int>(*value) : 0; }
-
 // The per-site and per-leg lines.
 void PrintSitesAndLegs(const RunSummary& s) {
-  for (const SiteSummary& site : s.sites) {
-    const SiteRegistrationSummary& r = site.registration;
+  for (const mission_run::SiteUnitResult& site : s.sites) {
+    const mission_run::SiteRegistrationResult& r = site.registration;
     char verdict[96];
     if (r.matched) {
       std::snprintf(verdict, sizeof(verdict), "matched, CC %.3f", Number(r.correlation));
     } else {
       std::snprintf(verdict, sizeof(verdict), "no match: %s", r.reason.c_str());
     }
-    std::printf("site %3d: %8d points, registration %s\n", site.site, Count(site.points), verdict);
+    std::printf("site %3d: %8d points, registration %s\n", site.site, static_cast<int>(site.points),
+                verdict);
   }
-  for (const LegSummary& leg : s.legs) {
-    std::printf("leg %3d -> %3d: %-30s %3d tie points", leg.site_a, leg.site_b, leg.outcome.c_str(),
-                leg.tie_points);
-    if (leg.first_pass && leg.first_pass->outcome != leg.outcome) {
+  for (const mission_run::LegUnitResult& leg : s.legs) {
+    const mission_run::LegPassRecord& match = leg.match;
+    std::printf("leg %3d -> %3d: %-30s %3d tie points", leg.site_a, leg.site_b,
+                match.outcome.c_str(), static_cast<int>(match.tie_points));
+    if (leg.first_pass && leg.first_pass->outcome != match.outcome) {
       std::printf(" (first pass: %s)", leg.first_pass->outcome.c_str());
     }
-    if (leg.relative_error_percent) {
-      std::printf(", RE %.2f %%", Number(leg.relative_error_percent));
+    if (mission_run::Known(match.relative_error_percent)) {
+      std::printf(", RE %.2f %%", Number(match.relative_error_percent));
     }
-    const LegTestSummary& test = leg.leg_test;
-    if (test.tested && !test.dropped.empty()) {
-      std::printf(" (legs' test: F %.2f > %.2f, dropped %zu)", Number(test.first_f_statistic),
-                  Number(test.f_threshold), test.dropped.size());
+    if (leg.leg_test && leg.leg_test->tested && !leg.leg_test->dropped.empty()) {
+      std::printf(" (legs' test: F %.2f > %.2f, dropped %zu)", leg.leg_test->first_f_statistic,
+                  leg.leg_test->f_threshold, leg.leg_test->dropped.size());
     }
     std::printf("\n");
   }
@@ -65,18 +64,20 @@ void PrintRunSummary(const RunSummary& s) {
       units.sites_computed, units.sites_reused, units.legs_computed, units.legs_reused,
       units.legs_rematched, Number(s.seconds));
   PrintSitesAndLegs(s);
-  const TieVarianceSummary& ties = s.tie_variance;
+  const mission_run::TieVarianceRecord ties =
+      s.tie_variance.value_or(mission_run::TieVarianceRecord{});
   if (ties.sigma0_squared) {
     std::printf(
         "rock tie fits of %d legs: pooled sigma0^2 %.3f (95 %% upper bound %.3f, redundancy %d)\n",
-        Count(ties.legs), Number(ties.sigma0_squared), Number(ties.sigma0_squared_upper_95),
-        Count(ties.redundancy));
+        static_cast<int>(ties.legs), Number(ties.sigma0_squared),
+        Number(ties.sigma0_squared_upper_95), static_cast<int>(ties.redundancy));
   }
   if (ties.applied_factor) {
     std::printf("legs matched again with the rock ties' variance factor %.3f (second pass)\n",
                 Number(ties.applied_factor));
   }
-  for (const GuidedPassSummary& pass : s.guided.passes) {
+  const std::vector<mission_run::GuidedPassRecord> no_passes;
+  for (const mission_run::GuidedPassRecord& pass : s.guided ? s.guided->passes : no_passes) {
     std::printf(
         "guided registration pass %d (around the adjusted poses, %zu sites tried): %zu more",
         pass.pass, pass.attempted.size(), pass.registered.size());
@@ -87,37 +88,38 @@ void PrintRunSummary(const RunSummary& s) {
     }
     std::printf("\n");
   }
-  const AdjustmentSummary& a = s.adjustment;
+  const mission_run::AdjustmentResult a = s.adjustment.value_or(mission_run::AdjustmentResult{});
   std::printf("bundle adjustment: %d tie points, %d control points, %d rejected, sigma0 %.3f\n",
-              Count(a.tie_points), Count(a.control_points), Count(a.rejected), Number(a.sigma0));
-  if (a.adjusted_end_error_m) {
+              static_cast<int>(a.tie_points), static_cast<int>(a.control_points),
+              static_cast<int>(a.rejected), a.sigma0);
+  if (mission_run::Known(a.adjusted_end_error_m)) {
     std::printf("end-point error against truth over %.1f m: telemetry %.2f m, adjusted %.2f m\n",
                 Number(a.length_m), Number(a.initial_end_error_m), Number(a.adjusted_end_error_m));
   }
-  if (a.median_adjusted_error_m) {
+  if (mission_run::Known(a.median_adjusted_error_m)) {
     std::printf(
         "adjusted horizontal error against truth: median %.3f m, worst %.3f m; %d of %d "
         "sites within their 1-sigma ellipse's semi-major axis\n",
         Number(a.median_adjusted_error_m), Number(a.worst_adjusted_error_m),
-        Count(a.sites_within_1sigma), Count(a.sites));
+        static_cast<int>(a.sites_within_1sigma.value_or(0)), a.sites);
   }
-  if (s.craters && s.craters->craters) {
-    std::printf("craters on the orbital image: %d", Count(s.craters->craters));
-    if (const std::optional<CraterScoreSummary>& score = s.craters->score) {
+  if (s.craters && !s.craters->skipped) {
+    std::printf("craters on the orbital image: %d", static_cast<int>(s.craters->craters));
+    if (const std::optional<mission_run::CraterScoreRecord>& score = s.craters->score) {
       // Precision is undefined (null) when nothing was detected.
-      std::printf(" (truth %d: precision %.2f, recall %.2f)", Count(score->truth),
+      std::printf(" (truth %d: precision %.2f, recall %.2f)", static_cast<int>(score->truth),
                   Number(score->precision), Number(score->recall));
     }
     std::printf("\n");
   }
   if (s.products && s.products->dtm_minus_orbital_adjusted) {
-    const DifferenceSummary& adjusted = *s.products->dtm_minus_orbital_adjusted;
-    const DifferenceSummary telemetry =
-        s.products->dtm_minus_orbital_telemetry.value_or(DifferenceSummary{});
+    const mission_run::TraverseDifference& adjusted = *s.products->dtm_minus_orbital_adjusted;
+    const mission_run::TraverseDifference telemetry =
+        s.products->dtm_minus_orbital_telemetry.value_or(mission_run::TraverseDifference{});
     std::printf(
         "traverse DTM - orbital DTM over %d cells: RMS %.3f m with telemetry poses, %.3f m "
         "adjusted (products/traverse_dtm.tif, traverse_ortho.tif)\n",
-        Count(adjusted.cells), Number(telemetry.rms_m), Number(adjusted.rms_m));
+        static_cast<int>(adjusted.cells), Number(telemetry.rms_m), Number(adjusted.rms_m));
   }
   const auto stage = [&](const char* name) {
     const auto it = s.stage_seconds.find(name);
@@ -302,7 +304,7 @@ void AddRunCommand(CLI::App& app, const GlobalOptions& global) {
     const MissionRunSummary summary = RunMissionFolder(
         o->mission, o->out, options, global.overwrite, MakeProgressBar(global, "run"));
     if (!global.quiet) {
-      PrintRunSummary(RunSummary::FromJson(summary.json, o->out + "/summary.json"));
+      PrintRunSummary(summary.record);
       std::printf("report: %s/report.html\n", o->out.c_str());
     }
   });

@@ -61,7 +61,8 @@ std::vector<CraterCircle> ReadTruthCraters(const fs::path& path, double pixel_si
 
 }  // namespace
 
-CratersUnitResult RunCratersUnit(const RunContext& run, const ProgressCallback& progress) {
+CratersUnitResult DetectOrbitalCraters(const MissionRunContext& run,
+                                       const ProgressCallback& progress) {
   CratersUnitResult summary;
   const MissionOrbitalProduct* image = run.mission->FirstOrbital("image");
   if (image == nullptr) {
@@ -113,9 +114,10 @@ CratersUnitResult RunCratersUnit(const RunContext& run, const ProgressCallback& 
     const double lo = options.min_diameter_px;
     const CraterScore score = ScoreCraters(truth, CirclesOf(found),
                                            {lo, 4 * lo, std::numeric_limits<double>::infinity()});
-    summary.score = CraterMatchStatsJson(score.all);
-    summary.score["rule"] =
+    json record = CraterMatchStatsJson(score.all);
+    record["rule"] =
         "centre distance < 0.5 x truth radius and detected/true diameter in [0.7, 1.3]";
+    summary.score = CraterScoreRecord::FromJson(record, "craters score");
   }
   return summary;
 }

@@ -12,12 +12,14 @@ namespace areomap::mission_run {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-AdjustmentResult AdjustmentStage::Run(const ProgressCallback& progress) const {
-  std::vector<fs::path> inputs = {dir / "network.json"};
-  inputs.insert(inputs.end(), site_controls.begin(), site_controls.end());
-  inputs.insert(inputs.end(), leg_tie_files.begin(), leg_tie_files.end());
-  return AdjustmentResult::FromJson(AdjustTraverse(inputs, dir, options, progress),
-                                    (dir / "adjustment.json").string() + " (figures)");
+AdjustmentResult AdjustTraverse(const AdjustmentInputs& adjustment,
+                                const ProgressCallback& progress) {
+  std::vector<fs::path> inputs = {adjustment.dir / "network.json"};
+  inputs.insert(inputs.end(), adjustment.site_controls.begin(), adjustment.site_controls.end());
+  inputs.insert(inputs.end(), adjustment.leg_tie_files.begin(), adjustment.leg_tie_files.end());
+  return AdjustmentResult::FromJson(
+      areomap::AdjustTraverse(inputs, adjustment.dir, adjustment.options, progress),
+      (adjustment.dir / "adjustment.json").string() + " (figures)");
 }
 
 namespace {
@@ -68,7 +70,7 @@ std::vector<size_t> SitesToTry(const SiteRegistrationState& state, int pass) {
 }  // namespace
 
 GuidedPassesResult RunGuidedPasses(const RunContext& run, const std::vector<SiteUnitResult>& sites,
-                                   AdjustmentStage& adjustment, AdjustmentResult& adjusted,
+                                   AdjustmentInputs& adjustment, AdjustmentResult& adjusted,
                                    const std::function<void()>& announce) {
   const MissionManifest& mission = *run.mission;
   const size_t site_count = mission.sites.size();
@@ -108,7 +110,7 @@ GuidedPassesResult RunGuidedPasses(const RunContext& run, const std::vector<Site
     }
     const bool any = !record.registered.empty() || !record.replaced.empty();
     if (any) {
-      adjusted = adjustment.Run();
+      adjusted = AdjustTraverse(adjustment);
       record.adjustment = adjusted;
     }
     guided.passes.push_back(record);

@@ -31,7 +31,7 @@ struct RegisteredSite {
   double heading_sigma_deg = 0.0;
 };
 
-std::optional<RegisteredSite> RegisteredTraverseFromSite(const RunContext& run, int site,
+std::optional<RegisteredSite> RegisteredTraverseFromSite(const MissionRunContext& run, int site,
                                                          const MissionSitePose& telemetry) {
   const fs::path path = SiteDir(run, site) / "registration.json";
   if (!fs::exists(path)) return std::nullopt;
@@ -63,7 +63,7 @@ std::optional<RegisteredSite> RegisteredTraverseFromSite(const RunContext& run, 
 // registrations are confident and agree with telemetry within three combined sigmas, else from
 // telemetry (dead reckoning: leg_scale_sigma x length, leg_heading_sigma_deg). `info` records
 // which and why.
-RockMatchingPrior LegPrior(const RunContext& run, size_t index_a, size_t index_b,
+RockMatchingPrior LegPrior(const MissionRunContext& run, size_t index_a, size_t index_b,
                            LegPriorRecord* info) {
   const MissionManifest& mission = *run.mission;
   const MissionRunOptions& options = *run.options;
@@ -132,7 +132,7 @@ const SiteRocksCache::Entry& SiteRocksCache::Get(size_t site_index) {
   return entries_.emplace(site_index, std::move(entry)).first->second;
 }
 
-LegUnitResult RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
+LegUnitResult RunLegUnit(const MissionRunContext& run, size_t index_a, size_t index_b,
                          SiteRocksCache& rocks, const RockMatchingOptions& matching,
                          const ProgressCallback& progress) {
   const MissionManifest& mission = *run.mission;

@@ -44,7 +44,7 @@ double SiteReach(const MissionRunOptions& options) {
   return 1.02 * std::max(options.stereo.max_range_m, options.ortho.max_range_m) + 2.0;
 }
 
-Eigen::Vector2d SiteOnMap(const RunContext& run, const SiteGeoreference& georef) {
+Eigen::Vector2d SiteOnMap(const MissionRunContext& run, const SiteGeoreference& georef) {
   return run.map.MapFromMbf(georef.mbf_from_site.translation).head<2>();
 }
 
@@ -173,7 +173,7 @@ struct SiteLayers {
 };
 
 // One site's cloud gridded on its windows of `grid` with both poses.
-SiteLayers GridSite(const RunContext& run, size_t index, const SiteGeoreference& adjusted,
+SiteLayers GridSite(const MissionRunContext& run, size_t index, const SiteGeoreference& adjusted,
                     const SiteGeoreference& telemetry, const GridSpec& grid,
                     const DtmOptions& dtm_options) {
   const PointCloud cloud =
@@ -230,7 +230,7 @@ struct TraversePlacement {
   GridSpec grid;
 };
 
-TraversePlacement PlaceSites(const RunContext& run,
+TraversePlacement PlaceSites(const MissionRunContext& run,
                              const std::vector<Rigid3d>& traverse_from_site) {
   const MissionManifest& mission = *run.mission;
   const MissionRunOptions& options = *run.options;
@@ -261,7 +261,7 @@ struct TraverseDtms {
 };
 
 // Every site's points gridded with both poses and merged.
-TraverseDtms MakeTraverseDtms(const RunContext& run, const TraversePlacement& placement) {
+TraverseDtms MakeTraverseDtms(const MissionRunContext& run, const TraversePlacement& placement) {
   const size_t site_count = run.mission->sites.size();
   std::vector<GriddedLayers> adjusted_layers(site_count), telemetry_layers(site_count);
   tbb::parallel_for(size_t{0}, site_count, [&](size_t i) {
@@ -280,8 +280,9 @@ struct TraverseMosaics {
 
 // The orthomosaic with both poses (the telemetry one only to be compared with the orbital
 // image, not written). Calls `report` between the orthophotos and the mosaics.
-TraverseMosaics MakeTraverseMosaics(const RunContext& run, const TraversePlacement& placement,
-                                    const TraverseDtms& dtms, const std::function<void()>& report) {
+TraverseMosaics MakeTraverseMosaics(const MissionRunContext& run,
+                                    const TraversePlacement& placement, const TraverseDtms& dtms,
+                                    const std::function<void()>& report) {
   const MissionManifest& mission = *run.mission;
   const MissionRunOptions& options = *run.options;
   const size_t site_count = mission.sites.size();
@@ -303,8 +304,9 @@ TraverseMosaics MakeTraverseMosaics(const RunContext& run, const TraversePlaceme
 
 // The products against the mission's orbital DTM and image (each when the mission has one),
 // added to `summary`.
-void CompareWithOrbital(const RunContext& run, const GridSpec& grid, const TraverseDtms& dtms,
-                        const TraverseMosaics& mosaics, ProductsUnitResult& summary) {
+void CompareWithOrbital(const MissionRunContext& run, const GridSpec& grid,
+                        const TraverseDtms& dtms, const TraverseMosaics& mosaics,
+                        ProductsUnitResult& summary) {
   const MissionManifest& mission = *run.mission;
   if (const MissionOrbitalProduct* orbital_dtm = mission.FirstOrbital("dtm")) {
     const cv::Mat reference =
@@ -325,9 +327,9 @@ void CompareWithOrbital(const RunContext& run, const GridSpec& grid, const Trave
 
 }  // namespace
 
-ProductsUnitResult RunProductsUnit(const RunContext& run,
-                                   const std::vector<Rigid3d>& traverse_from_site,
-                                   const ProgressCallback& progress) {
+ProductsUnitResult MakeTraverseProducts(const MissionRunContext& run,
+                                        const std::vector<Rigid3d>& traverse_from_site,
+                                        const ProgressCallback& progress) {
   const size_t site_count = run.mission->sites.size();
   if (traverse_from_site.size() != site_count) {
     throw Error("traverse products: " + std::to_string(traverse_from_site.size()) +

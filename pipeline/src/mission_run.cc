@@ -38,16 +38,20 @@ json ReadJsonOrNull(const fs::path& path) {
   return parsed.is_discarded() ? json(nullptr) : parsed;
 }
 
-RunContext::RunContext(const MissionManifest& mission_in, const MissionRunOptions& options_in,
-                       fs::path out_dir_in)
+MissionRunContext::MissionRunContext(const MissionManifest& mission_in,
+                                     const MissionRunOptions& options_in, fs::path out_dir_in)
     : mission(&mission_in),
       options(&options_in),
       out_dir(std::move(out_dir_in)),
+      map(MapFrame::LocalEquirectangular(mission_in.body, mission_in.origin)) {}
+
+RunContext::RunContext(const MissionManifest& mission_in, const MissionRunOptions& options_in,
+                       fs::path out_dir_in)
+    : MissionRunContext(mission_in, options_in, std::move(out_dir_in)),
       fingerprint(json{{"mission", fs::absolute(mission_in.root).lexically_normal().string()},
                        {"inputs", FilesIdentity(mission_in.files, mission_in.root)},
                        {"options", options_in.ToJson()}}
-                      .dump()),
-      map(MapFrame::LocalEquirectangular(mission_in.body, mission_in.origin)) {}
+                      .dump()) {}
 
 OutputFolderOptions RunFolderPolicy(const fs::path& mission, bool overwrite) {
   OutputFolderOptions policy;
@@ -62,11 +66,11 @@ OutputFolderOptions RunFolderPolicy(const fs::path& mission, bool overwrite) {
   return policy;
 }
 
-fs::path SiteDir(const RunContext& run, int site) {
+fs::path SiteDir(const MissionRunContext& run, int site) {
   return run.out_dir / "sites" / SiteUnitId(site);
 }
 
-fs::path LegDir(const RunContext& run, int site_a, int site_b) {
+fs::path LegDir(const MissionRunContext& run, int site_a, int site_b) {
   return run.out_dir / "legs" / LegUnitId(site_a, site_b);
 }
 
@@ -435,9 +439,9 @@ LegStage RunLegStage(const RunContext& run, RunProgress& bar, MissionRunSummary&
 }
 
 // The adjustment's inputs and options: network.json written, each site's own control points.
-AdjustmentStage PrepareAdjustment(const RunContext& run, const LegStage& legs) {
+AdjustmentInputs PrepareAdjustment(const RunContext& run, const LegStage& legs) {
   const MissionManifest& mission = *run.mission;
-  AdjustmentStage adjustment;
+  AdjustmentInputs adjustment;
   adjustment.dir = run.out_dir / "adjustment";
   fs::create_directories(adjustment.dir);
   WriteFileAtomically(adjustment.dir / "network.json", NetworkJson(mission, *run.options).dump(2));
@@ -471,7 +475,7 @@ std::optional<ProductsUnitResult> EnsureProductsUnit(const RunContext& run,
   *unit = "reused";
   if (!products || !SamePoses(products->poses, poses)) {
     *unit = "computed";
-    products = RunProductsUnit(run, poses, progress);
+    products = MakeTraverseProducts(run, poses, progress);
     FinishUnit(run, dir, products->ToJson());
   }
   products->poses.clear();  // In products/unit.json; summary.json keeps the figures.
@@ -480,11 +484,12 @@ std::optional<ProductsUnitResult> EnsureProductsUnit(const RunContext& run,
 
 // What each stage cost when its units were computed (this run or an earlier one), from the
 // units' records: per-site stages and legs summed (sites ran two or more at a time).
-json ComputedSeconds(const std::vector<SiteUnitResult>& sites,
-                     const std::vector<LegUnitResult>& legs,
-                     const std::optional<CratersUnitResult>& craters, double adjustment_seconds,
-                     const std::optional<ProductsUnitResult>& products) {
-  json computed = json::object();
+std::map<std::string, double> ComputedSeconds(const std::vector<SiteUnitResult>& sites,
+                                              const std::vector<LegUnitResult>& legs,
+                                              const std::optional<CratersUnitResult>& craters,
+                                              double adjustment_seconds,
+                                              const std::optional<ProductsUnitResult>& products) {
+  std::map<std::string, double> computed;
   for (const char* stage : {"stereo", "dtm", "ortho", "registration"}) {
     double sum = 0.0;
     for (const SiteUnitResult& site : sites) {
@@ -506,14 +511,6 @@ json ComputedSeconds(const std::vector<SiteUnitResult>& sites,
   return computed;
 }
 
-// summary.json's "sites" or "legs": each unit's record.
-template <typename Result>
-json Records(const std::vector<Result>& results) {
-  json records = json::array();
-  for (const Result& r : results) records.push_back(r.ToJson());
-  return records;
-}
-
 }  // namespace
 }  // namespace mission_run
 
@@ -526,7 +523,7 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   const RunContext run(mission, options, out_dir);
   RunProgress bar(progress, std::max<size_t>(1, mission.sites.size()));
   // Wall time of each stage of this invocation [s] (reused units cost ~0).
-  json stage_seconds = json::object();
+  std::map<std::string, double> stage_seconds;
   auto clock = std::chrono::steady_clock::now();
   const auto lap = [&](const char* stage) {
     stage_seconds[stage] = SecondsSince(clock);
@@ -550,9 +547,9 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   lap("craters");
   // The adjustment reads everything the units wrote: the network, every site's control
   // points and every leg's tie points.
-  AdjustmentStage adjustment = PrepareAdjustment(run, legs);
+  AdjustmentInputs adjustment = PrepareAdjustment(run, legs);
   AdjustmentResult adjusted =
-      adjustment.Run(bar.Span(RunProgress::kCraters, RunProgress::kAdjustment));
+      AdjustTraverse(adjustment, bar.Span(RunProgress::kCraters, RunProgress::kAdjustment));
   lap("adjustment");
   const GuidedPassesResult guided = RunGuidedPasses(run, sites, adjustment, adjusted, [&] {
     bar.Report(RunProgress::kAdjustment, "guided registration");
@@ -563,27 +560,24 @@ MissionRunSummary RunMission(const MissionManifest& mission, const std::filesyst
   lap("products");
   bar.Report(1.0, "done");
 
-  summary.json = {{"mission", mission.root.string()},
-                  {"name", mission.name},
-                  {"sites", Records(sites)},
-                  {"legs", Records(legs.legs)},
-                  {"rock_tie_variance", TieVarianceJson(legs.first_pass, legs.variance_pass)},
-                  {"craters", craters ? craters->ToJson() : json()},
-                  {"adjustment", adjusted.ToJson()},
-                  {"guided_registration", guided.ToJson()},
-                  {"products", products ? products->ToJson() : json()},
-                  {"units",
-                   {{"sites_computed", summary.sites_computed},
-                    {"sites_reused", summary.sites_reused},
-                    {"legs_computed", summary.legs_computed},
-                    {"legs_reused", summary.legs_reused},
-                    {"legs_rematched", summary.legs_rematched},
-                    {"craters", craters_unit},
-                    {"products", products_unit}}},
-                  {"stage_seconds", stage_seconds},
-                  {"computed_seconds", ComputedSeconds(sites, legs.legs, craters,
-                                                       stage_seconds["adjustment"], products)},
-                  {"seconds", SecondsSince(start)}};
+  RunSummary& record = summary.record;
+  record.mission = mission.root.string();
+  record.name = mission.name;
+  record.sites = sites;
+  record.legs = legs.legs;
+  record.tie_variance = TieVariance(legs.first_pass, legs.variance_pass);
+  record.craters = craters;
+  record.adjustment = adjusted;
+  record.guided = guided;
+  record.products = products;
+  record.units = UnitsSummary{summary.sites_computed, summary.sites_reused,   summary.legs_computed,
+                              summary.legs_reused,    summary.legs_rematched, craters_unit,
+                              products_unit};
+  record.stage_seconds = stage_seconds;
+  record.computed_seconds =
+      ComputedSeconds(sites, legs.legs, craters, stage_seconds["adjustment"], products);
+  record.seconds = SecondsSince(start);
+  summary.json = record.ToJson();
   return summary;
 }
 
@@ -598,7 +592,8 @@ MissionRunSummary RunMissionFolder(const std::filesystem::path& mission,
   // Every file the manifest names is checked before any work starts.
   const MissionManifest manifest = ReadMissionManifest(mission);
   MissionRunSummary summary = RunMission(manifest, out.dir(), options, progress);
-  summary.json["command"] = "run";
+  summary.record.command = "run";
+  summary.json = summary.record.ToJson();
   WriteFileAtomically(out.dir() / "summary.json", summary.json.dump(2) + "\n");
   WriteRunReport(out.dir());
   out.Commit();

@@ -41,13 +41,14 @@ SiteUnitResult EnsureSiteUnit(const RunContext& run, size_t site_index,
   const int site = run.mission->sites[site_index].site;
   return EnsureUnit<SiteUnitResult>(
       run, SiteUnitId(site), SiteDir(run, site),
-      [&] { return RunSiteUnit(run, site_index, progress); }, reused);
+      [&] { return RegisterSite(run, site_index, progress); }, reused);
 }
 
 namespace {
 
-LegUnitResult MatchLeg(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
-                       const RockMatchingOptions& matching, const ProgressCallback& progress) {
+// MatchLeg with the sites' rocks from `rocks`.
+LegUnitResult MatchLegWith(const MissionRunContext& run, size_t index_a, SiteRocksCache& rocks,
+                           const RockMatchingOptions& matching, const ProgressCallback& progress) {
   const auto start = std::chrono::steady_clock::now();
   LegUnitResult done = RunLegUnit(run, index_a, index_a + 1, rocks, matching, progress);
   done.match.seconds = SecondsSince(start);
@@ -62,6 +63,12 @@ const LegPassRecord& FirstPass(const LegUnitResult& leg) {
 
 }  // namespace
 
+LegUnitResult MatchLeg(const MissionRunContext& run, size_t index_a,
+                       const RockMatchingOptions& matching, const ProgressCallback& progress) {
+  SiteRocksCache rocks(run);
+  return MatchLegWith(run, index_a, rocks, matching, progress);
+}
+
 LegUnitResult EnsureLegUnit(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
                             const ProgressCallback& progress, bool* reused) {
   const int site_a = run.mission->sites[index_a].site;
@@ -75,7 +82,7 @@ LegUnitResult EnsureLegUnit(const RunContext& run, size_t index_a, SiteRocksCach
                         " finished first");
           }
         }
-        return MatchLeg(run, index_a, rocks, run.options->matching, progress);
+        return MatchLegWith(run, index_a, rocks, run.options->matching, progress);
       },
       reused);
 }
@@ -98,14 +105,11 @@ PooledVarianceFactor FirstPassTieVariance(const std::vector<LegUnitResult>& legs
 
 // summary.json's "rock_tie_variance": the pooled figures (null when no leg had redundancy) and
 // the factor the second pass applied (null when it did not run).
-json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional<double> applied) {
-  const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(); };
-  return {{"legs", pooled.fits},
-          {"chi2", pooled.chi2},
-          {"redundancy", pooled.redundancy},
-          {"sigma0_squared", number(pooled.estimate)},
-          {"sigma0_squared_upper_95", number(pooled.upper_95)},
-          {"applied_factor", applied ? json(*applied) : json()}};
+TieVarianceRecord TieVariance(const PooledVarianceFactor& pooled, std::optional<double> applied) {
+  const auto number = [](double v) { return std::isfinite(v) ? Figure(v) : std::nullopt; };
+  return {
+      pooled.fits, pooled.redundancy, pooled.chi2, number(pooled.estimate), number(pooled.upper_95),
+      applied};
 }
 
 std::optional<double> SecondPassFactor(const RunContext& run,
@@ -137,7 +141,7 @@ bool EnsureLegSecondPass(const RunContext& run, size_t index_a, SiteRocksCache& 
                       LegUnitId(site_a, site_b) + " finished first");
         }
         const LegPassRecord first = FirstPass(*recorded);
-        LegUnitResult done = MatchLeg(run, index_a, rocks, matching, progress);
+        LegUnitResult done = MatchLegWith(run, index_a, rocks, matching, progress);
         if (factor) {
           done.first_pass = first;
           done.match.seconds = done.match.seconds.value_or(0.0) + first.seconds.value_or(0.0);
@@ -155,7 +159,7 @@ std::optional<CratersUnitResult> EnsureCratersUnit(const RunContext& run,
       run, "craters", run.out_dir / "craters",
       [&] {
         const auto start = std::chrono::steady_clock::now();
-        CratersUnitResult craters = RunCratersUnit(run, progress);
+        CratersUnitResult craters = DetectOrbitalCraters(run, progress);
         craters.seconds = SecondsSince(start);
         return craters;
       },

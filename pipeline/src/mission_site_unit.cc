@@ -51,7 +51,7 @@ CahvorModel CameraInSite(const CameraFile& camera) {
   return cahvor->Transformed(*camera.site_from_frame);
 }
 
-SiteStereo RunSiteStereo(const RunContext& run, const MissionSite& site,
+SiteStereo RunSiteStereo(const MissionRunContext& run, const MissionSite& site,
                          const ProgressCallback& progress) {
   SiteStereo result;
   result.cloud.site = site.site;
@@ -95,7 +95,7 @@ SiteStereo RunSiteStereo(const RunContext& run, const MissionSite& site,
 
 }  // namespace
 
-SiteRegistrationResult RegisterSiteOrtho(const RunContext& run, const Orthophoto& ortho,
+SiteRegistrationResult RegisterSiteOrtho(const MissionRunContext& run, const Orthophoto& ortho,
                                          const fs::path& ortho_path, int site,
                                          const OrbitalPrior& prior,
                                          const OrbitalMatchOptions& options, const fs::path& dir) {
@@ -147,8 +147,8 @@ std::vector<OrthoSourceImage> SiteOrthoImages(const MissionSite& site, int first
   return images;
 }
 
-SiteUnitResult RunSiteUnit(const RunContext& run, size_t site_index,
-                           const ProgressCallback& progress) {
+SiteUnitResult RegisterSite(const MissionRunContext& run, size_t site_index,
+                            const ProgressCallback& progress) {
   const MissionSite& site = run.mission->sites.at(site_index);
   const fs::path dir = SiteDir(run, site.site);
   fs::create_directories(dir);

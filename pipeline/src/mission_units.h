@@ -1,6 +1,7 @@
-// Private plumbing of RunMission (mission_run.h): the unit folders, their completion markers, and
-// the per-unit stages. Each stage reads its inputs from the mission or from earlier units' files
-// and writes its products atomically, its unit.json last.
+// Private plumbing of RunMission (mission_run.h): the unit folders, their completion markers, the
+// units under their claims around the public jobs (mission_jobs.h), and the stages' helpers. Each
+// unit reads its inputs from the mission or from earlier units' files and writes its products
+// atomically, its unit.json last.
 #pragma once
 
 #include <chrono>
@@ -23,20 +24,18 @@
 #include "areomap/map/output_folder.h"
 #include "areomap/map/rigid3d.h"
 #include "areomap/map/site_georeference.h"
+#include "areomap/pipeline/mission_jobs.h"
 #include "areomap/pipeline/mission_run.h"
 #include "areomap/pipeline/unit_claim.h"
+#include "areomap/pipeline/unit_results.h"
 #include "areomap/pipeline/work_plan.h"
-#include "unit_results.h"
 
 namespace areomap::mission_run {
 
-// The shared context of one run.
-struct RunContext {
-  const MissionManifest* mission;
-  const MissionRunOptions* options;
-  std::filesystem::path out_dir;
+// The shared context of one run: the jobs' (mission_jobs.h), and what resuming and claiming
+// units needs.
+struct RunContext : MissionRunContext {
   std::string fingerprint;  // Options + mission, recorded in every unit.json.
-  MapFrame map;             // The mission map (equirectangular at the origin).
   UnitClaimOptions claims;  // Units are claimed (unit_claim.h): one process computes each.
 
   RunContext(const MissionManifest& mission_in, const MissionRunOptions& options_in,
@@ -47,8 +46,8 @@ struct RunContext {
 // folders, the run's files and the plan's (plan.json, claims, executor scripts and logs).
 OutputFolderOptions RunFolderPolicy(const std::filesystem::path& mission, bool overwrite);
 
-std::filesystem::path SiteDir(const RunContext& run, int site);
-std::filesystem::path LegDir(const RunContext& run, int site_a, int site_b);
+std::filesystem::path SiteDir(const MissionRunContext& run, int site);
+std::filesystem::path LegDir(const MissionRunContext& run, int site_a, int site_b);
 
 // The unit's recorded summary when it finished with this run's fingerprint and every file it
 // wrote is still in its folder (a deleted points.ply makes the unit run again), else null.
@@ -102,18 +101,18 @@ std::string SiteUnitId(int site);
 std::string LegUnitId(int site_a, int site_b);
 std::string SecondPassUnitId(int site_a, int site_b);
 
-// The site unit of mission.sites[site_index] (RunSiteUnit), computed or reused.
+// The site unit of mission.sites[site_index] (RegisterSite), computed or reused.
 SiteUnitResult EnsureSiteUnit(const RunContext& run, size_t site_index,
                               const ProgressCallback& progress, bool* reused = nullptr);
-// The first pass of the leg from mission.sites[index_a] to the next site (RunLegUnit with the
-// run's matching options; "seconds" recorded), computed or reused. Throws areomap::Error naming
+// The first pass of the leg from mission.sites[index_a] to the next site (MatchLeg with the run's
+// matching options and `rocks`), computed or reused. Throws areomap::Error naming
 // the site unit when one of its sites is not finished.
 LegUnitResult EnsureLegUnit(const RunContext& run, size_t index_a, SiteRocksCache& rocks,
                             const ProgressCallback& progress, bool* reused = nullptr);
 // The rock tie points' a-posteriori variance factor pooled over the legs' first passes
 // (PoolVarianceFactor), and summary.json's record of it and of the factor applied.
 PooledVarianceFactor FirstPassTieVariance(const std::vector<LegUnitResult>& legs);
-nlohmann::json TieVarianceJson(const PooledVarianceFactor& pooled, std::optional<double> applied);
+TieVarianceRecord TieVariance(const PooledVarianceFactor& pooled, std::optional<double> applied);
 // The variance factor the legs' second pass applies given every leg's summary (first pass or
 // after): the pooled factor (MissionRunOptions::RockVariancePassFactor), nullopt when the pass
 // does not apply.
@@ -134,18 +133,6 @@ double SecondsSince(std::chrono::steady_clock::time_point start);
 // The JSON in `path`; null when the file is missing or not JSON.
 nlohmann::json ReadJsonOrNull(const std::filesystem::path& path);
 
-// The adjustment of a run (adjustment/): its inputs (the network, each site's control points,
-// each leg's tie points) and its options; repeated by the guided passes with the control points
-// they swap in.
-struct AdjustmentStage {
-  std::filesystem::path dir;
-  std::vector<std::filesystem::path> site_controls;  // One per mission site.
-  std::vector<std::filesystem::path> leg_tie_files;  // One per leg.
-  TraverseAdjustmentOptions options;
-  // AdjustTraverse on network.json, the site controls and the leg ties; its figures.
-  AdjustmentResult Run(const ProgressCallback& progress = nullptr) const;
-};
-
 // Guided re-registration after the first adjustment (MissionRunOptions::guided_passes): each
 // pass matches again the sites that did not register (with enough template pixels) around
 // their adjusted poses, and in the first pass also those whose match turned the orthophoto by
@@ -154,7 +141,7 @@ struct AdjustmentStage {
 // registers nothing. Returns summary.json's "guided_registration". `announce` is called before
 // each pass that has sites to try.
 GuidedPassesResult RunGuidedPasses(const RunContext& run, const std::vector<SiteUnitResult>& sites,
-                                   AdjustmentStage& adjustment, AdjustmentResult& adjusted,
+                                   AdjustmentInputs& adjustment, AdjustmentResult& adjusted,
                                    const std::function<void()>& announce);
 
 // Where telemetry puts a site: traverse_from_site with the believed (level, north-up) frame.
@@ -162,9 +149,6 @@ Rigid3d TelemetryTraverseFromSite(const MissionSitePose& pose);
 // Distance driven from site 0 to `site_index` along the telemetry traverse [m].
 double DrivenDistance(const MissionManifest& mission, size_t site_index);
 
-// Stage of one site (index into mission.sites): stereo, DTM, orthophoto, orbital registration.
-SiteUnitResult RunSiteUnit(const RunContext& run, size_t site_index,
-                           const ProgressCallback& progress);
 // Each site's rocks (ExtractRocks on its points.ply with the run's options), extracted on first
 // use and kept for the rest of the run: a site is shared by two legs, and a second pass over the
 // legs (MissionRunOptions::rock_variance_pass) matches them again. A site's rocks are a few
@@ -175,19 +159,19 @@ class SiteRocksCache {
     SiteRocks rocks;
     RockExtractionSummary summary;
   };
-  explicit SiteRocksCache(const RunContext& run) : run_(&run) {}
+  explicit SiteRocksCache(const MissionRunContext& run) : run_(&run) {}
   // Throws areomap::Error (from the PLY reader) naming the file when it cannot be read.
   const Entry& Get(size_t site_index);
 
  private:
-  const RunContext* run_;
+  const MissionRunContext* run_;
   std::map<size_t, Entry> entries_;
 };
 
 // Stage of one leg (consecutive site indices): rocks, matching with `matching` (the run's
 // options, or the second pass's with its variance factor), fault detection, tie points. Writes
 // the leg's folder (LegDir) except unit.json.
-LegUnitResult RunLegUnit(const RunContext& run, size_t index_a, size_t index_b,
+LegUnitResult RunLegUnit(const MissionRunContext& run, size_t index_a, size_t index_b,
                          SiteRocksCache& rocks, const RockMatchingOptions& matching,
                          const ProgressCallback& progress);
 
@@ -206,7 +190,7 @@ std::vector<std::filesystem::path> TestLegsAgainstEachOther(const RunContext& ru
 // mission's first orbital image with heights from its first orbital DTM. Writes
 // registration.json, correlation_surface.png and control_points.json (BA input format, ids
 // "site<N>-...") into `dir` and returns the registration. Without an orbital image: skipped.
-SiteRegistrationResult RegisterSiteOrtho(const RunContext& run, const Orthophoto& ortho,
+SiteRegistrationResult RegisterSiteOrtho(const MissionRunContext& run, const Orthophoto& ortho,
                                          const std::filesystem::path& ortho_path, int site,
                                          const OrbitalPrior& prior,
                                          const OrbitalMatchOptions& options,
@@ -225,20 +209,9 @@ GuidedUnitResult RunGuidedRegistrationUnit(const RunContext& run, size_t site_in
 // orthophoto's sources; ids are first_id, first_id + 1, ...
 std::vector<OrthoSourceImage> SiteOrthoImages(const MissionSite& site, int first_id);
 
-// Stage of the whole traverse (products/): every site's points.ply gridded into one DTM with the
-// adjusted poses (`traverse_from_site`, one per mission site), each site's images draped on it
-// and blended into one orthomosaic; both also compared with the orbital DTM, and the DTM made
-// with the telemetry poses too, to show what the adjustment changed.
 // Whether a finished products unit's recorded "poses" are `traverse_from_site` (to 0.1 mm /
 // 1e-4 in the quaternion: above solver round-off, far below the products' posting).
 bool SamePoses(const std::vector<std::array<double, 7>>& recorded,
                const std::vector<Rigid3d>& traverse_from_site);
-ProductsUnitResult RunProductsUnit(const RunContext& run,
-                                   const std::vector<Rigid3d>& traverse_from_site,
-                                   const ProgressCallback& progress);
-
-// Stage of the orbital image (craters/): crater detection, catalogue files, overlay PNG, and the
-// score against truth/craters.csv when the mission has it.
-CratersUnitResult RunCratersUnit(const RunContext& run, const ProgressCallback& progress);
 
 }  // namespace areomap::mission_run

@@ -78,8 +78,9 @@ std::string CsvTable(const fs::path& path) {
   return html + "</table>";
 }
 
+// The figure in `format`; a dash when missing or recorded as null (NaN).
 std::string Number(const OptionalNumber& value, const char* format) {
-  if (!value) return "&ndash;";
+  if (!mission_run::Known(value)) return "&ndash;";
   char text[64];
   std::snprintf(text, sizeof(text), format, *value);
   return text;
@@ -89,9 +90,9 @@ std::string Scaled(const OptionalNumber& value, double factor) {
   return Number(value ? OptionalNumber(factor * *value) : std::nullopt, "%.2f %%");
 }
 
-std::string GuidedRegistrationFigure(const GuidedSummary& guided) {
-  std::string text = std::to_string(guided.registered_first_pass->size()) + " around telemetry";
-  for (const GuidedPassSummary& pass : guided.passes) {
+std::string GuidedRegistrationFigure(const mission_run::GuidedPassesResult& guided) {
+  std::string text = std::to_string(guided.registered_first_pass.size()) + " around telemetry";
+  for (const mission_run::GuidedPassRecord& pass : guided.passes) {
     text += " + " + std::to_string(pass.registered.size()) + " guided (pass " +
             std::to_string(pass.pass) + "; " + std::to_string(pass.replaced.size()) +
             " re-matched)";
@@ -99,7 +100,7 @@ std::string GuidedRegistrationFigure(const GuidedSummary& guided) {
   return text;
 }
 
-std::string CratersFigure(const CratersSummary& craters) {
+std::string CratersFigure(const mission_run::CratersUnitResult& craters) {
   std::string text = Number(craters.craters, "%.0f");
   if (craters.score) {
     text += " (truth " + Number(craters.score->truth, "%.0f") + ": precision " +
@@ -110,7 +111,8 @@ std::string CratersFigure(const CratersSummary& craters) {
 }
 
 std::string KeyFigures(const RunSummary& summary) {
-  const AdjustmentSummary& adjustment = summary.adjustment;
+  const mission_run::AdjustmentResult adjustment =
+      summary.adjustment.value_or(mission_run::AdjustmentResult{});
   std::string html = "<table class=\"figures\">";
   const auto row = [&](const std::string& name, const std::string& value) {
     html += "<tr><th>" + name + "</th><td>" + value + "</td></tr>";
@@ -122,36 +124,38 @@ std::string KeyFigures(const RunSummary& summary) {
       Number(adjustment.tie_points, "%.0f") + " / " + Number(adjustment.control_points, "%.0f"));
   row("observations rejected", Number(adjustment.rejected, "%.0f"));
   row("sigma0", Number(adjustment.sigma0, "%.3f"));
-  const TieVarianceSummary& ties = summary.tie_variance;
+  const mission_run::TieVarianceRecord ties =
+      summary.tie_variance.value_or(mission_run::TieVarianceRecord{});
   row("rock tie fits: pooled sigma0&sup2; (95 % upper bound; legs, redundancy)",
       Number(ties.sigma0_squared, "%.3f") + " (" + Number(ties.sigma0_squared_upper_95, "%.3f") +
           "; " + Number(ties.legs, "%.0f") + ", " + Number(ties.redundancy, "%.0f") + ")");
   row("rock tie variance factor applied by the legs' second pass",
-      ties.applied_factor ? Number(ties.applied_factor, "%.3f")
-                          : std::string("none (too little redundancy, or off)"));
+      mission_run::Known(ties.applied_factor)
+          ? Number(ties.applied_factor, "%.3f")
+          : std::string("none (too little redundancy, or off)"));
   row("end-point error, telemetry (truth)", Number(adjustment.initial_end_error_m, "%.3f m"));
   row("end-point error, adjusted (truth)", Number(adjustment.adjusted_end_error_m, "%.3f m"));
   row("median adjusted leg RE (truth)", Scaled(adjustment.median_adjusted_leg_re, 100.0));
   row("largest 1&sigma; ellipse", Number(adjustment.largest_horizontal_sigma_m, "%.3f m"));
-  if (adjustment.median_adjusted_error_m) {
+  if (mission_run::Known(adjustment.median_adjusted_error_m)) {
     row("adjusted horizontal error, median / worst (truth)",
         Number(adjustment.median_adjusted_error_m, "%.3f m") + " / " +
             Number(adjustment.worst_adjusted_error_m, "%.3f m"));
     row("sites within their 1&sigma; ellipse's semi-major axis (truth)",
         Number(adjustment.sites_within_1sigma, "%.0f"));
   }
-  if (summary.guided.registered_first_pass) {
-    row("sites registered on the orbital image", GuidedRegistrationFigure(summary.guided));
+  if (summary.guided) {
+    row("sites registered on the orbital image", GuidedRegistrationFigure(*summary.guided));
   }
   if (summary.products && summary.products->dtm_minus_orbital_adjusted) {
-    const auto rms = [](const std::optional<DifferenceSummary>& d) {
+    const auto rms = [](const std::optional<mission_run::TraverseDifference>& d) {
       return Number(d ? d->rms_m : std::nullopt, "%.3f m");
     };
     row("traverse DTM &minus; orbital DTM, RMS: telemetry / adjusted poses",
         rms(summary.products->dtm_minus_orbital_telemetry) + " / " +
             rms(summary.products->dtm_minus_orbital_adjusted));
   }
-  if (summary.craters && summary.craters->craters) {
+  if (summary.craters && !summary.craters->skipped) {
     row("craters on the orbital image", CratersFigure(*summary.craters));
   }
   row("run time", Number(summary.seconds, "%.0f s"));
@@ -187,9 +191,11 @@ std::string StageTimes(const RunSummary& summary) {
   return html + "</table>";
 }
 
-std::string DifferenceRow(const std::string& name, const std::optional<DifferenceSummary>& d) {
-  const DifferenceSummary stats = d.value_or(DifferenceSummary{});
-  return "<tr><th>" + name + "</th><td>" + Number(stats.cells, "%.0f") + "</td><td>" +
+std::string DifferenceRow(const std::string& name,
+                          const std::optional<mission_run::TraverseDifference>& d) {
+  const mission_run::TraverseDifference stats = d.value_or(mission_run::TraverseDifference{});
+  return "<tr><th>" + name + "</th><td>" +
+         Number(d ? OptionalNumber(stats.cells) : std::nullopt, "%.0f") + "</td><td>" +
          Number(stats.mean_m, "%.3f") + "</td><td>" + Number(stats.stddev_m, "%.3f") + "</td><td>" +
          Number(stats.rms_m, "%.3f") + "</td><td>" + Number(stats.median_abs_m, "%.3f") +
          "</td></tr>";
@@ -197,8 +203,8 @@ std::string DifferenceRow(const std::string& name, const std::optional<Differenc
 
 // The whole-traverse DTM and orthomosaic, and how they sit on the orbital data.
 std::string ProductsSection(const fs::path& run_dir, const RunSummary& summary) {
-  if (!summary.products || *summary.products == ProductsSummary{}) return "";
-  const ProductsSummary& products = *summary.products;
+  if (!summary.products || *summary.products == mission_run::ProductsUnitResult{}) return "";
+  const mission_run::ProductsUnitResult& products = *summary.products;
   std::string html =
       "<h2>Traverse DTM and orthomosaic (adjusted poses)</h2><p>Every site's stereo points "
       "gridded at " +
@@ -220,8 +226,8 @@ std::string ProductsSection(const fs::path& run_dir, const RunSummary& summary) 
         DifferenceRow("adjusted", products.dtm_minus_orbital_adjusted) + "</table>";
   }
   if (products.ortho_vs_orbital_adjusted) {
-    const auto correlation = [](const std::optional<OptionalNumber>& c) {
-      return Number(c.value_or(std::nullopt), "%.3f");
+    const auto correlation = [](const std::optional<mission_run::TraverseCorrelation>& c) {
+      return Number(c ? c->correlation : std::nullopt, "%.3f");
     };
     html += "<p>Orthomosaic vs orbital image, correlation over the cells both cover: " +
             correlation(products.ortho_vs_orbital_telemetry) + " with the telemetry poses, " +
@@ -233,13 +239,13 @@ std::string ProductsSection(const fs::path& run_dir, const RunSummary& summary) 
 std::string CratersSection(const fs::path& run_dir, const RunSummary& summary) {
   if (!fs::exists(run_dir / "craters")) return "";
   std::string html = "<h2>Craters on the orbital image</h2>";
-  if (summary.craters && summary.craters->craters) {
-    const CratersSummary& craters = *summary.craters;
+  if (summary.craters && !summary.craters->skipped) {
+    const mission_run::CratersUnitResult& craters = *summary.craters;
     html += "<p>" + Number(craters.craters, "%.0f") + " rims from " +
             Number(craters.min_diameter_m, "%.1f m") +
             " across (<code>craters/craters.csv</code>, <code>craters.gpkg</code>).";
     if (craters.score) {
-      const CraterScoreSummary& s = *craters.score;
+      const mission_run::CraterScoreRecord& s = *craters.score;
       html += " Against the truth catalogue (" + Escape(s.rule) +
               "): " + Number(s.matched_truth, "%.0f") + " of " + Number(s.truth, "%.0f") +
               " true craters found, precision " + Number(s.precision, "%.2f") + ", recall " +
@@ -253,17 +259,20 @@ std::string CratersSection(const fs::path& run_dir, const RunSummary& summary) {
 
 // The guided re-registration of a site (summary.json "guided_registration"), as a paragraph;
 // empty when the site was not re-registered.
-std::string GuidedSiteParagraph(const fs::path& run_dir, const GuidedSummary& guided, int number) {
-  for (const GuidedPassSummary& pass : guided.passes) {
-    for (const GuidedAttemptSummary& a : pass.attempted) {
+std::string GuidedSiteParagraph(const fs::path& run_dir,
+                                const std::optional<mission_run::GuidedPassesResult>& guided,
+                                int number) {
+  if (!guided) return "";
+  for (const mission_run::GuidedPassRecord& pass : guided->passes) {
+    for (const mission_run::GuidedAttemptRecord& a : pass.attempted) {
       if (a.site != number) continue;
       char folder[64];
       std::snprintf(folder, sizeof(folder), "pass_%d/site_%03d", pass.pass, number);
       std::string html = "<p>Guided registration, pass " + std::to_string(pass.pass) +
                          " (around the adjusted position, turned " +
-                         Number(a.prior_rotation_deg, "%.1f") + "&deg;, window " +
+                         Number(a.prior.rotation_deg, "%.1f") + "&deg;, window " +
                          Number(a.search_radius_px, "&plusmn;%.0f px") + " = 3 &times; " +
-                         Number(a.prior_sigma_m, "%.2f m") + "): ";
+                         Number(a.prior.sigma_m, "%.2f m") + "): ";
       if (a.matched) {
         html += "<b>matched</b>, CC " + Number(a.correlation, "%.3f") + " (best at wrong offsets " +
                 Number(a.null_highest_correlation, "%.3f") + "), " +
@@ -279,10 +288,10 @@ std::string GuidedSiteParagraph(const fs::path& run_dir, const GuidedSummary& gu
   return "";
 }
 
-std::string SiteSection(const fs::path& run_dir, const SiteSummary& site) {
+std::string SiteSection(const fs::path& run_dir, const mission_run::SiteUnitResult& site) {
   char folder[32];
   std::snprintf(folder, sizeof(folder), "site_%03d", site.site);
-  const SiteRegistrationSummary& r = site.registration;
+  const mission_run::SiteRegistrationResult& r = site.registration;
   std::string html = "<h3>Site " + std::to_string(site.site) + "</h3><p>" +
                      Number(site.points, "%.0f") + " stereo points; DTM " +
                      Number(site.dtm_known_area_m2, "%.0f") + " m&sup2;; orthophoto " +
@@ -295,34 +304,34 @@ std::string SiteSection(const fs::path& run_dir, const SiteSummary& site) {
     html += "Registration: <b>no match</b> (" + Escape(r.reason) + ").";
   }
   html += "</p><details><summary>registration details and correlation surface</summary><pre>" +
-          Escape(r.record.dump(2)) + "</pre>" +
+          Escape(r.ToJson().dump(2)) + "</pre>" +
           EmbeddedPng(run_dir / "sites" / folder / "correlation_surface.png", "correlation surface",
                       320) +
           "</details>";
   return html;
 }
 
-std::string LegSection(const LegSummary& leg) {
+std::string LegSection(const mission_run::LegUnitResult& leg) {
   std::string html = "<h3>Leg " + std::to_string(leg.site_a) + " &rarr; " +
-                     std::to_string(leg.site_b) + "</h3><p>Outcome: <b>" + Escape(leg.outcome) +
-                     "</b>, " + Number(OptionalNumber(leg.tie_points), "%.0f") +
-                     " tie points, RE " + Number(leg.relative_error_percent, "%.2f %%") +
+                     std::to_string(leg.site_b) + "</h3><p>Outcome: <b>" +
+                     Escape(leg.match.outcome) + "</b>, " + Number(leg.match.tie_points, "%.0f") +
+                     " tie points, RE " + Number(leg.match.relative_error_percent, "%.2f %%") +
                      ", telemetry distance " + Number(leg.telemetry_distance_m, "%.1f m") + ".";
   if (leg.first_pass) {
     html += " First pass (a-priori tie covariances): " + Escape(leg.first_pass->outcome) + ", " +
             Number(leg.first_pass->tie_points, "%.0f") + " tie points, RE " +
             Number(leg.first_pass->relative_error_percent, "%.2f %%") +
-            "; this pass scaled them by " + Number(leg.tie_variance_factor, "%.3f") + ".";
+            "; this pass scaled them by " + Number(leg.match.tie_variance_factor, "%.3f") + ".";
   }
   html += "</p>";
   html +=
       "<table><tr><th>module</th><th>rule</th><th>value</th><th>threshold</th>"
       "<th>verdict</th></tr>";
-  for (const FaultRuleSummary& c : leg.rules) {
-    html += "<tr class=\"" + Escape(c.verdict) + "\"><td>" + Escape(c.module) + "</td><td>" +
-            Escape(c.rule) + "</td><td>" + Number(c.value, "%.3g") + " " + Escape(c.unit) +
-            "</td><td>" + Number(c.threshold, "%.3g") + "</td><td>" + Escape(c.verdict) +
-            "</td></tr>";
+  for (const FaultCheck& c : leg.faults.checks) {
+    const std::string verdict = Escape(ToString(c.verdict));
+    html += "<tr class=\"" + verdict + "\"><td>" + Escape(c.module) + "</td><td>" + Escape(c.rule) +
+            "</td><td>" + Number(c.value, "%.3g") + " " + Escape(c.unit) + "</td><td>" +
+            Number(c.threshold, "%.3g") + "</td><td>" + verdict + "</td></tr>";
   }
   return html + "</table>";
 }
@@ -330,12 +339,12 @@ std::string LegSection(const LegSummary& leg) {
 // The paragraph over the sites' registrations: how many registered around telemetry and in each
 // guided pass.
 std::string RegistrationOverview(const RunSummary& summary) {
-  const GuidedSummary& guided = summary.guided;
-  if (!guided.registered_first_pass) return "";
-  std::string html = "<p>" + std::to_string(guided.registered_first_pass->size()) + " of " +
+  if (!summary.guided) return "";
+  const mission_run::GuidedPassesResult& guided = *summary.guided;
+  std::string html = "<p>" + std::to_string(guided.registered_first_pass.size()) + " of " +
                      std::to_string(summary.sites.size()) +
                      " sites registered around their telemetry positions";
-  for (const GuidedPassSummary& pass : guided.passes) {
+  for (const mission_run::GuidedPassRecord& pass : guided.passes) {
     html += "; guided pass " + std::to_string(pass.pass) + " (around the adjusted " + "poses, " +
             std::to_string(pass.attempted.size()) +
             " sites tried): " + std::to_string(pass.registered.size()) + " more";
@@ -366,11 +375,11 @@ void WriteRunReportHtml(const fs::path& run_dir, const RunSummary& summary) {
   html += "<h3>Legs (relative error, Tables 4.6 / 5.2)</h3>" +
           CsvTable(run_dir / "adjustment" / "legs.csv");
   html += "<h2>Orbital registration per site</h2>" + RegistrationOverview(summary);
-  for (const SiteSummary& site : summary.sites) {
+  for (const mission_run::SiteUnitResult& site : summary.sites) {
     html += SiteSection(run_dir, site) + GuidedSiteParagraph(run_dir, summary.guided, site.site);
   }
   html += "<h2>Tie points and fault detection per leg</h2>";
-  for (const LegSummary& leg : summary.legs) html += LegSection(leg);
+  for (const mission_run::LegUnitResult& leg : summary.legs) html += LegSection(leg);
   html += ProductsSection(run_dir, summary);
   html += CratersSection(run_dir, summary);
   html += StageTimes(summary);

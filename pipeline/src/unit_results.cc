@@ -1,6 +1,7 @@
-#include "unit_results.h"
+#include "areomap/pipeline/unit_results.h"
 
 #include <string>
+#include <utility>
 
 #include "areomap/landmarks/rock_output.h"
 #include "areomap/map/error.h"
@@ -67,6 +68,7 @@ SiteRegistrationResult ReadRegistration(const Fields& f) {
   r.template_pixels = f.Count("template_pixels", 0);
   r.search_radius_px = f.Integer("search_radius_px", 0);
   r.correlation = f.Recorded("correlation");
+  r.peak_ratio = f.Recorded("peak_ratio");
   r.null_highest_correlation = f.Recorded("null_highest_correlation");
   r.gsd_m = f.Recorded("gsd_m");
   r.prior_sigma_m = f.Recorded("prior_sigma_m");
@@ -75,10 +77,11 @@ SiteRegistrationResult ReadRegistration(const Fields& f) {
   r.shift_north_m = f.Recorded("shift_north_m");
   r.sigma_east_m = f.Recorded("sigma_east_m");
   r.sigma_north_m = f.Recorded("sigma_north_m");
-  r.other = Others(f.object(), {"matched", "reason", "control_points", "template_pixels",
-                                "search_radius_px", "correlation", "null_highest_correlation",
-                                "gsd_m", "prior_sigma_m", "rotation_deg", "shift_east_m",
-                                "shift_north_m", "sigma_east_m", "sigma_north_m"});
+  r.other =
+      Others(f.object(),
+             {"matched", "reason", "control_points", "template_pixels", "search_radius_px",
+              "correlation", "peak_ratio", "null_highest_correlation", "gsd_m", "prior_sigma_m",
+              "rotation_deg", "shift_east_m", "shift_north_m", "sigma_east_m", "sigma_north_m"});
   return r;
 }
 
@@ -294,7 +297,64 @@ void PutComparisons(json& j, const ProductsUnitResult& p) {
   correlation("ortho_vs_orbital_telemetry", p.ortho_vs_orbital_telemetry);
 }
 
+// CraterScoreRecord's counts and figures under their names in the record.
+constexpr std::pair<const char*, int64_t CraterScoreRecord::*> kScoreCounts[] = {
+    {"truth", &CraterScoreRecord::truth},
+    {"detected", &CraterScoreRecord::detected},
+    {"matched_truth", &CraterScoreRecord::matched_truth},
+    {"matched_detected", &CraterScoreRecord::matched_detected}};
+constexpr std::pair<const char*, Figure CraterScoreRecord::*> kScoreFigures[] = {
+    {"precision", &CraterScoreRecord::precision},
+    {"recall", &CraterScoreRecord::recall},
+    {"f1", &CraterScoreRecord::f1},
+    {"median_center_error_px", &CraterScoreRecord::median_center_error_px}};
+
 }  // namespace
+
+json CraterScoreRecord::ToJson() const {
+  json j = other;
+  j["rule"] = rule;
+  for (const auto& [key, count] : kScoreCounts) j[key] = this->*count;
+  for (const auto& [key, figure] : kScoreFigures) j[key] = OrNull(this->*figure);
+  return j;
+}
+
+CraterScoreRecord CraterScoreRecord::FromJson(const json& json_in, const std::string& where) {
+  const Fields f = Fields::Top(json_in, where);
+  CraterScoreRecord s;
+  s.rule = f.Text("rule", "");
+  s.other = Others(f.object(), {"rule"});
+  for (const auto& [key, count] : kScoreCounts) {
+    s.*count = f.Count(key, 0);
+    s.other.erase(key);
+  }
+  for (const auto& [key, figure] : kScoreFigures) {
+    s.*figure = f.Number(key);
+    s.other.erase(key);
+  }
+  return s;
+}
+
+json TieVarianceRecord::ToJson() const {
+  return {{"legs", legs},
+          {"chi2", chi2},
+          {"redundancy", redundancy},
+          {"sigma0_squared", OrNull(sigma0_squared)},
+          {"sigma0_squared_upper_95", OrNull(sigma0_squared_upper_95)},
+          {"applied_factor", OrNull(applied_factor)}};
+}
+
+TieVarianceRecord TieVarianceRecord::FromJson(const json& json_in, const std::string& where) {
+  const Fields f = Fields::Top(json_in, where);
+  TieVarianceRecord t;
+  t.legs = f.Count("legs", 0);
+  t.redundancy = f.Count("redundancy", 0);
+  t.chi2 = f.Real("chi2");  // NaN when recorded as null.
+  t.sigma0_squared = f.Number("sigma0_squared");
+  t.sigma0_squared_upper_95 = f.Number("sigma0_squared_upper_95");
+  t.applied_factor = f.Number("applied_factor");
+  return t;
+}
 
 json SiteRegistrationResult::ToJson() const {
   json j = other;
@@ -308,6 +368,7 @@ json SiteRegistrationResult::ToJson() const {
   j["template_pixels"] = template_pixels;
   j["search_radius_px"] = search_radius_px;
   Put(j, "correlation", correlation);
+  Put(j, "peak_ratio", peak_ratio);
   Put(j, "null_highest_correlation", null_highest_correlation);
   Put(j, "gsd_m", gsd_m);
   Put(j, "prior_sigma_m", prior_sigma_m);
@@ -410,7 +471,7 @@ json CratersUnitResult::ToJson() const {
             {"sun_azimuth_deg", OrNull(sun_azimuth_deg)},
             {"seconds", seconds}};
   if (!sun_azimuth_estimate.is_null()) j["sun_azimuth_estimate"] = sun_azimuth_estimate;
-  if (!score.is_null()) j["score"] = score;
+  if (score) j["score"] = score->ToJson();
   return j;
 }
 
@@ -430,7 +491,8 @@ CratersUnitResult CratersUnitResult::FromJson(const json& json_in, const std::st
   if (const std::optional<Fields> e = f.Object("sun_azimuth_estimate")) {
     c.sun_azimuth_estimate = e->object();
   }
-  if (const std::optional<Fields> score = f.Object("score")) c.score = score->object();
+  if (const std::optional<Fields> score = f.Object("score"))
+    c.score = CraterScoreRecord::FromJson(score->object(), score->where());
   c.seconds = f.Real("seconds", 0.0);
   return c;
 }

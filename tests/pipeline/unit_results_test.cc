@@ -1,7 +1,7 @@
 // The mission run's unit results (pipeline/src/unit_results.h): each round-trips through the JSON
 // a unit records, the run's records read back as they were written, and a field of another type
 // is named by its path.
-#include "unit_results.h"
+#include "areomap/pipeline/unit_results.h"
 
 #include <gtest/gtest.h>
 
@@ -95,7 +95,12 @@ CratersUnitResult Craters() {
   c.files = {"craters.csv", "overlay.png"};
   c.sun_azimuth_source = "manifest";
   c.sun_azimuth_deg = 120.0;
-  c.score = {{"truth", 10}, {"recall", 1.0}, {"max_diameter_px", "inf"}, {"rule", "centre"}};
+  CraterScoreRecord score;
+  score.rule = "centre";
+  score.truth = 10;
+  score.recall = 1.0;
+  score.other = {{"max_diameter_px", "inf"}};
+  c.score = score;
   c.seconds = 0.64;
   return c;
 }
@@ -197,6 +202,37 @@ TEST(UnitResults, SkippedStagesRoundTripAsRecorded) {
                                     {"reason", "the mission has no orbital image"},
                                     {"seconds", 0.1}}));
   ExpectRoundTrip(craters);
+}
+
+// The crater score and the pooled tie variance as the run writes them (integers as integers,
+// undefined figures null) read and written back unchanged.
+TEST(UnitResults, ScoreAndTieVarianceReadBackAsWritten) {
+  const json score = {{"min_diameter_px", 16.0},
+                      {"max_diameter_px", "inf"},
+                      {"truth", 3},
+                      {"detected", 0},
+                      {"matched_truth", 0},
+                      {"matched_detected", 0},
+                      {"precision", nullptr},
+                      {"recall", 0.0},
+                      {"f1", nullptr},
+                      {"median_center_error_px", nullptr},
+                      {"median_diameter_error", nullptr},
+                      {"rule", "centre"}};
+  const CraterScoreRecord read = CraterScoreRecord::FromJson(score, "score");
+  EXPECT_EQ(read.truth, 3);
+  EXPECT_FALSE(read.precision.has_value());
+  EXPECT_EQ(read.ToJson().dump(), score.dump());
+  const json ties = {{"legs", 4},
+                     {"chi2", 12.5},
+                     {"redundancy", 40},
+                     {"sigma0_squared", 0.3125},
+                     {"sigma0_squared_upper_95", nullptr},
+                     {"applied_factor", nullptr}};
+  const TieVarianceRecord t = TieVarianceRecord::FromJson(ties, "rock_tie_variance");
+  EXPECT_EQ(t.legs, 4);
+  EXPECT_FALSE(t.applied_factor.has_value());
+  EXPECT_EQ(t.ToJson().dump(), ties.dump());
 }
 
 // The records as the run writes them, figures not typed and non-finite ones (null) included,

@@ -62,6 +62,7 @@
 #include "areomap/map/orthophoto.h"
 #include "areomap/map/progress.h"
 #include "areomap/map/rigid3d.h"
+#include "areomap/pipeline/run_summary.h"
 #include "areomap/registration/orbital_match.h"
 #include "areomap/registration/orbital_report.h"
 
@@ -159,7 +160,8 @@ struct MissionRunOptions {
 };
 
 struct MissionRunSummary {
-  nlohmann::json json;  // What summary.json holds (also the report's source).
+  RunSummary record;    // The run's summary, typed (run_summary.h).
+  nlohmann::json json;  // record.ToJson(): what summary.json holds (also the report's source).
   int sites_computed = 0;
   int sites_reused = 0;
   int legs_computed = 0;

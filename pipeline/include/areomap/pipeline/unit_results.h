@@ -1,19 +1,22 @@
-// Private to areomap::pipeline: what each unit of a mission run (mission_units.h) hands the run,
-// typed. A unit's stage returns its result; the run records it as unit.json's "summary" and
-// summary.json's entries are made of them ("sites", "legs", "craters", "adjustment",
-// "guided_registration", "products"; docs/summary-format.md). JSON only at that file boundary:
-// ToJson writes the record the run writes, FromJson reads it back, and FromJson(ToJson()) gives
-// the result back. Readers of summary.json go through RunSummary (run_summary.h).
+// What each unit of a mission run (mission_run.h) hands the run, typed: a unit's job returns its
+// result, the run records it as the unit's unit.json "summary", and summary.json is made of the
+// same records ("sites", "legs", "craters", "adjustment", "guided_registration", "products",
+// "rock_tie_variance"; docs/summary-format.md), read back whole by RunSummary (run_summary.h).
+// JSON only at that file boundary: ToJson writes the record the run writes (integers as
+// integers), FromJson reads it back, and FromJson(ToJson()) gives the result back.
 //
-// Units are in the field names as in run_summary.h (_m metres, _deg degrees, _px orbital pixels,
-// seconds [s]). A figure the writer records as null when it is not finite reads back as NaN.
+// Units are in the field names (_m metres, _m2 square metres, _deg degrees, _px orbital pixels,
+// _percent per cent, seconds [s]). A figure the writer records as null when it is not finite
+// reads back as NaN; a figure a record may lack (no truth, an older unit or summary) is
+// std::nullopt (Known() tells both apart from a figure).
 // Failure: FromJson throws areomap::Error naming `where` and the field's path (e.g.
 // ".../unit.json: summary.registration.matched is \"x\"; expected true or false ...") when a
-// field has another type than the run writes; a missing field takes its default, so that units
-// recorded before a field existed stay readable.
+// field has another type than the run writes; a missing field takes its default, so that records
+// written before a field existed stay readable.
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -30,6 +33,9 @@ namespace areomap::mission_run {
 
 // A figure that may be missing.
 using Figure = std::optional<double>;
+
+// A figure that is there and finite (not missing, not recorded as null).
+inline bool Known(const Figure& figure) { return figure && std::isfinite(*figure); }
 
 // One stereo pair of a site: its dense stereo's counts and the points kept after thinning.
 struct StereoPairRecord {
@@ -49,7 +55,7 @@ struct SiteRegistrationResult {
   int64_t control_points = 0;
   int64_t template_pixels = 0;  // Valid template pixels at full resolution.
   int search_radius_px = 0;
-  Figure correlation, null_highest_correlation, gsd_m, prior_sigma_m;
+  Figure correlation, peak_ratio, null_highest_correlation, gsd_m, prior_sigma_m;
   Figure rotation_deg;  // When the rotation was solved.
   // The rover's correction east/north [m] and its 1-sigma, when the template overlapped.
   Figure shift_east_m, shift_north_m, sigma_east_m, sigma_north_m;
@@ -117,6 +123,20 @@ struct LegUnitResult {
   static LegUnitResult FromJson(const nlohmann::json& json, const std::string& where);
 };
 
+// The craters' score against truth/craters.csv (crater_score.h's CraterMatchStats as
+// CraterMatchStatsJson writes it) with the matching rule; precision and the other ratios are
+// null (NaN) when undefined (nothing detected).
+struct CraterScoreRecord {
+  std::string rule;
+  int64_t truth = 0, detected = 0, matched_truth = 0, matched_detected = 0;
+  Figure precision, recall, f1, median_center_error_px;
+  // The record's other figures, as written (the diameter range, median_diameter_error).
+  nlohmann::json other = nlohmann::json::object();
+  bool operator==(const CraterScoreRecord&) const = default;
+  nlohmann::json ToJson() const;
+  static CraterScoreRecord FromJson(const nlohmann::json& json, const std::string& where);
+};
+
 // The craters unit (craters/): the catalogue's figures and files, the sun azimuth used.
 struct CratersUnitResult {
   bool skipped = false;  // The mission has no orbital image: only "status", "reason", seconds.
@@ -127,9 +147,9 @@ struct CratersUnitResult {
   std::vector<std::string> files;
   std::string sun_azimuth_source;  // "manifest", "estimated" or "none".
   Figure sun_azimuth_deg;          // Recorded as null when none.
-  // The crater module's records, as written: SunAzimuthEstimateJson when estimated, and
-  // CraterMatchStatsJson with the matching "rule" against truth/craters.csv; null when absent.
-  nlohmann::json sun_azimuth_estimate, score;
+  // The crater module's record as written (SunAzimuthEstimateJson) when estimated, else null.
+  nlohmann::json sun_azimuth_estimate;
+  std::optional<CraterScoreRecord> score;  // When the mission has truth/craters.csv.
   double seconds = 0.0;
   bool operator==(const CratersUnitResult&) const = default;
   nlohmann::json ToJson() const;
@@ -155,6 +175,18 @@ struct AdjustmentResult {
   bool operator==(const AdjustmentResult&) const = default;
   nlohmann::json ToJson() const;
   static AdjustmentResult FromJson(const nlohmann::json& json, const std::string& where);
+};
+
+// The rock tie points' variance factor pooled over the legs' first passes (PoolVarianceFactor,
+// localization_error.h): summary.json's "rock_tie_variance".
+struct TieVarianceRecord {
+  int64_t legs = 0, redundancy = 0;                // Fits pooled and their summed redundancy.
+  double chi2 = 0.0;                               // Their summed chi2.
+  Figure sigma0_squared, sigma0_squared_upper_95;  // nullopt (null) when nothing was pooled.
+  Figure applied_factor;  // Applied by the legs' second pass; nullopt (null) when not.
+  bool operator==(const TieVarianceRecord&) const = default;
+  nlohmann::json ToJson() const;
+  static TieVarianceRecord FromJson(const nlohmann::json& json, const std::string& where);
 };
 
 // The guided prior of a site as recorded: where the adjustment expects the rover east/north of
