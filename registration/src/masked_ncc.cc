@@ -288,21 +288,15 @@ MaskedNccSurface FftSurface(const Problem& p) {
   return surface;
 }
 
-// The sum over the rectangle [i0, i1) x [j0, j1) of an image from its integral image.
-double RectangleSum(const cv::Mat& integral, int i0, int i1, int j0, int j1) {
-  return integral.at<double>(i1, j1) - integral.at<double>(i1, j0) - integral.at<double>(i0, j1) +
-         integral.at<double>(i0, j0);
-}
-
 // Direct summation when every pixel of the fixed crop is valid (the usual orbital image): the
-// template's own sums over the overlap rectangle come from its integral images, and the three
-// sums with fixed values are row dot products, which Eigen vectorises.
+// template's own sums over the overlap rectangle come from OverlapSums (as on the FFT route), and
+// the three sums with fixed values are row dot products, which Eigen vectorises.
 MaskedNccSurface DirectSurfaceOnValidFixed(const Problem& p) {
   MaskedNccSurface surface = EmptySurface(p);
-  cv::Mat n_integral, m_integral, mm_integral;
-  cv::integral(p.moving.valid, n_integral, CV_64F);
-  cv::integral(p.moving.value, m_integral, CV_64F);
-  cv::integral(p.moving.value_sq, mm_integral, CV_64F);
+  cv::Mat pairs, sums_m, sums_mm;
+  OverlapSums(p, p.moving.valid, &pairs);
+  OverlapSums(p, p.moving.value, &sums_m);
+  OverlapSums(p, p.moving.value_sq, &sums_mm);
   const cv::Size crop = p.fixed.value.size();
   const cv::Size tmpl = p.moving.value.size();
   using Row = Eigen::Map<const Eigen::VectorXd>;
@@ -312,25 +306,21 @@ MaskedNccSurface DirectSurfaceOnValidFixed(const Problem& p) {
       const int i0 = std::max(0, -dy), i1 = std::min(tmpl.height, crop.height - dy);
       for (int c = 0; c < p.cols; ++c) {
         const int dx = p.shift_x0 + c - p.crop_x;
-        const int j0 = std::max(0, -dx), j1 = std::min(tmpl.width, crop.width - dx);
-        const int length = j1 - j0;
-        double n = 0.0, sum_m = 0.0, sum_mm = 0.0, sum_f = 0.0, sum_ff = 0.0, sum_fm = 0.0;
-        if (i1 > i0 && length > 0) {
-          n = std::round(RectangleSum(n_integral, i0, i1, j0, j1));
-          sum_m = RectangleSum(m_integral, i0, i1, j0, j1);
-          sum_mm = RectangleSum(mm_integral, i0, i1, j0, j1);
-          for (int i = i0; i < i1; ++i) {
-            const Row f(p.fixed.value.ptr<double>(i + dy) + dx + j0, length);
-            const Row ff(p.fixed.value_sq.ptr<double>(i + dy) + dx + j0, length);
-            const Row valid(p.moving.valid.ptr<double>(i) + j0, length);
-            const Row m(p.moving.value.ptr<double>(i) + j0, length);
-            sum_f += valid.dot(f);
-            sum_ff += valid.dot(ff);
-            sum_fm += m.dot(f);
-          }
+        const int j0 = std::max(0, -dx), length = std::min(tmpl.width, crop.width - dx) - j0;
+        const double n = std::round(pairs.at<double>(r, c));
+        double sum_f = 0.0, sum_ff = 0.0, sum_fm = 0.0;
+        for (int i = i0; i < i1 && length > 0; ++i) {
+          const Row f(p.fixed.value.ptr<double>(i + dy) + dx + j0, length);
+          const Row ff(p.fixed.value_sq.ptr<double>(i + dy) + dx + j0, length);
+          const Row valid(p.moving.valid.ptr<double>(i) + j0, length);
+          const Row m(p.moving.value.ptr<double>(i) + j0, length);
+          sum_f += valid.dot(f);
+          sum_ff += valid.dot(ff);
+          sum_fm += m.dot(f);
         }
         surface.overlap.at<std::int32_t>(r, c) = static_cast<std::int32_t>(n);
-        surface.ncc.at<float>(r, c) = n > 0.0 ? Score(n, sum_f, sum_m, sum_ff, sum_mm, sum_fm, p)
+        surface.ncc.at<float>(r, c) = n > 0.0 ? Score(n, sum_f, sums_m.at<double>(r, c), sum_ff,
+                                                      sums_mm.at<double>(r, c), sum_fm, p)
                                               : std::numeric_limits<float>::quiet_NaN();
       }
     }
