@@ -63,8 +63,9 @@ const PlanPair& PlansFor(cv::Size size) {
   return cache.For(size);
 }
 
-// Free buffers by size. They are never returned to the system: the pool holds at most as many
-// of a size as were in use at once.
+// Free buffers by size, at most kMaxCachedBytes of them: a run whose templates change size from
+// site to site would otherwise keep every size's buffers for good. A buffer given back beyond
+// the cap first frees those of other sizes, and is itself freed if it still does not fit.
 class BufferPool {
  public:
   void* Take(std::size_t bytes) {
@@ -74,6 +75,7 @@ class BufferPool {
       if (!free.empty()) {
         void* p = free.back();
         free.pop_back();
+        cached_bytes_ -= bytes;
         return p;
       }
     }
@@ -83,12 +85,26 @@ class BufferPool {
   }
   void Give(void* p, std::size_t bytes) {
     const std::lock_guard<std::mutex> lock(mutex_);
+    for (auto it = free_.begin(); it != free_.end() && cached_bytes_ + bytes > kMaxCachedBytes;
+         ++it) {
+      if (it->first == bytes) continue;
+      for (void* q : it->second) fftw_free(q);
+      cached_bytes_ -= it->first * it->second.size();
+      it->second.clear();
+    }
+    if (cached_bytes_ + bytes > kMaxCachedBytes) {
+      fftw_free(p);
+      return;
+    }
     free_[bytes].push_back(p);
+    cached_bytes_ += bytes;
   }
 
  private:
+  static constexpr std::size_t kMaxCachedBytes = std::size_t{128} << 20;
   std::mutex mutex_;
   std::map<std::size_t, std::vector<void*>> free_;
+  std::size_t cached_bytes_ = 0;
 };
 
 BufferPool& Pool() {

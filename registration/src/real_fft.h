@@ -4,8 +4,9 @@
 // Plans are made with FFTW_ESTIMATE: the algorithm depends on the size alone, so the same inputs
 // give the same bits on every run (FFTW_MEASURE picks by timing, which varies). Plans are cached
 // per size for the life of the process; the planner runs under a lock, transforms run
-// concurrently from any thread. Work buffers are kept in a process-wide pool and reused: fresh
-// buffers of this size cost more in page faults than the transforms themselves. Allocation
+// concurrently from any thread. Work buffers are kept in a process-wide pool (at most 128 MB of
+// free ones) and reused: fresh buffers of this size cost more in page faults than the transforms
+// themselves. Allocation
 // failure throws std::bad_alloc.
 #pragma once
 
