@@ -5,8 +5,10 @@
 #include <filesystem>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <utility>
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <opencv2/dnn.hpp>
 #include <opencv2/imgproc.hpp>
@@ -37,8 +39,8 @@ constexpr int kMinLevelSizePx = 48;  // no level smaller than this
 constexpr int kTileMarginPx = 64;
 // Errors of the network's circles against the held-out CTX labels (docs/crater-model.md), as
 // fractions of the diameter: 1-sigma of the centre per axis and of the diameter.
-constexpr double kCircleCenterSigma = 0.054;
-constexpr double kCircleDiameterSigma = 0.112;
+constexpr double kCircleCenterSigma = 0.053;
+constexpr double kCircleDiameterSigma = 0.108;
 // A rim fit replaces the circle only where it agrees with it: centres within a quarter of the
 // diameter, diameters within 25 %.
 constexpr double kRefineMaxShift = 0.25;
@@ -418,10 +420,15 @@ std::vector<CraterDetection> DetectCratersLearned(const RasterDataset& dataset,
                                                   const CraterDetectorOptions& options,
                                                   const LearnedDetectorOptions& learned,
                                                   const ProgressCallback& progress) {
-  const LevelReader read = [&dataset](int level, const cv::Rect& rect) {
-    if (level == 0) return dataset.ReadWindowFloat(1, {rect.x, rect.y, rect.width, rect.height});
+  // A GDAL handle is not thread-safe and the rim fits read in parallel: each thread reads
+  // through its own handle (sharing one corrupted reads of compressed tiles on large rasters).
+  tbb::enumerable_thread_specific<std::optional<RasterDataset>> readers;
+  const LevelReader read = [&dataset, &readers](int level, const cv::Rect& rect) {
+    std::optional<RasterDataset>& reader = readers.local();
+    if (!reader) reader = dataset.Reopen();
+    if (level == 0) return reader->ReadWindowFloat(1, {rect.x, rect.y, rect.width, rect.height});
     const int f = 1 << level;
-    return ReadDecimated(dataset, {rect.x * f, rect.y * f, rect.width * f, rect.height * f}, f);
+    return ReadDecimated(*reader, {rect.x * f, rect.y * f, rect.width * f, rect.height * f}, f);
   };
   return DetectLearned(read, dataset.info().width, dataset.info().height, options, learned,
                        progress);

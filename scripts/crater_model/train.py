@@ -7,15 +7,19 @@ heat map, the centre's sub-cell offset and the log rim diameter. crater/src/lear
 runs it through OpenCV dnn on an image pyramid; docs/crater-model.md says why this design.
 
 Data: the CTX MC-11 East catalogue (../shared/data/craters-train/ctx-mc11e, CC-BY-4.0), nine
-images for training and three held out for validation (HELD_OUT below). Nothing else: the HRSC
-images in ../shared/data are for measurement only.
+images for training and three held out for validation (HELD_OUT below), and, with --generated,
+scenes from the mission generator (build/release/eval/areomap_crater_training_scenes), drawn for a
+--generated-fraction of the crops. Nothing else: the HRSC images in ../shared/data are for
+measurement only.
 
 Usage (Debian's python3-torch and python3-opencv; `bash scripts/install-deps.sh --training`):
+    build/release/eval/areomap_crater_training_scenes --out build/crater-scenes --count 64
     /usr/bin/python3 scripts/crater_model/train.py --data ../shared/data/craters-train/ctx-mc11e \
-        --out crater/models/crater_centernet.onnx
+        --generated build/crater-scenes --out crater/models/crater_centernet.onnx
 Deterministic for a given --seed on one machine (torch CPU, fixed thread count).
 """
 import argparse
+import glob
 import json
 import math
 import os
@@ -48,14 +52,33 @@ def load_catalogue(data_dir, letters):
     return items
 
 
+def load_generated(folder):
+    """Generated scenes: scene-NNN.png (16-bit DN) with scene-NNN_craters.csv, every crater
+    labelled (annotators = 6)."""
+    items = []
+    for path in sorted(glob.glob(os.path.join(folder, "scene-*.png"))):
+        image = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+        if image is None:
+            raise SystemExit(f"error: cannot read {path}")
+        rows = np.genfromtxt(path[:-4] + "_craters.csv", delimiter=",", names=True, ndmin=1)
+        craters = np.stack([rows["x_px"], rows["y_px"], rows["diameter_px"], rows["annotators"]], 1)
+        items.append((os.path.basename(path), image.astype(np.float32), craters))
+    if not items:
+        raise SystemExit(f"error: {folder} holds no scene-*.png")
+    return items
+
+
 class Sampler:
     """Random training crops with their crater labels, augmented as real products differ:
     scale (GSD), rotation by quarter turns and flips (sun direction), blur (MTF), noise, gain."""
 
-    def __init__(self, items, crop, rng, min_prefilter=0.5, sharpen=0.0):
+    def __init__(self, items, crop, rng, min_prefilter=0.5, sharpen=0.0, generated=(),
+                 generated_fraction=0.0):
         self.min_prefilter = min_prefilter
         self.sharpen = sharpen
         self.items = items
+        self.generated = list(generated)
+        self.generated_fraction = generated_fraction if self.generated else 0.0
         self.crop = crop
         self.rng = rng
         # Images with more craters are drawn more often, but every image is drawn.
@@ -64,7 +87,10 @@ class Sampler:
 
     def sample(self):
         rng = self.rng
-        _, image, craters = self.items[rng.choice(len(self.items), p=self.weights)]
+        if self.generated_fraction > 0.0 and rng.random() < self.generated_fraction:
+            _, image, craters = self.generated[rng.integers(len(self.generated))]
+        else:
+            _, image, craters = self.items[rng.choice(len(self.items), p=self.weights)]
         # Output/input scale: mostly near the native GSD, sometimes much coarser, so that
         # large craters are seen at the sizes the pyramid shows them.
         if rng.random() < 0.3:
@@ -227,19 +253,22 @@ def main():
     ap.add_argument("--data", required=True, help="the ctx-mc11e folder")
     ap.add_argument("--out", required=True, help="ONNX file to write")
     ap.add_argument("--seed", type=int, default=7)
-    ap.add_argument("--iterations", type=int, default=3000)
+    ap.add_argument("--iterations", type=int, default=9000)
     ap.add_argument("--batch", type=int, default=12)
     ap.add_argument("--crop", type=int, default=160)
     ap.add_argument("--lr", type=float, default=3e-3)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--min-annotators", type=int, default=2)
     ap.add_argument("--max-net-diameter", type=float, default=48.0)
-    ap.add_argument("--eval-every", type=int, default=500)
+    ap.add_argument("--eval-every", type=int, default=1000)
     ap.add_argument("--init", help="start from these weights (.pt) instead of random ones")
     ap.add_argument("--min-prefilter", type=float, default=0.5,
                     help="least anti-alias sigma before downsampling a crop [output px]")
     ap.add_argument("--sharpen", type=float, default=0.0,
                     help="largest unsharp-mask amount of the augmentation (0: none)")
+    ap.add_argument("--generated", help="folder of generated scenes (areomap_crater_training_scenes)")
+    ap.add_argument("--generated-fraction", type=float, default=0.3,
+                    help="share of the crops drawn from --generated")
     args = ap.parse_args()
 
     torch.manual_seed(args.seed)
@@ -248,7 +277,9 @@ def main():
     train_letters = [c for c in ALL_IMAGES if c not in HELD_OUT]
     train = load_catalogue(args.data, train_letters)
     val = load_catalogue(args.data, HELD_OUT)
-    sampler = Sampler(train, args.crop, rng, args.min_prefilter, args.sharpen)
+    generated = load_generated(args.generated) if args.generated else []
+    sampler = Sampler(train, args.crop, rng, args.min_prefilter, args.sharpen, generated,
+                      args.generated_fraction)
     model = crater_net.CraterNet()
     if args.init:
         model.load_state_dict(torch.load(args.init))

@@ -22,7 +22,7 @@ struct LearnedDetectorOptions {
   std::string model_path;  // ONNX file of a model trained as the built-in one; empty: built-in
   // Heat-map peak threshold in (0, 1): the built-in model's value maximises F1 on its three
   // held-out CTX validation images (docs/crater-model.md).
-  double min_score = 0.3;
+  double min_score = 0.4;
   // Refit each detection's rim as an ellipse where it has edges (RefineCrater); otherwise, and
   // when false, the crater keeps the network's circle (CraterDetection::rim_fitted false).
   bool refine_rims = true;
