@@ -1,0 +1,118 @@
+#include "level_files.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <string>
+
+#include <opencv2/imgproc.hpp>
+
+#include "areomap/map/error.h"
+
+namespace areomap::internal {
+namespace {
+
+// Output rows per strip while a level is built.
+constexpr int kStripRows = 256;
+
+std::string SystemError(const std::string& what) {
+  return "crater pyramid level file: " + what + ": " + std::strerror(errno);
+}
+
+// A new file in the temporary folder, already unlinked: it goes when `fd` is closed.
+int MakeUnlinkedFile() {
+  std::string path =
+      (std::filesystem::temp_directory_path() / "areomap-crater-level-XXXXXX").string();
+  const int fd = mkstemp(path.data());
+  if (fd < 0) throw Error(SystemError("cannot create " + path));
+  unlink(path.c_str());
+  return fd;
+}
+
+// 2 x 2 means of `rows` (an even number of rows, at least 2 x width columns), NaN where any of
+// the four is NaN.
+cv::Mat HalveRows(const cv::Mat& rows, int width) {
+  cv::Mat out;
+  cv::resize(rows(cv::Rect(0, 0, 2 * width, rows.rows)), out, cv::Size(width, rows.rows / 2), 0, 0,
+             cv::INTER_AREA);
+  return out;
+}
+
+}  // namespace
+
+PyramidLevelFiles::PyramidLevelFiles(const RasterDataset& dataset, int levels) {
+  const RasterInfo& info = dataset.info();
+  try {
+    for (int l = 1; l < levels; ++l) {
+      Level level;
+      level.size = cv::Size(info.width >> l, info.height >> l);
+      if (level.size.width < 1 || level.size.height < 1) break;
+      level.fd = MakeUnlinkedFile();
+      levels_.push_back(level);
+      for (int r0 = 0; r0 < level.size.height; r0 += kStripRows) {
+        const int rows = std::min(kStripRows, level.size.height - r0);
+        cv::Mat strip;
+        if (l == 1) {
+          strip = ReadDecimated(dataset, {0, 2 * r0, 2 * level.size.width, 2 * rows}, 2);
+        } else {
+          const Level& below = levels_[static_cast<size_t>(l - 2)];
+          strip = HalveRows(Read(l - 1, cv::Rect(0, 2 * r0, below.size.width, 2 * rows)),
+                            level.size.width);
+        }
+        WriteRows(level, r0, strip);
+      }
+    }
+  } catch (...) {
+    for (const Level& level : levels_) close(level.fd);
+    throw;
+  }
+}
+
+PyramidLevelFiles::~PyramidLevelFiles() {
+  for (const Level& level : levels_) close(level.fd);
+}
+
+void PyramidLevelFiles::WriteRows(const Level& level, int row0, const cv::Mat& rows) const {
+  const size_t row_bytes = static_cast<size_t>(level.size.width) * sizeof(float);
+  for (int r = 0; r < rows.rows; ++r) {
+    const off_t at = static_cast<off_t>(row0 + r) * static_cast<off_t>(row_bytes);
+    const char* data = reinterpret_cast<const char*>(rows.ptr<float>(r));
+    size_t done = 0;
+    while (done < row_bytes) {
+      const ssize_t n =
+          pwrite(level.fd, data + done, row_bytes - done, at + static_cast<off_t>(done));
+      if (n <= 0) throw Error(SystemError("cannot write"));
+      done += static_cast<size_t>(n);
+    }
+  }
+}
+
+cv::Mat PyramidLevelFiles::Read(int level, const cv::Rect& rect) const {
+  if (level < 1 || level > static_cast<int>(levels_.size())) {
+    throw Error("crater pyramid level file: no level " + std::to_string(level));
+  }
+  const Level& l = levels_[static_cast<size_t>(level - 1)];
+  if ((rect & cv::Rect(0, 0, l.size.width, l.size.height)) != rect) {
+    throw Error("crater pyramid level file: window outside level " + std::to_string(level));
+  }
+  cv::Mat out(rect.size(), CV_32F);
+  const size_t row_bytes = static_cast<size_t>(rect.width) * sizeof(float);
+  for (int r = 0; r < rect.height; ++r) {
+    const off_t at = (static_cast<off_t>(rect.y + r) * l.size.width + rect.x) *
+                     static_cast<off_t>(sizeof(float));
+    char* data = reinterpret_cast<char*>(out.ptr<float>(r));
+    size_t done = 0;
+    while (done < row_bytes) {
+      const ssize_t n = pread(l.fd, data + done, row_bytes - done, at + static_cast<off_t>(done));
+      if (n <= 0) throw Error(SystemError("cannot read"));
+      done += static_cast<size_t>(n);
+    }
+  }
+  return out;
+}
+
+}  // namespace areomap::internal
