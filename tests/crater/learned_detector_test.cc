@@ -14,6 +14,7 @@
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "crater_scene.h"
+#include "small_tiled_raster.h"
 #include "test_support.h"
 
 namespace areomap {
@@ -224,12 +225,7 @@ TEST(DetectCratersLearned, RimFitsReadACompressedRasterFromManyThreads) {
   cv::Mat scene, image;
   FieldScene().products.image.bands[0].convertTo(scene, CV_32F);
   cv::repeat(scene, 3, 3, image);
-  GeoRaster raster;
-  raster.bands = {image};
-  GeoTiffOptions tiff;
-  tiff.tile_size = 64;
-  WriteGeoTiff(dir / "mosaic.tif", raster, tiff);
-  const RasterDataset dataset = RasterDataset::Open(dir / "mosaic.tif");
+  const RasterDataset dataset = testing::WriteSmallTiledRaster(dir / "mosaic.tif", image);
   CraterDetectorOptions options;
   options.method = CraterMethod::kLearned;
   const std::vector<CraterDetection> in_memory = DetectCratersLearned(image, options);

@@ -10,6 +10,7 @@
 
 #include "areomap/map/error.h"
 #include "areomap/map/raster.h"
+#include "small_tiled_raster.h"
 
 namespace areomap {
 namespace {
@@ -24,12 +25,7 @@ TEST(PyramidLevelFiles, HoldTheMeansThatReadDecimatedReads) {
   cv::Mat image(613, 1031, CV_32F);
   cv::randu(image, 0.0, 1000.0);
   image(cv::Rect(100, 40, 7, 5)).setTo(std::numeric_limits<float>::quiet_NaN());
-  GeoRaster raster;
-  raster.bands = {image};
-  GeoTiffOptions tiff;
-  tiff.tile_size = 64;
-  WriteGeoTiff(dir / "image.tif", raster, tiff);
-  const RasterDataset dataset = RasterDataset::Open(dir / "image.tif");
+  const RasterDataset dataset = testing::WriteSmallTiledRaster(dir / "image.tif", image);
   const internal::PyramidLevelFiles files(dataset, 5);
   for (int level = 1; level < 5; ++level) {
     const int f = 1 << level;
