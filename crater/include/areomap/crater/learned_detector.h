@@ -60,7 +60,10 @@ class CraterNetwork {
 cv::Mat NormalizeForCraterNetwork(const cv::Mat& image);
 
 // Detects craters in band 1 of `dataset` (any size: read by windows, memory bounded by a few
-// tiles). Diameter limits from `options` (min_diameter_px, max_diameter_px); the rim fits use
+// tiles). A raster over 64 MB as Float32 also takes about a third of its Float32 size on the
+// temporary folder's disk for its pyramid levels, in files unlinked at once (without room there it
+// reads the levels from the raster, slower). Diameter limits from `options` (min_diameter_px,
+// max_diameter_px); the rim fits use
 // `options`' edge settings. Sorted by decreasing confidence (the heat-map peak). Progress per
 // tile; cancelling throws areomap::Error.
 std::vector<CraterDetection> DetectCratersLearned(const RasterDataset& dataset,
