@@ -12,12 +12,11 @@
 // terrain roughness and sun from the seed, so the set is the same on every machine.
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <random>
 #include <string>
 
+#include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 
 #include "areomap/map/atomic_file.h"
@@ -26,51 +25,22 @@
 
 namespace {
 
-struct Args {
-  std::filesystem::path out;
-  int count = 64;
-  int size_px = 512;
-  uint32_t seed = 11;
+// One scene's random draw; sizes are drawn in pixels of the image and converted to metres by its
+// GSD.
+struct SceneDraw {
+  areomap::SceneOptions scene;
+  areomap::OrbitalImageOptions image;
+  double dtm_posting_m = 0.0;
 };
 
-[[noreturn]] void Usage(const char* message) {
-  std::fprintf(stderr,
-               "error: %s\nusage: areomap_crater_training_scenes --out DIR [--count N] "
-               "[--size PX] [--seed N]\n",
-               message);
-  std::exit(2);
-}
-
-Args ParseArgs(int argc, char** argv) {
-  Args args;
-  for (int i = 1; i < argc; ++i) {
-    const std::string key = argv[i];
-    if (i + 1 >= argc) Usage(("missing value after " + key).c_str());
-    const char* value = argv[++i];
-    if (key == "--out") {
-      args.out = value;
-    } else if (key == "--count") {
-      args.count = std::atoi(value);
-    } else if (key == "--size") {
-      args.size_px = std::atoi(value);
-    } else if (key == "--seed") {
-      args.seed = static_cast<uint32_t>(std::strtoul(value, nullptr, 10));
-    } else {
-      Usage(("unknown option " + key).c_str());
-    }
-  }
-  if (args.out.empty()) Usage("--out is required");
-  if (args.count < 1 || args.size_px < 64) Usage("--count must be >= 1 and --size >= 64");
-  return args;
-}
-
-// One scene's draw: sizes in pixels of the image, converted to metres by its GSD.
-void DrawScene(std::mt19937& rng, int size_px, areomap::SceneOptions& scene,
-               areomap::OrbitalImageOptions& image, double& dtm_posting_m) {
+SceneDraw DrawScene(std::mt19937& rng, int size_px) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const auto log_uniform = [&](double lo, double hi) {
     return std::exp(std::log(lo) + unit(rng) * (std::log(hi) - std::log(lo)));
   };
+  SceneDraw d;
+  areomap::OrbitalImageOptions& image = d.image;
+  areomap::SceneOptions& scene = d.scene;
   image.gsd_m = log_uniform(0.25, 2.0);
   image.sun_azimuth_deg = 360.0 * unit(rng);
   image.sun_elevation_deg = 12.0 + 38.0 * unit(rng);
@@ -88,7 +58,8 @@ void DrawScene(std::mt19937& rng, int size_px, areomap::SceneOptions& scene,
   scene.roughness_wavelength_m = log_uniform(10.0, 80.0) * image.gsd_m;
   // No rock_path: the scene has no rocks.
   scene.seed = static_cast<uint32_t>(rng());
-  dtm_posting_m = 8.0 * image.gsd_m;
+  d.dtm_posting_m = 8.0 * image.gsd_m;
+  return d;
 }
 
 void WriteLabels(const std::filesystem::path& path, const std::vector<areomap::Ellipse>& craters,
@@ -111,22 +82,27 @@ void WriteLabels(const std::filesystem::path& path, const std::vector<areomap::E
 }  // namespace
 
 int main(int argc, char** argv) {
-  const Args args = ParseArgs(argc, argv);
-  std::filesystem::create_directories(args.out);
-  std::mt19937 rng(args.seed);
-  for (int i = 0; i < args.count; ++i) {
-    areomap::SceneOptions scene;
-    areomap::OrbitalImageOptions image;
-    double dtm_posting_m = 0.0;
-    DrawScene(rng, args.size_px, scene, image, dtm_posting_m);
+  std::filesystem::path out;
+  int count = 64, size_px = 512;
+  uint32_t seed = 11;
+  CLI::App app{"Generated crater scenes for training the crater network"};
+  app.add_option("--out", out, "Folder for scene-NNN.png and scene-NNN_craters.csv")->required();
+  app.add_option("--count", count, "Number of scenes")->check(CLI::Range(1, 100000));
+  app.add_option("--size", size_px, "Image side [px]")->check(CLI::Range(64, 16384));
+  app.add_option("--seed", seed, "Seed of every random draw");
+  CLI11_PARSE(app, argc, argv);
+  std::filesystem::create_directories(out);
+  std::mt19937 rng(seed);
+  for (int i = 0; i < count; ++i) {
+    const SceneDraw d = DrawScene(rng, size_px);
     const areomap::testing::CraterScene s =
-        areomap::testing::MakeCraterScene(scene, image, dtm_posting_m);
+        areomap::testing::MakeCraterScene(d.scene, d.image, d.dtm_posting_m);
     char stem[32];
     std::snprintf(stem, sizeof(stem), "scene-%03d", i);
-    areomap::WriteImage(args.out / (std::string(stem) + ".png"), s.products.image.bands.at(0));
-    WriteLabels(args.out / (std::string(stem) + "_craters.csv"), s.truth_px, args.size_px);
-    std::printf("%s: gsd %.2f m, %zu craters, sun %.0f/%.0f deg\n", stem, image.gsd_m,
-                s.truth_px.size(), image.sun_azimuth_deg, image.sun_elevation_deg);
+    areomap::WriteImage(out / (std::string(stem) + ".png"), s.products.image.bands.at(0));
+    WriteLabels(out / (std::string(stem) + "_craters.csv"), s.truth_px, size_px);
+    std::printf("%s: gsd %.2f m, %zu craters, sun %.0f/%.0f deg\n", stem, d.image.gsd_m,
+                s.truth_px.size(), d.image.sun_azimuth_deg, d.image.sun_elevation_deg);
   }
   return 0;
 }
