@@ -39,33 +39,28 @@ ALL_IMAGES = "ABCDEFGHIJKL"
 HELD_OUT = "CFL"  # validation images, never trained on
 
 
+def load_labelled_image(stem):
+    """stem.png and stem_craters.csv (x_px, y_px, diameter_px, annotators) as (name, float32
+    image, N x 4 craters)."""
+    image = cv2.imread(stem + ".png", cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise SystemExit(f"error: cannot read {stem}.png")
+    rows = np.genfromtxt(stem + "_craters.csv", delimiter=",", names=True, ndmin=1)
+    craters = np.stack([rows["x_px"], rows["y_px"], rows["diameter_px"], rows["annotators"]], 1)
+    return os.path.basename(stem), image.astype(np.float32), craters
+
+
 def load_catalogue(data_dir, letters):
-    items = []
-    for letter in letters:
-        stem = os.path.join(data_dir, f"MC11E-{letter}")
-        image = cv2.imread(stem + ".png", cv2.IMREAD_UNCHANGED)
-        if image is None:
-            raise SystemExit(f"error: cannot read {stem}.png")
-        rows = np.genfromtxt(stem + "_craters.csv", delimiter=",", names=True)
-        craters = np.stack([rows["x_px"], rows["y_px"], rows["diameter_px"], rows["annotators"]], 1)
-        items.append((letter, image.astype(np.float32), craters))
-    return items
+    return [load_labelled_image(os.path.join(data_dir, f"MC11E-{letter}")) for letter in letters]
 
 
 def load_generated(folder):
     """Generated scenes: scene-NNN.png (16-bit DN) with scene-NNN_craters.csv, every crater
     labelled (annotators = 6)."""
-    items = []
-    for path in sorted(glob.glob(os.path.join(folder, "scene-*.png"))):
-        image = cv2.imread(path, cv2.IMREAD_UNCHANGED)
-        if image is None:
-            raise SystemExit(f"error: cannot read {path}")
-        rows = np.genfromtxt(path[:-4] + "_craters.csv", delimiter=",", names=True, ndmin=1)
-        craters = np.stack([rows["x_px"], rows["y_px"], rows["diameter_px"], rows["annotators"]], 1)
-        items.append((os.path.basename(path), image.astype(np.float32), craters))
-    if not items:
+    paths = sorted(glob.glob(os.path.join(folder, "scene-*.png")))
+    if not paths:
         raise SystemExit(f"error: {folder} holds no scene-*.png")
-    return items
+    return [load_labelled_image(p[:-4]) for p in paths]
 
 
 class Sampler:
