@@ -33,6 +33,18 @@ int MakeUnlinkedFile() {
   return fd;
 }
 
+// Moves all `bytes` at `offset` with pread or pwrite (`transfer`), which may move fewer at a
+// time; throws with `what` when one moves none.
+template <typename Buffer, typename Transfer>
+void TransferAll(Transfer transfer, int fd, Buffer* data, size_t bytes, off_t offset,
+                 const char* what) {
+  for (size_t done = 0; done < bytes;) {
+    const ssize_t n = transfer(fd, data + done, bytes - done, offset + static_cast<off_t>(done));
+    if (n <= 0) throw Error(SystemError(what));
+    done += static_cast<size_t>(n);
+  }
+}
+
 // 2 x 2 means of `rows` (an even number of rows, at least 2 x width columns), NaN where any of
 // the four is NaN.
 cv::Mat HalveRows(const cv::Mat& rows, int width) {
@@ -77,18 +89,12 @@ PyramidLevelFiles::~PyramidLevelFiles() {
 }
 
 void PyramidLevelFiles::WriteRows(const Level& level, int row0, const cv::Mat& rows) const {
+  // A strip's rows are whole level rows, and contiguous in a continuous matrix: one write.
+  const cv::Mat strip = rows.isContinuous() ? rows : rows.clone();
   const size_t row_bytes = static_cast<size_t>(level.size.width) * sizeof(float);
-  for (int r = 0; r < rows.rows; ++r) {
-    const off_t at = static_cast<off_t>(row0 + r) * static_cast<off_t>(row_bytes);
-    const char* data = reinterpret_cast<const char*>(rows.ptr<float>(r));
-    size_t done = 0;
-    while (done < row_bytes) {
-      const ssize_t n =
-          pwrite(level.fd, data + done, row_bytes - done, at + static_cast<off_t>(done));
-      if (n <= 0) throw Error(SystemError("cannot write"));
-      done += static_cast<size_t>(n);
-    }
-  }
+  TransferAll(pwrite, level.fd, reinterpret_cast<const char*>(strip.ptr<float>(0)),
+              row_bytes * static_cast<size_t>(strip.rows),
+              static_cast<off_t>(row0) * static_cast<off_t>(row_bytes), "cannot write");
 }
 
 cv::Mat PyramidLevelFiles::Read(int level, const cv::Rect& rect) const {
@@ -104,13 +110,8 @@ cv::Mat PyramidLevelFiles::Read(int level, const cv::Rect& rect) const {
   for (int r = 0; r < rect.height; ++r) {
     const off_t at = (static_cast<off_t>(rect.y + r) * l.size.width + rect.x) *
                      static_cast<off_t>(sizeof(float));
-    char* data = reinterpret_cast<char*>(out.ptr<float>(r));
-    size_t done = 0;
-    while (done < row_bytes) {
-      const ssize_t n = pread(l.fd, data + done, row_bytes - done, at + static_cast<off_t>(done));
-      if (n <= 0) throw Error(SystemError("cannot read"));
-      done += static_cast<size_t>(n);
-    }
+    TransferAll(pread, l.fd, reinterpret_cast<char*>(out.ptr<float>(r)), row_bytes, at,
+                "cannot read");
   }
   return out;
 }

@@ -6,8 +6,7 @@
 // per size for the life of the process; the planner runs under a lock, transforms run
 // concurrently from any thread. Work buffers are kept in a process-wide pool (at most 128 MB of
 // free ones) and reused: fresh buffers of this size cost more in page faults than the transforms
-// themselves. Allocation
-// failure throws std::bad_alloc.
+// themselves. Allocation failure throws std::bad_alloc.
 #pragma once
 
 #include <cstddef>
