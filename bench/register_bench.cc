@@ -95,10 +95,10 @@ int Main(int argc, char** argv) {
     o.orbital_half_extent_m = c.orbital_half_m;
     o.telemetry_sigma_m = c.prior_sigma_m / 2.0;
     o.decoy = false;
-    testing::Trial trial = testing::MakeTrial(o);
-    trial.prior.sigma_m = c.prior_sigma_m;
     const double radius_estimate = 3.0 * c.prior_sigma_m / 0.25;
     if (radius_estimate > largest_radius + 1.0) continue;
+    testing::Trial trial = testing::MakeTrial(o);
+    trial.prior.sigma_m = c.prior_sigma_m;
     // One match first, for the search radius the baseline covers.
     OrbitalMatch match = MatchOrthoToOrbital(trial.ortho, *trial.orbital, trial.prior);
     const int radius = match.search_radius_px;
