@@ -17,7 +17,6 @@
 namespace areomap::internal {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr int kSectors = 12;   // 30 degree normal-direction sectors
 constexpr int kArcWindow = 3;  // sectors per arc window (90 degrees)
 constexpr int kMinArcPoints = 5;
@@ -25,8 +24,10 @@ constexpr int kMinArcPoints = 5;
 int SectorOf(const RimEdgePoint& p, bool signed_normals) {
   double angle = std::atan2(p.ny, p.nx);
   // Unsigned (a DTM crest's): the direction folded to [0, 180) degrees, spread over the circle.
-  if (!signed_normals) angle = std::fmod(angle + 2.0 * kPi, kPi) * 2.0 - kPi;
-  const int s = static_cast<int>(std::floor((angle + kPi) / (2.0 * kPi) * kSectors));
+  if (!signed_normals)
+    angle = std::fmod(angle + 2.0 * std::numbers::pi, std::numbers::pi) * 2.0 - std::numbers::pi;
+  const int s = static_cast<int>(
+      std::floor((angle + std::numbers::pi) / (2.0 * std::numbers::pi) * kSectors));
   return std::clamp(s, 0, kSectors - 1);
 }
 

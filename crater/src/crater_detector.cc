@@ -13,6 +13,7 @@
 #include "areomap/crater/shading_hypotheses.h"
 #include "areomap/crater/upsample.h"
 #include "areomap/map/error.h"
+#include "areomap/map/report_progress.h"
 #include "crater_arcs.h"
 #include "detect_in_core.h"
 #include "edge_point.h"
@@ -73,10 +74,6 @@ Ellipse Scaled(const Ellipse& e, double factor) {
   s.semi_major *= factor;
   s.semi_minor *= factor;
   return s;
-}
-
-void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
-  if (progress && !progress(fraction, stage)) throw Error("crater detection cancelled");
 }
 
 // Distance [px] from `p` to the rectangle `core` (0 inside); 0 without a core.
@@ -427,8 +424,8 @@ std::vector<CraterDetection> ScreenLevels(Pyramid* pyramid,
             : ExtractArcs(level.edges, band.r_lo, band.r_hi, ctx.sun,
                           kArcStrengthShare * ctx.o.min_edge_contrast * level.edges.high_threshold);
     ScreenLevel({level, li, band}, arcs, shading, &shading_tried, ctx, &candidates);
-    Report(progress, static_cast<double>(li + 1) / static_cast<double>(levels.size()),
-           "craters: pyramid level");
+    ReportProgress(progress, static_cast<double>(li + 1) / static_cast<double>(levels.size()),
+                   "craters: pyramid level");
   }
   return candidates;
 }

@@ -11,8 +11,6 @@
 namespace areomap {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 double Sample(const cv::Mat& m, const Eigen::Vector2d& p) {
   const double fx = p.x() - 0.5, fy = p.y() - 0.5;
   const int c = static_cast<int>(std::floor(fx)), r = static_cast<int>(std::floor(fy));
@@ -42,7 +40,7 @@ std::optional<CraterModel> MeasureCraterOnDtm(const cv::Mat& dtm, const Ellipse&
   constexpr int kRimSamples = 72;
   std::vector<double> rim;
   for (int k = 0; k < kRimSamples; ++k) {
-    const double t = 2.0 * kPi * k / kRimSamples;
+    const double t = 2.0 * std::numbers::pi * k / kRimSamples;
     double crest = -std::numeric_limits<double>::infinity();
     for (double rho = 0.92; rho <= 1.0801; rho += 0.02) {
       const double v = Sample(h, point(rho, t));
@@ -67,7 +65,7 @@ std::optional<CraterModel> MeasureCraterOnDtm(const cv::Mat& dtm, const Ellipse&
       if (std::isfinite(value)) inside.push_back(value);
     }
   }
-  const double interior_area = kPi * 0.81 * e.semi_major * e.semi_minor;
+  const double interior_area = std::numbers::pi * 0.81 * e.semi_major * e.semi_minor;
   if (inside.empty() || static_cast<double>(inside.size()) < 0.5 * interior_area) {
     return std::nullopt;
   }
@@ -93,7 +91,7 @@ std::optional<CraterModel> MeasureCraterOnDtm(const cv::Mat& dtm, const Ellipse&
   m.floor_height_mean = floor_sum / floor_count;
   m.depth_max_min = m.rim_height_max - m.floor_height_min;
   m.depth_mean = m.rim_height_mean - m.floor_height_mean;
-  m.floor_radius = std::sqrt(floor_count / kPi) * posting;
+  m.floor_radius = std::sqrt(floor_count / std::numbers::pi) * posting;
   m.ratio1 = e.semi_minor / e.semi_major;
   m.ratio2 = m.floor_radius / m.mean_radius;
   m.ratio3 = m.depth_max_min / m.mean_radius;

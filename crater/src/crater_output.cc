@@ -16,11 +16,10 @@
 #include "areomap/map/error.h"
 #include "areomap/map/geodesy.h"
 #include "areomap/map/image_io.h"
+#include "areomap/map/numbers.h"
 
 namespace areomap {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Named numeric attributes of one crater, in output order (CSV columns, GeoPackage fields).
 std::vector<std::pair<std::string, double>> Attributes(const CatalogCrater& c) {

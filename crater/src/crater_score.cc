@@ -7,11 +7,10 @@
 
 #include "areomap/map/csv.h"
 #include "areomap/map/error.h"
+#include "areomap/map/numbers.h"
 
 namespace areomap {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 double Median(std::vector<double> v) {
   if (v.empty()) return kNaN;

@@ -6,10 +6,10 @@
 #include <numbers>
 #include <utility>
 
+#include "areomap/map/numbers.h"
+
 namespace areomap {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Bisection halts earlier, when the midpoint equals an end (at most ~1100 steps in double,
 // typically 50-120).
@@ -17,11 +17,6 @@ constexpr int kMaxBisections = 1100;
 
 // Largest axis ratio FromConic accepts; beyond it the conic is numerically a parabola.
 constexpr double kMinConicEigenRatio = 1e-12;  // lambda_min / lambda_max = (b/a)^2
-
-bool HasPositiveAxes(const Ellipse& e) {
-  return std::isfinite(e.semi_major) && std::isfinite(e.semi_minor) && e.semi_major > 0.0 &&
-         e.semi_minor > 0.0 && e.center.allFinite() && std::isfinite(e.angle);
-}
 
 // |(x, y)| as Eigen's norm, sqrt(x^2 + y^2): std::hypot's guard against overflow and underflow
 // of the squares costs several times the square root (glibc) and cannot matter here (ratios near
@@ -164,9 +159,13 @@ double WrapAxisAngle(double angle) {
   return wrapped;
 }
 
+bool Ellipse::HasPositiveAxes() const {
+  return std::isfinite(semi_major) && std::isfinite(semi_minor) && semi_major > 0.0 &&
+         semi_minor > 0.0 && center.allFinite() && std::isfinite(angle);
+}
+
 bool Ellipse::IsValid() const {
-  return HasPositiveAxes(*this) && semi_major >= semi_minor && angle >= 0.0 &&
-         angle < std::numbers::pi;
+  return HasPositiveAxes() && semi_major >= semi_minor && angle >= 0.0 && angle < std::numbers::pi;
 }
 
 Ellipse Ellipse::Normalized() const {
@@ -184,7 +183,7 @@ Eigen::Vector2d Ellipse::PointAt(double t) const {
 }
 
 double Ellipse::Eccentricity() const {
-  if (!HasPositiveAxes(*this)) return kNaN;
+  if (!HasPositiveAxes()) return kNaN;
   const double ratio = std::min(semi_major, semi_minor) / std::max(semi_major, semi_minor);
   return std::sqrt(std::max(0.0, 1.0 - ratio * ratio));
 }
@@ -243,18 +242,18 @@ std::optional<Ellipse> Ellipse::FromConic(const ConicCoefficients& conic) {
 }
 
 double Ellipse::SignedDistance(const Eigen::Vector2d& p) const {
-  if (!HasPositiveAxes(*this) || !p.allFinite()) return kNaN;
+  if (!HasPositiveAxes() || !p.allFinite()) return kNaN;
   return NearestInCanonicalFrame(semi_major, semi_minor, ToCanonical(*this, p)).signed_distance;
 }
 
 Eigen::Vector2d Ellipse::ClosestPoint(const Eigen::Vector2d& p) const {
-  if (!HasPositiveAxes(*this) || !p.allFinite()) return Eigen::Vector2d::Constant(kNaN);
+  if (!HasPositiveAxes() || !p.allFinite()) return Eigen::Vector2d::Constant(kNaN);
   return FromCanonical(
       *this, NearestInCanonicalFrame(semi_major, semi_minor, ToCanonical(*this, p)).point);
 }
 
 double Ellipse::ClosestParameter(const Eigen::Vector2d& p) const {
-  if (!HasPositiveAxes(*this) || !p.allFinite()) return kNaN;
+  if (!HasPositiveAxes() || !p.allFinite()) return kNaN;
   const Eigen::Vector2d x =
       NearestInCanonicalFrame(semi_major, semi_minor, ToCanonical(*this, p)).point;
   double t = std::atan2(x.y() / semi_minor, x.x() / semi_major);
@@ -271,7 +270,7 @@ Eigen::Matrix<double, 5, 1> Ellipse::SignedDistanceGradient(const Eigen::Vector2
 
 double Ellipse::SignedDistanceWithGradient(const Eigen::Vector2d& p,
                                            Eigen::Matrix<double, 5, 1>* gradient) const {
-  if (!HasPositiveAxes(*this) || !p.allFinite()) {
+  if (!HasPositiveAxes() || !p.allFinite()) {
     gradient->setConstant(kNaN);
     return kNaN;
   }

@@ -18,21 +18,16 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "areomap/map/numbers.h"
 
 namespace areomap {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // Direct fits with a larger axis ratio, or a major axis this many times the point spread,
 // come from (nearly) collinear points.
 constexpr double kMaxAxisRatio = 1e6;
-
-bool HasPositiveAxes(const Ellipse& e) {
-  return e.center.allFinite() && std::isfinite(e.angle) && std::isfinite(e.semi_major) &&
-         std::isfinite(e.semi_minor) && e.semi_major > 0.0 && e.semi_minor > 0.0;
-}
 
 std::vector<Eigen::Vector2d> FinitePoints(const std::vector<Eigen::Vector2d>& points) {
   std::vector<Eigen::Vector2d> finite;
@@ -97,7 +92,7 @@ class OrthogonalDistancesCost : public ceres::CostFunction {
     e.semi_major = parameters[0][2];
     e.semi_minor = parameters[0][3];
     e.angle = parameters[1][0];
-    if (!HasPositiveAxes(e)) return false;  // Ceres rejects the step
+    if (!e.HasPositiveAxes()) return false;  // Ceres rejects the step
     const bool with_jacobian =
         jacobians != nullptr && (jacobians[0] != nullptr || jacobians[1] != nullptr);
     for (size_t k = 0; k < points_.size(); ++k) {
@@ -148,7 +143,7 @@ ceres::LossFunction* MakeLoss(const GeometricFitOptions& options) {
 bool DistanceJacobian(const Ellipse& e, const std::vector<Eigen::Vector2d>& points,
                       Eigen::Matrix<double, Eigen::Dynamic, 5>* jacobian,
                       Eigen::VectorXd* residuals) {
-  if (!HasPositiveAxes(e)) return false;
+  if (!e.HasPositiveAxes()) return false;
   jacobian->resize(static_cast<Eigen::Index>(points.size()), 5);
   residuals->resize(static_cast<Eigen::Index>(points.size()));
   for (size_t i = 0; i < points.size(); ++i) {
@@ -478,7 +473,7 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
   EllipseFitSummary summary = UnfittedSummary(initial);
   const std::vector<Eigen::Vector2d> finite = FinitePoints(points);
   summary.num_points = static_cast<int>(finite.size());
-  if (!HasPositiveAxes(initial)) {
+  if (!initial.HasPositiveAxes()) {
     summary.message = "initial ellipse needs finite fields and positive axes";
     return summary;
   }
@@ -507,7 +502,7 @@ EllipseFitSummary RefineEllipseGeometric(const Ellipse& initial,
 }
 
 double EllipseFitSimilarity(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
-  if (points.empty() || !HasPositiveAxes(e)) return kNaN;
+  if (points.empty() || !e.HasPositiveAxes()) return kNaN;
   double sum = 0.0;
   for (const Eigen::Vector2d& p : points) sum += (p - e.center).norm();
   return sum / static_cast<double>(points.size()) / e.MeanRadius();
@@ -520,7 +515,7 @@ double EdgeCoverage(const Ellipse& e, const std::vector<Eigen::Vector2d>& points
     throw Error("EdgeCoverage: max_distance must be a finite distance >= 0, got " +
                 std::to_string(max_distance));
   }
-  if (!HasPositiveAxes(e)) return 0.0;
+  if (!e.HasPositiveAxes()) return 0.0;
   std::vector<bool> hit(static_cast<size_t>(bins), false);
   for (const Eigen::Vector2d& p : points) {
     if (!p.allFinite() || !(std::abs(e.SignedDistance(p)) <= max_distance)) continue;

@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 
 #include "areomap/crater/ellipse_fit.h"
+#include "areomap/map/numbers.h"
 #include "bilinear_sample.h"
 #include "edge_point.h"
 #include "ring_sampler.h"
@@ -16,8 +17,6 @@
 namespace areomap::internal {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr int kCoverageBins = 36;
 constexpr size_t kMaxFitPoints = 128;
 // Robust loop: reject when the first (most tolerant) support covers less than this share of
@@ -85,9 +84,10 @@ double AngularCoverage(const Ellipse& e, const std::vector<Eigen::Vector2d>& poi
     const Eigen::Vector2d d = p - e.center;
     const double u = (cs * d.x() + sn * d.y()) / e.semi_major;
     const double v = (-sn * d.x() + cs * d.y()) / e.semi_minor;
-    const double t = std::atan2(v, u) + kPi;
-    hit[static_cast<size_t>(std::clamp(static_cast<int>(t / (2.0 * kPi) * kCoverageBins), 0,
-                                       kCoverageBins - 1))] = true;
+    const double t = std::atan2(v, u) + std::numbers::pi;
+    hit[static_cast<size_t>(std::clamp(
+        static_cast<int>(t / (2.0 * std::numbers::pi) * kCoverageBins), 0, kCoverageBins - 1))] =
+        true;
   }
   return static_cast<double>(std::count(hit.begin(), hit.end(), true)) / kCoverageBins;
 }
@@ -113,7 +113,7 @@ double RadialRms(const Ellipse& e, const std::vector<Eigen::Vector2d>& points) {
 // Unit vector towards the sun in pixel coordinates (x right, y down), azimuth clockwise from up.
 std::optional<Eigen::Vector2d> SunVector(const CraterDetectorOptions& o, RimSource source) {
   if (source != RimSource::kImage || !o.sun_azimuth_deg) return std::nullopt;
-  const double az = *o.sun_azimuth_deg * kPi / 180.0;
+  const double az = *o.sun_azimuth_deg * std::numbers::pi / 180.0;
   return Eigen::Vector2d(std::sin(az), -std::cos(az));
 }
 

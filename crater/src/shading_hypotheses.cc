@@ -13,13 +13,12 @@
 
 #include "areomap/crater/crater_detector.h"
 #include "areomap/map/error.h"
+#include "areomap/map/numbers.h"
 #include "bilinear_sample.h"
 
 namespace areomap {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Template window half-width over the radius: room for the flat plain around the bowl.
 constexpr double kWindowHalfWidth = 1.6;
 // Template radii within one image copy [copy px]: up to 4 (from 2 on the averaged copies), larger
@@ -29,7 +28,7 @@ constexpr int kCoverageBins = 36;
 
 // Unit vector towards the sun in pixel coordinates (x right, y down), azimuth clockwise from up.
 Eigen::Vector2d SunDirection(double azimuth_deg) {
-  const double az = azimuth_deg * kPi / 180.0;
+  const double az = azimuth_deg * std::numbers::pi / 180.0;
   return {std::sin(az), -std::cos(az)};
 }
 
@@ -201,10 +200,12 @@ SunLineRim FindSunLineRim(const RimEdges& edges, const ShadingHypothesis& h,
       // degrees of the sun line count.
       const double t = std::atan2(u.x() * sun.y() - u.y() * sun.x(), u.dot(sun));
       const int bin =
-          std::clamp(static_cast<int>(std::floor((t + kPi) / (2.0 * kPi) * kCoverageBins)), 0,
-                     kCoverageBins - 1);
-      const double centre = (bin + 0.5) / kCoverageBins * 2.0 * kPi - kPi;
-      if (std::abs(std::cos(centre)) < std::cos(kPi / 4.0) + 1e-6) continue;  // off the sun line
+          std::clamp(static_cast<int>(std::floor((t + std::numbers::pi) / (2.0 * std::numbers::pi) *
+                                                 kCoverageBins)),
+                     0, kCoverageBins - 1);
+      const double centre = (bin + 0.5) / kCoverageBins * 2.0 * std::numbers::pi - std::numbers::pi;
+      if (std::abs(std::cos(centre)) < std::cos(std::numbers::pi / 4.0) + 1e-6)
+        continue;  // off the sun line
       hit[static_cast<size_t>(bin)] = true;
       const Eigen::Vector2d row(1.0, u.dot(sun));
       normal_matrix += row * row.transpose();

@@ -17,8 +17,6 @@ namespace areomap {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 Eigen::Matrix<double, 2, 4> DesignB(const Eigen::Vector2d& p) {
   Eigen::Matrix<double, 2, 4> e;
   e << p.x(), -p.y(), 1.0, 0.0, p.y(), p.x(), 0.0, 1.0;
@@ -202,11 +200,11 @@ double ConvergenceAngle(const Eigen::Vector2d& site, const std::vector<Eigen::Ve
   }
   if (azimuths.size() < 2) return 0.0;
   std::sort(azimuths.begin(), azimuths.end());
-  double largest_gap = azimuths.front() + 2.0 * kPi - azimuths.back();
+  double largest_gap = azimuths.front() + 2.0 * std::numbers::pi - azimuths.back();
   for (size_t i = 1; i < azimuths.size(); ++i) {
     largest_gap = std::max(largest_gap, azimuths[i] - azimuths[i - 1]);
   }
-  return 2.0 * kPi - largest_gap;
+  return 2.0 * std::numbers::pi - largest_gap;
 }
 
 double DistanceRatio(const Eigen::Vector3d& point, const Eigen::Vector3d& site_a,
@@ -293,7 +291,7 @@ std::vector<Eigen::Vector2d> StudyLandmarks(int landmark_count, double traverse_
       break;
     case 3:
       for (int k = 0; k < 3; ++k) {
-        const double t = kPi / 2.0 + 2.0 * kPi / 3.0 * k;
+        const double t = std::numbers::pi / 2.0 + 2.0 * std::numbers::pi / 3.0 * k;
         unit.emplace_back(std::cos(t), std::sin(t));
       }
       break;
@@ -302,7 +300,8 @@ std::vector<Eigen::Vector2d> StudyLandmarks(int landmark_count, double traverse_
       break;
     case 6:
       for (int k = 0; k < 6; ++k)
-        unit.emplace_back(std::cos(kPi / 3.0 * k), std::sin(kPi / 3.0 * k));
+        unit.emplace_back(std::cos(std::numbers::pi / 3.0 * k),
+                          std::sin(std::numbers::pi / 3.0 * k));
       break;
     case 9:
       for (int i = -1; i <= 1; ++i) {
@@ -316,7 +315,7 @@ std::vector<Eigen::Vector2d> StudyLandmarks(int landmark_count, double traverse_
   RequireOption(convergence_deg > 0.0 && convergence_deg < 180.0, "convergence_deg",
                 "between 0 and 180 degrees");
   RequireOption(traverse_length_m > 0.0, "traverse_length_m", "> 0 m");
-  const double target = convergence_deg * kPi / 180.0;
+  const double target = convergence_deg * std::numbers::pi / 180.0;
   const Eigen::Vector2d middle(0.5 * traverse_length_m, 0.0);
   const auto place = [&](double size) {
     std::vector<Eigen::Vector2d> points;

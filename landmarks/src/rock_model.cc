@@ -14,7 +14,6 @@ namespace areomap {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr double kThomsenP = 1.6075;  // Knud Thomsen's exponent (eq. 3.4).
 
 // Area of the full ellipsoid with semi-axes x, y, z (Legendre's formula with incomplete
@@ -23,14 +22,14 @@ double EllipsoidArea(double x, double y, double z) {
   std::array<double, 3> s = {x, y, z};
   std::sort(s.begin(), s.end(), std::greater<>());
   const double a = s[0], b = s[1], c = s[2];
-  if (a - c <= 1e-12 * a) return 4.0 * kPi * a * a;  // Sphere.
+  if (a - c <= 1e-12 * a) return 4.0 * std::numbers::pi * a * a;  // Sphere.
   const double phi = std::acos(c / a);
   const double k =
       std::sqrt(std::clamp(a * a * (b * b - c * c) / (b * b * (a * a - c * c)), 0.0, 1.0 - 1e-15));
   const double sin_phi = std::sin(phi), cos_phi = std::cos(phi);
-  return 2.0 * kPi * c * c + 2.0 * kPi * a * b / sin_phi *
-                                 (std::ellint_2(k, phi) * sin_phi * sin_phi +
-                                  std::ellint_1(k, phi) * cos_phi * cos_phi);
+  return 2.0 * std::numbers::pi * c * c + 2.0 * std::numbers::pi * a * b / sin_phi *
+                                              (std::ellint_2(k, phi) * sin_phi * sin_phi +
+                                               std::ellint_1(k, phi) * cos_phi * cos_phi);
 }
 
 // Real roots of c2 z^2 + c1 z + c0 = 0.
@@ -113,7 +112,7 @@ double RockModelParameters::SurfaceZ(double x, double y, std::optional<double> z
       const double inradius = 0.5 * a;
       double best = std::numeric_limits<double>::infinity();
       for (int i = 0; i < 3; ++i) {
-        const double angle = kPi / 3.0 + 2.0 * kPi / 3.0 * i;
+        const double angle = std::numbers::pi / 3.0 + 2.0 * std::numbers::pi / 3.0 * i;
         const double nx = std::cos(angle) / inradius, ny = std::sin(angle) / inradius;
         const double denom = nx * t[0] + ny * t[1] + t[2] / height;
         const double num = 1.0 - nx * p0[0] - ny * p0[1] - p0[2] / height;
@@ -136,11 +135,11 @@ double RockModelParameters::SurfaceZ(double x, double y, std::optional<double> z
 double RockModelParameters::Volume() const {
   switch (shape) {
     case RockModelShape::kHemispheroid:
-      return 2.0 / 3.0 * kPi * a * a * height;  // Eq. 3.1.
+      return 2.0 / 3.0 * std::numbers::pi * a * a * height;  // Eq. 3.1.
     case RockModelShape::kSemiEllipsoid:
-      return 2.0 / 3.0 * kPi * a * b * height;
+      return 2.0 / 3.0 * std::numbers::pi * a * b * height;
     case RockModelShape::kCone:
-      return kPi * a * a * height / 3.0;
+      return std::numbers::pi * a * a * height / 3.0;
     case RockModelShape::kTetrahedron:
       return std::sqrt(3.0) / 4.0 * a * a * height;  // Base 3 sqrt(3)/4 r^2, times h / 3.
   }
@@ -154,7 +153,7 @@ double RockModelParameters::SurfaceAreaExact() const {
     case RockModelShape::kSemiEllipsoid:
       return 0.5 * EllipsoidArea(a, b, height);
     case RockModelShape::kCone:
-      return kPi * a * std::hypot(a, height);
+      return std::numbers::pi * a * std::hypot(a, height);
     case RockModelShape::kTetrahedron:
       // Three side faces on base edges sqrt(3) r with slant height sqrt(h^2 + (r / 2)^2).
       return 1.5 * std::sqrt(3.0) * a * std::hypot(height, 0.5 * a);
@@ -166,10 +165,10 @@ double RockModelParameters::SurfaceAreaApprox() const {
   const double p = kThomsenP;
   switch (shape) {
     case RockModelShape::kHemispheroid:
-      return 2.0 * kPi *
+      return 2.0 * std::numbers::pi *
              std::pow((std::pow(a, 2 * p) + 2.0 * std::pow(a * height, p)) / 3.0, 1.0 / p);
     case RockModelShape::kSemiEllipsoid:
-      return 2.0 * kPi *
+      return 2.0 * std::numbers::pi *
              std::pow(
                  (std::pow(a * b, p) + std::pow(a * height, p) + std::pow(b * height, p)) / 3.0,
                  1.0 / p);

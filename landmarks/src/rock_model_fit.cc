@@ -17,7 +17,6 @@ namespace areomap {
 namespace {
 
 using namespace rock_model_internal;
-constexpr double kPi = std::numbers::pi;
 
 struct SurfaceResidual {
   SurfaceResidual(RockModelShape s, const Eigen::Vector3d& point) : shape(s), p(point) {}
@@ -126,8 +125,8 @@ BestStart SolveFromStarts(const std::vector<Eigen::Vector3d>& points_in_rock, Ro
   // Starts for the azimuth of the anisotropic shapes (their cost has several basins).
   std::vector<double> phi_starts = {start.phi};
   // (An ellipse's azimuth has period pi and a/b swap at pi/2; a triangle's period is 2 pi/3.)
-  if (shape == RockModelShape::kSemiEllipsoid) phi_starts = {0.0, kPi / 4.0};
-  if (shape == RockModelShape::kTetrahedron) phi_starts = {0.0, kPi / 3.0};
+  if (shape == RockModelShape::kSemiEllipsoid) phi_starts = {0.0, std::numbers::pi / 4.0};
+  if (shape == RockModelShape::kTetrahedron) phi_starts = {0.0, std::numbers::pi / 3.0};
   BestStart best;
   for (double phi : phi_starts) {
     double q[kCount] = {h0,
@@ -191,11 +190,11 @@ void Canonicalize(RockModelShape shape, RockModelFit* fit) {
     if (m.b > m.a) {
       std::swap(m.a, m.b);
       std::swap(fit->sigma[kA], fit->sigma[kB]);
-      m.phi += kPi / 2.0;
+      m.phi += std::numbers::pi / 2.0;
     }
-    m.phi = WrapAngle(m.phi, kPi);
+    m.phi = WrapAngle(m.phi, std::numbers::pi);
   } else if (shape == RockModelShape::kTetrahedron) {
-    m.phi = WrapAngle(m.phi, 2.0 * kPi / 3.0);
+    m.phi = WrapAngle(m.phi, 2.0 * std::numbers::pi / 3.0);
   }
 }
 
@@ -215,8 +214,8 @@ double VerticalRms(const std::vector<Eigen::Vector3d>& points_in_rock,
 void RockModelFitOptions::Check() const {
   RequireOption(min_points >= 3, "RockModelFitOptions.min_points", ">= 3");
   RequireOption(max_num_iterations > 0, "RockModelFitOptions.max_num_iterations", "> 0");
-  RequireOption(max_tilt_rad > 0.0 && max_tilt_rad < kPi / 2.0, "RockModelFitOptions.max_tilt_rad",
-                "between 0 and pi/2");
+  RequireOption(max_tilt_rad > 0.0 && max_tilt_rad < std::numbers::pi / 2.0,
+                "RockModelFitOptions.max_tilt_rad", "between 0 and pi/2");
   RequireOption(min_size_m > 0.0 && max_height_m > min_size_m && max_radius_m > min_size_m,
                 "RockModelFitOptions.min_size_m", "0 < min_size_m < max_height_m, max_radius_m");
   RequireOption(max_center_offset_m > 0.0, "RockModelFitOptions.max_center_offset_m", "> 0 m");

@@ -12,6 +12,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "areomap/map/error.h"
+#include "areomap/map/report_progress.h"
 
 namespace areomap {
 namespace {
@@ -170,12 +171,6 @@ double RowShiftAt(const cv::Mat& row_shift, double x, int y) {
   if (row_shift.empty()) return 0.0;
   const int column = std::clamp(static_cast<int>(std::lround(x)), 0, row_shift.cols - 1);
   return row_shift.at<float>(y, column);
-}
-
-void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
-  if (progress && !progress(fraction, stage)) {
-    throw Error("stereo cancelled during " + std::string(stage));
-  }
 }
 
 }  // namespace
@@ -527,7 +522,7 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
   options.Check();
   CheckStereoPair(left_image, right_image, left, right);
   DenseStereoResult result;
-  Report(progress, 0.0, "rectify");
+  ReportProgress(progress, 0.0, "rectify");
   const RectifiedGrey grey =
       RectifyToEightBit(left_image, right_image, left, right, options, &result);
   const StereoRectification& rect = result.rectification;
@@ -537,16 +532,16 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
       AlignRightRows(grey.right_grey, rect, grey.gain, options, &disparity);
   SetDisparityRange(rect, options, &disparity);
 
-  Report(progress, 0.1, "match");
+  ReportProgress(progress, 0.1, "match");
   const cv::Mat overlap = MatchPair(right_maps, options, &disparity);
 
-  Report(progress, 0.8, "triangulate");
+  ReportProgress(progress, 0.8, "triangulate");
   const OutputFrame frame = OutputFrameOf(left, rect);
   const std::vector<RowPoints> rows =
       TriangulateRows(rect, disparity, overlap, frame, StereoErrorModelOf(rect, options), options);
   GatherPoints(rows, left, frame, options, &result);
   SummarizeStereo(&result);
-  Report(progress, 1.0, "done");
+  ReportProgress(progress, 1.0, "done");
   return result;
 }
 

@@ -9,15 +9,10 @@
 #include <tbb/parallel_for.h>
 
 #include "areomap/map/error.h"
+#include "areomap/map/report_progress.h"
 
 namespace areomap {
-namespace {
-
-void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
-  if (progress && !progress(fraction, stage)) throw Error("DTM cancelled");
-}
-
-}  // namespace
+namespace {}  // namespace
 
 void DtmOptions::Check() const {
   RequireOption(posting_m > 0.0 && posting_m <= 100.0, "DtmOptions.posting_m", "in (0, 100] m");
@@ -124,7 +119,7 @@ Dtm MakeDtm(const std::vector<SiteCloud>& sites, const MapFrame& map, const DtmO
     min = min.cwiseMin(site_min);
     max = max.cwiseMax(site_max);
   }
-  Report(progress, 0.1, "DTM: points on the map");
+  ReportProgress(progress, 0.1, "DTM: points on the map");
   const GridSpec grid =
       options.grid ? *options.grid : GridSpec::Covering(min, max, options.posting_m);
   std::vector<GriddedLayers> layers;
@@ -148,7 +143,7 @@ Dtm MakeDtm(const std::vector<SiteCloud>& sites, const MapFrame& map, const DtmO
                        layers.front().grid.height == grid.height
                    ? std::move(layers.front())
                    : MergeGriddedLayers(layers, grid);
-  Report(progress, 1.0, "DTM: done");
+  ReportProgress(progress, 1.0, "DTM: done");
   return dtm;
 }
 

@@ -17,6 +17,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "areomap/map/report_progress.h"
 
 namespace areomap {
 namespace {
@@ -30,10 +31,6 @@ using Point2 = Kernel::Point_2;
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 // gdal_grid's test for a point on the node (alg/gdalgrid.cpp: dfR2 < 0.0000000000001).
 constexpr double kCoincidentSquared = 1e-13;
-
-void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
-  if (progress && !progress(fraction, stage)) throw Error("DTM gridding cancelled");
-}
 
 // Points bucketed by cell of a grid extended by `margin` cells on every side (counting sort).
 struct Buckets {
@@ -171,7 +168,7 @@ void InterpolateTin(const std::vector<GridPoint>& points, const GriddingOptions&
     sites.emplace_back(Point2(points[i].xyz.x(), points[i].xyz.y()), static_cast<uint32_t>(i));
   }
   const Delaunay triangulation(sites.begin(), sites.end());
-  Report(progress, 0.5, "DTM: triangles");
+  ReportProgress(progress, 0.5, "DTM: triangles");
   std::vector<std::array<uint32_t, 3>> faces;
   faces.reserve(2 * triangulation.number_of_vertices());
   for (const auto face : triangulation.finite_face_handles()) {
@@ -458,7 +455,7 @@ GriddedLayers GridPoints(const std::vector<GridPoint>& points, const GridSpec& g
   out.sigma = cv::Mat(grid.height, grid.width, CV_32F, cv::Scalar(kNaNf));
   out.stddev = cv::Mat(grid.height, grid.width, CV_32F, cv::Scalar(kNaNf));
   out.count = cv::Mat(grid.height, grid.width, CV_32S, cv::Scalar(0));
-  Report(progress, 0.0, "DTM: binning");
+  ReportProgress(progress, 0.0, "DTM: binning");
   RequireOption(options.idw_radius_m / grid.posting <= 1000.0, "GriddingOptions.idw_radius_m",
                 "at most 1000 cells");
   const int margin = options.method == GriddingMethod::kInverseDistance
@@ -467,13 +464,13 @@ GriddedLayers GridPoints(const std::vector<GridPoint>& points, const GridSpec& g
   const Buckets buckets = Bucket(points, grid, margin);
   CovarianceSums sums(grid, options.compute_sigma);
   BinCells(points, buckets, options, out, sums);
-  Report(progress, 0.2, "DTM: interpolation");
+  ReportProgress(progress, 0.2, "DTM: interpolation");
   if (options.method == GriddingMethod::kTin && points.size() >= 3) {
     InterpolateTin(points, options, progress, out, sums);
   } else if (options.method == GriddingMethod::kInverseDistance) {
     InterpolateInverseDistance(points, buckets, options, out, sums);
   }
-  Report(progress, 0.9, "DTM: sigma");
+  ReportProgress(progress, 0.9, "DTM: sigma");
   FinishSigma(sums, options, out);
   out.known_cells = 0;
   for (int row = 0; row < grid.height; ++row) {
@@ -481,7 +478,7 @@ GriddedLayers GridPoints(const std::vector<GridPoint>& points, const GridSpec& g
       out.known_cells += std::isfinite(out.elevation.at<float>(row, col)) ? 1 : 0;
     }
   }
-  Report(progress, 1.0, "DTM: done");
+  ReportProgress(progress, 1.0, "DTM: done");
   return out;
 }
 

@@ -10,8 +10,6 @@
 namespace areomap {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 GeographicLib::Geocentric MakeGeocentric(const Body& body) {
   return GeographicLib::Geocentric(body.a, body.Flattening());
 }
@@ -77,19 +75,19 @@ double PlanetocentricFromPlanetographic(const Body& body, double lat_g) {
 
 double WrapLongitude(double lon, LongitudeDomain domain) {
   if (!std::isfinite(lon)) return lon;
-  double wrapped = std::remainder(lon, 2.0 * kPi);  // In [-pi, pi].
+  double wrapped = std::remainder(lon, 2.0 * std::numbers::pi);  // In [-pi, pi].
   if (domain == LongitudeDomain::kPlusMinus180) {
-    if (wrapped >= kPi) wrapped -= 2.0 * kPi;
+    if (wrapped >= std::numbers::pi) wrapped -= 2.0 * std::numbers::pi;
   } else if (wrapped < 0.0) {
-    wrapped += 2.0 * kPi;
-    if (wrapped >= 2.0 * kPi) wrapped = 0.0;  // -0 rounding guard.
+    wrapped += 2.0 * std::numbers::pi;
+    if (wrapped >= 2.0 * std::numbers::pi) wrapped = 0.0;  // -0 rounding guard.
   }
   return wrapped;
 }
 
 bool IsValid(const Geographic& g) {
   return std::isfinite(g.lat) && std::isfinite(g.lon) && std::isfinite(g.h) &&
-         std::abs(g.lat) <= kPi / 2.0;
+         std::abs(g.lat) <= std::numbers::pi / 2.0;
 }
 
 Geographic ConvertGeographic(const Body& body, const Geographic& g,

@@ -10,16 +10,13 @@
 
 #include "areomap/map/error.h"
 #include "areomap/map/raster_window.h"
+#include "areomap/map/report_progress.h"
 
 namespace areomap {
 namespace {
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 constexpr float kInf = std::numeric_limits<float>::infinity();
-
-void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
-  if (progress && !progress(fraction, stage)) throw Error("orthophoto cancelled");
-}
 
 // A cell's ground point and upward unit normal in the site frame (NaN where the DTM is unknown).
 struct GroundCells {
@@ -313,11 +310,11 @@ Orthophoto MakeOrthophoto(const Dtm& dtm, const SiteGeoreference& site, const Ma
       OrthophotoWindow(dtm.layers.grid, site, map, images, options);
   if (!window) throw Error("orthophoto: the DTM does not reach the cameras");
   Orthophoto ortho = EmptyOrthophoto(*window, dtm.crs_wkt);
-  Report(progress, 0.0, "orthophoto: ground");
+  ReportProgress(progress, 0.0, "orthophoto: ground");
   const GroundCells cells = GroundInSite(dtm.layers, *window, site, map, options.normal_baseline_m);
-  Report(progress, 0.2, "orthophoto: depth buffers");
+  ReportProgress(progress, 0.2, "orthophoto: depth buffers");
   const std::vector<cv::Mat> depth = DepthBuffers(cells, images, float_images, options);
-  Report(progress, 0.6, "orthophoto: sampling");
+  ReportProgress(progress, 0.6, "orthophoto: sampling");
   const OrthoSources sources{images, float_images, depth};
   const double min_cos = std::cos(options.max_incidence_deg * 3.14159265358979323846 / 180.0);
   tbb::parallel_for(0, window->height, [&](int row) {
@@ -334,7 +331,7 @@ Orthophoto MakeOrthophoto(const Dtm& dtm, const SiteGeoreference& site, const Ma
     }
   });
   ortho.valid_cells = cv::countNonZero(ortho.valid);
-  Report(progress, 1.0, "orthophoto: done");
+  ReportProgress(progress, 1.0, "orthophoto: done");
   return ortho;
 }
 

@@ -8,11 +8,11 @@
 
 #include "areomap/map/crs.h"
 #include "areomap/map/error.h"
+#include "areomap/map/numbers.h"
 
 namespace areomap {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kHalfPi = std::numbers::pi / 2.0;
 
 GeographicLib::PolarStereographic MakePolar(const Body& surface, double latitude_of_true_scale) {

@@ -7,11 +7,11 @@
 #include <tbb/enumerable_thread_specific.h>
 
 #include "areomap/map/error.h"
+#include "areomap/map/numbers.h"
 
 namespace areomap {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 const Eigen::Vector3d kNaN3(kNaN, kNaN, kNaN);
 
 }  // namespace

@@ -11,11 +11,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "areomap/map/numbers.h"
 
 namespace areomap {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // Canny's high threshold: this percentile of the gradient magnitude (the low one is half).
 constexpr double kHighPercentile = 0.9;
 

@@ -15,12 +15,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "areomap/map/numbers.h"
 #include "real_fft.h"
 
 namespace areomap {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // Sums of squared deviations below this fraction of the image's energy are FFT round-off

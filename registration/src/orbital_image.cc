@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "areomap/map/error.h"
+#include "areomap/map/numbers.h"
 #include "areomap/map/raster_window.h"
 
 namespace areomap {
@@ -107,7 +108,6 @@ cv::Mat OrbitalImage::ReadWindow(PixelWindow& window) const {
 }
 
 double OrbitalImage::SampleBilinear(double col, double row) const {
-  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   if (!std::isfinite(col) || !std::isfinite(row)) return kNaN;
   // Pixel centres are at +0.5.
   const double x = col - 0.5, y = row - 0.5;

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "areomap/map/error.h"
+#include "areomap/map/report_progress.h"
 #include "orbital_match_stages.h"
 
 namespace areomap {
@@ -23,7 +24,6 @@ using internal::MeasurePeak;
 using internal::PyramidSearch;
 using internal::RefineCoarsePeaks;
 using internal::RefineWarp;
-using internal::Report;
 using internal::ResampleTemplate;
 using internal::RoverOnGrids;
 using internal::SearchCoarse;
@@ -108,7 +108,7 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   CheckMatchInputs(prior, options);
   OrbitalMatch out;
   out.orbital = orbital.name();
-  Report(progress, 0.0, "register: resample");
+  ReportProgress(progress, 0.0, "register: resample");
   const RoverOnGrids rover = LocateRover(ortho, orbital, prior);
   out.gsd_m = rover.gsd_m;
   out.corrected_position = prior.position;
@@ -131,7 +131,7 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   const MaskedImage hp_template =
       MeasureChanceLevel(orbital, out.templ, *setup, *coarse, *fine, final_peak, options, out);
   Decide(*setup, *fine, final_peak, hp_template, options, out);
-  Report(progress, 1.0, "register: done");
+  ReportProgress(progress, 1.0, "register: done");
   return out;
 }
 

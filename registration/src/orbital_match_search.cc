@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/geodesy.h"
+#include "areomap/map/report_progress.h"
 #include "orbital_match_stages.h"
 
 namespace areomap::internal {
@@ -140,8 +141,9 @@ CoarseResult CoarseGridSearch(const PyramidSearch& search, const std::vector<dou
         bj = j;
       }
     }
-    Report(progress, 0.2 + 0.5 * static_cast<double>(i + 1) / static_cast<double>(rotations.size()),
-           "register: coarse search");
+    ReportProgress(progress,
+                   0.2 + 0.5 * static_cast<double>(i + 1) / static_cast<double>(rotations.size()),
+                   "register: coarse search");
   }
   if (!best.peak.found) return best;
   double rotation = best.rotation, scale = best.scale;
@@ -352,7 +354,7 @@ std::optional<FineStage> RefineCoarsePeaks(const PyramidSearch& search,
                                            const CoarseStage& coarse,
                                            const OrbitalMatchOptions& options, OrbitalMatch& out,
                                            const ProgressCallback& progress) {
-  Report(progress, 0.75, "register: refine");
+  ReportProgress(progress, 0.75, "register: refine");
   FineStage f;
   f.warped = WarpTemplate(templ, coarse.best.rotation, coarse.best.scale);
   f.template_pyramid = BuildMaskedPyramid(f.warped, setup.levels);

@@ -12,6 +12,7 @@
 
 #include "areomap/map/error.h"
 #include "areomap/map/geodesy.h"
+#include "areomap/map/report_progress.h"
 #include "areomap/registration/part_consistency.h"
 #include "chance_level.h"
 #include "high_pass.h"
@@ -126,10 +127,6 @@ std::string Verdict(const OrbitalMatch& m, bool coarse_on_border, bool fine_on_b
   return why.str();
 }
 }  // namespace
-
-void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
-  if (progress && !progress(fraction, stage)) throw Error("orbital registration cancelled");
-}
 
 // --- Stage 1: checks and template. ---
 
@@ -269,7 +266,7 @@ std::optional<SearchSetup> SetUpSearch(const OrbitalImage& orbital, const Orbita
                        window.width != requested.width || window.height != requested.height;
   out.orbital_patch = patch;
   out.orbital_window = window;
-  Report(progress, 0.2, "register: pyramid");
+  ReportProgress(progress, 0.2, "register: pyramid");
   s.orbital_pyramid = BuildMaskedPyramid({patch, {}}, s.levels);
 
   // Shifts: the template's top-left pixel on window pixel (x, y); the telemetry position is

@@ -22,9 +22,6 @@
 
 namespace areomap::internal {
 
-// Calls `progress`; throws areomap::Error when it asks to stop.
-void Report(const ProgressCallback& progress, double fraction, std::string_view stage);
-
 // scale R(rotation): counter-clockwise on a north-up map = clockwise in (column, row) pixel axes.
 Eigen::Matrix2d SimilarityMatrix(double rotation, double scale);
 

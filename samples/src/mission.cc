@@ -14,15 +14,10 @@
 #include "areomap/map/error.h"
 #include "areomap/map/image_io.h"
 #include "areomap/map/raster.h"
+#include "areomap/map/report_progress.h"
 
 namespace areomap {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
-
-void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
-  if (progress && !progress(fraction, stage)) throw Error("mission generation cancelled");
-}
 
 // Fixed-precision number formatting so that files are byte-identical across runs.
 std::string Fixed(double value, int decimals) {
@@ -169,8 +164,8 @@ Traverse PlanTraverse(const TraverseOptions& options, const TelemetryErrorModel&
   std::normal_distribution<double> gauss(0.0, 1.0);
   Traverse t;
   const double margin = 0.75 * half_extent_m;
-  double heading = 2.0 * kPi * unit(rng);  // Clockwise from north.
-  Eigen::Vector2d truth_en(0.0, 0.0);      // (east, north)
+  double heading = 2.0 * std::numbers::pi * unit(rng);  // Clockwise from north.
+  Eigen::Vector2d truth_en(0.0, 0.0);                   // (east, north)
   Eigen::Vector2d measured_en(0.0, 0.0);
   double heading_error = 0.0;
   t.truth.push_back({0, Eigen::Vector3d::Zero(), heading});
@@ -407,9 +402,9 @@ RoverImagesStage RenderRoverImages(const MissionOptions& options, const Scene& s
       {&options.navcam, Panorama(options.navcam_pairs, RadFromDeg(options.navcam_elevation_deg))},
       {&options.pancam, Panorama(options.pancam_pairs, RadFromDeg(options.pancam_elevation_deg))}};
   for (size_t k = 0; k < traverse.truth.size(); ++k) {
-    Report(progress,
-           0.45 + 0.5 * static_cast<double>(k) / static_cast<double>(traverse.truth.size()),
-           "rover images");
+    ReportProgress(progress,
+                   0.45 + 0.5 * static_cast<double>(k) / static_cast<double>(traverse.truth.size()),
+                   "rover images");
     const SitePose& truth = traverse.truth[k];
     char folder_name[32];
     std::snprintf(folder_name, sizeof(folder_name), "sites/site_%03d", truth.site);
@@ -573,22 +568,22 @@ MissionSummary GenerateMission(const MissionOptions& options, const std::filesys
                                const ProgressCallback& progress) {
   options.Check();
   CreateMissionFolders(out_dir);
-  Report(progress, 0.0, "traverse");
+  ReportProgress(progress, 0.0, "traverse");
   const Traverse traverse =
       PlanTraverse(options.traverse, options.telemetry, options.scene.half_extent_m, options.seed);
-  Report(progress, 0.02, "scene");
+  ReportProgress(progress, 0.02, "scene");
   const Scene scene(MissionSceneOptions(options, traverse));
   const SceneGeoreference georef = MissionGeoreference(options, scene);
   const OrbitalStage orbital = WriteOrbitalProducts(options, scene, georef, out_dir, progress);
   const RoverImagesStage rover = RenderRoverImages(options, scene, traverse, out_dir, progress);
-  Report(progress, 0.95, "truth");
+  ReportProgress(progress, 0.95, "truth");
   WriteTruthTables(scene, traverse, georef, orbital.hirise.image.geotransform, out_dir);
   MissionSummary summary = Summarize(traverse, scene, orbital.hirise, rover.image_count);
   summary.manifest = out_dir / "mission.json";
   WriteFileAtomically(
       summary.manifest,
       MissionManifestJson(options, georef, orbital.entries, rover.sites).dump(2) + "\n");
-  Report(progress, 1.0, "done");
+  ReportProgress(progress, 1.0, "done");
   return summary;
 }
 

@@ -9,14 +9,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "areomap/map/report_progress.h"
 #include "shading.h"
 
 namespace areomap {
 namespace {
-
-void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
-  if (progress && !progress(fraction, stage)) throw Error("orbital rendering cancelled");
-}
 
 // The image grid: square, north-up, whole DTM cells, rendered at `supersample` sub-pixels.
 struct OrbitalGrid {
@@ -184,11 +181,11 @@ OrbitalProducts RenderOrbitalProducts(const Scene& scene, const SceneGeoreferenc
   const MapProjection projection = georef.Projection();
   const OrbitalGrid grid = LayOutOrbitalGrid(projection, georef, half_extent_m, dtm_posting_m, o);
   const MapToEnuLattice lattice = BuildMapToEnuLattice(projection, georef, grid);
-  Report(progress, 0.05, "orbital: terrain");
+  ReportProgress(progress, 0.05, "orbital: terrain");
   const TerrainSamples terrain = SampleTerrain(scene, lattice, grid.fine);
-  Report(progress, 0.6, "orbital: shading");
+  ReportProgress(progress, 0.6, "orbital: shading");
   const cv::Mat radiance = ShadeTerrain(terrain, grid, o);
-  Report(progress, 0.8, "orbital: optics");
+  ReportProgress(progress, 0.8, "orbital: optics");
   const cv::Mat dn = ImageThroughOptics(radiance, grid.size, o);
   cv::Mat dtm_fine, dtm;
   cv::resize(terrain.heights, dtm_fine, cv::Size(grid.dtm_cells, grid.dtm_cells), 0, 0,
@@ -206,7 +203,7 @@ OrbitalProducts RenderOrbitalProducts(const Scene& scene, const SceneGeoreferenc
   out.dtm.geotransform = GeoTransform::NorthUp(grid.left, grid.top, dtm_posting_m, dtm_posting_m);
   out.dtm.crs_wkt = wkt;
   out.dtm.nodata = -3.4028227e+38;
-  Report(progress, 1.0, "orbital: done");
+  ReportProgress(progress, 1.0, "orbital: done");
   return out;
 }
 

@@ -12,8 +12,6 @@
 namespace areomap {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 // Crater profile as a function of the normalised elliptical radius rho (1 at the rim crest),
 // relative to the surroundings [m].
 double CraterProfile(const Crater& c, double rho) {
@@ -63,7 +61,7 @@ double ShapeHeight(const Rock& r, double x, double y) {
       const double inradius = 0.5 * r.a;
       double nearest = inradius;
       for (int i = 0; i < 3; ++i) {
-        const double normal = kPi / 3.0 + 2.0 * kPi / 3.0 * i;
+        const double normal = std::numbers::pi / 3.0 + 2.0 * std::numbers::pi / 3.0 * i;
         nearest = std::min(nearest, inradius - (x * std::cos(normal) + y * std::sin(normal)));
       }
       return nearest > 0.0 ? r.height * nearest / inradius : 0.0;
@@ -98,7 +96,7 @@ std::vector<Crater> PlaceCraters(const SceneOptions& options, std::mt19937& rng,
     const double diameter = std::exp(log_min + (log_max - log_min) * unit(rng));
     c.semi_major = diameter / 2.0;
     c.semi_minor = c.semi_major * (0.85 + 0.15 * unit(rng));
-    c.angle = kPi * unit(rng);
+    c.angle = std::numbers::pi * unit(rng);
     c.center = {(2.0 * unit(rng) - 1.0) * (half - c.semi_major),
                 (2.0 * unit(rng) - 1.0) * (half - c.semi_major)};
     c.depth = diameter * (0.15 + 0.07 * unit(rng));
@@ -137,7 +135,7 @@ RockSizeTable TabulateRockSizes(const SceneOptions& options) {
   const double step = (d_max - d_min) / kBins;
   for (int i = 0; i < kBins; ++i) {
     const double d = d_min + (i + 0.5) * step;
-    cdf[i + 1] = cdf[i] + k * q * std::exp(-q * d) / (kPi * d * d / 4.0) * step;
+    cdf[i + 1] = cdf[i] + k * q * std::exp(-q * d) / (std::numbers::pi * d * d / 4.0) * step;
   }
   sizes.d_min = d_min;
   sizes.step = step;
@@ -173,7 +171,7 @@ Rock DrawRockCandidate(const SceneOptions& options, const RockSizeTable& sizes, 
   const std::vector<double>& cdf = sizes.cdf;
   const Eigen::Vector2d& lo = box.lo;
   const Eigen::Vector2d& hi = box.hi;
-  const double tilt_max = options.rock_max_tilt_deg * kPi / 180.0;
+  const double tilt_max = options.rock_max_tilt_deg * std::numbers::pi / 180.0;
   const Eigen::Vector2d p(lo.x() + (hi.x() - lo.x()) * unit(rng),
                           lo.y() + (hi.y() - lo.y()) * unit(rng));
   const double u = unit(rng) * cdf.back();
@@ -185,7 +183,7 @@ Rock DrawRockCandidate(const SceneOptions& options, const RockSizeTable& sizes, 
   r.a = diameter / 2.0;
   r.b = r.shape == RockShape::kSemiEllipsoid ? r.a * (0.6 + 0.4 * unit(rng)) : r.a;
   r.height = std::clamp(diameter * (0.3 + 0.3 * unit(rng)), 0.05, 0.6);
-  r.azimuth = 2.0 * kPi * unit(rng);
+  r.azimuth = 2.0 * std::numbers::pi * unit(rng);
   const bool tilted = unit(rng) < 0.3;
   r.tilt_x = tilted ? tilt_max * (2.0 * unit(rng) - 1.0) : 0.0;
   r.tilt_y = tilted ? tilt_max * (2.0 * unit(rng) - 1.0) : 0.0;

@@ -28,6 +28,9 @@ struct Ellipse {
 
   // Finite fields, semi_major >= semi_minor > 0, angle in [0, pi).
   bool IsValid() const;
+  // Finite fields and both semi-axes > 0, in either order and at any angle: a curve the
+  // distance functions below are defined for.
+  bool HasPositiveAxes() const;
   // Swaps the axes when semi_minor > semi_major (turning angle by pi/2) and wraps angle into
   // [0, pi). The curve is unchanged.
   Ellipse Normalized() const;
