@@ -10,21 +10,18 @@
 #include <utility>
 #include <vector>
 
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/crater/learned_detector.h"
 #include "areomap/map/error.h"
+#include "areomap/map/report_progress.h"
 #include "detect_in_core.h"
 #include "edge_scratch.h"
+#include "raster_levels.h"
 
 namespace areomap {
 namespace {
-
-void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
-  if (progress && !progress(fraction, stage)) throw Error("crater detection cancelled");
-}
 
 // The combined detector's two halves: the edge detector with every option, the network with
 // its rim fits run as with --method learned, without the shading checks.
@@ -117,14 +114,15 @@ void AddToOverview(const cv::Mat& tile, const TileWindow& w, int factor, cv::Mat
 // The craters centred in one tile's core, in raster pixels; the tile's share of `overview`
 // when the plan fills it from the tiles.
 std::vector<CraterDetection> DetectInTile(const TilePlan& plan, int t, RimSource source,
-                                          const CraterDetectorOptions& o, RasterDataset* reader,
+                                          const CraterDetectorOptions& o,
+                                          const internal::RasterLevels& levels,
                                           internal::EdgeScratchPool* scratch_pool,
                                           cv::Mat* overview) {
   const TileWindow w = TileWindowOf(plan, t, o);
   std::unique_ptr<internal::EdgeScratch> scratch = scratch_pool->Acquire();
   cv::Mat tile = scratch->Get(internal::EdgeScratch::kTileSlot, w.r1 - w.r0, w.c1 - w.c0, CV_32F,
                               static_cast<size_t>(plan.padded) * plan.padded);
-  reader->ReadWindowFloatInto(1, {w.c0, w.r0, w.c1 - w.c0, w.r1 - w.r0}, &tile);
+  levels.ReadInto(0, cv::Rect(w.c0, w.r0, w.c1 - w.c0, w.r1 - w.r0), &tile);
   if (plan.overview_from_tiles) AddToOverview(tile, w, plan.factor, overview);
   std::vector<CraterDetection> found;
   {
@@ -140,7 +138,7 @@ std::vector<CraterDetection> DetectInTile(const TilePlan& plan, int t, RimSource
 }
 
 // The craters of all tiles, joined in tile order; fills `overview` when the plan says so.
-std::vector<CraterDetection> DetectInTiles(const RasterDataset& dataset, RimSource source,
+std::vector<CraterDetection> DetectInTiles(const internal::RasterLevels& levels, RimSource source,
                                            const TilePlan& plan, const CraterDetectorOptions& o,
                                            const ProgressCallback& progress, cv::Mat* overview) {
   // Each tile's craters in its own slot, joined in tile order below: the result does not depend
@@ -157,17 +155,14 @@ std::vector<CraterDetection> DetectInTiles(const RasterDataset& dataset, RimSour
     const size_t level_side =
         static_cast<size_t>(plan.padded) * (plan.tile_options.SearchesUpsampledLevel() ? 2 : 1) + 2;
     internal::EdgeScratchPool scratch_pool(level_side * level_side);
-    // A GDAL handle is not thread-safe: each thread reads through its own, so that decoding (a
-    // fifth of the CPU time on compressed tiles) runs in parallel instead of one thread waiting
-    // for the other's read. TBB hands each thread a contiguous run of tiles, so most blocks
-    // shared by neighbouring tiles' overlaps are still decoded once, in that handle's cache.
-    tbb::enumerable_thread_specific<std::optional<RasterDataset>> readers;
+    // Each thread reads through its own GDAL handle (raster_levels.h), so that decoding (a fifth
+    // of the CPU time on compressed tiles) runs in parallel instead of one thread waiting for the
+    // other's read. TBB hands each thread a contiguous run of tiles, so most blocks shared by
+    // neighbouring tiles' overlaps are still decoded once, in that handle's cache.
     tbb::parallel_for(0, plan.tile_count, [&](int t) {
       if (cancelled) return;
-      std::optional<RasterDataset>& reader = readers.local();
-      if (!reader) reader = dataset.Reopen();
       per_tile[static_cast<size_t>(t)] =
-          DetectInTile(plan, t, source, o, &*reader, &scratch_pool, overview);
+          DetectInTile(plan, t, source, o, levels, &scratch_pool, overview);
       std::lock_guard<std::mutex> lock(progress_mutex);
       const double fraction =
           (1.0 - overview_share) * (++done) / static_cast<double>(plan.tile_count);
@@ -238,6 +233,31 @@ std::vector<CraterDetection> DetectInOverview(const RasterDataset& dataset, RimS
   return found;
 }
 
+// The edge detector on a raster: whole when it fits one padded tile, else tiles for craters up to
+// the overlap and the overview for larger ones.
+std::vector<CraterDetection> DetectEdgesInRaster(const internal::RasterLevels& levels,
+                                                 RimSource source, const CraterDetectorOptions& o,
+                                                 const ProgressCallback& progress) {
+  const RasterDataset& dataset = levels.dataset();
+  const int width = levels.width(), height = levels.height();
+  const int padded = o.tile_size + 2 * o.tile_overlap;
+  if (width <= padded && height <= padded) {
+    return DetectCraters(levels.Read(0, cv::Rect(0, 0, width, height)), source, o, progress);
+  }
+  const TilePlan plan = PlanTiles(width, height, o);
+  cv::Mat overview;
+  if (plan.overview_from_tiles)
+    overview = cv::Mat(height / plan.factor, width / plan.factor, CV_32F);
+  std::vector<CraterDetection> all = DetectInTiles(levels, source, plan, o, progress, &overview);
+  if (plan.need_overview) {
+    for (CraterDetection& d : DetectInOverview(dataset, source, plan, o, overview)) {
+      all.push_back(std::move(d));
+    }
+  }
+  ReportProgress(progress, 1.0, "craters: done");
+  return KeepWithinDiameterLimits(SuppressDuplicateCraters(std::move(all)), o);
+}
+
 }  // namespace
 
 std::vector<CraterDetection> DetectCratersInImage(const cv::Mat& image, RimSource source,
@@ -264,29 +284,17 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
     return DetectCratersLearned(dataset, o, o.learned, progress);
   }
   if (source == RimSource::kImage && o.method == CraterMethod::kCombined) {
-    std::vector<CraterDetection> rims = DetectCratersInRaster(dataset, source, EdgeDetectorHalf(o),
-                                                              SubProgress(progress, 0.0, 0.3));
+    // Both halves read one decoding of a large raster (raster_levels.h).
+    const internal::RasterLevels levels(dataset, /*decode_once=*/true);
+    std::vector<CraterDetection> rims =
+        DetectEdgesInRaster(levels, source, EdgeDetectorHalf(o), SubProgress(progress, 0.0, 0.3));
     return MergeEdgeAndLearnedCraters(
-        std::move(rims),
-        DetectCratersLearned(dataset, NetworkHalf(o), o.learned, SubProgress(progress, 0.3, 1.0)));
+        std::move(rims), internal::DetectCratersLearnedOn(levels, NetworkHalf(o), o.learned,
+                                                          SubProgress(progress, 0.3, 1.0)));
   }
-  const int width = dataset.info().width, height = dataset.info().height;
-  const int padded = o.tile_size + 2 * o.tile_overlap;
-  if (width <= padded && height <= padded) {
-    return DetectCraters(dataset.ReadWindowFloat(1, dataset.FullWindow()), source, o, progress);
-  }
-  const TilePlan plan = PlanTiles(width, height, o);
-  cv::Mat overview;
-  if (plan.overview_from_tiles)
-    overview = cv::Mat(height / plan.factor, width / plan.factor, CV_32F);
-  std::vector<CraterDetection> all = DetectInTiles(dataset, source, plan, o, progress, &overview);
-  if (plan.need_overview) {
-    for (CraterDetection& d : DetectInOverview(dataset, source, plan, o, overview)) {
-      all.push_back(std::move(d));
-    }
-  }
-  Report(progress, 1.0, "craters: done");
-  return KeepWithinDiameterLimits(SuppressDuplicateCraters(std::move(all)), o);
+  // The edge detector reads each tile once: no level files.
+  return DetectEdgesInRaster(internal::RasterLevels(dataset, /*decode_once=*/false), source, o,
+                             progress);
 }
 
 }  // namespace areomap

@@ -8,14 +8,15 @@
 #include <optional>
 #include <utility>
 
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <opencv2/dnn.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "areomap/map/numbers.h"
+#include "areomap/map/report_progress.h"
 #include "detect_in_core.h"
-#include "level_files.h"
+#include "raster_levels.h"
 
 namespace areomap {
 namespace internal {
@@ -38,9 +39,6 @@ constexpr int kMinLevelSizePx = 48;  // no level smaller than this
 // network's half receptive field (~37), rounded up to a multiple of 8 so that tiles keep the
 // stride-8 grid of the whole level and give the same outputs.
 constexpr int kTileMarginPx = 64;
-// Rasters over this many bytes as Float32 (4096 x 4096 px) read their pyramid levels from
-// temporary files (DetectCratersLearned): half of areomap's GDAL block cache (gdal_util.h).
-constexpr double kLevelFilesFromBytes = 64.0 * (1 << 20);
 // Errors of the network's circles against the held-out CTX labels (docs/crater-model.md), as
 // fractions of the diameter: 1-sigma of the centre per axis and of the diameter.
 constexpr double kCircleCenterSigma = 0.053;
@@ -49,12 +47,6 @@ constexpr double kCircleDiameterSigma = 0.108;
 // diameter, diameters within 25 %.
 constexpr double kRefineMaxShift = 0.25;
 constexpr double kRefineMaxRatio = 1.25;
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-void Report(const ProgressCallback& progress, double fraction, std::string_view stage) {
-  if (progress && !progress(fraction, stage)) throw Error("crater detection cancelled");
-}
 
 // Reads `rect` (pixels of pyramid level `level`) as CV_32F, NaN = nodata.
 using LevelReader = std::function<cv::Mat(int level, const cv::Rect& rect)>;
@@ -280,7 +272,7 @@ std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, i
   const double detect_share = learned.refine_rims ? 0.7 : 1.0;
   int done = 0;
   const auto tile_done = [&] {
-    Report(progress, detect_share * (++done) / std::max(1, tiles), "craters: network");
+    ReportProgress(progress, detect_share * (++done) / std::max(1, tiles), "craters: network");
   };
   std::vector<CraterDetection> circles;
   for (int l = 0; l < pyramid.levels; ++l) {
@@ -298,7 +290,7 @@ std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, i
     });
     circles = SuppressDuplicateCraters(std::move(refined));
   }
-  Report(progress, 1.0, "craters: done");
+  ReportProgress(progress, 1.0, "craters: done");
   return KeepWithinDiameterLimits(std::move(circles), options);
 }
 
@@ -420,36 +412,28 @@ cv::Mat NormalizeForCraterNetwork(const cv::Mat& image) {
   return out;
 }
 
+namespace internal {
+
+std::vector<CraterDetection> DetectCratersLearnedOn(const RasterLevels& levels,
+                                                    const CraterDetectorOptions& options,
+                                                    const LearnedDetectorOptions& learned,
+                                                    const ProgressCallback& progress) {
+  const LevelReader read = [&levels](int level, const cv::Rect& rect) {
+    return levels.Read(level, rect);
+  };
+  return DetectLearned(read, levels.width(), levels.height(), options, learned, progress);
+}
+
+}  // namespace internal
+
+// On a raster larger than GDAL's block cache holds, the raster is decoded once into level files
+// (raster_levels.h), not once per level and again for the network and the rim fits.
 std::vector<CraterDetection> DetectCratersLearned(const RasterDataset& dataset,
                                                   const CraterDetectorOptions& options,
                                                   const LearnedDetectorOptions& learned,
                                                   const ProgressCallback& progress) {
-  // On a raster larger than GDAL's block cache holds, the levels above 0 come from temporary files
-  // (level_files.h) so that each is not decoded from the raster again (10 000² deflate Float32:
-  // 3.0 -> 5.4 MP/s); a smaller raster is decoded once into the cache anyway. Where the files
-  // cannot be written, and on small rasters, levels are 2^l x 2^l means read from the raster.
-  const RasterInfo& info = dataset.info();
-  std::optional<internal::PyramidLevelFiles> level_files;
-  if (4.0 * info.width * info.height > kLevelFilesFromBytes) {
-    try {
-      level_files.emplace(dataset, PyramidOf(info.width, info.height).levels);
-    } catch (const Error&) {
-      level_files.reset();
-    }
-  }
-  // A GDAL handle is not thread-safe and the rim fits read in parallel: each thread reads
-  // through its own handle (sharing one corrupted reads of compressed tiles on large rasters).
-  tbb::enumerable_thread_specific<std::optional<RasterDataset>> readers;
-  const LevelReader read = [&](int level, const cv::Rect& rect) {
-    if (level > 0 && level_files) return level_files->Read(level, rect);
-    std::optional<RasterDataset>& reader = readers.local();
-    if (!reader) reader = dataset.Reopen();
-    if (level == 0) return reader->ReadWindowFloat(1, {rect.x, rect.y, rect.width, rect.height});
-    const int f = 1 << level;
-    return ReadDecimated(*reader, {rect.x * f, rect.y * f, rect.width * f, rect.height * f}, f);
-  };
-  return DetectLearned(read, dataset.info().width, dataset.info().height, options, learned,
-                       progress);
+  return internal::DetectCratersLearnedOn(internal::RasterLevels(dataset, /*decode_once=*/true),
+                                          options, learned, progress);
 }
 
 std::vector<CraterDetection> DetectCratersLearned(const cv::Mat& image,

@@ -7,8 +7,11 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <string>
 
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
@@ -58,25 +61,42 @@ cv::Mat HalveRows(const cv::Mat& rows, int width) {
 
 PyramidLevelFiles::PyramidLevelFiles(const RasterDataset& dataset, int levels) {
   const RasterInfo& info = dataset.info();
+  // Strips in parallel (decoding a compressed raster is most of the work): each thread reads the
+  // raster through its own GDAL handle, which is not thread-safe; pread and pwrite are.
+  tbb::enumerable_thread_specific<std::optional<RasterDataset>> readers;
+  const auto add_level = [&](int l) {
+    const cv::Size size(info.width >> l, info.height >> l);
+    if (size.width < 1 || size.height < 1 || l >= levels) return false;
+    levels_.push_back(Level{MakeUnlinkedFile(), size});
+    return true;
+  };
   try {
-    for (int l = 1; l < levels; ++l) {
-      Level level;
-      level.size = cv::Size(info.width >> l, info.height >> l);
-      if (level.size.width < 1 || level.size.height < 1) break;
-      level.fd = MakeUnlinkedFile();
-      levels_.push_back(level);
-      for (int r0 = 0; r0 < level.size.height; r0 += kStripRows) {
-        const int rows = std::min(kStripRows, level.size.height - r0);
-        cv::Mat strip;
-        if (l == 1) {
-          strip = ReadDecimated(dataset, {0, 2 * r0, 2 * level.size.width, 2 * rows}, 2);
-        } else {
-          const Level& below = levels_[static_cast<size_t>(l - 2)];
-          strip = HalveRows(Read(l - 1, cv::Rect(0, 2 * r0, below.size.width, 2 * rows)),
-                            level.size.width);
-        }
-        WriteRows(level, r0, strip);
+    // Level 0, the raster decoded once, and level 1 from the same strips of 2 kStripRows rows (an
+    // odd last row has no level-1 row).
+    add_level(0);
+    const bool has_level1 = add_level(1);
+    const int strip_rows = 2 * kStripRows;
+    tbb::parallel_for(0, (info.height + strip_rows - 1) / strip_rows, [&](int k) {
+      const int r0 = k * strip_rows, rows = std::min(strip_rows, info.height - r0);
+      std::optional<RasterDataset>& reader = readers.local();
+      if (!reader) reader = dataset.Reopen();
+      const cv::Mat full = reader->ReadWindowFloat(1, {0, r0, info.width, rows});
+      WriteRows(levels_[0], r0, full);
+      if (has_level1 && rows >= 2) {
+        WriteRows(levels_[1], r0 / 2,
+                  HalveRows(full.rowRange(0, rows & ~1), levels_[1].size.width));
       }
+    });
+    // Each next level from the file below.
+    for (int l = 2; add_level(l); ++l) {
+      const Level& level = levels_[static_cast<size_t>(l)];
+      const cv::Size below = levels_[static_cast<size_t>(l - 1)].size;
+      tbb::parallel_for(0, (level.size.height + kStripRows - 1) / kStripRows, [&](int k) {
+        const int r0 = k * kStripRows, rows = std::min(kStripRows, level.size.height - r0);
+        WriteRows(
+            level, r0,
+            HalveRows(Read(l - 1, cv::Rect(0, 2 * r0, below.width, 2 * rows)), level.size.width));
+      });
     }
   } catch (...) {
     for (const Level& level : levels_) close(level.fd);
@@ -98,22 +118,27 @@ void PyramidLevelFiles::WriteRows(const Level& level, int row0, const cv::Mat& r
 }
 
 cv::Mat PyramidLevelFiles::Read(int level, const cv::Rect& rect) const {
-  if (level < 1 || level > static_cast<int>(levels_.size())) {
+  cv::Mat out;
+  ReadInto(level, rect, &out);
+  return out;
+}
+
+void PyramidLevelFiles::ReadInto(int level, const cv::Rect& rect, cv::Mat* out) const {
+  if (level < 0 || level >= static_cast<int>(levels_.size())) {
     throw Error("crater pyramid level file: no level " + std::to_string(level));
   }
-  const Level& l = levels_[static_cast<size_t>(level - 1)];
+  const Level& l = levels_[static_cast<size_t>(level)];
   if ((rect & cv::Rect(0, 0, l.size.width, l.size.height)) != rect) {
     throw Error("crater pyramid level file: window outside level " + std::to_string(level));
   }
-  cv::Mat out(rect.size(), CV_32F);
+  if (out->size() != rect.size() || out->type() != CV_32F) *out = cv::Mat(rect.size(), CV_32F);
   const size_t row_bytes = static_cast<size_t>(rect.width) * sizeof(float);
   for (int r = 0; r < rect.height; ++r) {
     const off_t at = (static_cast<off_t>(rect.y + r) * l.size.width + rect.x) *
                      static_cast<off_t>(sizeof(float));
-    TransferAll(pread, l.fd, reinterpret_cast<char*>(out.ptr<float>(r)), row_bytes, at,
+    TransferAll(pread, l.fd, reinterpret_cast<char*>(out->ptr<float>(r)), row_bytes, at,
                 "cannot read");
   }
-  return out;
 }
 
 }  // namespace areomap::internal

@@ -15,9 +15,9 @@
 namespace areomap {
 namespace {
 
-// Every level of an odd-sized tiled raster with nodata blocks: the same means as ReadDecimated
-// (to float rounding), NaN exactly where a block holds nodata, any window, and no file to be seen
-// in the temporary folder.
+// Every level of an odd-sized tiled raster with nodata blocks, level 0 included: the same means as
+// ReadDecimated (to float rounding), NaN exactly where a block holds nodata, any window, and no
+// file to be seen in the temporary folder.
 TEST(PyramidLevelFiles, HoldTheMeansThatReadDecimatedReads) {
   const auto dir = std::filesystem::temp_directory_path() / "areomap_level_files_test";
   std::filesystem::remove_all(dir);
@@ -27,7 +27,7 @@ TEST(PyramidLevelFiles, HoldTheMeansThatReadDecimatedReads) {
   image(cv::Rect(100, 40, 7, 5)).setTo(std::numeric_limits<float>::quiet_NaN());
   const RasterDataset dataset = testing::WriteSmallTiledRaster(dir / "image.tif", image);
   const internal::PyramidLevelFiles files(dataset, 5);
-  for (int level = 1; level < 5; ++level) {
+  for (int level = 0; level < 5; ++level) {
     const int f = 1 << level;
     const cv::Size size(image.cols >> level, image.rows >> level);
     const cv::Mat expected = ReadDecimated(dataset, {0, 0, size.width * f, size.height * f}, f);
@@ -50,6 +50,7 @@ TEST(PyramidLevelFiles, HoldTheMeansThatReadDecimatedReads) {
     EXPECT_EQ(cv::norm(files.Read(level, window), got(window), cv::NORM_INF), 0.0) << level;
   }
   EXPECT_THROW(files.Read(5, cv::Rect(0, 0, 1, 1)), Error);
+  EXPECT_THROW(files.Read(-1, cv::Rect(0, 0, 1, 1)), Error);
   EXPECT_THROW(files.Read(1, cv::Rect(0, 0, image.cols, 1)), Error);
   // The files are unlinked as soon as they are made: none is there while they are in use.
   for (const auto& entry :
