@@ -1,7 +1,8 @@
 #include "raster_levels.h"
 
 #include <algorithm>
-#include <cmath>
+#include <filesystem>
+#include <system_error>
 
 #include "areomap/map/error.h"
 
@@ -19,11 +20,20 @@ int AllLevels(int width, int height) {
   return levels;
 }
 
+// Whether the temporary folder has room for the level files of a raster of `bytes` as Float32
+// (4/3 of it) and a quarter more, so that a detection does not fill the disk for others.
+bool RoomForLevelFiles(double bytes) {
+  std::error_code error;
+  const auto space = std::filesystem::space(std::filesystem::temp_directory_path(error), error);
+  return !error && static_cast<double>(space.available) > 1.25 * (4.0 / 3.0) * bytes;
+}
+
 }  // namespace
 
 RasterLevels::RasterLevels(const RasterDataset& dataset, bool decode_once) : dataset_(dataset) {
   const RasterInfo& info = dataset.info();
-  if (!decode_once || 4.0 * info.width * info.height <= kLevelFilesFromBytes) return;
+  const double bytes = 4.0 * info.width * info.height;
+  if (!decode_once || bytes <= kLevelFilesFromBytes || !RoomForLevelFiles(bytes)) return;
   try {
     files_.emplace(dataset, AllLevels(info.width, info.height));
   } catch (const Error&) {

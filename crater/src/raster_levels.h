@@ -24,8 +24,9 @@ namespace areomap::internal {
 
 class RasterLevels {
  public:
-  // With `decode_once`, a raster over 64 MB as Float32 is decoded into level files now (if they
-  // cannot be written, reads go to the raster). `dataset` must outlive this object.
+  // With `decode_once`, a raster over 64 MB as Float32 is decoded into level files now, where the
+  // temporary folder has room for them (if not, or if they cannot be written, reads go to the
+  // raster). `dataset` must outlive this object.
   RasterLevels(const RasterDataset& dataset, bool decode_once);
 
   int width() const { return dataset_.info().width; }
