@@ -7,10 +7,8 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
-#include <optional>
 #include <string>
 
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <opencv2/imgproc.hpp>
 
@@ -59,13 +57,9 @@ cv::Mat HalveRows(const cv::Mat& rows, int width) {
 
 }  // namespace
 
-PyramidLevelFiles::PyramidLevelFiles(const RasterDataset& dataset, int levels) {
-  const RasterInfo& info = dataset.info();
-  // Strips in parallel (decoding a compressed raster is most of the work): each thread reads the
-  // raster through its own GDAL handle, which is not thread-safe; pread and pwrite are.
-  tbb::enumerable_thread_specific<std::optional<RasterDataset>> readers;
+PyramidLevelFiles::PyramidLevelFiles(cv::Size raster, int levels, const RasterReader& read) {
   const auto add_level = [&](int l) {
-    const cv::Size size(info.width >> l, info.height >> l);
+    const cv::Size size(raster.width >> l, raster.height >> l);
     if (size.width < 1 || size.height < 1 || l >= levels) return false;
     levels_.push_back(Level{MakeUnlinkedFile(), size});
     return true;
@@ -76,11 +70,10 @@ PyramidLevelFiles::PyramidLevelFiles(const RasterDataset& dataset, int levels) {
     add_level(0);
     const bool has_level1 = add_level(1);
     const int strip_rows = 2 * kStripRows;
-    tbb::parallel_for(0, (info.height + strip_rows - 1) / strip_rows, [&](int k) {
-      const int r0 = k * strip_rows, rows = std::min(strip_rows, info.height - r0);
-      std::optional<RasterDataset>& reader = readers.local();
-      if (!reader) reader = dataset.Reopen();
-      const cv::Mat full = reader->ReadWindowFloat(1, {0, r0, info.width, rows});
+    // Strips in parallel: decoding a compressed raster is most of the work.
+    tbb::parallel_for(0, (raster.height + strip_rows - 1) / strip_rows, [&](int k) {
+      const int r0 = k * strip_rows, rows = std::min(strip_rows, raster.height - r0);
+      const cv::Mat full = read(cv::Rect(0, r0, raster.width, rows));
       WriteRows(levels_[0], r0, full);
       if (has_level1 && rows >= 2) {
         WriteRows(levels_[1], r0 / 2,

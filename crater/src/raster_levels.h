@@ -39,9 +39,12 @@ class RasterLevels {
   void ReadInto(int level, const cv::Rect& rect, cv::Mat* out) const;
 
  private:
+  // Through this thread's own GDAL handle (a handle is not thread-safe).
+  void ReadFromRaster(int level, const cv::Rect& rect, cv::Mat* out) const;
+
   const RasterDataset& dataset_;
-  std::optional<PyramidLevelFiles> files_;
   mutable tbb::enumerable_thread_specific<std::optional<RasterDataset>> readers_;
+  std::optional<PyramidLevelFiles> files_;  // built from readers_: declared after them
 };
 
 // The learned detector on `levels` (learned_detector.cc; DetectCratersLearned on a raster).

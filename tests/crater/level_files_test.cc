@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <mutex>
 
 #include <gtest/gtest.h>
 
@@ -26,7 +27,12 @@ TEST(PyramidLevelFiles, HoldTheMeansThatReadDecimatedReads) {
   cv::randu(image, 0.0, 1000.0);
   image(cv::Rect(100, 40, 7, 5)).setTo(std::numeric_limits<float>::quiet_NaN());
   const RasterDataset dataset = testing::WriteSmallTiledRaster(dir / "image.tif", image);
-  const internal::PyramidLevelFiles files(dataset, 5);
+  // The strips are read from several threads; one GDAL handle is not thread-safe.
+  std::mutex reading;
+  const internal::PyramidLevelFiles files(image.size(), 5, [&](const cv::Rect& rect) {
+    const std::lock_guard<std::mutex> lock(reading);
+    return dataset.ReadWindowFloat(1, {rect.x, rect.y, rect.width, rect.height});
+  });
   for (int level = 0; level < 5; ++level) {
     const int f = 1 << level;
     const cv::Size size(image.cols >> level, image.rows >> level);
