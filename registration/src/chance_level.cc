@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include "high_pass.h"
 
@@ -14,28 +16,21 @@ namespace {
 // The null's spread is its largest over blocks of this many shifts a side (MeasureSurfaceNull).
 constexpr int kNullBlock = 24;
 
-// The NCC surface of `t` (high-passed) over `shifts` on `fixed` (raw; high-passed here where
-// the shifts reach), its shifts in `fixed`'s frame; empty if they reach no pixel.
-MaskedNccSurface HighPassedSurface(const MaskedImage& fixed, const MaskedImage& t,
-                                   const ShiftWindow& shifts, double min_overlap_fraction) {
-  ShiftWindow local;
-  const MaskedImage hp = HighPassReach(fixed, shifts, t.image.size(), &local);
-  if (hp.image.empty()) return {};
+// The NCC surface of `t` over `shifts` on `fixed`, its shifts in `fixed`'s frame.
+MaskedNccSurface SurfaceOver(const MaskedImage& fixed, const MaskedImage& t,
+                             const ShiftWindow& shifts, double min_overlap_fraction) {
   MaskedNccOptions options;
   options.min_overlap_fraction = min_overlap_fraction;
-  options.search_window = local;
-  MaskedNccSurface s = MaskedNcc(hp.image, hp.mask, t.image, t.mask, options);
-  s.shift_x0 += shifts.min_shift_x - local.min_shift_x;
-  s.shift_y0 += shifts.min_shift_y - local.min_shift_y;
-  return s;
+  options.search_window = shifts;
+  return MaskedNcc(fixed.image, fixed.mask, t.image, t.mask, options);
 }
 
 }  // namespace
 
-double PeakNear(const MaskedImage& fixed, const MaskedImage& t, cv::Point shift,
+double PeakNear(const MaskedImage& hp_fixed, const MaskedImage& hp_t, cv::Point shift,
                 double min_overlap_fraction) {
   const MaskedNccSurface s =
-      HighPassedSurface(fixed, t, ShiftWindow::Around(shift.x, shift.y, 1), min_overlap_fraction);
+      SurfaceOver(hp_fixed, hp_t, ShiftWindow::Around(shift.x, shift.y, 1), min_overlap_fraction);
   double best = std::numeric_limits<double>::quiet_NaN();
   for (auto it = s.ncc.begin<float>(); it != s.ncc.end<float>(); ++it) {
     if (std::isfinite(*it) && !(best >= *it)) best = *it;
@@ -111,15 +106,16 @@ MaskedNccSurface Autocorrelation(const MaskedImage& t, int rows, int cols) {
 // Tiles of this many shifts a side sample a large window's full-resolution surface.
 constexpr int kNullTile = 48;
 
-SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t,
-                            const ShiftWindow& search, cv::Point peak, const MaskedNccSurface& acf,
-                            int unit, double exclusion_px, double min_overlap_fraction) {
+SurfaceNull WindowTilesNull(const MaskedImage& hp_fixed, const MaskedImage& hp_t,
+                            const ShiftWindow& search, cv::Point peak,
+                            const MaskedImage& coarse_template, cv::Size acf_extent, int unit,
+                            double exclusion_px, double min_overlap_fraction) {
   // Tiles go where the template lies on the image (a clipped window's corners do not).
   ShiftWindow window = search;
   const ShiftWindow inside{std::max(window.min_shift_x, 0),
-                           std::min(window.max_shift_x, fixed.image.cols - t.image.cols),
+                           std::min(window.max_shift_x, hp_fixed.image.cols - hp_t.image.cols),
                            std::max(window.min_shift_y, 0),
-                           std::min(window.max_shift_y, fixed.image.rows - t.image.rows)};
+                           std::min(window.max_shift_y, hp_fixed.image.rows - hp_t.image.rows)};
   if (inside.min_shift_x <= inside.max_shift_x && inside.min_shift_y <= inside.max_shift_y) {
     window = inside;
   }
@@ -130,6 +126,7 @@ SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t,
   const int tile_w = n == 1 ? side : kNullTile, tile_h = n == 1 ? height : kNullTile;
   cv::Mat all(height, side, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   cv::Mat null_mask(height, side, CV_8U, cv::Scalar(0));
+  MaskedNccSurface acf;
   const auto in_lobe = [&](int dx, int dy) {
     if (std::hypot(dx, dy) <= exclusion_px) return true;
     const int ac = static_cast<int>(std::lround(static_cast<double>(dx) / unit)) - acf.shift_x0;
@@ -158,17 +155,20 @@ SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t,
     }
   };
   // A small window's tiles reach nearly the same pixels: one surface over all of it costs less
-  // than one per tile; the tiles' shifts are sampled either way.
-  const double tiles_cost = n * n * FftNccCostNs(t.image.size(), tile_at(0));
-  if (n > 1 && FftNccCostNs(t.image.size(), window) < tiles_cost) {
-    const MaskedNccSurface s = HighPassedSurface(fixed, t, window, min_overlap_fraction);
-    for (int k = 0; k < n * n; ++k) sample(s, tile_at(k));
-  } else {
-    tbb::parallel_for(0, n * n, [&](int k) {
-      const ShiftWindow tile = tile_at(k);
-      sample(HighPassedSurface(fixed, t, tile, min_overlap_fraction), tile);
-    });
-  }
+  // than one per tile; the tiles' shifts are sampled either way. The surfaces are computed beside
+  // the autocorrelation that marks the peak's lobe.
+  const double tiles_cost = n * n * FftNccCostNs(hp_t.image.size(), tile_at(0));
+  const bool one_surface = n > 1 && FftNccCostNs(hp_t.image.size(), window) < tiles_cost;
+  std::vector<MaskedNccSurface> surfaces(one_surface ? 1 : n * n);
+  tbb::parallel_invoke(
+      [&] { acf = Autocorrelation(coarse_template, acf_extent.height, acf_extent.width); },
+      [&] {
+        tbb::parallel_for(0, static_cast<int>(surfaces.size()), [&](int k) {
+          surfaces[k] =
+              SurfaceOver(hp_fixed, hp_t, one_surface ? window : tile_at(k), min_overlap_fraction);
+        });
+      });
+  for (int k = 0; k < n * n; ++k) sample(surfaces[one_surface ? 0 : k], tile_at(k));
   return MeasureSurfaceNull(all, null_mask, kNullBlock);
 }
 

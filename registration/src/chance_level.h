@@ -18,24 +18,25 @@
 
 namespace areomap::internal {
 
-// The highest NCC of `t` (high-passed) on `fixed` (raw; high-passed here where `t` reaches) at
-// shifts within 1 px of `shift`; NaN if none is defined.
-double PeakNear(const MaskedImage& fixed, const MaskedImage& t, cv::Point shift,
+// The highest NCC of `hp_t` on `hp_fixed` (both high-passed) at shifts within 1 px of `shift`;
+// NaN if none is defined.
+double PeakNear(const MaskedImage& hp_fixed, const MaskedImage& hp_t, cv::Point shift,
                 double min_overlap_fraction);
 
 // The template's autocorrelation (masked NCC with itself) over shifts up to the size of a
 // surface of `rows` x `cols`, with overlaps down to a quarter of its pixels.
 MaskedNccSurface Autocorrelation(const MaskedImage& t, int rows, int cols);
 
-// The null of a large search window at full resolution: the surface of `t` (high-passed) over
-// `search` (shifts on `fixed`, raw: high-passed here where each tile reaches), sampled in its
-// four corner tiles of 48 x 48 shifts (the whole window as one tile where it is under two tiles
-// a side), at the shifts where the peak at shift `peak` does not spread: farther than
-// `exclusion_px` from it, and where the template's coarse autocorrelation `acf` (pyramid unit
-// `unit`) at the offset is below 0.2.
-SurfaceNull WindowTilesNull(const MaskedImage& fixed, const MaskedImage& t,
-                            const ShiftWindow& search, cv::Point peak, const MaskedNccSurface& acf,
-                            int unit, double exclusion_px, double min_overlap_fraction);
+// The null of a large search window at full resolution: the surface of `hp_t` over `search`
+// (shifts on `hp_fixed`; both high-passed), sampled in its four corner tiles of 48 x 48 shifts
+// (the whole window as one tile where it is under two tiles a side), at the shifts where the peak
+// at shift `peak` does not spread: farther than `exclusion_px` from it, and where the template's
+// coarse autocorrelation (Autocorrelation of `coarse_template`, pyramid unit `unit`, over shifts
+// up to `acf_extent`) at the offset is below 0.2.
+SurfaceNull WindowTilesNull(const MaskedImage& hp_fixed, const MaskedImage& hp_t,
+                            const ShiftWindow& search, cv::Point peak,
+                            const MaskedImage& coarse_template, cv::Size acf_extent, int unit,
+                            double exclusion_px, double min_overlap_fraction);
 
 // The null of a small search window (OrbitalMatchOptions::null_windows): the full-resolution
 // surface of `t` (template top-left on orbital pixel (x, y)) in windows of side 2 radius + 1

@@ -1,6 +1,5 @@
 #include "high_pass.h"
 
-#include <cmath>
 #include <limits>
 
 #include <opencv2/imgproc.hpp>
@@ -8,48 +7,26 @@
 namespace areomap::internal {
 
 MaskedImage HighPass(const MaskedImage& in, double sigma) {
-  cv::Mat value(in.image.size(), CV_32F, cv::Scalar(0.0f));
-  cv::Mat weight(in.image.size(), CV_32F, cv::Scalar(0.0f));
-  cv::Mat mask(in.image.size(), CV_8U, cv::Scalar(0));
-  for (int r = 0; r < in.image.rows; ++r) {
-    for (int c = 0; c < in.image.cols; ++c) {
-      const float v = in.image.at<float>(r, c);
-      if (!std::isfinite(v) || (!in.mask.empty() && in.mask.at<uchar>(r, c) == 0)) continue;
-      value.at<float>(r, c) = v;
-      weight.at<float>(r, c) = 1.0f;
-      mask.at<uchar>(r, c) = 255;
-    }
-  }
+  // Valid: finite (|v| < inf is false for NaN too) and unmasked; OpenCV's vectorised array
+  // operations, as the search window is high-passed on every match.
+  cv::Mat valid;
+  cv::compare(cv::abs(in.image), std::numeric_limits<float>::infinity(), valid, cv::CMP_LT);
+  if (!in.mask.empty()) cv::bitwise_and(valid, in.mask != 0, valid);
+  cv::Mat value(in.image.size(), CV_32F, cv::Scalar(0.0f)), weight;
+  in.image.copyTo(value, valid);
+  valid.convertTo(weight, CV_32F, 1.0 / 255.0);
   cv::Mat blurred_value, blurred_weight;
   cv::GaussianBlur(value, blurred_value, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
   cv::GaussianBlur(weight, blurred_weight, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
-  MaskedImage out;
-  out.image.create(in.image.size(), CV_32F);
-  out.mask = mask;
-  for (int r = 0; r < in.image.rows; ++r) {
-    for (int c = 0; c < in.image.cols; ++c) {
-      const float w = blurred_weight.at<float>(r, c);
-      out.image.at<float>(r, c) = mask.at<uchar>(r, c) && w > 1e-3f
-                                      ? value.at<float>(r, c) - blurred_value.at<float>(r, c) / w
-                                      : std::numeric_limits<float>::quiet_NaN();
-    }
-  }
+  cv::Mat local_mean;
+  cv::divide(blurred_value, blurred_weight, local_mean);
+  MaskedImage out{value - local_mean, valid};
+  // Undefined where the image is invalid or its neighbourhood holds (nearly) no valid pixel.
+  cv::Mat defined;
+  cv::compare(blurred_weight, 1e-3, defined, cv::CMP_GT);
+  cv::bitwise_and(defined, valid, defined);
+  out.image.setTo(std::numeric_limits<float>::quiet_NaN(), defined == 0);
   return out;
-}
-
-MaskedImage HighPassReach(const MaskedImage& fixed, const ShiftWindow& shifts, cv::Size size,
-                          ShiftWindow* local) {
-  const int margin = static_cast<int>(std::ceil(4.0 * kHighPassSigmaPx)) + 1;
-  const cv::Rect reach =
-      cv::Rect(shifts.min_shift_x - margin, shifts.min_shift_y - margin,
-               shifts.max_shift_x - shifts.min_shift_x + size.width + 2 * margin,
-               shifts.max_shift_y - shifts.min_shift_y + size.height + 2 * margin) &
-      cv::Rect(0, 0, fixed.image.cols, fixed.image.rows);
-  *local = ShiftWindow{shifts.min_shift_x - reach.x, shifts.max_shift_x - reach.x,
-                       shifts.min_shift_y - reach.y, shifts.max_shift_y - reach.y};
-  if (reach.empty()) return {};
-  MaskedImage crop{fixed.image(reach), fixed.mask.empty() ? cv::Mat() : fixed.mask(reach)};
-  return HighPass(crop, kHighPassSigmaPx);
 }
 
 }  // namespace areomap::internal

@@ -4,7 +4,6 @@
 
 #include <opencv2/core.hpp>
 
-#include "areomap/registration/masked_ncc.h"
 #include "areomap/registration/orbital_pyramid.h"
 
 namespace areomap::internal {
@@ -15,13 +14,8 @@ namespace areomap::internal {
 constexpr double kHighPassSigmaPx = 3.0;
 
 // `in` less its local mean (normalized convolution over valid pixels, Gaussian of `sigma` px);
-// valid where `in` is (finite and unmasked), NaN elsewhere.
+// valid where `in` is (finite and unmasked), NaN elsewhere. A pixel's value depends on the input
+// within 4 sigma of it only: a crop of the output equals the output of a crop 4 sigma larger.
 MaskedImage HighPass(const MaskedImage& in, double sigma = kHighPassSigmaPx);
-
-// HighPass of the pixels of `fixed` that a template of `size` at `shifts` reaches, with a margin
-// that makes them exact; `*local` is `shifts` on the returned crop. Empty where the shifts reach
-// no pixel of `fixed`.
-MaskedImage HighPassReach(const MaskedImage& fixed, const ShiftWindow& shifts, cv::Size size,
-                          ShiftWindow* local);
 
 }  // namespace areomap::internal

@@ -5,6 +5,9 @@
 #include <iomanip>
 #include <sstream>
 
+#include <tbb/parallel_invoke.h>
+#include <tbb/task_group.h>
+
 #include "areomap/map/error.h"
 #include "areomap/map/report_progress.h"
 #include "orbital_match_stages.h"
@@ -16,6 +19,9 @@ using internal::CoarseStage;
 using internal::Decide;
 using internal::EstimateCorrection;
 using internal::FineStage;
+using internal::HighPassed;
+using internal::HighPassedTemplate;
+using internal::HighPassedWindow;
 using internal::kTurn;
 using internal::LocateRover;
 using internal::MakePyramidSearch;
@@ -30,6 +36,7 @@ using internal::SearchCoarse;
 using internal::SearchSetup;
 using internal::SetUpSearch;
 using internal::SimilarityMatrix;
+using internal::TestParts;
 using internal::WarpedPeak;
 
 void OrbitalMatchOptions::Check() const {
@@ -118,19 +125,38 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
       SetUpSearch(orbital, prior, options, rover, out, progress);
   if (!setup) return out;
   const PyramidSearch search = MakePyramidSearch(out.templ, *setup, options, out.gsd_m);
-  const std::optional<CoarseStage> coarse =
-      SearchCoarse(search, *setup, prior, options, out, progress);
-  if (!coarse) return out;
-  const std::optional<FineStage> fine =
-      RefineCoarsePeaks(search, out.templ, *setup, *coarse, options, out, progress);
-  if (!fine) return out;
+  // The decision's high-passed window needs no peak: it is made on another core beside the
+  // search (which reports progress, from this thread only).
+  HighPassed hp;
+  tbb::task_group beside;
+  beside.run([&] { hp.window = HighPassedWindow(*setup); });
+  std::optional<CoarseStage> coarse;
+  std::optional<FineStage> fine;
+  try {
+    coarse = SearchCoarse(search, *setup, prior, options, out, progress);
+    if (coarse)
+      fine = RefineCoarsePeaks(search, out.templ, *setup, *coarse, options, out, progress);
+  } catch (...) {
+    beside.wait();
+    throw;
+  }
+  beside.wait();
+  if (!coarse || !fine) return out;
   const WarpedPeak final_peak = RefineWarp(search, out.templ, *coarse, *fine, out);
 
   MeasurePeak(search, final_peak, out);
   EstimateCorrection(final_peak, *setup, rover, prior, options, out);
-  const MaskedImage hp_template =
-      MeasureChanceLevel(orbital, out.templ, *setup, *coarse, *fine, final_peak, options, out);
-  Decide(*setup, *fine, final_peak, hp_template, options, out);
+  // The parts test needs only the peak: it runs beside the chance level, and counts only if the
+  // chance level passes (Decide).
+  hp.templ = HighPassedTemplate(final_peak);
+  PartConsistency parts;
+  tbb::parallel_invoke(
+      [&] {
+        MeasureChanceLevel(orbital, out.templ, *setup, *coarse, *fine, final_peak, hp, options,
+                           out);
+      },
+      [&] { parts = TestParts(*fine, final_peak, hp, options); });
+  Decide(*setup, *fine, final_peak, parts, options, out);
   ReportProgress(progress, 1.0, "register: done");
   return out;
 }

@@ -363,40 +363,43 @@ namespace {
 // The null of a large window: the full-resolution surface in the search window's own corner
 // tiles, away from the peak's lobe (the template's coarse autocorrelation).
 SurfaceNull SearchWindowNull(const SearchSetup& setup, const CoarseStage& coarse,
-                             const FineStage& fine, const NccPeak& peak,
-                             const MaskedImage& hp_template, const OrbitalMatchOptions& options) {
-  const std::vector<MaskedImage>& template_pyramid = fine.template_pyramid;
-  const int levels = setup.levels;
-  const MaskedNccSurface acf =
-      Autocorrelation(template_pyramid[levels],
-                      std::min(coarse.best.surface.ncc.rows, template_pyramid[levels].image.rows),
-                      std::min(coarse.best.surface.ncc.cols, template_pyramid[levels].image.cols));
+                             const FineStage& fine, const NccPeak& peak, const HighPassed& hp,
+                             const OrbitalMatchOptions& options) {
+  const MaskedImage& coarse_template = fine.template_pyramid[setup.levels];
+  const cv::Size acf_extent(std::min(coarse.best.surface.ncc.cols, coarse_template.image.cols),
+                            std::min(coarse.best.surface.ncc.rows, coarse_template.image.rows));
   const int x0 = setup.x0, y0 = setup.y0, ex = setup.ex, ey = setup.ey, radius = setup.radius;
   const ShiftWindow full{x0 + ex - radius, x0 + ex + radius, y0 + ey - radius, y0 + ey + radius};
-  return WindowTilesNull(setup.orbital_pyramid[0], hp_template, full,
-                         cv::Point(peak.shift_x, peak.shift_y), acf, setup.unit, fine.exclusion_px,
+  return WindowTilesNull(hp.window, hp.templ, full, cv::Point(peak.shift_x, peak.shift_y),
+                         coarse_template, acf_extent, setup.unit, fine.exclusion_px,
                          options.min_overlap_fraction);
 }
 
 }  // namespace
 
+MaskedImage HighPassedWindow(const SearchSetup& setup) {
+  return HighPass(setup.orbital_pyramid[0], kHighPassSigmaPx);
+}
+
+MaskedImage HighPassedTemplate(const WarpedPeak& final_peak) {
+  return HighPass(final_peak.warped, kHighPassSigmaPx);
+}
+
 // The peak against the search window's surface at wrong shifts, or, for a small window, against
 // the full-resolution surface in a ring of windows around it.
-MaskedImage MeasureChanceLevel(const OrbitalImage& orbital, const OrbitalTemplate& templ,
-                               const SearchSetup& setup, const CoarseStage& coarse,
-                               const FineStage& fine, const WarpedPeak& final_peak,
-                               const OrbitalMatchOptions& options, OrbitalMatch& out) {
+void MeasureChanceLevel(const OrbitalImage& orbital, const OrbitalTemplate& templ,
+                        const SearchSetup& setup, const CoarseStage& coarse, const FineStage& fine,
+                        const WarpedPeak& final_peak, const HighPassed& hp,
+                        const OrbitalMatchOptions& options, OrbitalMatch& out) {
   const int radius = setup.radius;
   const int warps = static_cast<int>(coarse.rotations.size() * coarse.scales.size());
   const NccPeak& peak = final_peak.peak;
   // Both images less their local mean (kHighPassSigmaPx): the peak's NCC there, against the null.
-  MaskedImage hp_template = HighPass(final_peak.warped, kHighPassSigmaPx);
-  const double hp_peak =
-      PeakNear(setup.orbital_pyramid[0], hp_template, cv::Point(peak.shift_x, peak.shift_y),
-               options.min_overlap_fraction);
+  const double hp_peak = PeakNear(hp.window, hp.templ, cv::Point(peak.shift_x, peak.shift_y),
+                                  options.min_overlap_fraction);
   SurfaceNull null;
   if (options.null_windows == 0) {
-    null = SearchWindowNull(setup, coarse, fine, peak, hp_template, options);
+    null = SearchWindowNull(setup, coarse, fine, peak, hp, options);
   }
   PeakSignificance significance;
   if (options.null_windows == 0 && null.samples >= options.min_null_samples) {
@@ -415,30 +418,34 @@ MaskedImage MeasureChanceLevel(const OrbitalImage& orbital, const OrbitalTemplat
   out.peak_z = significance.z;
   out.expected_chance_peaks = significance.expected_chance_peaks;
   out.false_match_probability = significance.false_match_probability;
-  return hp_template;
 }
 
-// --- Stage 8: the parts test and the verdict. ---
+PartConsistency TestParts(const FineStage& fine, const WarpedPeak& final_peak, const HighPassed& hp,
+                          const OrbitalMatchOptions& options) {
+  if (!options.check_parts) return {};
+  const NccPeak& peak = final_peak.peak;
+  // Structured look-alikes: do the template's quadrants fit where the whole does?
+  return CheckPartConsistency(hp.window, hp.templ, cv::Point(peak.shift_x, peak.shift_y),
+                              static_cast<int>(std::ceil(2.0 * fine.exclusion_px)),
+                              options.min_overlap_fraction);
+}
+
+// --- Stage 8: the verdict. ---
 
 void Decide(const SearchSetup& setup, const FineStage& fine, const WarpedPeak& final_peak,
-            const MaskedImage& hp_template, const OrbitalMatchOptions& options, OrbitalMatch& out) {
+            const PartConsistency& parts, const OrbitalMatchOptions& options, OrbitalMatch& out) {
   const bool coarse_on_border = [&] {
     const cv::Point c = fine.coarse_peak;
     const ShiftWindow& w = setup.coarse_window;
     return c.x <= w.min_shift_x || c.x >= w.max_shift_x || c.y <= w.min_shift_y ||
            c.y >= w.max_shift_y;
   }();
-  const NccPeak& peak = final_peak.peak;
-  // Structured look-alikes: do the template's quadrants fit where the whole does?
-  PartConsistency parts;
-  if (options.check_parts && out.false_match_probability <= options.max_false_match) {
-    parts = CheckPartConsistency(
-        setup.orbital_pyramid[0], hp_template, cv::Point(peak.shift_x, peak.shift_y),
-        static_cast<int>(std::ceil(2.0 * fine.exclusion_px)), options.min_overlap_fraction);
-    out.parts_tested = parts.tested();
-    out.part_contradiction = parts.largest_contradiction();
-  }
-  out.reason = Verdict(out, coarse_on_border, peak.on_border, parts, options);
+  // The parts speak only for a peak above chance.
+  const PartConsistency counted =
+      out.false_match_probability <= options.max_false_match ? parts : PartConsistency{};
+  out.parts_tested = counted.tested();
+  out.part_contradiction = counted.largest_contradiction();
+  out.reason = Verdict(out, coarse_on_border, final_peak.peak.on_border, counted, options);
   out.matched = out.reason.empty();
 }
 

@@ -19,6 +19,7 @@
 #include "areomap/registration/orbital_grid.h"
 #include "areomap/registration/orbital_match.h"
 #include "areomap/registration/orbital_pyramid.h"
+#include "areomap/registration/part_consistency.h"
 
 namespace areomap::internal {
 
@@ -170,19 +171,35 @@ void EstimateCorrection(const WarpedPeak& final_peak, const SearchSetup& setup,
                         const RoverOnGrids& rover, const OrbitalPrior& prior,
                         const OrbitalMatchOptions& options, OrbitalMatch& out);
 
-// --- Stage 7: the chance level. ---
+// --- Stage 7: the chance level and the parts test (independent: MatchOrthoToOrbital runs them
+// together). ---
+
+// The window and the template at the final warp, high-passed (high_pass.h), as both tests
+// correlate them.
+struct HighPassed {
+  MaskedImage window;  // setup.orbital_pyramid[0]'s.
+  MaskedImage templ;
+};
+MaskedImage HighPassedWindow(const SearchSetup& setup);
+MaskedImage HighPassedTemplate(const WarpedPeak& final_peak);
 
 // Sets out.null, null_level, peak_z, expected_chance_peaks and false_match_probability (and the
-// ring's counts where it is used). Returns the high-passed template the decision tests parts of.
-MaskedImage MeasureChanceLevel(const OrbitalImage& orbital, const OrbitalTemplate& templ,
-                               const SearchSetup& setup, const CoarseStage& coarse,
-                               const FineStage& fine, const WarpedPeak& final_peak,
-                               const OrbitalMatchOptions& options, OrbitalMatch& out);
+// ring's counts where it is used).
+void MeasureChanceLevel(const OrbitalImage& orbital, const OrbitalTemplate& templ,
+                        const SearchSetup& setup, const CoarseStage& coarse, const FineStage& fine,
+                        const WarpedPeak& final_peak, const HighPassed& hp,
+                        const OrbitalMatchOptions& options, OrbitalMatch& out);
 
-// --- Stage 8: the parts test and the verdict. ---
+// The template's quadrants around the match (part_consistency.h); no parts with
+// options.check_parts off.
+PartConsistency TestParts(const FineStage& fine, const WarpedPeak& final_peak, const HighPassed& hp,
+                          const OrbitalMatchOptions& options);
 
-// Sets out.parts_tested, part_contradiction, reason and matched.
+// --- Stage 8: the verdict. ---
+
+// Sets out.parts_tested, part_contradiction (the parts count only where the false-match
+// probability passes), reason and matched.
 void Decide(const SearchSetup& setup, const FineStage& fine, const WarpedPeak& final_peak,
-            const MaskedImage& hp_template, const OrbitalMatchOptions& options, OrbitalMatch& out);
+            const PartConsistency& parts, const OrbitalMatchOptions& options, OrbitalMatch& out);
 
 }  // namespace areomap::internal

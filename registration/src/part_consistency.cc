@@ -7,7 +7,6 @@
 #include <tbb/parallel_for.h>
 
 #include "areomap/registration/masked_ncc.h"
-#include "high_pass.h"
 
 namespace areomap {
 namespace {
@@ -100,7 +99,7 @@ std::string PartConsistency::Describe() const {
   return out.str();
 }
 
-PartConsistency CheckPartConsistency(const MaskedImage& fixed, const MaskedImage& hp_template,
+PartConsistency CheckPartConsistency(const MaskedImage& hp_fixed, const MaskedImage& hp_template,
                                      cv::Point match_shift, int radius,
                                      double min_overlap_fraction) {
   PartConsistency out;
@@ -118,12 +117,8 @@ PartConsistency CheckPartConsistency(const MaskedImage& fixed, const MaskedImage
   if (size.area() == 0 || radius < 1) return out;
   const cv::Mat valid = ValidMask(hp_template);
   const int total = cv::countNonZero(valid);
-  ShiftWindow local;
-  const MaskedImage hp = internal::HighPassReach(
-      fixed, ShiftWindow::Around(match_shift.x, match_shift.y, radius), size, &local);
-  if (hp.image.empty()) return out;
-  // The match's shift on the crop.
-  const cv::Point match(local.min_shift_x + radius, local.min_shift_y + radius);
+  const ShiftWindow shifts = ShiftWindow::Around(match_shift.x, match_shift.y, radius);
+  const cv::Point match(match_shift);
   // Each quadrant is correlated as a template of its own: at template shift s its top-left
   // pixel lies at s + region.tl(), so its shifts are the template's moved by that corner.
   tbb::parallel_for(0, static_cast<int>(out.parts.size()), [&](int k) {
@@ -134,10 +129,11 @@ PartConsistency CheckPartConsistency(const MaskedImage& fixed, const MaskedImage
     const cv::Point corner = part.region.tl();
     MaskedNccOptions options;
     options.min_overlap_fraction = min_overlap_fraction;
-    options.search_window = ShiftWindow{local.min_shift_x + corner.x, local.max_shift_x + corner.x,
-                                        local.min_shift_y + corner.y, local.max_shift_y + corner.y};
+    options.search_window =
+        ShiftWindow{shifts.min_shift_x + corner.x, shifts.max_shift_x + corner.x,
+                    shifts.min_shift_y + corner.y, shifts.max_shift_y + corner.y};
     const MaskedNccSurface s =
-        MaskedNcc(hp.image, hp.mask, hp_template.image(part.region), mask, options);
+        MaskedNcc(hp_fixed.image, hp_fixed.mask, hp_template.image(part.region), mask, options);
     MeasurePart(s, match + corner, radius, &part);
   });
   for (int k = 0; k < static_cast<int>(out.parts.size()); ++k) {

@@ -44,7 +44,7 @@ TEST(PartConsistency, ATemplateThatFitsAsAWholeIsConsistent) {
   const cv::Mat fixed = Texture(256, 256, 1);
   const cv::Point truth(70, 60);
   const cv::Mat t = Cut(fixed, truth, cv::Size(96, 80), 0.05f, 2);
-  const PartConsistency c = CheckPartConsistency({fixed, {}}, HighPassed(t), truth, 16, 0.7);
+  const PartConsistency c = CheckPartConsistency(HighPassed(fixed), HighPassed(t), truth, 16, 0.7);
   EXPECT_TRUE(c.consistent()) << c.Describe();
   EXPECT_EQ(c.tested(), 4);
   for (const PartFit& p : c.parts) {
@@ -63,7 +63,7 @@ TEST(PartConsistency, QuadrantsThatFitElsewhereContradictTheMatch) {
   const cv::Size size(96, 80);
   cv::Mat t = Cut(fixed, left, size, 0.05f, 4);
   Cut(fixed, right, size, 0.05f, 5)(cv::Rect(48, 0, 48, 80)).copyTo(t(cv::Rect(48, 0, 48, 80)));
-  const PartConsistency c = CheckPartConsistency({fixed, {}}, HighPassed(t), left, 16, 0.7);
+  const PartConsistency c = CheckPartConsistency(HighPassed(fixed), HighPassed(t), left, 16, 0.7);
   ASSERT_FALSE(c.consistent());
   const PartFit& worst = c.parts[c.worst];
   EXPECT_TRUE(worst.name == "top-right" || worst.name == "bottom-right") << worst.name;
@@ -87,7 +87,7 @@ TEST(PartConsistency, PartsWithoutTextureOrPixelsAreNotEvidence) {
   noise.copyTo(t(cv::Rect(0, 40, 48, 40)));
   MaskedImage hp = HighPassed(t);
   hp.mask = mask;
-  const PartConsistency c = CheckPartConsistency({fixed, {}}, hp, truth, 16, 0.7);
+  const PartConsistency c = CheckPartConsistency(HighPassed(fixed), hp, truth, 16, 0.7);
   EXPECT_TRUE(c.consistent()) << c.Describe();
   EXPECT_FALSE(c.parts[0].tested);
   EXPECT_EQ(c.parts[0].pixels, 0);
@@ -99,11 +99,11 @@ TEST(PartConsistency, PartsWithoutTextureOrPixelsAreNotEvidence) {
 TEST(PartConsistency, DegenerateInputGivesUntestedPartsNotExceptions) {
   const cv::Mat fixed = Texture(64, 64, 8);
   // An empty template, one off the image, one without valid pixels.
-  EXPECT_EQ(CheckPartConsistency({fixed, {}}, {}, {0, 0}, 4, 0.7).tested(), 0);
+  EXPECT_EQ(CheckPartConsistency(HighPassed(fixed), {}, {0, 0}, 4, 0.7).tested(), 0);
   const cv::Mat t = Cut(fixed, {8, 8}, cv::Size(32, 32), 0.01f, 9);
-  EXPECT_EQ(CheckPartConsistency({fixed, {}}, HighPassed(t), {500, 500}, 4, 0.7).tested(), 0);
+  EXPECT_EQ(CheckPartConsistency(HighPassed(fixed), HighPassed(t), {500, 500}, 4, 0.7).tested(), 0);
   const cv::Mat nan(32, 32, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-  const PartConsistency c = CheckPartConsistency({fixed, {}}, {nan, {}}, {8, 8}, 4, 0.7);
+  const PartConsistency c = CheckPartConsistency(HighPassed(fixed), {nan, {}}, {8, 8}, 4, 0.7);
   EXPECT_EQ(c.tested(), 0);
   EXPECT_TRUE(c.consistent());
 }

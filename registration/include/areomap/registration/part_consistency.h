@@ -69,12 +69,13 @@ struct PartConsistency {
   std::string Describe() const;
 };
 
-// The quadrants of `hp_template` (high-passed, CV_32F, NaN or masked where invalid) correlated
-// alone over the shifts of `hp_template` on `fixed` (raw; high-passed here) within `radius` [px]
-// of `match_shift` (top-left of the template on `fixed` [px]). Parts whose surface has no
-// defined score at the match or too few chance samples are not tested; nothing throws for
-// degenerate input (a template without valid pixels gives four untested parts).
-PartConsistency CheckPartConsistency(const MaskedImage& fixed, const MaskedImage& hp_template,
+// The quadrants of `hp_template` correlated alone over the shifts of `hp_template` on `hp_fixed`
+// within `radius` [px] of `match_shift` (top-left of the template on `hp_fixed` [px]). Both
+// images high-passed (less their local mean), CV_32F, NaN or masked where invalid. Parts whose
+// surface has no defined score at the match or too few chance samples are not tested; nothing
+// throws for degenerate input (a template without valid pixels, shifts off the image: four
+// untested parts).
+PartConsistency CheckPartConsistency(const MaskedImage& hp_fixed, const MaskedImage& hp_template,
                                      cv::Point match_shift, int radius,
                                      double min_overlap_fraction);
 
