@@ -16,18 +16,25 @@ namespace {
 // The null's spread is its largest over blocks of this many shifts a side (MeasureSurfaceNull).
 constexpr int kNullBlock = 24;
 
-// The NCC surface of `t` over `shifts` on `fixed`, its shifts in `fixed`'s frame.
-MaskedNccSurface SurfaceOver(const MaskedImage& fixed, const MaskedImage& t,
+// The NCC surface of `t` over `shifts` on `fixed`, its shifts in `fixed`'s frame; empty if they
+// reach no pixel.
+MaskedNccSurface SurfaceOver(const HighPassedImage& fixed, const MaskedImage& t,
                              const ShiftWindow& shifts, double min_overlap_fraction) {
+  ShiftWindow local;
+  const MaskedImage crop = fixed.Reach(shifts, t.image.size(), &local);
+  if (crop.image.empty()) return {};
   MaskedNccOptions options;
   options.min_overlap_fraction = min_overlap_fraction;
-  options.search_window = shifts;
-  return MaskedNcc(fixed.image, fixed.mask, t.image, t.mask, options);
+  options.search_window = local;
+  MaskedNccSurface s = MaskedNcc(crop.image, crop.mask, t.image, t.mask, options);
+  s.shift_x0 += shifts.min_shift_x - local.min_shift_x;
+  s.shift_y0 += shifts.min_shift_y - local.min_shift_y;
+  return s;
 }
 
 }  // namespace
 
-double PeakNear(const MaskedImage& hp_fixed, const MaskedImage& hp_t, cv::Point shift,
+double PeakNear(const HighPassedImage& hp_fixed, const MaskedImage& hp_t, cv::Point shift,
                 double min_overlap_fraction) {
   const MaskedNccSurface s =
       SurfaceOver(hp_fixed, hp_t, ShiftWindow::Around(shift.x, shift.y, 1), min_overlap_fraction);
@@ -106,16 +113,23 @@ MaskedNccSurface Autocorrelation(const MaskedImage& t, int rows, int cols) {
 // Tiles of this many shifts a side sample a large window's full-resolution surface.
 constexpr int kNullTile = 48;
 
-SurfaceNull WindowTilesNull(const MaskedImage& hp_fixed, const MaskedImage& hp_t,
+bool NullReachesAllOf(cv::Size window, cv::Size templ) {
+  const int margin = static_cast<int>(std::ceil(4.0 * kHighPassSigmaPx)) + 1;
+  const double tile_reach = static_cast<double>(templ.width + kNullTile + 2 * margin) *
+                            (templ.height + kNullTile + 2 * margin);
+  return static_cast<double>(window.area()) <= 4.0 * tile_reach;
+}
+
+SurfaceNull WindowTilesNull(const HighPassedImage& hp_fixed, const MaskedImage& hp_t,
                             const ShiftWindow& search, cv::Point peak,
                             const MaskedImage& coarse_template, cv::Size acf_extent, int unit,
                             double exclusion_px, double min_overlap_fraction) {
   // Tiles go where the template lies on the image (a clipped window's corners do not).
   ShiftWindow window = search;
   const ShiftWindow inside{std::max(window.min_shift_x, 0),
-                           std::min(window.max_shift_x, hp_fixed.image.cols - hp_t.image.cols),
+                           std::min(window.max_shift_x, hp_fixed.size().width - hp_t.image.cols),
                            std::max(window.min_shift_y, 0),
-                           std::min(window.max_shift_y, hp_fixed.image.rows - hp_t.image.rows)};
+                           std::min(window.max_shift_y, hp_fixed.size().height - hp_t.image.rows)};
   if (inside.min_shift_x <= inside.max_shift_x && inside.min_shift_y <= inside.max_shift_y) {
     window = inside;
   }

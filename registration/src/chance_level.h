@@ -15,17 +15,23 @@
 #include "areomap/registration/orbital_match.h"
 #include "areomap/registration/orbital_pyramid.h"
 #include "areomap/registration/peak_significance.h"
+#include "high_pass.h"
 
 namespace areomap::internal {
 
 // The highest NCC of `hp_t` on `hp_fixed` (both high-passed) at shifts within 1 px of `shift`;
 // NaN if none is defined.
-double PeakNear(const MaskedImage& hp_fixed, const MaskedImage& hp_t, cv::Point shift,
+double PeakNear(const HighPassedImage& hp_fixed, const MaskedImage& hp_t, cv::Point shift,
                 double min_overlap_fraction);
 
 // The template's autocorrelation (masked NCC with itself) over shifts up to the size of a
 // surface of `rows` x `cols`, with overlaps down to a quarter of its pixels.
 MaskedNccSurface Autocorrelation(const MaskedImage& t, int rows, int cols);
+
+// Whether WindowTilesNull's four tiles, for a template of `templ` size, reach as many pixels as a
+// window of `window` size holds: then it is cheaper to high-pass the window whole
+// (HighPassedImage).
+bool NullReachesAllOf(cv::Size window, cv::Size templ);
 
 // The null of a large search window at full resolution: the surface of `hp_t` over `search`
 // (shifts on `hp_fixed`; both high-passed), sampled in its four corner tiles of 48 x 48 shifts
@@ -33,7 +39,7 @@ MaskedNccSurface Autocorrelation(const MaskedImage& t, int rows, int cols);
 // at shift `peak` does not spread: farther than `exclusion_px` from it, and where the template's
 // coarse autocorrelation (Autocorrelation of `coarse_template`, pyramid unit `unit`, over shifts
 // up to `acf_extent`) at the offset is below 0.2.
-SurfaceNull WindowTilesNull(const MaskedImage& hp_fixed, const MaskedImage& hp_t,
+SurfaceNull WindowTilesNull(const HighPassedImage& hp_fixed, const MaskedImage& hp_t,
                             const ShiftWindow& search, cv::Point peak,
                             const MaskedImage& coarse_template, cv::Size acf_extent, int unit,
                             double exclusion_px, double min_overlap_fraction);

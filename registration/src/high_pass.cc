@@ -1,5 +1,6 @@
 #include "high_pass.h"
 
+#include <cmath>
 #include <limits>
 
 #include <opencv2/imgproc.hpp>
@@ -8,7 +9,7 @@ namespace areomap::internal {
 
 MaskedImage HighPass(const MaskedImage& in, double sigma) {
   // Valid: finite (|v| < inf is false for NaN too) and unmasked; OpenCV's vectorised array
-  // operations, as the search window is high-passed on every match.
+  // operations, as a search window is high-passed on every match.
   cv::Mat valid;
   cv::compare(cv::abs(in.image), std::numeric_limits<float>::infinity(), valid, cv::CMP_LT);
   if (!in.mask.empty()) cv::bitwise_and(valid, in.mask != 0, valid);
@@ -27,6 +28,27 @@ MaskedImage HighPass(const MaskedImage& in, double sigma) {
   cv::bitwise_and(defined, valid, defined);
   out.image.setTo(std::numeric_limits<float>::quiet_NaN(), defined == 0);
   return out;
+}
+
+HighPassedImage::HighPassedImage(const MaskedImage& image, bool whole) : raw_(image) {
+  if (whole) whole_ = HighPass(image, kHighPassSigmaPx);
+}
+
+MaskedImage HighPassedImage::Reach(const ShiftWindow& shifts, cv::Size size,
+                                   ShiftWindow* local) const {
+  // OpenCV's kernel for floating-point images reaches 4 sigma.
+  const int margin = static_cast<int>(std::ceil(4.0 * kHighPassSigmaPx)) + 1;
+  const cv::Rect reach =
+      cv::Rect(shifts.min_shift_x - margin, shifts.min_shift_y - margin,
+               shifts.max_shift_x - shifts.min_shift_x + size.width + 2 * margin,
+               shifts.max_shift_y - shifts.min_shift_y + size.height + 2 * margin) &
+      cv::Rect(0, 0, raw_.image.cols, raw_.image.rows);
+  *local = ShiftWindow{shifts.min_shift_x - reach.x, shifts.max_shift_x - reach.x,
+                       shifts.min_shift_y - reach.y, shifts.max_shift_y - reach.y};
+  if (reach.empty()) return {};
+  const MaskedImage& from = whole_.image.empty() ? raw_ : whole_;
+  const MaskedImage crop{from.image(reach), from.mask.empty() ? cv::Mat() : from.mask(reach)};
+  return whole_.image.empty() ? HighPass(crop, kHighPassSigmaPx) : crop;
 }
 
 }  // namespace areomap::internal

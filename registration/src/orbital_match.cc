@@ -129,7 +129,7 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   // search (which reports progress, from this thread only).
   HighPassed hp;
   tbb::task_group beside;
-  beside.run([&] { hp.window = HighPassedWindow(*setup); });
+  beside.run([&] { hp.window = HighPassedWindow(*setup, out.templ); });
   std::optional<CoarseStage> coarse;
   std::optional<FineStage> fine;
   try {

@@ -377,8 +377,9 @@ SurfaceNull SearchWindowNull(const SearchSetup& setup, const CoarseStage& coarse
 
 }  // namespace
 
-MaskedImage HighPassedWindow(const SearchSetup& setup) {
-  return HighPass(setup.orbital_pyramid[0], kHighPassSigmaPx);
+HighPassedImage HighPassedWindow(const SearchSetup& setup, const OrbitalTemplate& templ) {
+  const MaskedImage& window = setup.orbital_pyramid[0];
+  return HighPassedImage(window, NullReachesAllOf(window.image.size(), templ.image.size()));
 }
 
 MaskedImage HighPassedTemplate(const WarpedPeak& final_peak) {
@@ -423,11 +424,16 @@ void MeasureChanceLevel(const OrbitalImage& orbital, const OrbitalTemplate& temp
 PartConsistency TestParts(const FineStage& fine, const WarpedPeak& final_peak, const HighPassed& hp,
                           const OrbitalMatchOptions& options) {
   if (!options.check_parts) return {};
-  const NccPeak& peak = final_peak.peak;
   // Structured look-alikes: do the template's quadrants fit where the whole does?
-  return CheckPartConsistency(hp.window, hp.templ, cv::Point(peak.shift_x, peak.shift_y),
-                              static_cast<int>(std::ceil(2.0 * fine.exclusion_px)),
-                              options.min_overlap_fraction);
+  const int radius = static_cast<int>(std::ceil(2.0 * fine.exclusion_px));
+  const cv::Point match(final_peak.peak.shift_x, final_peak.peak.shift_y);
+  ShiftWindow local;
+  const MaskedImage crop =
+      hp.window.Reach(ShiftWindow::Around(match.x, match.y, radius), hp.templ.image.size(), &local);
+  if (crop.image.empty()) return {};
+  return CheckPartConsistency(crop, hp.templ,
+                              cv::Point(local.min_shift_x + radius, local.min_shift_y + radius),
+                              radius, options.min_overlap_fraction);
 }
 
 // --- Stage 8: the verdict. ---

@@ -20,6 +20,7 @@
 #include "areomap/registration/orbital_match.h"
 #include "areomap/registration/orbital_pyramid.h"
 #include "areomap/registration/part_consistency.h"
+#include "high_pass.h"
 
 namespace areomap::internal {
 
@@ -177,10 +178,10 @@ void EstimateCorrection(const WarpedPeak& final_peak, const SearchSetup& setup,
 // The window and the template at the final warp, high-passed (high_pass.h), as both tests
 // correlate them.
 struct HighPassed {
-  MaskedImage window;  // setup.orbital_pyramid[0]'s.
+  HighPassedImage window;  // setup.orbital_pyramid[0]'s.
   MaskedImage templ;
 };
-MaskedImage HighPassedWindow(const SearchSetup& setup);
+HighPassedImage HighPassedWindow(const SearchSetup& setup, const OrbitalTemplate& templ);
 MaskedImage HighPassedTemplate(const WarpedPeak& final_peak);
 
 // Sets out.null, null_level, peak_z, expected_chance_peaks and false_match_probability (and the
