@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <sstream>
 #include <string>
 
@@ -19,7 +20,27 @@
 #include "real_fft.h"
 
 namespace areomap {
+namespace internal {
+
+// One image restricted to the pixels that take part, as the FFT and the naive sum use it:
+// values centred on the mean of the valid pixels (NCC does not change, cancellation in the
+// variance terms does) and zero where invalid, their squares, and validity as 0/1. A template
+// prepared for reuse (PreparedTemplate) also keeps the integral images of the three, which the
+// sums over an all-valid fixed crop read.
+struct PreparedImage {
+  cv::Mat value;     // CV_64F, centred, 0 where invalid.
+  cv::Mat value_sq;  // CV_64F, value^2.
+  cv::Mat valid;     // CV_64F, 1 where valid, 0 elsewhere.
+  double energy = 0.0;
+  int valid_count = 0;
+  cv::Mat integral_valid, integral_value, integral_value_sq;  // CV_64F; empty unless reused.
+};
+
+}  // namespace internal
+
 namespace {
+
+using internal::PreparedImage;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
@@ -54,17 +75,6 @@ void CheckMask(const cv::Mat& mask, const cv::Mat& image, const std::string& nam
   }
 }
 
-// One image restricted to the pixels that take part, as the FFT and the naive sum use it:
-// values centred on the mean of the valid pixels (NCC does not change, cancellation in the
-// variance terms does) and zero where invalid, their squares, and validity as 0/1.
-struct PreparedImage {
-  cv::Mat value;     // CV_64F, centred, 0 where invalid.
-  cv::Mat value_sq;  // CV_64F, value^2.
-  cv::Mat valid;     // CV_64F, 1 where valid, 0 elsewhere.
-  double energy = 0.0;
-  int valid_count = 0;
-};
-
 PreparedImage PrepareImage(const cv::Mat& image, const cv::Mat& mask, const cv::Rect& roi) {
   PreparedImage out;
   const cv::Mat in = image(roi);
@@ -87,9 +97,9 @@ PreparedImage PrepareImage(const cv::Mat& image, const cv::Mat& mask, const cv::
 // Everything both implementations share: the inputs checked and prepared, the shifts to
 // compute, and the thresholds.
 struct Problem {
-  PreparedImage fixed;   // The fixed image cropped to the pixels the shifts can reach.
-  PreparedImage moving;  // The whole template.
-  int crop_x = 0;        // Crop origin in the fixed image [px].
+  PreparedImage fixed;  // The fixed image cropped to the pixels the shifts can reach.
+  std::shared_ptr<const PreparedImage> moving;  // The whole template.
+  int crop_x = 0;                               // Crop origin in the fixed image [px].
   int crop_y = 0;
   int shift_x0 = 0;  // Shifts to compute [px].
   int shift_y0 = 0;
@@ -101,19 +111,29 @@ struct Problem {
   double moving_floor = 0.0;
 };
 
-Problem MakeProblem(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
-                    const cv::Mat& moving_mask, const MaskedNccOptions& options) {
+// The template prepared (PrepareImage over all of it), after its checks.
+std::shared_ptr<const PreparedImage> PrepareTemplate(const cv::Mat& moving,
+                                                     const cv::Mat& moving_mask) {
+  CheckImage(moving, "moving");
+  CheckMask(moving_mask, moving, "moving");
+  return std::make_shared<const PreparedImage>(
+      PrepareImage(moving, moving_mask, cv::Rect(0, 0, moving.cols, moving.rows)));
+}
+
+Problem MakeProblem(const cv::Mat& fixed, const cv::Mat& fixed_mask,
+                    std::shared_ptr<const PreparedImage> prepared,
+                    const MaskedNccOptions& options) {
   options.Check();
   CheckImage(fixed, "fixed");
-  CheckImage(moving, "moving");
   CheckMask(fixed_mask, fixed, "fixed");
-  CheckMask(moving_mask, moving, "moving");
+  const cv::Size moving = prepared->value.size();
 
   Problem p;
+  p.moving = std::move(prepared);
   // Every shift at which the template overlaps the fixed image at all.
-  int x0 = -(moving.cols - 1);
+  int x0 = -(moving.width - 1);
   int x1 = fixed.cols - 1;
-  int y0 = -(moving.rows - 1);
+  int y0 = -(moving.height - 1);
   int y1 = fixed.rows - 1;
   if (options.search_window) {
     const ShiftWindow& w = *options.search_window;
@@ -130,17 +150,16 @@ Problem MakeProblem(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::M
   // Fixed pixels the template can cover at these shifts.
   p.crop_x = std::max(0, x0);
   p.crop_y = std::max(0, y0);
-  const int crop_x1 = std::min(fixed.cols - 1, x1 + moving.cols - 1);
-  const int crop_y1 = std::min(fixed.rows - 1, y1 + moving.rows - 1);
+  const int crop_x1 = std::min(fixed.cols - 1, x1 + moving.width - 1);
+  const int crop_y1 = std::min(fixed.rows - 1, y1 + moving.height - 1);
   const cv::Rect crop(p.crop_x, p.crop_y, crop_x1 - p.crop_x + 1, crop_y1 - p.crop_y + 1);
 
   p.fixed = PrepareImage(fixed, fixed_mask, crop);
-  p.moving = PrepareImage(moving, moving_mask, cv::Rect(0, 0, moving.cols, moving.rows));
   p.min_overlap = std::max(static_cast<double>(options.min_overlap_pixels),
-                           std::ceil(options.min_overlap_fraction * p.moving.valid_count));
+                           std::ceil(options.min_overlap_fraction * p.moving->valid_count));
   p.min_sq_dev_per_pixel = options.min_stddev * options.min_stddev;
   p.fixed_floor = kRelativeVarianceFloor * p.fixed.energy;
-  p.moving_floor = kRelativeVarianceFloor * p.moving.energy;
+  p.moving_floor = kRelativeVarianceFloor * p.moving->energy;
   return p;
 }
 
@@ -181,7 +200,7 @@ cv::Point FixedOffset(const Problem& p) {
 // template - 1; for shifts where the template lies inside the image it is just the image size.
 cv::Size PaddedSize(const Problem& p) {
   const cv::Size crop = p.fixed.value.size();
-  const cv::Size tmpl = p.moving.value.size();
+  const cv::Size tmpl = p.moving->value.size();
   const cv::Point o = FixedOffset(p);
   return cv::Size(
       cv::getOptimalDFTSize(std::max(o.x + crop.width, tmpl.width + p.cols - 1 - o.x)),
@@ -189,12 +208,13 @@ cv::Size PaddedSize(const Problem& p) {
 }
 
 // The correlation of a template quantity `src` with an all-valid fixed crop: its sum over the
-// overlap rectangle at each shift, from an integral image.
-void OverlapSums(const Problem& p, const cv::Mat& src, cv::Mat* out) {
+// overlap rectangle at each shift, from its integral image (`integral` where the template keeps
+// it, else made here).
+void OverlapSums(const Problem& p, const cv::Mat& src, const cv::Mat& kept_integral, cv::Mat* out) {
   const cv::Size crop = p.fixed.value.size();
-  const cv::Size tmpl = p.moving.value.size();
-  cv::Mat integral;
-  cv::integral(src, integral, CV_64F);
+  const cv::Size tmpl = p.moving->value.size();
+  cv::Mat integral = kept_integral;
+  if (integral.empty()) cv::integral(src, integral, CV_64F);
   out->create(p.rows, p.cols, CV_64F);
   for (int r = 0; r < p.rows; ++r) {
     const int dy = p.shift_y0 + r - p.crop_y;  // Shift relative to the crop.
@@ -240,15 +260,15 @@ OverlapCorrelations CorrelateByFft(const Problem& p) {
   tbb::task_group tasks;
   tasks.run([&] { forward(p.fixed.value, fixed_offset, &f_value); });
   tasks.run([&] { forward(p.fixed.value_sq, fixed_offset, &f_sq); });
-  tasks.run([&] { forward(p.moving.valid, cv::Point(0, 0), &m_valid); });
-  tasks.run([&] { forward(p.moving.value, cv::Point(0, 0), &m_value); });
+  tasks.run([&] { forward(p.moving->valid, cv::Point(0, 0), &m_valid); });
+  tasks.run([&] { forward(p.moving->value, cv::Point(0, 0), &m_value); });
   if (fixed_all_valid) {
-    tasks.run([&] { OverlapSums(p, p.moving.valid, &s.n); });
-    tasks.run([&] { OverlapSums(p, p.moving.value, &s.sum_m); });
-    tasks.run([&] { OverlapSums(p, p.moving.value_sq, &s.sum_mm); });
+    tasks.run([&] { OverlapSums(p, p.moving->valid, p.moving->integral_valid, &s.n); });
+    tasks.run([&] { OverlapSums(p, p.moving->value, p.moving->integral_value, &s.sum_m); });
+    tasks.run([&] { OverlapSums(p, p.moving->value_sq, p.moving->integral_value_sq, &s.sum_mm); });
   } else {
     tasks.run([&] { forward(p.fixed.valid, fixed_offset, &f_valid); });
-    tasks.run([&] { forward(p.moving.value_sq, cv::Point(0, 0), &m_sq); });
+    tasks.run([&] { forward(p.moving->value_sq, cv::Point(0, 0), &m_sq); });
   }
   tasks.wait();
   tasks.run([&] { correlate(f_value, m_valid, &s.sum_f); });
@@ -294,11 +314,11 @@ MaskedNccSurface FftSurface(const Problem& p) {
 MaskedNccSurface DirectSurfaceOnValidFixed(const Problem& p) {
   MaskedNccSurface surface = EmptySurface(p);
   cv::Mat pairs, sums_m, sums_mm;
-  OverlapSums(p, p.moving.valid, &pairs);
-  OverlapSums(p, p.moving.value, &sums_m);
-  OverlapSums(p, p.moving.value_sq, &sums_mm);
+  OverlapSums(p, p.moving->valid, p.moving->integral_valid, &pairs);
+  OverlapSums(p, p.moving->value, p.moving->integral_value, &sums_m);
+  OverlapSums(p, p.moving->value_sq, p.moving->integral_value_sq, &sums_mm);
   const cv::Size crop = p.fixed.value.size();
-  const cv::Size tmpl = p.moving.value.size();
+  const cv::Size tmpl = p.moving->value.size();
   using Row = Eigen::Map<const Eigen::VectorXd>;
   tbb::parallel_for(tbb::blocked_range<int>(0, p.rows), [&](const tbb::blocked_range<int>& range) {
     for (int r = range.begin(); r != range.end(); ++r) {
@@ -312,8 +332,8 @@ MaskedNccSurface DirectSurfaceOnValidFixed(const Problem& p) {
         for (int i = i0; i < i1 && length > 0; ++i) {
           const Row f(p.fixed.value.ptr<double>(i + dy) + dx + j0, length);
           const Row ff(p.fixed.value_sq.ptr<double>(i + dy) + dx + j0, length);
-          const Row valid(p.moving.valid.ptr<double>(i) + j0, length);
-          const Row m(p.moving.value.ptr<double>(i) + j0, length);
+          const Row valid(p.moving->valid.ptr<double>(i) + j0, length);
+          const Row m(p.moving->value.ptr<double>(i) + j0, length);
           sum_f += valid.dot(f);
           sum_ff += valid.dot(ff);
           sum_fm += m.dot(f);
@@ -335,8 +355,8 @@ MaskedNccSurface DirectSurface(const Problem& p) {
 
   const int crop_rows = p.fixed.value.rows;
   const int crop_cols = p.fixed.value.cols;
-  const int tmpl_rows = p.moving.value.rows;
-  const int tmpl_cols = p.moving.value.cols;
+  const int tmpl_rows = p.moving->value.rows;
+  const int tmpl_cols = p.moving->value.cols;
   tbb::parallel_for(tbb::blocked_range<int>(0, p.rows), [&](const tbb::blocked_range<int>& range) {
     for (int r = range.begin(); r != range.end(); ++r) {
       const int dy = p.shift_y0 + r - p.crop_y;  // Shift relative to the crop.
@@ -350,8 +370,8 @@ MaskedNccSurface DirectSurface(const Problem& p) {
         for (int i = i0; i < i1; ++i) {
           const double* f_ok = p.fixed.valid.ptr<double>(i + dy) + dx;
           const double* f_val = p.fixed.value.ptr<double>(i + dy) + dx;
-          const double* m_ok = p.moving.valid.ptr<double>(i);
-          const double* m_val = p.moving.value.ptr<double>(i);
+          const double* m_ok = p.moving->valid.ptr<double>(i);
+          const double* m_val = p.moving->value.ptr<double>(i);
           for (int j = j0; j < j1; ++j) {
             if (f_ok[j] == 0.0 || m_ok[j] == 0.0) continue;
             n += 1.0;
@@ -393,7 +413,7 @@ double FftCost(const Problem& p) {
 }
 
 double DirectCost(const Problem& p) {
-  return kDirectNsPerPair * static_cast<double>(p.rows) * p.cols * p.moving.valid_count;
+  return kDirectNsPerPair * static_cast<double>(p.rows) * p.cols * p.moving->valid_count;
 }
 
 }  // namespace
@@ -427,9 +447,19 @@ void MaskedNccOptions::Check() const {
   }
 }
 
+PreparedTemplate::PreparedTemplate(const cv::Mat& moving, const cv::Mat& moving_mask) {
+  auto prepared = std::make_shared<PreparedImage>(*PrepareTemplate(moving, moving_mask));
+  cv::integral(prepared->valid, prepared->integral_valid, CV_64F);
+  cv::integral(prepared->value, prepared->integral_value, CV_64F);
+  cv::integral(prepared->value_sq, prepared->integral_value_sq, CV_64F);
+  prepared_ = std::move(prepared);
+}
+
+cv::Size PreparedTemplate::size() const { return prepared_->value.size(); }
+
 bool DirectNccIsCheaper(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
                         const cv::Mat& moving_mask, const MaskedNccOptions& options) {
-  const Problem p = MakeProblem(fixed, fixed_mask, moving, moving_mask, options);
+  const Problem p = MakeProblem(fixed, fixed_mask, PrepareTemplate(moving, moving_mask), options);
   return p.rows > 0 && DirectCost(p) < FftCost(p);
 }
 
@@ -442,9 +472,9 @@ double FftNccCostNs(cv::Size moving, const ShiftWindow& shifts) {
   return FftCostOfPadded(padded, /*fixed_all_valid=*/true);
 }
 
-MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
-                           const cv::Mat& moving_mask, const MaskedNccOptions& options) {
-  const Problem p = MakeProblem(fixed, fixed_mask, moving, moving_mask, options);
+namespace {
+
+MaskedNccSurface SurfaceOf(const Problem& p, const MaskedNccOptions& options) {
   if (p.rows == 0) return EmptySurface(p);
   switch (options.method) {
     case NccMethod::kFft:
@@ -455,6 +485,19 @@ MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, cons
       break;
   }
   return DirectCost(p) < FftCost(p) ? DirectSurface(p) : FftSurface(p);
+}
+
+}  // namespace
+
+MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
+                           const cv::Mat& moving_mask, const MaskedNccOptions& options) {
+  return SurfaceOf(MakeProblem(fixed, fixed_mask, PrepareTemplate(moving, moving_mask), options),
+                   options);
+}
+
+MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask,
+                           const PreparedTemplate& moving, const MaskedNccOptions& options) {
+  return SurfaceOf(MakeProblem(fixed, fixed_mask, moving.prepared_, options), options);
 }
 
 MaskedNccSurface MaskedNccNaive(const cv::Mat& fixed, const cv::Mat& fixed_mask,

@@ -183,7 +183,8 @@ void RefineWarpAtFullResolution(const PyramidSearch& search, const WarpAt& warp_
   };
   const auto sample = [&](double v) {
     Sample s{NccPeak{}, warp_at(v)};
-    s.peak = search.PeakAt(0, s.warped, peak->shift_x, peak->shift_y);
+    s.peak = search.PeakAt(0, PreparedTemplate(s.warped.image, s.warped.mask), peak->shift_x,
+                           peak->shift_y);
     return s;
   };
   Sample below = sample(*value - delta), above = sample(*value + delta);
@@ -286,7 +287,7 @@ CoarseResult PyramidSearch::Coarse(double rotation, double scale) const {
 }
 
 // The few shifts of a refinement window cost less by direct summation than by FFTs.
-NccPeak PyramidSearch::Refine(const std::vector<MaskedImage>& warped, cv::Point coarse) const {
+NccPeak PyramidSearch::Refine(const std::vector<PreparedTemplate>& warped, cv::Point coarse) const {
   NccPeak fine;
   int x = coarse.x, y = coarse.y;
   for (int level = std::max(levels_ - 1, 0); level >= 0; --level) {
@@ -305,11 +306,11 @@ NccPeak PyramidSearch::Refine(const std::vector<MaskedImage>& warped, cv::Point 
   return fine;
 }
 
-NccPeak PyramidSearch::PeakAt(int level, const MaskedImage& t, int x, int y) const {
+NccPeak PyramidSearch::PeakAt(int level, const PreparedTemplate& t, int x, int y) const {
   MaskedNccOptions at = coarse_options_;
   at.search_window = ShiftWindow::Around(x, y, refine_radius_);
-  return FindPeak(MaskedNccNaive(orbital_[level].image, orbital_[level].mask, t.image, t.mask, at),
-                  fine_peak_);
+  at.method = NccMethod::kDirect;
+  return FindPeak(MaskedNcc(orbital_[level].image, orbital_[level].mask, t, at), fine_peak_);
 }
 
 double PyramidSearch::OwnSharpness(const MaskedImage& t) const {
@@ -358,13 +359,16 @@ std::optional<FineStage> RefineCoarsePeaks(const PyramidSearch& search,
   FineStage f;
   f.warped = WarpTemplate(templ, coarse.best.rotation, coarse.best.scale);
   f.template_pyramid = BuildMaskedPyramid(f.warped, setup.levels);
+  // Every candidate is followed down the same template pyramid: prepared once.
+  std::vector<PreparedTemplate> prepared;
+  for (const MaskedImage& level : f.template_pyramid)
+    prepared.emplace_back(level.image, level.mask);
   f.exclusion_px = std::max(options.exclusion_radius_m / out.gsd_m, 3.0);
   const std::vector<cv::Point> candidates = TopLocalMaxima(
       coarse.best.surface, options.candidates, std::max(1.0, f.exclusion_px / setup.unit));
   std::vector<NccPeak> refined(candidates.size());
-  tbb::parallel_for(size_t{0}, candidates.size(), [&](size_t k) {
-    refined[k] = search.Refine(f.template_pyramid, candidates[k]);
-  });
+  tbb::parallel_for(size_t{0}, candidates.size(),
+                    [&](size_t k) { refined[k] = search.Refine(prepared, candidates[k]); });
   const int best_index = HighestPeak(refined);
   if (best_index < 0) {
     out.reason = "no coarse peak could be refined at full resolution";

@@ -51,11 +51,11 @@ class PyramidSearch {
 
   // The whole window at the coarsest level for the template warped by (rotation, scale).
   CoarseResult Coarse(double rotation, double scale) const;
-  // Follows a coarse peak down the pyramid of `warped` to full resolution, in small windows;
-  // a peak on a window's edge is followed uphill a few times.
-  NccPeak Refine(const std::vector<MaskedImage>& warped, cv::Point coarse) const;
+  // Follows a coarse peak down the pyramid of `warped` (its levels prepared) to full resolution,
+  // in small windows; a peak on a window's edge is followed uphill a few times.
+  NccPeak Refine(const std::vector<PreparedTemplate>& warped, cv::Point coarse) const;
   // The peak in the refinement window around shift (x, y) at `level`.
-  NccPeak PeakAt(int level, const MaskedImage& t, int x, int y) const;
+  NccPeak PeakAt(int level, const PreparedTemplate& t, int x, int y) const;
   // How sharp a perfect match of `t` would be: its autocorrelation peak's sharpness.
   double OwnSharpness(const MaskedImage& t) const;
 

@@ -440,6 +440,36 @@ TEST(MaskedNcc, PicksDirectSummationForFewShiftsAndFftsForManyWithTheSameSurface
   EXPECT_TRUE(MaskedNcc(fixed, {}, moving, {}, outside).empty());
 }
 
+// A template prepared once gives every surface the template itself gives: both routes, an
+// all-valid fixed image (the integral images it keeps) and one with holes, several windows.
+TEST(MaskedNcc, PreparedTemplateGivesTheSameSurfaces) {
+  cv::RNG rng(11);
+  const cv::Mat fixed = RandomTexture(160, 170, 1.2, rng);
+  cv::Mat holed = fixed.clone();
+  AddNaNHoles(holed, 0.05, rng);
+  const cv::Mat moving = fixed(cv::Rect(50, 40, 48, 36)).clone();
+  const cv::Mat moving_mask = RandomMask(36, 48, 0.8, rng);
+  const PreparedTemplate prepared(moving, moving_mask);
+  EXPECT_EQ(prepared.size(), moving.size());
+  for (const cv::Mat& image : {fixed, holed}) {
+    for (const NccMethod method : {NccMethod::kDirect, NccMethod::kFft}) {
+      for (const ShiftWindow& window :
+           {ShiftWindow::Around(50, 40, 1), ShiftWindow::Around(10, 100, 6),
+            ShiftWindow::Around(-6, -4, 3)}) {
+        MaskedNccOptions options;
+        options.min_overlap_fraction = 0.2;  // Shifts off the top-left corner count too.
+        options.method = method;
+        options.search_window = window;
+        const MaskedNccSurface expected = MaskedNcc(image, {}, moving, moving_mask, options);
+        const MaskedNccSurface got = MaskedNcc(image, {}, prepared, options);
+        ASSERT_FALSE(got.empty());
+        ExpectSurfacesEqual(got, expected, 1e-9);
+      }
+    }
+  }
+  EXPECT_THROW(PreparedTemplate(cv::Mat(), {}), Error);
+}
+
 // The FFT cost estimate that cuts a search into one window or several: four corner tiles of a
 // small window reach nearly the same pixels as the whole (one window is cheaper), those of a
 // large window a small part of them (the tiles are cheaper).

@@ -23,12 +23,17 @@
 // orbital registration".
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 
 #include <opencv2/core.hpp>
 
 namespace areomap {
+
+namespace internal {
+struct PreparedImage;
+}  // namespace internal
 
 // An inclusive rectangle of integer shifts [px] (see the header comment for the convention).
 struct ShiftWindow {
@@ -96,6 +101,26 @@ struct MaskedNccSurface {
 // CV_8UC1 of its image's size, or the options fail Check().
 MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
                            const cv::Mat& moving_mask, const MaskedNccOptions& options = {});
+
+// A template prepared once for several MaskedNcc calls (the refinement of a match correlates one
+// template in many small windows): its valid pixels, values centred on their mean, squares and
+// their integral images. Cheap to copy (shared, immutable). Throws areomap::Error for a bad image
+// or mask, as MaskedNcc does.
+class PreparedTemplate {
+ public:
+  PreparedTemplate(const cv::Mat& moving, const cv::Mat& moving_mask);
+  cv::Size size() const;
+
+ private:
+  friend MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask,
+                                    const PreparedTemplate& moving,
+                                    const MaskedNccOptions& options);
+  std::shared_ptr<const internal::PreparedImage> prepared_;
+};
+
+// MaskedNcc of a prepared template: the same surface as with the template it was made from.
+MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask,
+                           const PreparedTemplate& moving, const MaskedNccOptions& options = {});
 
 // Whether MaskedNcc's cost model (NccMethod::kAuto) picks direct summation for these inputs:
 // the shifts times the valid template pixels against the FFT route's transforms of its padded
