@@ -194,6 +194,22 @@ cv::Point FixedOffset(const Problem& p) {
   return cv::Point(p.crop_x - p.shift_x0, p.crop_y - p.shift_y0);
 }
 
+// The transform length FFTW (FFTW_ESTIMATE plans) runs fastest at or above `n`: the smallest
+// 2^a, 3 x 2^a or 5 x 2^a. Longer than cv::getOptimalDFTSize's 2^a 3^b 5^c by 9 % on average, but
+// FFTW's estimated plans for lengths with several odd factors (125, 216, 225) take 1.5-2x longer
+// per point (real 2-D transforms: 90 x 125 0.070 ms, 96 x 128 0.038 ms; 216 x 288 0.239 ms,
+// 256 x 320 0.188 ms).
+int FastFftLength(int n) {
+  int best = 1;
+  while (best < n) best *= 2;
+  for (const int odd : {3, 5}) {
+    int length = odd;
+    while (length < n) length *= 2;
+    best = std::min(best, length);
+  }
+  return best;
+}
+
 // The FFT route's padded size. An index x + s (template pixel x) past the buffer end P wraps to
 // x + s - P; that must land in the zeros before the crop (< o), which needs P >= template +
 // shifts - 1 - o; the crop must fit, P >= o + crop. For all shifts this is the usual crop +
@@ -202,9 +218,8 @@ cv::Size PaddedSize(const Problem& p) {
   const cv::Size crop = p.fixed.value.size();
   const cv::Size tmpl = p.moving->value.size();
   const cv::Point o = FixedOffset(p);
-  return cv::Size(
-      cv::getOptimalDFTSize(std::max(o.x + crop.width, tmpl.width + p.cols - 1 - o.x)),
-      cv::getOptimalDFTSize(std::max(o.y + crop.height, tmpl.height + p.rows - 1 - o.y)));
+  return cv::Size(FastFftLength(std::max(o.x + crop.width, tmpl.width + p.cols - 1 - o.x)),
+                  FastFftLength(std::max(o.y + crop.height, tmpl.height + p.rows - 1 - o.y)));
 }
 
 // The correlation of a template quantity `src` with an all-valid fixed crop: its sum over the
@@ -467,8 +482,8 @@ double FftNccCostNs(cv::Size moving, const ShiftWindow& shifts) {
   const int cols = shifts.max_shift_x - shifts.min_shift_x + 1;
   const int rows = shifts.max_shift_y - shifts.min_shift_y + 1;
   if (moving.area() <= 0 || cols <= 0 || rows <= 0) return 0.0;
-  const cv::Size padded(cv::getOptimalDFTSize(moving.width + cols - 1),
-                        cv::getOptimalDFTSize(moving.height + rows - 1));
+  const cv::Size padded(FastFftLength(moving.width + cols - 1),
+                        FastFftLength(moving.height + rows - 1));
   return FftCostOfPadded(padded, /*fixed_all_valid=*/true);
 }
 

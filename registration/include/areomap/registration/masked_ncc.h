@@ -91,14 +91,14 @@ struct MaskedNccSurface {
 // Masked NCC of `moving` (the template, e.g. the rover orthophoto) against `fixed` (e.g. the
 // orbital image) for all shifts, or those of options.search_window. By direct summation where
 // that costs less (options.method, DirectNccIsCheaper), else through FFTs (FFTW, double
-// precision, on cv::getOptimalDFTSize sizes, run as parallel TBB tasks; the first use of a
-// padded size in a process plans its transforms, about 1 ms): six
-// correlations, or three plus integral images where the fixed image has no invalid pixel in
-// reach. Agrees with MaskedNccNaive to ~1e-6 or better. Cost O(P log P) with P the padded
-// size, per axis at most shifts + template - 1: fixed + template - 1 for all shifts, the fixed
-// image's size for the shifts where the template lies inside it (cv::matchTemplate's).
-// Throws areomap::Error if an image is empty or not CV_32FC1, a mask is not an empty Mat or
-// CV_8UC1 of its image's size, or the options fail Check().
+// precision, padded to lengths 2^a, 3 x 2^a or 5 x 2^a, which FFTW's estimated plans transform
+// fastest; run as parallel TBB tasks; the first use of a padded size in a process plans its
+// transforms, about 1 ms): six correlations, or three plus integral images where the fixed image
+// has no invalid pixel in reach. Agrees with MaskedNccNaive to ~1e-6 or better. Cost O(P log P)
+// with P the padded size, per axis at most shifts + template - 1: fixed + template - 1 for all
+// shifts, the fixed image's size for the shifts where the template lies inside it
+// (cv::matchTemplate's). Throws areomap::Error if an image is empty or not CV_32FC1, a mask is
+// not an empty Mat or CV_8UC1 of its image's size, or the options fail Check().
 MaskedNccSurface MaskedNcc(const cv::Mat& fixed, const cv::Mat& fixed_mask, const cv::Mat& moving,
                            const cv::Mat& moving_mask, const MaskedNccOptions& options = {});
 
