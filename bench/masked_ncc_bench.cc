@@ -90,11 +90,13 @@ void BM_MaskedNccFft(benchmark::State& state) {
 }
 
 // The shifts cv::matchTemplate scores (template wholly inside the image), fixed image without
-// holes: the same work as the OpenCV baseline.
+// holes: the same work as the OpenCV baseline; transforms in double or single precision.
+template <FftPrecision kPrecision>
 void BM_MaskedNccFftInside(benchmark::State& state) {
   const Scene& scene = GetScene(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   MaskedNccOptions options;
   options.method = NccMethod::kFft;
+  options.fft_precision = kPrecision;
   options.search_window =
       ShiftWindow{0, scene.fixed.cols - scene.moving.cols, 0, scene.fixed.rows - scene.moving.rows};
   MaskedNccSurface surface;
@@ -191,11 +193,12 @@ void CrossOver(benchmark::internal::Benchmark* b) {
 
 void Sizes(benchmark::internal::Benchmark* b) {
   Common(b);
-  b->Args({256, 1024})->Args({64, 256});
+  b->Args({256, 1024})->Args({64, 256})->Args({128, 256});
 }
 
 BENCHMARK(BM_MaskedNccFft)->Apply(Sizes);
-BENCHMARK(BM_MaskedNccFftInside)->Apply(Sizes);
+BENCHMARK(BM_MaskedNccFftInside<FftPrecision::kDouble>)->Apply(Sizes);
+BENCHMARK(BM_MaskedNccFftInside<FftPrecision::kSingle>)->Apply(Sizes);
 BENCHMARK(BM_OpenCvMatchTemplate<cv::TM_CCORR_NORMED>)->Apply(Sizes);
 BENCHMARK(BM_OpenCvMatchTemplate<cv::TM_CCOEFF_NORMED>)->Apply(Sizes);
 BENCHMARK(BM_MaskedNccNaive)->Apply(Common)->Args({64, 256});

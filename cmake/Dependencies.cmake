@@ -19,7 +19,10 @@ find_package(benchmark REQUIRED)                       # benchmark::benchmark
 find_package(PROJ REQUIRED CONFIG)                     # PROJ::proj
 find_package(PkgConfig REQUIRED)
 # FFTW (GPL-2+, like CGAL's triangulations that libmap links): the masked NCC's transforms.
-pkg_check_modules(FFTW3 REQUIRED IMPORTED_TARGET GLOBAL fftw3)  # PkgConfig::FFTW3
+# Double precision, and single precision for the decision's chance-level surfaces (both in
+# libfftw3-dev).
+pkg_check_modules(FFTW3 REQUIRED IMPORTED_TARGET GLOBAL fftw3)    # PkgConfig::FFTW3
+pkg_check_modules(FFTW3F REQUIRED IMPORTED_TARGET GLOBAL fftw3f)  # PkgConfig::FFTW3F
 
 # OpenCV's config exports plain target names; give them one namespaced target.
 if(NOT TARGET areomap_opencv)

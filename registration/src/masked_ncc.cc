@@ -45,8 +45,10 @@ using internal::PreparedImage;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // Sums of squared deviations below this fraction of the image's energy are FFT round-off
-// (double-precision FFT error is ~1e-13 of the energy at the sizes used here).
+// (double-precision FFT error is ~1e-13 of the energy at the sizes used here, single-precision
+// ~1e-6).
 constexpr double kRelativeVarianceFloor = 1e-10;
+constexpr double kRelativeVarianceFloorSingle = 1e-5;
 
 [[noreturn]] void ThrowField(const std::string& field, double value, const std::string& rule) {
   std::ostringstream msg;
@@ -109,6 +111,7 @@ struct Problem {
   double min_sq_dev_per_pixel = 0.0;  // min_stddev^2.
   double fixed_floor = 0.0;           // Round-off floors on the sums of squared deviations.
   double moving_floor = 0.0;
+  bool single_precision_fft = false;  // The FFT route's transforms in single precision.
 };
 
 // The template prepared (PrepareImage over all of it), after its checks.
@@ -160,6 +163,7 @@ Problem MakeProblem(const cv::Mat& fixed, const cv::Mat& fixed_mask,
   p.min_sq_dev_per_pixel = options.min_stddev * options.min_stddev;
   p.fixed_floor = kRelativeVarianceFloor * p.fixed.energy;
   p.moving_floor = kRelativeVarianceFloor * p.moving->energy;
+  p.single_precision_fft = options.fft_precision == FftPrecision::kSingle;
   return p;
 }
 
@@ -254,11 +258,12 @@ struct OverlapCorrelations {
 };
 
 // The six correlations by FFTs, run as parallel TBB tasks.
+template <class Real>
 OverlapCorrelations CorrelateByFft(const Problem& p) {
   const cv::Size crop = p.fixed.value.size();
   const cv::Point fixed_offset = FixedOffset(p);
   const cv::Size padded = PaddedSize(p);
-  using internal::RealSpectrum;
+  using RealSpectrum = internal::RealSpectrum<Real>;
   const auto forward = [&](const cv::Mat& src, cv::Point offset, RealSpectrum* spectrum) {
     *spectrum = RealSpectrum::Forward(src, offset, padded);
   };
@@ -299,9 +304,16 @@ OverlapCorrelations CorrelateByFft(const Problem& p) {
 }
 
 // The surface by FFTs (MaskedNcc's header); `p` has at least one shift.
-MaskedNccSurface FftSurface(const Problem& p) {
+MaskedNccSurface FftSurface(const Problem& problem) {
+  // Single-precision transforms leave more round-off in the sums: a higher floor.
+  Problem p = problem;
+  if (p.single_precision_fft) {
+    p.fixed_floor *= kRelativeVarianceFloorSingle / kRelativeVarianceFloor;
+    p.moving_floor *= kRelativeVarianceFloorSingle / kRelativeVarianceFloor;
+  }
   MaskedNccSurface surface = EmptySurface(p);
-  const OverlapCorrelations s = CorrelateByFft(p);
+  const OverlapCorrelations s =
+      p.single_precision_fft ? CorrelateByFft<float>(p) : CorrelateByFft<double>(p);
   tbb::parallel_for(tbb::blocked_range<int>(0, p.rows), [&](const tbb::blocked_range<int>& range) {
     for (int r = range.begin(); r != range.end(); ++r) {
       const double* pn = s.n.ptr<double>(r);

@@ -129,6 +129,9 @@ PartConsistency CheckPartConsistency(const MaskedImage& hp_fixed, const MaskedIm
     const cv::Point corner = part.region.tl();
     MaskedNccOptions options;
     options.min_overlap_fraction = min_overlap_fraction;
+    // A part's z-score and contradiction (thresholds 5 and 2.5 spreads) do not need the surface
+    // to better than ~1e-4: single-precision transforms, about 1.5x faster.
+    options.fft_precision = FftPrecision::kSingle;
     options.search_window =
         ShiftWindow{shifts.min_shift_x + corner.x, shifts.max_shift_x + corner.x,
                     shifts.min_shift_y + corner.y, shifts.max_shift_y + corner.y};

@@ -11,22 +11,64 @@
 namespace areomap::internal {
 namespace {
 
-struct PlanPair {
-  fftw_plan forward = nullptr;  // Real rows x cols -> half spectrum (keeps its input).
-  fftw_plan inverse = nullptr;  // Half spectrum -> real, unnormalised (destroys its input).
+// FFTW's double (fftw_) and single (fftwf_) precision interfaces.
+template <class Real>
+struct Fftw;
+
+template <>
+struct Fftw<double> {
+  using Plan = fftw_plan;
+  using Complex = fftw_complex;
+  static Plan R2c(cv::Size s, double* in, Complex* out) {
+    return fftw_plan_dft_r2c_2d(s.height, s.width, in, out, FFTW_ESTIMATE);
+  }
+  static Plan C2r(cv::Size s, Complex* in, double* out) {
+    return fftw_plan_dft_c2r_2d(s.height, s.width, in, out, FFTW_ESTIMATE);
+  }
+  static void ExecuteR2c(Plan p, double* in, Complex* out) { fftw_execute_dft_r2c(p, in, out); }
+  static void ExecuteC2r(Plan p, Complex* in, double* out) { fftw_execute_dft_c2r(p, in, out); }
+  static void Destroy(Plan p) { fftw_destroy_plan(p); }
+  static constexpr int kCvType = CV_64FC1;
 };
 
+template <>
+struct Fftw<float> {
+  using Plan = fftwf_plan;
+  using Complex = fftwf_complex;
+  static Plan R2c(cv::Size s, float* in, Complex* out) {
+    return fftwf_plan_dft_r2c_2d(s.height, s.width, in, out, FFTW_ESTIMATE);
+  }
+  static Plan C2r(cv::Size s, Complex* in, float* out) {
+    return fftwf_plan_dft_c2r_2d(s.height, s.width, in, out, FFTW_ESTIMATE);
+  }
+  static void ExecuteR2c(Plan p, float* in, Complex* out) { fftwf_execute_dft_r2c(p, in, out); }
+  static void ExecuteC2r(Plan p, Complex* in, float* out) { fftwf_execute_dft_c2r(p, in, out); }
+  static void Destroy(Plan p) { fftwf_destroy_plan(p); }
+  static constexpr int kCvType = CV_32FC1;
+};
+
+template <class Real>
+struct PlanPair {
+  typename Fftw<Real>::Plan forward = nullptr;  // Real rows x cols -> half spectrum (keeps input).
+  typename Fftw<Real>::Plan inverse = nullptr;  // Half spectrum -> real, unnormalised.
+};
+
+template <class Real>
 std::size_t HalfSpectrumBytes(cv::Size size) {
-  return static_cast<std::size_t>(size.height) * (size.width / 2 + 1) * sizeof(fftw_complex);
+  return static_cast<std::size_t>(size.height) * (size.width / 2 + 1) *
+         sizeof(typename Fftw<Real>::Complex);
 }
 
+template <class Real>
 std::size_t RealBytes(cv::Size size) {
-  return static_cast<std::size_t>(size.area()) * sizeof(double);
+  return static_cast<std::size_t>(size.area()) * sizeof(Real);
 }
 
 // The plans of each size, made on first use and destroyed at exit. FFTW's planner is not
-// thread-safe, so planning is serialised; the plans run through fftw_execute_dft_* on other
-// arrays of the same alignment (fftw_malloc's), which FFTW allows from any thread.
+// thread-safe, so planning is serialised (each precision is a library of its own, with its own
+// planner); the plans run through the new-array execute functions on other arrays of the same
+// alignment (fftw_malloc's), which FFTW allows from any thread.
+template <class Real>
 class PlanCache {
  public:
   PlanCache() = default;
@@ -34,20 +76,19 @@ class PlanCache {
   PlanCache& operator=(const PlanCache&) = delete;
   ~PlanCache() {
     for (auto& [size, p] : plans_) {
-      if (p.forward != nullptr) fftw_destroy_plan(p.forward);
-      if (p.inverse != nullptr) fftw_destroy_plan(p.inverse);
+      if (p.forward != nullptr) Fftw<Real>::Destroy(p.forward);
+      if (p.inverse != nullptr) Fftw<Real>::Destroy(p.inverse);
     }
   }
 
-  const PlanPair& For(cv::Size size) {
+  const PlanPair<Real>& For(cv::Size size) {
     const std::lock_guard<std::mutex> lock(mutex_);
-    PlanPair& p = plans_[{size.height, size.width}];
+    PlanPair<Real>& p = plans_[{size.height, size.width}];
     if (p.forward == nullptr) {
-      const FftBuffer real(RealBytes(size)), spectrum(HalfSpectrumBytes(size));
-      p.forward = fftw_plan_dft_r2c_2d(size.height, size.width, real.as<double>(),
-                                       spectrum.as<fftw_complex>(), FFTW_ESTIMATE);
-      p.inverse = fftw_plan_dft_c2r_2d(size.height, size.width, spectrum.as<fftw_complex>(),
-                                       real.as<double>(), FFTW_ESTIMATE);
+      using Complex = typename Fftw<Real>::Complex;
+      const FftBuffer real(RealBytes<Real>(size)), spectrum(HalfSpectrumBytes<Real>(size));
+      p.forward = Fftw<Real>::R2c(size, real.as<Real>(), spectrum.as<Complex>());
+      p.inverse = Fftw<Real>::C2r(size, spectrum.as<Complex>(), real.as<Real>());
       if (p.forward == nullptr || p.inverse == nullptr) throw std::bad_alloc();
     }
     return p;
@@ -55,11 +96,12 @@ class PlanCache {
 
  private:
   std::mutex mutex_;
-  std::map<std::pair<int, int>, PlanPair> plans_;
+  std::map<std::pair<int, int>, PlanPair<Real>> plans_;
 };
 
-const PlanPair& PlansFor(cv::Size size) {
-  static PlanCache cache;
+template <class Real>
+const PlanPair<Real>& PlansFor(cv::Size size) {
+  static PlanCache<Real> cache;
   return cache.For(size);
 }
 
@@ -136,40 +178,51 @@ void FftBuffer::Release() {
   bytes_ = 0;
 }
 
-RealSpectrum RealSpectrum::Forward(const cv::Mat& src, cv::Point offset, cv::Size padded) {
+template <class Real>
+RealSpectrum<Real> RealSpectrum<Real>::Forward(const cv::Mat& src, cv::Point offset,
+                                               cv::Size padded) {
   CV_Assert(src.type() == CV_64FC1 && offset.x >= 0 && offset.y >= 0 &&
             offset.x + src.cols <= padded.width && offset.y + src.rows <= padded.height);
-  const PlanPair& plans = PlansFor(padded);
-  const FftBuffer real(RealBytes(padded));
-  cv::Mat buffer(padded, CV_64FC1, real.as<double>());
+  const PlanPair<Real>& plans = PlansFor<Real>(padded);
+  const FftBuffer real(RealBytes<Real>(padded));
+  cv::Mat buffer(padded, Fftw<Real>::kCvType, real.as<Real>());
   buffer.setTo(0.0);
-  src.copyTo(buffer(cv::Rect(offset, src.size())));
+  cv::Mat placed = buffer(cv::Rect(offset, src.size()));
+  src.convertTo(placed, Fftw<Real>::kCvType);
   RealSpectrum out;
   out.size_ = padded;
-  out.data_ = FftBuffer(HalfSpectrumBytes(padded));
-  fftw_execute_dft_r2c(plans.forward, real.as<double>(), out.data_.as<fftw_complex>());
+  out.data_ = FftBuffer(HalfSpectrumBytes<Real>(padded));
+  Fftw<Real>::ExecuteR2c(plans.forward, real.as<Real>(),
+                         out.data_.template as<typename Fftw<Real>::Complex>());
   return out;
 }
 
-cv::Mat Correlate(const RealSpectrum& a, const RealSpectrum& b, int rows) {
+template <class Real>
+cv::Mat Correlate(const RealSpectrum<Real>& a, const RealSpectrum<Real>& b, int rows) {
+  using Complex = typename Fftw<Real>::Complex;
   CV_Assert(a.size_ == b.size_ && rows >= 0 && rows <= a.size_.height);
   const cv::Size size = a.size_;
   const std::size_t n = static_cast<std::size_t>(size.height) * (size.width / 2 + 1);
-  const FftBuffer product(HalfSpectrumBytes(size));
-  const fftw_complex* pa = a.data_.as<fftw_complex>();
-  const fftw_complex* pb = b.data_.as<fftw_complex>();
-  fftw_complex* pp = product.as<fftw_complex>();
+  const FftBuffer product(HalfSpectrumBytes<Real>(size));
+  const Complex* pa = a.data_.template as<Complex>();
+  const Complex* pb = b.data_.template as<Complex>();
+  Complex* pp = product.as<Complex>();
   for (std::size_t k = 0; k < n; ++k) {  // A conj(B).
     pp[k][0] = pa[k][0] * pb[k][0] + pa[k][1] * pb[k][1];
     pp[k][1] = pa[k][1] * pb[k][0] - pa[k][0] * pb[k][1];
   }
-  const FftBuffer real(RealBytes(size));
-  fftw_execute_dft_c2r(PlansFor(size).inverse, pp, real.as<double>());
+  const FftBuffer real(RealBytes<Real>(size));
+  Fftw<Real>::ExecuteC2r(PlansFor<Real>(size).inverse, pp, real.as<Real>());
   cv::Mat out;
-  cv::Mat(size, CV_64FC1, real.as<double>())
+  cv::Mat(size, Fftw<Real>::kCvType, real.as<Real>())
       .rowRange(0, rows)
       .convertTo(out, CV_64F, 1.0 / static_cast<double>(size.area()));
   return out;
 }
+
+template class RealSpectrum<double>;
+template class RealSpectrum<float>;
+template cv::Mat Correlate(const RealSpectrum<double>&, const RealSpectrum<double>&, int);
+template cv::Mat Correlate(const RealSpectrum<float>&, const RealSpectrum<float>&, int);
 
 }  // namespace areomap::internal

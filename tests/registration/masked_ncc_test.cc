@@ -440,6 +440,35 @@ TEST(MaskedNcc, PicksDirectSummationForFewShiftsAndFftsForManyWithTheSameSurface
   EXPECT_TRUE(MaskedNcc(fixed, {}, moving, {}, outside).empty());
 }
 
+// Single-precision transforms: the surface within 1e-4 of the double one (fixed images with and
+// without holes, a masked template), and a flat overlap is still undefined, not round-off.
+TEST(MaskedNcc, SinglePrecisionTransformsAgreeToOneInTenThousand) {
+  cv::RNG rng(5);
+  const cv::Mat fixed = RandomTexture(200, 230, 1.5, rng);
+  cv::Mat holed = fixed.clone();
+  AddNaNHoles(holed, 0.05, rng);
+  const cv::Mat moving = fixed(cv::Rect(60, 50, 80, 64)).clone();
+  const cv::Mat moving_mask = RandomMask(64, 80, 0.75, rng);
+  for (const cv::Mat& image : {fixed, holed}) {
+    MaskedNccOptions options = Fft({});
+    const MaskedNccSurface reference = MaskedNcc(image, {}, moving, moving_mask, options);
+    options.fft_precision = FftPrecision::kSingle;
+    ExpectSurfacesEqual(MaskedNcc(image, {}, moving, moving_mask, options), reference, 1e-4);
+  }
+  // A flat patch in a textured image: shifts whose overlap lies in it have no correlation.
+  cv::Mat patched = 100.0f * fixed + 1000.0f;  // Bright, strong texture: large round-off.
+  patched(cv::Rect(100, 100, 100, 90)).setTo(1050.0f);
+  MaskedNccOptions single = Fft({});
+  single.fft_precision = FftPrecision::kSingle;
+  single.search_window = ShiftWindow::Around(110, 110, 2);
+  const cv::Mat small = moving(cv::Rect(0, 0, 40, 40)).clone();
+  const MaskedNccSurface flat = MaskedNcc(patched, {}, small, {}, single);
+  ASSERT_FALSE(flat.empty());
+  for (auto it = flat.ncc.begin<float>(); it != flat.ncc.end<float>(); ++it) {
+    EXPECT_TRUE(std::isnan(*it)) << *it;
+  }
+}
+
 // A template prepared once gives every surface the template itself gives: both routes, an
 // all-valid fixed image (the integral images it keeps) and one with holes, several windows.
 TEST(MaskedNcc, PreparedTemplateGivesTheSameSurfaces) {
