@@ -26,7 +26,7 @@ using internal::kTurn;
 using internal::LocateRover;
 using internal::MakePyramidSearch;
 using internal::MeasureChanceLevel;
-using internal::MeasurePeak;
+using internal::MeasureSharpness;
 using internal::PyramidSearch;
 using internal::RefineCoarsePeaks;
 using internal::RefineWarp;
@@ -144,10 +144,9 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   if (!coarse || !fine) return out;
   const WarpedPeak final_peak = RefineWarp(search, out.templ, *coarse, *fine, out);
 
-  MeasurePeak(search, final_peak, out);
-  EstimateCorrection(final_peak, *setup, rover, prior, options, out);
-  // The parts test needs only the peak: it runs beside the chance level, and counts only if the
-  // chance level passes (Decide).
+  out.correlation = final_peak.peak.value;
+  // Independent, each writing its own fields of `out`: the chance level, the parts test (which
+  // counts only if the chance level passes: Decide), and the peak's sharpness and the correction.
   hp.templ = HighPassedTemplate(final_peak);
   PartConsistency parts;
   tbb::parallel_invoke(
@@ -155,7 +154,11 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
         MeasureChanceLevel(orbital, out.templ, *setup, *coarse, *fine, final_peak, hp, options,
                            out);
       },
-      [&] { parts = TestParts(*fine, final_peak, hp, options); });
+      [&] { parts = TestParts(*fine, final_peak, hp, options); },
+      [&] {
+        MeasureSharpness(search, final_peak, out);
+        EstimateCorrection(final_peak, *setup, rover, prior, options, out);
+      });
   Decide(*setup, *fine, final_peak, parts, options, out);
   ReportProgress(progress, 1.0, "register: done");
   return out;

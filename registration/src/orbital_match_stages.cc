@@ -294,8 +294,8 @@ PyramidSearch MakePyramidSearch(const OrbitalTemplate& templ, const SearchSetup&
 
 // --- Stage 6: peak measures, the correction and its covariance. ---
 
-void MeasurePeak(const PyramidSearch& search, const WarpedPeak& final_peak, OrbitalMatch& out) {
-  out.correlation = final_peak.peak.value;
+void MeasureSharpness(const PyramidSearch& search, const WarpedPeak& final_peak,
+                      OrbitalMatch& out) {
   out.sharpness = final_peak.peak.sharpness;
   const double expected_sharpness =
       search.OwnSharpness(final_peak.warped) * std::max(out.correlation, 0.0);

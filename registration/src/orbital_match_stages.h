@@ -163,8 +163,8 @@ WarpedPeak RefineWarp(const PyramidSearch& search, const OrbitalTemplate& templ,
 
 // --- Stage 6: peak measures, the correction and its covariance. ---
 
-// Sets out.correlation, sharpness and relative_sharpness.
-void MeasurePeak(const PyramidSearch& search, const WarpedPeak& final_peak, OrbitalMatch& out);
+// Sets out.sharpness and relative_sharpness (out.correlation set to the peak's value).
+void MeasureSharpness(const PyramidSearch& search, const WarpedPeak& final_peak, OrbitalMatch& out);
 
 // Sets out.shift_px, shift_en_m, the covariances, the rotation's sigma and pivot, and
 // corrected_position.

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
@@ -74,24 +75,31 @@ std::optional<cv::Rect> OrbitalFootprint(const cv::Rect& box, const GridMapping&
                   static_cast<int>(std::ceil(max_r)) - row0);
 }
 
-// The ortho low-passed in ortho pixels, nodata-aware (normalized convolution): channel 0 the blur
-// of value x validity, channel 1 the blur of the validity ([0, 1]), by a Gaussian of `sigma` ortho
-// pixels (none <= 0.3); CV_32FC2. Both are 0 outside `box` grown by the kernel's reach (value and
-// validity are 0 outside the valid box), so only that crop is blurred.
-cv::Mat LowPass(const OrthoImage& ortho, const cv::Mat& valid, const cv::Rect& box, double sigma) {
-  cv::Mat value(ortho.image.size(), CV_32F, cv::Scalar(0.0f)), weight;
-  ortho.image.copyTo(value, valid);
-  valid.convertTo(weight, CV_32F, 1.0 / 255.0);
-  cv::Mat out;
-  cv::merge(std::vector<cv::Mat>{value, weight}, out);
+// The ortho low-passed in ortho pixels, nodata-aware (normalized convolution): the blur of value
+// x validity and the blur of the validity, by a Gaussian of `sigma` ortho pixels (none <= 0.3).
+// Both are 0 outside `box` grown by the kernel's reach (value and validity are 0 outside the
+// valid box), so only that crop is blurred; the two on two cores.
+struct NormalizedConvolution {
+  cv::Mat value;   // CV_32F.
+  cv::Mat weight;  // CV_32F, in [0, 1].
+};
+
+NormalizedConvolution LowPass(const OrthoImage& ortho, const cv::Mat& valid, const cv::Rect& box,
+                              double sigma) {
+  NormalizedConvolution out{cv::Mat(ortho.image.size(), CV_32F, cv::Scalar(0.0f)), cv::Mat()};
+  ortho.image.copyTo(out.value, valid);
+  valid.convertTo(out.weight, CV_32F, 1.0 / 255.0);
   if (sigma > 0.3) {
     // OpenCV's kernel for floating-point images reaches 4 sigma.
     const int reach = static_cast<int>(std::ceil(4.0 * sigma)) + 1;
     const cv::Rect grown =
         cv::Rect(box.x - reach, box.y - reach, box.width + 2 * reach, box.height + 2 * reach) &
-        cv::Rect(0, 0, out.cols, out.rows);
-    cv::Mat crop = out(grown);
-    cv::GaussianBlur(crop, crop, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
+        cv::Rect(0, 0, valid.cols, valid.rows);
+    const auto blur = [&](cv::Mat& image) {
+      cv::Mat crop = image(grown);
+      cv::GaussianBlur(crop, crop, cv::Size(), sigma, sigma, cv::BORDER_CONSTANT);
+    };
+    tbb::parallel_invoke([&] { blur(out.value); }, [&] { blur(out.weight); });
   }
   return out;
 }
@@ -146,22 +154,30 @@ RemapMaps OrthoCoordinates(const PixelGrid& orbital_grid, const PixelGrid& ortho
 // footprint strays outside the range or the valid data are dropped; the nearest-neighbour
 // validity keeps a template pixel that samples mostly one invalid pixel out even when the
 // blurred weight is high.
-void SampleTemplate(const cv::Mat& lowpassed, const cv::Mat& valid, const RemapMaps& maps,
-                    double min_coverage_fraction, OrbitalTemplate& t) {
+void SampleTemplate(const NormalizedConvolution& lowpassed, const cv::Mat& valid,
+                    const RemapMaps& maps, double min_coverage_fraction, OrbitalTemplate& t) {
   const int rows = maps.x.rows, cols = maps.x.cols;
-  cv::Mat sampled;
-  cv::remap(lowpassed, sampled, maps.x, maps.y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0.0);
-  cv::Mat nearest_valid;
-  cv::remap(valid, nearest_valid, maps.x, maps.y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+  cv::Mat sampled_value, sampled_weight, nearest_valid;
+  tbb::parallel_invoke(
+      [&] {
+        cv::remap(lowpassed.value, sampled_value, maps.x, maps.y, cv::INTER_LINEAR,
+                  cv::BORDER_CONSTANT, 0.0);
+      },
+      [&] {
+        cv::remap(lowpassed.weight, sampled_weight, maps.x, maps.y, cv::INTER_LINEAR,
+                  cv::BORDER_CONSTANT, 0.0);
+      },
+      [&] {
+        cv::remap(valid, nearest_valid, maps.x, maps.y, cv::INTER_NEAREST, cv::BORDER_CONSTANT, 0);
+      });
   t.image.create(rows, cols, CV_32F);
   t.mask.create(rows, cols, CV_8U);
   const float min_coverage = static_cast<float>(min_coverage_fraction);
   for (int r = 0; r < rows; ++r) {
     for (int c = 0; c < cols; ++c) {
-      const cv::Vec2f& s = sampled.at<cv::Vec2f>(r, c);  // (value, weight)
-      const float w = s[1];
+      const float w = sampled_weight.at<float>(r, c);
       const bool ok = w >= min_coverage && nearest_valid.at<uchar>(r, c) != 0;
-      t.image.at<float>(r, c) = ok ? s[0] / w : kNaNf;
+      t.image.at<float>(r, c) = ok ? sampled_value.at<float>(r, c) / w : kNaNf;
       t.mask.at<uchar>(r, c) = ok ? 255 : 0;
       t.valid_pixels += ok ? 1 : 0;
     }
@@ -207,7 +223,7 @@ OrbitalTemplate ResampleToOrbitalGrid(const OrthoImage& ortho, const PixelGrid& 
   const Eigen::Vector2d centre_on_orbital = to_orbital.Apply(centre);
   out.scale = PixelSizeM(orbital_grid, centre_on_orbital) / PixelSizeM(ortho_grid, centre);
 
-  const cv::Mat lowpassed =
+  const NormalizedConvolution lowpassed =
       LowPass(ortho, valid, box, options.lowpass_sigma_orbital_px * out.scale);
   const RemapMaps maps =
       OrthoCoordinates(orbital_grid, ortho_grid, options.lattice_step_px, footprint->size(), out);
