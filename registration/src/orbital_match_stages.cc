@@ -283,6 +283,9 @@ PyramidSearch MakePyramidSearch(const OrbitalTemplate& templ, const SearchSetup&
                                 const OrbitalMatchOptions& options, double gsd_m) {
   MaskedNccOptions ncc_options;
   ncc_options.min_overlap_fraction = options.min_overlap_fraction;
+  // The coarse surface ranks candidates, each then refined at full resolution by direct sums in
+  // double precision: single-precision transforms (masked_ncc.h) are enough for it.
+  ncc_options.fft_precision = FftPrecision::kSingle;
   ncc_options.search_window = setup.coarse_window;
   PeakOptions coarse_peak_options;
   coarse_peak_options.exclusion_radius = options.exclusion_radius_m / (gsd_m * setup.unit);
