@@ -22,6 +22,7 @@ using internal::FineStage;
 using internal::HighPassed;
 using internal::HighPassedTemplate;
 using internal::HighPassedWindow;
+using internal::KeepsTemplateUnwarped;
 using internal::kTurn;
 using internal::LocateRover;
 using internal::MakePyramidSearch;
@@ -125,11 +126,16 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
       SetUpSearch(orbital, prior, options, rover, out, progress);
   if (!setup) return out;
   const PyramidSearch search = MakePyramidSearch(out.templ, *setup, options, out.gsd_m);
-  // The decision's high-passed window needs no peak: it is made on another core beside the
-  // search (which reports progress, from this thread only).
+  // The decision's high-passed window needs no peak, nor does its high-passed template where the
+  // search keeps the template unwarped: they are made on another core beside the search (which
+  // reports progress, from this thread only).
   HighPassed hp;
   tbb::task_group beside;
-  beside.run([&] { hp.window = HighPassedWindow(*setup, out.templ); });
+  const bool unwarped = KeepsTemplateUnwarped(prior, options);
+  beside.run([&] {
+    hp.window = HighPassedWindow(*setup, out.templ);
+    if (unwarped) hp.templ = HighPassedTemplate(out.templ);
+  });
   std::optional<CoarseStage> coarse;
   std::optional<FineStage> fine;
   try {
@@ -147,7 +153,7 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   out.correlation = final_peak.peak.value;
   // Independent, each writing its own fields of `out`: the chance level, the parts test (which
   // counts only if the chance level passes: Decide), and the peak's sharpness and the correction.
-  hp.templ = HighPassedTemplate(final_peak);
+  if (!unwarped) hp.templ = HighPassedTemplate(final_peak);
   PartConsistency parts;
   tbb::parallel_invoke(
       [&] {

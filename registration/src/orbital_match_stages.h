@@ -183,6 +183,10 @@ struct HighPassed {
 };
 HighPassedImage HighPassedWindow(const SearchSetup& setup, const OrbitalTemplate& templ);
 MaskedImage HighPassedTemplate(const WarpedPeak& final_peak);
+// Whether the search keeps the template as resampled (no rotation or scale searched, none
+// expected): then the final template is known before the search, and so is its high pass.
+bool KeepsTemplateUnwarped(const OrbitalPrior& prior, const OrbitalMatchOptions& options);
+MaskedImage HighPassedTemplate(const OrbitalTemplate& templ);
 
 // Sets out.null, null_level, peak_z, expected_chance_peaks and false_match_probability (and the
 // ring's counts where it is used).
