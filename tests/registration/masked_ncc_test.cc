@@ -440,16 +440,29 @@ TEST(MaskedNcc, PicksDirectSummationForFewShiftsAndFftsForManyWithTheSameSurface
   EXPECT_TRUE(MaskedNcc(fixed, {}, moving, {}, outside).empty());
 }
 
+// A textured fixed image, the same with 5 % NaN holes, and a template cut from it at `cut` with
+// about a fifth of its pixels masked in blobs.
+struct HoledScene {
+  cv::Mat fixed, holed, moving, moving_mask;
+};
+
+HoledScene MakeHoledScene(uint64_t seed, cv::Size size, cv::Rect cut, double sigma) {
+  cv::RNG rng(seed);
+  HoledScene scene;
+  scene.fixed = RandomTexture(size.height, size.width, sigma, rng);
+  scene.holed = scene.fixed.clone();
+  AddNaNHoles(scene.holed, 0.05, rng);
+  scene.moving = scene.fixed(cut).clone();
+  scene.moving_mask = RandomMask(cut.height, cut.width, 0.8, rng);
+  return scene;
+}
+
 // Single-precision transforms: the surface within 1e-4 of the double one (fixed images with and
 // without holes, a masked template), and a flat overlap is still undefined, not round-off.
 TEST(MaskedNcc, SinglePrecisionTransformsAgreeToOneInTenThousand) {
-  cv::RNG rng(5);
-  const cv::Mat fixed = RandomTexture(200, 230, 1.5, rng);
-  cv::Mat holed = fixed.clone();
-  AddNaNHoles(holed, 0.05, rng);
-  const cv::Mat moving = fixed(cv::Rect(60, 50, 80, 64)).clone();
-  const cv::Mat moving_mask = RandomMask(64, 80, 0.75, rng);
-  for (const cv::Mat& image : {fixed, holed}) {
+  const HoledScene scene = MakeHoledScene(5, cv::Size(230, 200), cv::Rect(60, 50, 80, 64), 1.5);
+  const cv::Mat &fixed = scene.fixed, &moving = scene.moving, &moving_mask = scene.moving_mask;
+  for (const cv::Mat& image : {scene.fixed, scene.holed}) {
     MaskedNccOptions options = Fft({});
     const MaskedNccSurface reference = MaskedNcc(image, {}, moving, moving_mask, options);
     options.fft_precision = FftPrecision::kSingle;
@@ -472,15 +485,11 @@ TEST(MaskedNcc, SinglePrecisionTransformsAgreeToOneInTenThousand) {
 // A template prepared once gives every surface the template itself gives: both routes, an
 // all-valid fixed image (the integral images it keeps) and one with holes, several windows.
 TEST(MaskedNcc, PreparedTemplateGivesTheSameSurfaces) {
-  cv::RNG rng(11);
-  const cv::Mat fixed = RandomTexture(160, 170, 1.2, rng);
-  cv::Mat holed = fixed.clone();
-  AddNaNHoles(holed, 0.05, rng);
-  const cv::Mat moving = fixed(cv::Rect(50, 40, 48, 36)).clone();
-  const cv::Mat moving_mask = RandomMask(36, 48, 0.8, rng);
+  const HoledScene scene = MakeHoledScene(11, cv::Size(170, 160), cv::Rect(50, 40, 48, 36), 1.2);
+  const cv::Mat &moving = scene.moving, &moving_mask = scene.moving_mask;
   const PreparedTemplate prepared(moving, moving_mask);
   EXPECT_EQ(prepared.size(), moving.size());
-  for (const cv::Mat& image : {fixed, holed}) {
+  for (const cv::Mat& image : {scene.fixed, scene.holed}) {
     for (const NccMethod method : {NccMethod::kDirect, NccMethod::kFft}) {
       for (const ShiftWindow& window :
            {ShiftWindow::Around(50, 40, 1), ShiftWindow::Around(10, 100, 6),
