@@ -522,7 +522,7 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
   options.Check();
   CheckStereoPair(left_image, right_image, left, right);
   DenseStereoResult result;
-  ReportProgress(progress, 0.0, "rectify");
+  ReportProgress(progress, 0.0, "stereo: rectify");
   const RectifiedGrey grey =
       RectifyToEightBit(left_image, right_image, left, right, options, &result);
   const StereoRectification& rect = result.rectification;
@@ -532,16 +532,16 @@ DenseStereoResult RunDenseStereo(const cv::Mat& left_image, const cv::Mat& right
       AlignRightRows(grey.right_grey, rect, grey.gain, options, &disparity);
   SetDisparityRange(rect, options, &disparity);
 
-  ReportProgress(progress, 0.1, "match");
+  ReportProgress(progress, 0.1, "stereo: match");
   const cv::Mat overlap = MatchPair(right_maps, options, &disparity);
 
-  ReportProgress(progress, 0.8, "triangulate");
+  ReportProgress(progress, 0.8, "stereo: triangulate");
   const OutputFrame frame = OutputFrameOf(left, rect);
   const std::vector<RowPoints> rows =
       TriangulateRows(rect, disparity, overlap, frame, StereoErrorModelOf(rect, options), options);
   GatherPoints(rows, left, frame, options, &result);
   SummarizeStereo(&result);
-  ReportProgress(progress, 1.0, "done");
+  ReportProgress(progress, 1.0, "stereo: done");
   return result;
 }
 

@@ -265,6 +265,22 @@ TEST(DenseStereo, BadPairsAreRejectedWithClearErrors) {
   EXPECT_NE(message.find("DenseStereoOptions.block_size"), std::string::npos) << message;
 }
 
+// Asked to stop, stereo stops at its next stage and says which operation was cancelled.
+TEST(DenseStereo, CancelNamesTheStage) {
+  const RenderedPair& f = Pair();
+  int calls = 0;
+  const ProgressCallback stop_at_match = [&](double, std::string_view stage) {
+    ++calls;
+    return stage != "stereo: match";
+  };
+  const std::string message = testing::ErrorMessageOf([&] {
+    RunDenseStereo(f.images[0].dn, f.images[1].dn, f.File(0), f.File(1), DenseStereoOptions{},
+                   stop_at_match);
+  });
+  EXPECT_EQ(calls, 2);
+  EXPECT_NE(message.find("cancelled during stereo: match"), std::string::npos) << message;
+}
+
 }  // namespace
 }  // namespace areomap
 
