@@ -122,7 +122,7 @@ MaskedNccSurface Autocorrelation(const MaskedImage& t, int rows, int cols) {
 constexpr int kNullTile = 48;
 
 bool NullReachesAllOf(cv::Size window, cv::Size templ) {
-  const int margin = static_cast<int>(std::ceil(4.0 * kHighPassSigmaPx)) + 1;
+  const int margin = GaussianReachPx(kHighPassSigmaPx);
   const double tile_reach = static_cast<double>(templ.width + kNullTile + 2 * margin) *
                             (templ.height + kNullTile + 2 * margin);
   return static_cast<double>(window.area()) <= 4.0 * tile_reach;

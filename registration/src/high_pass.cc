@@ -36,8 +36,7 @@ HighPassedImage::HighPassedImage(const MaskedImage& image, bool whole) : raw_(im
 
 MaskedImage HighPassedImage::Reach(const ShiftWindow& shifts, cv::Size size,
                                    ShiftWindow* local) const {
-  // OpenCV's kernel for floating-point images reaches 4 sigma.
-  const int margin = static_cast<int>(std::ceil(4.0 * kHighPassSigmaPx)) + 1;
+  const int margin = GaussianReachPx(kHighPassSigmaPx);
   const cv::Rect reach =
       cv::Rect(shifts.min_shift_x - margin, shifts.min_shift_y - margin,
                shifts.max_shift_x - shifts.min_shift_x + size.width + 2 * margin,

@@ -2,6 +2,8 @@
 // (orbital_match.cc: the chance level and the template parts' consistency). Internal header.
 #pragma once
 
+#include <cmath>
+
 #include <opencv2/core.hpp>
 
 #include "areomap/registration/masked_ncc.h"
@@ -13,6 +15,10 @@ namespace areomap::internal {
 // and albedo makes wrong shifts of a smooth scene correlate by the tenths everywhere, and hides
 // no evidence of where the template fits.
 constexpr double kHighPassSigmaPx = 3.0;
+
+// Pixels beyond which OpenCV's Gaussian of `sigma` px (floating-point images: its kernel reaches
+// 4 sigma) gives no weight: a crop grown by this much blurs exactly as the whole image does.
+inline int GaussianReachPx(double sigma) { return static_cast<int>(std::ceil(4.0 * sigma)) + 1; }
 
 // `in` less its local mean (normalized convolution over valid pixels, Gaussian of `sigma` px);
 // valid where `in` is (finite and unmasked), NaN elsewhere. A pixel's value depends on the input

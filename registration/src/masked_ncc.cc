@@ -114,13 +114,21 @@ struct Problem {
   bool single_precision_fft = false;  // The FFT route's transforms in single precision.
 };
 
-// The template prepared (PrepareImage over all of it), after its checks.
+// The template prepared (PrepareImage over all of it), after its checks; with `for_reuse` also
+// the integral images of its three quantities.
 std::shared_ptr<const PreparedImage> PrepareTemplate(const cv::Mat& moving,
-                                                     const cv::Mat& moving_mask) {
+                                                     const cv::Mat& moving_mask,
+                                                     bool for_reuse = false) {
   CheckImage(moving, "moving");
   CheckMask(moving_mask, moving, "moving");
-  return std::make_shared<const PreparedImage>(
+  auto prepared = std::make_shared<PreparedImage>(
       PrepareImage(moving, moving_mask, cv::Rect(0, 0, moving.cols, moving.rows)));
+  if (for_reuse) {
+    cv::integral(prepared->valid, prepared->integral_valid, CV_64F);
+    cv::integral(prepared->value, prepared->integral_value, CV_64F);
+    cv::integral(prepared->value_sq, prepared->integral_value_sq, CV_64F);
+  }
+  return prepared;
 }
 
 Problem MakeProblem(const cv::Mat& fixed, const cv::Mat& fixed_mask,
@@ -161,9 +169,13 @@ Problem MakeProblem(const cv::Mat& fixed, const cv::Mat& fixed_mask,
   p.min_overlap = std::max(static_cast<double>(options.min_overlap_pixels),
                            std::ceil(options.min_overlap_fraction * p.moving->valid_count));
   p.min_sq_dev_per_pixel = options.min_stddev * options.min_stddev;
-  p.fixed_floor = kRelativeVarianceFloor * p.fixed.energy;
-  p.moving_floor = kRelativeVarianceFloor * p.moving->energy;
   p.single_precision_fft = options.fft_precision == FftPrecision::kSingle;
+  // Single-precision transforms leave more round-off in the sums: a higher floor (where direct
+  // sums end up used, a flat overlap is still far below it).
+  const double floor =
+      p.single_precision_fft ? kRelativeVarianceFloorSingle : kRelativeVarianceFloor;
+  p.fixed_floor = floor * p.fixed.energy;
+  p.moving_floor = floor * p.moving->energy;
   return p;
 }
 
@@ -304,13 +316,7 @@ OverlapCorrelations CorrelateByFft(const Problem& p) {
 }
 
 // The surface by FFTs (MaskedNcc's header); `p` has at least one shift.
-MaskedNccSurface FftSurface(const Problem& problem) {
-  // Single-precision transforms leave more round-off in the sums: a higher floor.
-  Problem p = problem;
-  if (p.single_precision_fft) {
-    p.fixed_floor *= kRelativeVarianceFloorSingle / kRelativeVarianceFloor;
-    p.moving_floor *= kRelativeVarianceFloorSingle / kRelativeVarianceFloor;
-  }
+MaskedNccSurface FftSurface(const Problem& p) {
   MaskedNccSurface surface = EmptySurface(p);
   const OverlapCorrelations s =
       p.single_precision_fft ? CorrelateByFft<float>(p) : CorrelateByFft<double>(p);
@@ -474,13 +480,8 @@ void MaskedNccOptions::Check() const {
   }
 }
 
-PreparedTemplate::PreparedTemplate(const cv::Mat& moving, const cv::Mat& moving_mask) {
-  auto prepared = std::make_shared<PreparedImage>(*PrepareTemplate(moving, moving_mask));
-  cv::integral(prepared->valid, prepared->integral_valid, CV_64F);
-  cv::integral(prepared->value, prepared->integral_value, CV_64F);
-  cv::integral(prepared->value_sq, prepared->integral_value_sq, CV_64F);
-  prepared_ = std::move(prepared);
-}
+PreparedTemplate::PreparedTemplate(const cv::Mat& moving, const cv::Mat& moving_mask)
+    : prepared_(PrepareTemplate(moving, moving_mask, /*for_reuse=*/true)) {}
 
 cv::Size PreparedTemplate::size() const { return prepared_->value.size(); }
 

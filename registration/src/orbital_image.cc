@@ -5,6 +5,8 @@
 #include <limits>
 #include <utility>
 
+#include <tbb/parallel_for.h>
+
 #include "areomap/map/error.h"
 #include "areomap/map/numbers.h"
 #include "areomap/map/raster_window.h"
@@ -25,10 +27,22 @@ void RequireGeoreference(const RasterInfo& info) {
 }  // namespace
 
 cv::Mat OrthoImage::ValidMask() const {
-  cv::Mat valid = image == image;  // False exactly at NaN.
-  cv::Mat finite = cv::abs(image) < std::numeric_limits<float>::infinity();
-  valid &= finite;
-  if (!mask.empty()) valid &= (mask != 0);
+  if (image.type() != CV_32FC1) {
+    throw Error(source + ": the orthophoto image must be a CV_32FC1 band");
+  }
+  if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != image.size())) {
+    throw Error(source + ": the orthophoto mask must be CV_8UC1 of the image's size");
+  }
+  // One pass, in parallel: the template's resampling asks for it on every registration.
+  cv::Mat valid(image.size(), CV_8U);
+  tbb::parallel_for(0, image.rows, [&](int r) {
+    const float* value = image.ptr<float>(r);
+    const uchar* ok = mask.empty() ? nullptr : mask.ptr<uchar>(r);
+    uchar* out = valid.ptr<uchar>(r);
+    for (int c = 0; c < image.cols; ++c) {
+      out[c] = std::isfinite(value[c]) && (ok == nullptr || ok[c] != 0) ? 255 : 0;
+    }
+  });
   return valid;
 }
 

@@ -19,10 +19,10 @@ using internal::CoarseStage;
 using internal::Decide;
 using internal::EstimateCorrection;
 using internal::FineStage;
+using internal::HighPass;
 using internal::HighPassed;
-using internal::HighPassedTemplate;
 using internal::HighPassedWindow;
-using internal::KeepsTemplateUnwarped;
+using internal::IsIdentityWarp;
 using internal::kTurn;
 using internal::LocateRover;
 using internal::MakePyramidSearch;
@@ -126,15 +126,15 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
       SetUpSearch(orbital, prior, options, rover, out, progress);
   if (!setup) return out;
   const PyramidSearch search = MakePyramidSearch(out.templ, *setup, options, out.gsd_m);
-  // The decision's high-passed window needs no peak, nor does its high-passed template where the
-  // search keeps the template unwarped: they are made on another core beside the search (which
-  // reports progress, from this thread only).
+  // The decision's high-passed window needs no peak, nor does the resampled template's high pass
+  // (the final template where the search ends unwarped): both are made on another core beside
+  // the search (which reports progress, from this thread only).
   HighPassed hp;
+  MaskedImage hp_resampled;
   tbb::task_group beside;
-  const bool unwarped = KeepsTemplateUnwarped(prior, options);
   beside.run([&] {
     hp.window = HighPassedWindow(*setup, out.templ);
-    if (unwarped) hp.templ = HighPassedTemplate(out.templ);
+    hp_resampled = HighPass({out.templ.image, out.templ.mask});
   });
   std::optional<CoarseStage> coarse;
   std::optional<FineStage> fine;
@@ -153,7 +153,8 @@ OrbitalMatch MatchOrthoToOrbital(const OrthoImage& ortho, const OrbitalImage& or
   out.correlation = final_peak.peak.value;
   // Independent, each writing its own fields of `out`: the chance level, the parts test (which
   // counts only if the chance level passes: Decide), and the peak's sharpness and the correction.
-  if (!unwarped) hp.templ = HighPassedTemplate(final_peak);
+  hp.templ =
+      IsIdentityWarp(out.rotation_rad, out.scale) ? hp_resampled : HighPass(final_peak.warped);
   PartConsistency parts;
   tbb::parallel_invoke(
       [&] {

@@ -19,7 +19,7 @@ namespace {
 // The template warped by A about its centre: W(q) = T(A^-1 (q - c) + c).
 MaskedImage WarpTemplate(const OrbitalTemplate& templ, double rotation, double scale) {
   MaskedImage out;
-  if (rotation == 0.0 && scale == 1.0) {
+  if (IsIdentityWarp(rotation, scale)) {
     out.image = templ.image;
     out.mask = templ.mask;
     return out;

@@ -385,19 +385,6 @@ HighPassedImage HighPassedWindow(const SearchSetup& setup, const OrbitalTemplate
   return HighPassedImage(window, NullReachesAllOf(window.image.size(), templ.image.size()));
 }
 
-MaskedImage HighPassedTemplate(const WarpedPeak& final_peak) {
-  return HighPass(final_peak.warped, kHighPassSigmaPx);
-}
-
-bool KeepsTemplateUnwarped(const OrbitalPrior& prior, const OrbitalMatchOptions& options) {
-  return options.max_rotation_deg == 0.0 && options.max_scale_change == 0.0 &&
-         prior.expected_rotation_rad == 0.0;
-}
-
-MaskedImage HighPassedTemplate(const OrbitalTemplate& templ) {
-  return HighPass({templ.image, templ.mask}, kHighPassSigmaPx);
-}
-
 // The peak against the search window's surface at wrong shifts, or, for a small window, against
 // the full-resolution surface in a ring of windows around it.
 void MeasureChanceLevel(const OrbitalImage& orbital, const OrbitalTemplate& templ,

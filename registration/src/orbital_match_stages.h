@@ -27,6 +27,12 @@ namespace areomap::internal {
 // scale R(rotation): counter-clockwise on a north-up map = clockwise in (column, row) pixel axes.
 Eigen::Matrix2d SimilarityMatrix(double rotation, double scale);
 
+// Whether (rotation, scale) leaves the template as resampled: WarpTemplate then returns it as it
+// is.
+inline bool IsIdentityWarp(double rotation, double scale) {
+  return rotation == 0.0 && scale == 1.0;
+}
+
 // d SimilarityMatrix(rotation, 1) / d rotation at 0: how a turn moves a point about the centre.
 inline const Eigen::Matrix2d kTurn = (Eigen::Matrix2d() << 0.0, 1.0, -1.0, 0.0).finished();
 
@@ -182,11 +188,6 @@ struct HighPassed {
   MaskedImage templ;
 };
 HighPassedImage HighPassedWindow(const SearchSetup& setup, const OrbitalTemplate& templ);
-MaskedImage HighPassedTemplate(const WarpedPeak& final_peak);
-// Whether the search keeps the template as resampled (no rotation or scale searched, none
-// expected): then the final template is known before the search, and so is its high pass.
-bool KeepsTemplateUnwarped(const OrbitalPrior& prior, const OrbitalMatchOptions& options);
-MaskedImage HighPassedTemplate(const OrbitalTemplate& templ);
 
 // Sets out.null, null_level, peak_z, expected_chance_peaks and false_match_probability (and the
 // ring's counts where it is used).

@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "high_pass.h"
 
 namespace areomap {
 namespace {
@@ -23,26 +24,22 @@ double PixelSizeM(const PixelGrid& grid, const Eigen::Vector2d& pixel) {
   return 0.5 * (m.col(0).norm() + m.col(1).norm());
 }
 
-// Valid ortho pixels (OrthoImage::ValidMask) within `range_m` of the rover, in one pass.
+// Valid ortho pixels (OrthoImage::ValidMask) within `range_m` of the rover.
 cv::Mat ValidInRange(const OrthoImage& ortho, const PixelGrid& grid, const Eigen::Vector2d& rover,
                      double range_m) {
-  if (range_m <= 0.0) return ortho.ValidMask();
+  cv::Mat valid = ortho.ValidMask();
+  if (range_m <= 0.0) return valid;
   const Eigen::Matrix2d en = grid.EastNorthPerPixel(rover);
   if (!en.allFinite()) {
     throw Error(ortho.source + ": the rover position lies outside the CRS's domain");
   }
   const double range2 = range_m * range_m;
-  cv::Mat valid(ortho.image.size(), CV_8U);
   tbb::parallel_for(0, valid.rows, [&](int r) {
-    const float* value = ortho.image.ptr<float>(r);
-    const uchar* mask = ortho.mask.empty() ? nullptr : ortho.mask.ptr<uchar>(r);
     auto* row = valid.ptr<uchar>(r);
     // The pixel centre's offset from the rover [m] moves by en.col(0) per column.
     Eigen::Vector2d d = en * Eigen::Vector2d(0.5 - rover.x(), r + 0.5 - rover.y());
     for (int c = 0; c < valid.cols; ++c, d += en.col(0)) {
-      const bool ok =
-          std::isfinite(value[c]) && (mask == nullptr || mask[c] != 0) && d.squaredNorm() <= range2;
-      row[c] = ok ? 255 : 0;
+      if (d.squaredNorm() > range2) row[c] = 0;
     }
   });
   return valid;
@@ -90,8 +87,7 @@ NormalizedConvolution LowPass(const OrthoImage& ortho, const cv::Mat& valid, con
   ortho.image.copyTo(out.value, valid);
   valid.convertTo(out.weight, CV_32F, 1.0 / 255.0);
   if (sigma > 0.3) {
-    // OpenCV's kernel for floating-point images reaches 4 sigma.
-    const int reach = static_cast<int>(std::ceil(4.0 * sigma)) + 1;
+    const int reach = internal::GaussianReachPx(sigma);
     const cv::Rect grown =
         cv::Rect(box.x - reach, box.y - reach, box.width + 2 * reach, box.height + 2 * reach) &
         cv::Rect(0, 0, valid.cols, valid.rows);
@@ -203,10 +199,6 @@ OrbitalTemplate ResampleToOrbitalGrid(const OrthoImage& ortho, const PixelGrid& 
   options.Check();
   if (ortho.image.empty() || ortho.image.type() != CV_32FC1) {
     throw Error(ortho.source + ": the orthophoto image must be a non-empty CV_32FC1 band");
-  }
-  if (!ortho.mask.empty() &&
-      (ortho.mask.type() != CV_8UC1 || ortho.mask.size() != ortho.image.size())) {
-    throw Error(ortho.source + ": the orthophoto mask must be CV_8UC1 of the image's size");
   }
   OrbitalTemplate out;
   const cv::Mat valid =

@@ -118,7 +118,6 @@ PartConsistency CheckPartConsistency(const MaskedImage& hp_fixed, const MaskedIm
   const cv::Mat valid = ValidMask(hp_template);
   const int total = cv::countNonZero(valid);
   const ShiftWindow shifts = ShiftWindow::Around(match_shift.x, match_shift.y, radius);
-  const cv::Point match(match_shift);
   // Each quadrant is correlated as a template of its own: at template shift s its top-left
   // pixel lies at s + region.tl(), so its shifts are the template's moved by that corner.
   tbb::parallel_for(0, static_cast<int>(out.parts.size()), [&](int k) {
@@ -137,7 +136,7 @@ PartConsistency CheckPartConsistency(const MaskedImage& hp_fixed, const MaskedIm
                     shifts.min_shift_y + corner.y, shifts.max_shift_y + corner.y};
     const MaskedNccSurface s =
         MaskedNcc(hp_fixed.image, hp_fixed.mask, hp_template.image(part.region), mask, options);
-    MeasurePart(s, match + corner, radius, &part);
+    MeasurePart(s, match_shift + corner, radius, &part);
   });
   for (int k = 0; k < static_cast<int>(out.parts.size()); ++k) {
     const PartFit& p = out.parts[k];

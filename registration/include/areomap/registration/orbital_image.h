@@ -33,7 +33,8 @@ struct OrthoImage {
   std::optional<int> site;
   std::optional<Geographic> site_origin;
 
-  // A mask that is nonzero exactly where the pixel is usable (finite and mask-valid).
+  // A mask that is nonzero exactly where the pixel is usable (finite and mask-valid). Throws
+  // areomap::Error naming `source` for an image not CV_32FC1 or a mask not CV_8UC1 of its size.
   cv::Mat ValidMask() const;
 };
 
