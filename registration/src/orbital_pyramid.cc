@@ -76,27 +76,31 @@ MaskedImage DownsampleMasked(const MaskedImage& level, double min_coverage) {
   // Along columns: every second row.
   MaskedImage out{cv::Mat(out_rows, out_cols, CV_32F), cv::Mat(out_rows, out_cols, CV_8U)};
   const float coverage = static_cast<float>(min_coverage);
-  tbb::parallel_for(0, out_rows, [&](int r) {
-    float* value = out.image.ptr<float>(r);
-    uchar* valid = out.mask.ptr<uchar>(r);
-    std::fill(value, value + out_cols, 0.0f);
-    std::vector<float> weight(out_cols, 0.0f);
-    for (int t = 0; t < kTapCount; ++t) {
-      const int y = 2 * r + t - kHalfGaussian;
-      if (y < 0 || y >= rows) continue;
-      const float* hv = half_value.ptr<float>(y);
-      const float* hw = half_weight.ptr<float>(y);
-      for (int c = 0; c < out_cols; ++c) {
-        value[c] += taps[t] * hv[c];
-        weight[c] += taps[t] * hw[c];
-      }
-    }
-    for (int c = 0; c < out_cols; ++c) {
-      const bool ok = weight[c] >= coverage;
-      value[c] = ok ? value[c] / weight[c] : std::numeric_limits<float>::quiet_NaN();
-      valid[c] = ok ? 255 : 0;
-    }
-  });
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, out_rows), [&](const tbb::blocked_range<int>& range) {
+        std::vector<float> weight(out_cols);  // One row's, reused along the range.
+        for (int r = range.begin(); r != range.end(); ++r) {
+          float* value = out.image.ptr<float>(r);
+          uchar* valid = out.mask.ptr<uchar>(r);
+          std::fill(value, value + out_cols, 0.0f);
+          std::fill(weight.begin(), weight.end(), 0.0f);
+          for (int t = 0; t < kTapCount; ++t) {
+            const int y = 2 * r + t - kHalfGaussian;
+            if (y < 0 || y >= rows) continue;
+            const float* hv = half_value.ptr<float>(y);
+            const float* hw = half_weight.ptr<float>(y);
+            for (int c = 0; c < out_cols; ++c) {
+              value[c] += taps[t] * hv[c];
+              weight[c] += taps[t] * hw[c];
+            }
+          }
+          for (int c = 0; c < out_cols; ++c) {
+            const bool ok = weight[c] >= coverage;
+            value[c] = ok ? value[c] / weight[c] : std::numeric_limits<float>::quiet_NaN();
+            valid[c] = ok ? 255 : 0;
+          }
+        }
+      });
   return out;
 }
 
