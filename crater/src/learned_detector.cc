@@ -32,8 +32,12 @@ constexpr int kPadMultiple = 8;          // input sizes must be multiples of thi
 constexpr double kDiameterUnitPx = 8.0;  // the size head predicts log(D / 8 px)
 constexpr int kNormalizeBoxPx = 31;      // local mean / std window
 constexpr float kNormalizeClip = 4.0f;
-constexpr double kBandLowPx = 12.0;  // a level above 0 reports 12-24 px of its own
+constexpr double kBandLowPx = 12.0;  // a level's own band: 12-24 px of its own (level 0: < 24)
 constexpr double kBandHighPx = 24.0;
+// Each level reports beyond its own band by this factor on either side; duplicates of two levels
+// are then suppressed. Without the overlap, a crater whose diameter one level puts just above a
+// band edge and the next just below it was reported by neither.
+constexpr double kBandOverlap = 1.5;
 constexpr int kMinLevelSizePx = 48;  // no level smaller than this
 // Margin of a level tile [px of the level]: the normalisation's half box (15) plus the
 // network's half receptive field (~37), rounded up to a multiple of 8 so that tiles keep the
@@ -43,6 +47,12 @@ constexpr int kTileMarginPx = 64;
 // fractions of the diameter: 1-sigma of the centre per axis and of the diameter.
 constexpr double kCircleCenterSigma = 0.053;
 constexpr double kCircleDiameterSigma = 0.108;
+// A circle without a rim fit meets the diameter limits when it does so within this many of its
+// sigmas: the network's diameters regress towards the middle of its range, so a circle measured
+// just under the lower limit is more often than not a crater at or over it (docs/crater-model.md:
+// true / predicted 1.10-1.13 for predictions of 6-10 px on the validation images).
+constexpr double kLimitSigmas = 2.0;
+constexpr double kCircleLimitTolerance = kLimitSigmas * kCircleDiameterSigma;
 // A rim fit replaces the circle only where it agrees with it: centres within a quarter of the
 // diameter, diameters within 25 %.
 constexpr double kRefineMaxShift = 0.25;
@@ -66,16 +76,17 @@ Pyramid PyramidOf(int width, int height) {
 }
 
 // The rim diameters [full-resolution px] that `level` reports, [lo, hi): level 0 everything under
-// 24 px, a level above it 12-24 px of its own, the last level everything from 12 px of its own.
+// 36 px, a level above it 8-36 px of its own (12-24 px widened by kBandOverlap), the last level
+// everything from 8 px of its own.
 struct DiameterBand {
   double lo = 0.0, hi = 0.0;
 };
 
 DiameterBand BandOf(const Pyramid& pyramid, int level) {
   const double f = std::ldexp(1.0, level);
-  if (level == 0) return {0.0, kBandHighPx};
   const bool last = level + 1 == pyramid.levels;
-  return {kBandLowPx * f, last ? std::numeric_limits<double>::infinity() : kBandHighPx * f};
+  return {level == 0 ? 0.0 : kBandLowPx / kBandOverlap * f,
+          last ? std::numeric_limits<double>::infinity() : kBandHighPx * kBandOverlap * f};
 }
 
 int TileCount(const cv::Size& size, int tile) {
@@ -248,6 +259,26 @@ std::optional<CraterDetection> FitRim(const LevelReader& read, const Pyramid& py
   return d;
 }
 
+// The diameters [full-resolution px] of a circle without a rim fit that meet the limits within
+// kCircleLimitTolerance, never under CraterDetectorOptions::kSmallestDiameterPx.
+DiameterBand CircleDiameterLimits(const CraterDetectorOptions& options) {
+  return {std::max(CraterDetectorOptions::kSmallestDiameterPx,
+                   options.min_diameter_px / (1.0 + kCircleLimitTolerance)),
+          options.max_diameter_px > 0.0 ? options.max_diameter_px / (1.0 - kCircleLimitTolerance)
+                                        : std::numeric_limits<double>::infinity()};
+}
+
+// Fitted rims within the diameter limits, circles within CircleDiameterLimits; in their order.
+std::vector<CraterDetection> KeepWithinLimitsOrUncertainty(std::vector<CraterDetection> detections,
+                                                           const CraterDetectorOptions& options) {
+  const DiameterBand circle = CircleDiameterLimits(options);
+  std::erase_if(detections, [&](const CraterDetection& d) {
+    if (d.rim_fitted) return KeepWithinDiameterLimits({d}, options).empty();
+    return d.Diameter() < circle.lo || d.Diameter() > circle.hi;
+  });
+  return detections;
+}
+
 std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, int height,
                                            const CraterDetectorOptions& options,
                                            const LearnedDetectorOptions& learned,
@@ -258,9 +289,8 @@ std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, i
   if (width <= 0 || height <= 0) return {};
   const Pyramid pyramid = PyramidOf(width, height);
   // Levels whose band cannot hold a crater of the asked diameters are not searched.
-  const double lo = 0.9 * options.min_diameter_px;
-  const double hi = options.max_diameter_px > 0.0 ? 1.1 * options.max_diameter_px
-                                                  : std::numeric_limits<double>::infinity();
+  const DiameterBand limits = CircleDiameterLimits(options);
+  const double lo = limits.lo, hi = limits.hi;
   const auto searched = [&](int level) {
     const DiameterBand band = BandOf(pyramid, level);
     return band.hi >= lo && band.lo <= hi;
@@ -291,7 +321,7 @@ std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, i
     circles = SuppressDuplicateCraters(std::move(refined));
   }
   ReportProgress(progress, 1.0, "craters: done");
-  return KeepWithinDiameterLimits(std::move(circles), options);
+  return KeepWithinLimitsOrUncertainty(std::move(circles), options);
 }
 
 }  // namespace

@@ -17,7 +17,8 @@ DIAMETER_UNIT_PX = 8.0      # the size head predicts log(D / DIAMETER_UNIT_PX)
 NORMALIZE_BOX_PX = 31       # local mean / std window [px of the level]
 NORMALIZE_CLIP = 4.0
 MIN_TRAIN_DIAMETER_PX = 4.0
-LEVEL_BAND_PX = (12.0, 24.0)  # diameters a pyramid level above 0 reports [px of that level]
+LEVEL_BAND_PX = (12.0, 24.0)  # a pyramid level's own diameters [px of that level] (level 0: < 24)
+LEVEL_BAND_OVERLAP = 1.5      # each level reports beyond its own band by this factor either side
 MIN_LEVEL_SIZE_PX = 48      # no pyramid level smaller than this
 
 
@@ -45,6 +46,7 @@ class CraterNet(nn.Module):
 
     def __init__(self, c=(12, 24, 32)):
         super().__init__()
+        self.channels = tuple(c)
         self.c1 = ConvBnRelu(1, c[0], stride=2)
         self.c2 = ConvBnRelu(c[0], c[0])
         self.c3 = ConvBnRelu(c[0], c[1], stride=2)
@@ -102,7 +104,8 @@ def pyramid(image):
 
 
 def detect(model, image, threshold):
-    """All pyramid levels, each keeping its band of diameters; duplicates suppressed."""
+    """All pyramid levels, each keeping its band of diameters (overlapping those of the levels
+    beside it); duplicates suppressed."""
     rows = []
     for level, img in enumerate(pyramid(image)):
         h, w = img.shape
@@ -111,13 +114,11 @@ def detect(model, image, threshold):
             out = model(torch.from_numpy(x)[None, None])[0].numpy()
         det = decode(out, threshold)
         det = det[(det[:, 0] < w) & (det[:, 1] < h)]
-        lo, hi = LEVEL_BAND_PX
-        if level == 0:
-            det = det[det[:, 2] < hi]
-        else:
+        lo, hi = LEVEL_BAND_PX[0] / LEVEL_BAND_OVERLAP, LEVEL_BAND_PX[1] * LEVEL_BAND_OVERLAP
+        if level > 0:
             det = det[det[:, 2] >= lo]
-            if (min(h, w) // 2) >= MIN_LEVEL_SIZE_PX:
-                det = det[det[:, 2] < hi]
+        if (min(h, w) // 2) >= MIN_LEVEL_SIZE_PX:  # not the last level
+            det = det[det[:, 2] < hi]
         f = 2.0 ** level
         det[:, :3] *= f
         rows.append(det)

@@ -243,6 +243,29 @@ def evaluate(model, items, min_diameter, thresholds):
     return out
 
 
+class WeightAverage:
+    """Exponential moving average of the weights and BatchNorm statistics: less noisy from one
+    checkpoint to the next than the raw weights. decay 0 keeps the raw weights."""
+
+    def __init__(self, model, decay):
+        self.decay = decay
+        self.state = {k: v.detach().clone() for k, v in model.state_dict().items()}
+
+    def update(self, model):
+        with torch.no_grad():
+            for k, v in model.state_dict().items():
+                if v.dtype.is_floating_point and self.decay > 0.0:
+                    self.state[k].mul_(self.decay).add_(v.detach(), alpha=1.0 - self.decay)
+                else:
+                    self.state[k].copy_(v)
+
+    def model(self, like):
+        """A copy of `like` holding the averaged weights."""
+        averaged = type(like)(like.channels)
+        averaged.load_state_dict(self.state)
+        return averaged
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", required=True, help="the ctx-mc11e folder")
@@ -264,6 +287,11 @@ def main():
     ap.add_argument("--generated", help="folder of generated scenes (areomap_crater_training_scenes)")
     ap.add_argument("--generated-fraction", type=float, default=0.3,
                     help="share of the crops drawn from --generated")
+    ap.add_argument("--ema", type=float, default=0.999,
+                    help="decay of the weights' exponential moving average that is evaluated and "
+                         "exported (0: the raw weights)")
+    ap.add_argument("--channels", default="12,24,32",
+                    help="channels at 1/2, 1/4 and 1/8 of the input resolution")
     args = ap.parse_args()
 
     torch.manual_seed(args.seed)
@@ -275,7 +303,7 @@ def main():
     generated = load_generated(args.generated) if args.generated else []
     sampler = Sampler(train, args.crop, rng, args.min_prefilter, args.sharpen, generated,
                       args.generated_fraction)
-    model = crater_net.CraterNet()
+    model = crater_net.CraterNet(tuple(int(c) for c in args.channels.split(",")))
     if args.init:
         model.load_state_dict(torch.load(args.init))
     print(f"parameters: {sum(p.numel() for p in model.parameters())}", flush=True)
@@ -286,6 +314,7 @@ def main():
     best = (-1.0, None, None)
     start = time.time()
     history = []
+    ema = WeightAverage(model, args.ema)
     for it in range(1, args.iterations + 1):
         x, heat, weight, reg, mask = batch(sampler, args.crop, args)
         out = model(x)
@@ -297,11 +326,12 @@ def main():
         loss.backward()
         opt.step()
         sched.step()
+        ema.update(model)
         if it % 50 == 0:
             print(f"it {it} loss {loss.item():.3f} (heat {hm_loss.item():.3f} reg "
                   f"{reg_loss.item():.3f}) {time.time() - start:.0f} s", flush=True)
         if it % args.eval_every == 0 or it == args.iterations:
-            scores = evaluate(model, val, 8.0, thresholds)
+            scores = evaluate(ema.model(model), val, 8.0, thresholds)
             t_best = max(scores, key=lambda t: scores[t][2])
             p, r, f1 = scores[t_best]
             history.append({"iteration": it, "threshold": t_best, "precision": p, "recall": r,
@@ -309,7 +339,8 @@ def main():
             print(f"val it {it}: best threshold {t_best} P {p:.3f} R {r:.3f} F1 {f1:.3f}",
                   flush=True)
             if f1 > best[0]:
-                best = (f1, t_best, {k: v.clone() for k, v in model.state_dict().items()})
+                best = (f1, t_best, {k: v.clone() for k, v in ema.state.items()})
+    model = crater_net.CraterNet(model.channels)
     model.load_state_dict(best[2])
     model.eval()
     crater_net.export_onnx(model, args.out)
