@@ -99,7 +99,8 @@ void AddCraterDetectionOptions(CLI::App* cmd, CratersArgs* args) {
       ->capture_default_str();
   // At least 4 px, checked in px once --units and the raster's pixel size are known.
   cmd->add_option("--min-diameter", args->image.min_diameter,
-                  "Smallest rim diameter (at least 4 px)")
+                  "Smallest rim diameter (at least 4 px); the network's circles without a rim "
+                  "fit meet it and --max-diameter within 2 sigma (docs/crater-model.md)")
       ->check(PositiveNumber())
       ->capture_default_str();
   cmd->add_option("--max-diameter", args->image.max_diameter, "Largest rim diameter (0: no limit)")

@@ -1,11 +1,13 @@
 // Generated crater scenes for training the crater network (scripts/crater_model/train.py
 // --generated DIR): orbital images rendered by the mission generator (fractal terrain, fresh bowl
-// and flat-floored craters with raised rims, Lambertian shading with cast shadows, MTF, noise,
-// 10-bit) with every crater's rim as truth. They add what the CTX catalogue has little of: crisp,
-// strongly shaded craters on rough ground under every sun, with complete labels.
+// and flat-floored craters with raised rims; with --degraded-share also degraded ones, shallower
+// with eroded rims and filled floors, and overlapping craters; Lambertian shading with cast
+// shadows, MTF, noise, 10-bit) with every crater's rim as truth. They add what the CTX catalogue
+// has little of: crisp, strongly shaded craters on rough ground under every sun, with complete
+// labels.
 //
 // Run: build/release/eval/areomap_crater_training_scenes --out DIR [--count N] [--size PX]
-//        [--seed N]
+//        [--seed N] [--degraded-share S]
 // Writes DIR/scene-NNN.png (16-bit DN) and DIR/scene-NNN_craters.csv (x_px, y_px, diameter_px,
 // annotators; pixel centres at +0.5 as the CTX labels, diameter = 2 sqrt(a b) of the rim crest,
 // annotators = 6: every crater is certain). Each scene draws its GSD, crater density and sizes,
@@ -33,7 +35,7 @@ struct SceneDraw {
   double dtm_posting_m = 0.0;
 };
 
-SceneDraw DrawScene(std::mt19937& rng, int size_px) {
+SceneDraw DrawScene(std::mt19937& rng, int size_px, double degraded_share) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const auto log_uniform = [&](double lo, double hi) {
     return std::exp(std::log(lo) + unit(rng) * (std::log(hi) - std::log(lo)));
@@ -59,6 +61,13 @@ SceneDraw DrawScene(std::mt19937& rng, int size_px) {
   // No rock_path: the scene has no rocks.
   scene.seed = static_cast<uint32_t>(rng());
   d.dtm_posting_m = 8.0 * image.gsd_m;
+  if (degraded_share > 0.0) {
+    // Older surfaces: degraded craters beside fresh ones, craters that may overlap. Drawn only
+    // when asked for, so that the default set stays the one the built-in model was trained on.
+    const bool degraded = unit(rng) >= 1.0 - degraded_share;
+    scene.crater_max_degradation = degraded ? 0.3 + 0.55 * unit(rng) : 0.0;
+    scene.crater_min_spacing = 0.7 + 0.6 * unit(rng);
+  }
   return d;
 }
 
@@ -85,16 +94,20 @@ int main(int argc, char** argv) {
   std::filesystem::path out;
   int count = 64, size_px = 512;
   uint32_t seed = 11;
+  double degraded_share = 0.0;
   CLI::App app{"Generated crater scenes for training the crater network"};
   app.add_option("--out", out, "Folder for scene-NNN.png and scene-NNN_craters.csv")->required();
   app.add_option("--count", count, "Number of scenes")->check(CLI::Range(1, 100000));
   app.add_option("--size", size_px, "Image side [px]")->check(CLI::Range(64, 16384));
   app.add_option("--seed", seed, "Seed of every random draw");
+  app.add_option("--degraded-share", degraded_share,
+                 "Share of the scenes with degraded craters; above 0 craters may also overlap")
+      ->check(CLI::Range(0.0, 1.0));
   CLI11_PARSE(app, argc, argv);
   std::filesystem::create_directories(out);
   std::mt19937 rng(seed);
   for (int i = 0; i < count; ++i) {
-    const SceneDraw d = DrawScene(rng, size_px);
+    const SceneDraw d = DrawScene(rng, size_px, degraded_share);
     const areomap::testing::CraterScene s =
         areomap::testing::MakeCraterScene(d.scene, d.image, d.dtm_posting_m);
     char stem[32];

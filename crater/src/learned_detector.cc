@@ -34,10 +34,12 @@ constexpr int kNormalizeBoxPx = 31;      // local mean / std window
 constexpr float kNormalizeClip = 4.0f;
 constexpr double kBandLowPx = 12.0;  // a level's own band: 12-24 px of its own (level 0: < 24)
 constexpr double kBandHighPx = 24.0;
-// Each level reports beyond its own band by this factor on either side; duplicates of two levels
-// are then suppressed. Without the overlap, a crater whose diameter one level puts just above a
-// band edge and the next just below it was reported by neither.
-constexpr double kBandOverlap = 1.5;
+// A level above 0 also reports craters down to its band's lower edge / this factor, which the
+// next finer level reports too; duplicates of two levels are then suppressed. Without the overlap
+// a crater whose diameter the finer level put just over its band and the coarser level just under
+// its own was reported by neither. The bands are not widened upwards: a finer level does not see
+// a larger crater whole, and takes its floor and walls for craters.
+constexpr double kBandOverlap = 1.25;
 constexpr int kMinLevelSizePx = 48;  // no level smaller than this
 // Margin of a level tile [px of the level]: the normalisation's half box (15) plus the
 // network's half receptive field (~37), rounded up to a multiple of 8 so that tiles keep the
@@ -76,8 +78,8 @@ Pyramid PyramidOf(int width, int height) {
 }
 
 // The rim diameters [full-resolution px] that `level` reports, [lo, hi): level 0 everything under
-// 36 px, a level above it 8-36 px of its own (12-24 px widened by kBandOverlap), the last level
-// everything from 8 px of its own.
+// 24 px, a level above it 9.6-24 px of its own (12-24 px widened down by kBandOverlap), the last
+// level everything from 9.6 px of its own.
 struct DiameterBand {
   double lo = 0.0, hi = 0.0;
 };
@@ -86,7 +88,7 @@ DiameterBand BandOf(const Pyramid& pyramid, int level) {
   const double f = std::ldexp(1.0, level);
   const bool last = level + 1 == pyramid.levels;
   return {level == 0 ? 0.0 : kBandLowPx / kBandOverlap * f,
-          last ? std::numeric_limits<double>::infinity() : kBandHighPx * kBandOverlap * f};
+          last ? std::numeric_limits<double>::infinity() : kBandHighPx * f};
 }
 
 int TileCount(const cv::Size& size, int tile) {

@@ -79,8 +79,19 @@ Eigen::Matrix3d RockRotation(const Rock& r) {
   return rz * ry * rx;
 }
 
-// Explicit craters, then random non-overlapping fresh craters (d/D ~ 0.2) off the rock path,
-// numbered from 1.
+// An older crater: shallower, its rim lower still, its floor partly filled (SceneOptions::
+// crater_max_degradation). Keeps depth > rim_height.
+void Degrade(double g, Crater* c) {
+  c->depth *= 1.0 - g;
+  c->rim_height *= (1.0 - g) * (1.0 - g);
+  if (g > 0.3) {
+    c->flat_floor = true;
+    c->floor_fraction = std::max(c->floor_fraction, g);
+  }
+}
+
+// Explicit craters, then random craters (fresh, d/D ~ 0.2, unless degraded) spaced as the options
+// say, off the rock path, numbered from 1.
 std::vector<Crater> PlaceCraters(const SceneOptions& options, std::mt19937& rng,
                                  std::uniform_real_distribution<double>& unit) {
   std::vector<Crater> craters = options.explicit_craters;
@@ -103,8 +114,11 @@ std::vector<Crater> PlaceCraters(const SceneOptions& options, std::mt19937& rng,
     c.rim_height = diameter * (0.03 + 0.02 * unit(rng));
     c.flat_floor = unit(rng) < 0.3;
     c.floor_fraction = c.flat_floor ? 0.3 + 0.2 * unit(rng) : 0.0;
+    if (options.crater_max_degradation > 0.0)
+      Degrade(options.crater_max_degradation * unit(rng), &c);
     const bool overlaps = std::any_of(craters.begin(), craters.end(), [&](const Crater& o) {
-      return (o.center - c.center).norm() < 1.3 * (o.semi_major + c.semi_major);
+      return (o.center - c.center).norm() <
+             options.crater_min_spacing * (o.semi_major + c.semi_major);
     });
     const bool on_path = !options.rock_path.empty() &&
                          DistanceToPolyline(c.center, options.rock_path) < c.semi_major * 1.5;
@@ -274,6 +288,10 @@ void SceneOptions::Check() const {
   RequireOption(roughness_m >= 0.0, "SceneOptions.roughness_m", ">= 0");
   RequireOption(roughness_wavelength_m > 0.0, "SceneOptions.roughness_wavelength_m", "> 0");
   RequireOption(crater_count >= 0, "SceneOptions.crater_count", ">= 0");
+  RequireOption(crater_max_degradation >= 0.0 && crater_max_degradation <= 0.9,
+                "SceneOptions.crater_max_degradation", "0..0.9");
+  RequireOption(crater_min_spacing >= 0.5 && crater_min_spacing <= 3.0,
+                "SceneOptions.crater_min_spacing", "0.5..3");
   RequireOption(crater_min_diameter_m > 0.0 && crater_max_diameter_m >= crater_min_diameter_m,
                 "SceneOptions.crater_min_diameter_m", "0 < min <= crater_max_diameter_m");
   RequireOption(rock_abundance_k > 0.0 && rock_abundance_k < 1.0, "SceneOptions.rock_abundance_k",

@@ -18,7 +18,7 @@ NORMALIZE_BOX_PX = 31       # local mean / std window [px of the level]
 NORMALIZE_CLIP = 4.0
 MIN_TRAIN_DIAMETER_PX = 4.0
 LEVEL_BAND_PX = (12.0, 24.0)  # a pyramid level's own diameters [px of that level] (level 0: < 24)
-LEVEL_BAND_OVERLAP = 1.5      # each level reports beyond its own band by this factor either side
+LEVEL_BAND_OVERLAP = 1.25     # a level above 0 also reports down to its band's lower edge / this
 MIN_LEVEL_SIZE_PX = 48      # no pyramid level smaller than this
 
 
@@ -73,6 +73,17 @@ class CraterNet(nn.Module):
         return torch.cat([torch.sigmoid(o[:, 0:1]), o[:, 1:4]], 1)
 
 
+def load(weights_path):
+    """The network of a weights file (.pt, a state dict) in eval mode, its channel counts read from
+    the weights' shapes."""
+    state = torch.load(weights_path)
+    channels = tuple(int(state[f"{name}.0.weight"].shape[0]) for name in ("c1", "c3", "c5"))
+    model = CraterNet(channels)
+    model.load_state_dict(state)
+    model.eval()
+    return model
+
+
 def pad_to_multiple(x):
     h, w = x.shape
     ph = (-h) % PAD_MULTIPLE
@@ -104,8 +115,8 @@ def pyramid(image):
 
 
 def detect(model, image, threshold):
-    """All pyramid levels, each keeping its band of diameters (overlapping those of the levels
-    beside it); duplicates suppressed."""
+    """All pyramid levels, each keeping its band of diameters (reaching down into the next finer
+    level's); duplicates suppressed."""
     rows = []
     for level, img in enumerate(pyramid(image)):
         h, w = img.shape
@@ -114,7 +125,7 @@ def detect(model, image, threshold):
             out = model(torch.from_numpy(x)[None, None])[0].numpy()
         det = decode(out, threshold)
         det = det[(det[:, 0] < w) & (det[:, 1] < h)]
-        lo, hi = LEVEL_BAND_PX[0] / LEVEL_BAND_OVERLAP, LEVEL_BAND_PX[1] * LEVEL_BAND_OVERLAP
+        lo, hi = LEVEL_BAND_PX[0] / LEVEL_BAND_OVERLAP, LEVEL_BAND_PX[1]
         if level > 0:
             det = det[det[:, 2] >= lo]
         if (min(h, w) // 2) >= MIN_LEVEL_SIZE_PX:  # not the last level

@@ -36,9 +36,7 @@ def main():
     weights, data = sys.argv[1], sys.argv[2]
     threshold = float(sys.argv[3]) if len(sys.argv) > 3 else 0.35
     torch.set_num_threads(2)
-    model = crater_net.CraterNet()
-    model.load_state_dict(torch.load(weights))
-    model.eval()
+    model = crater_net.load(weights)
     sets = [("ctx-held-out", os.path.join(data, "craters-train/ctx-mc11e", f"MC11E-{c}.png"), 2)
             for c in HELD_OUT]
     sets.append(("hrsc-north", os.path.join(data, "craters/hrsc_nanedi_north.png"), 0))

@@ -9,7 +9,6 @@ import sys
 
 import cv2
 import numpy as np
-import torch
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import crater_net  # noqa: E402
@@ -19,9 +18,7 @@ X0, Y0, SIZE = 700, 300, 256  # the crop; the test holds the same numbers
 
 def main():
     data, weights = sys.argv[1], sys.argv[2]
-    model = crater_net.CraterNet()
-    model.load_state_dict(torch.load(weights))
-    model.eval()
+    model = crater_net.load(weights)
     image = cv2.imread(os.path.join(data, "craters", "hrsc_nanedi_north.png"), cv2.IMREAD_UNCHANGED)
     crop = image[Y0:Y0 + SIZE, X0:X0 + SIZE].astype(np.float32)
     threshold = float(sys.argv[3]) if len(sys.argv) > 3 else 0.35

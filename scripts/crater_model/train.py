@@ -244,8 +244,8 @@ def evaluate(model, items, min_diameter, thresholds):
 
 
 class WeightAverage:
-    """Exponential moving average of the weights and BatchNorm statistics: less noisy from one
-    checkpoint to the next than the raw weights. decay 0 keeps the raw weights."""
+    """Exponential moving average of the weights and BatchNorm statistics; decay 0 keeps the raw
+    weights."""
 
     def __init__(self, model, decay):
         self.decay = decay
@@ -260,7 +260,9 @@ class WeightAverage:
                     self.state[k].copy_(v)
 
     def model(self, like):
-        """A copy of `like` holding the averaged weights."""
+        """A copy of `like` holding the averaged weights (`like` itself without averaging)."""
+        if self.decay <= 0.0:
+            return like
         averaged = type(like)(like.channels)
         averaged.load_state_dict(self.state)
         return averaged
@@ -287,9 +289,10 @@ def main():
     ap.add_argument("--generated", help="folder of generated scenes (areomap_crater_training_scenes)")
     ap.add_argument("--generated-fraction", type=float, default=0.3,
                     help="share of the crops drawn from --generated")
-    ap.add_argument("--ema", type=float, default=0.999,
-                    help="decay of the weights' exponential moving average that is evaluated and "
-                         "exported (0: the raw weights)")
+    ap.add_argument("--ema", type=float, default=0.0,
+                    help="decay of an exponential moving average of the weights that is evaluated "
+                         "and exported instead of the raw weights, e.g. 0.999 (0: none, as the "
+                         "built-in model was trained)")
     ap.add_argument("--channels", default="12,24,32",
                     help="channels at 1/2, 1/4 and 1/8 of the input resolution")
     args = ap.parse_args()
@@ -305,7 +308,8 @@ def main():
                       args.generated_fraction)
     model = crater_net.CraterNet(tuple(int(c) for c in args.channels.split(",")))
     if args.init:
-        model.load_state_dict(torch.load(args.init))
+        model = crater_net.load(args.init)
+        model.train()
     print(f"parameters: {sum(p.numel() for p in model.parameters())}", flush=True)
     opt = torch.optim.AdamW(model.parameters(), lr=args.lr, weight_decay=1e-4)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=args.lr, total_steps=args.iterations,

@@ -104,7 +104,7 @@ TEST(DetectCratersInRaster, CombinedKeepsTheEdgeDetectorsAccuracyOnGeneratedCrat
 }
 
 // The real HRSC image (never trained on), default options with no sun given: F1 >= 8 px measured
-// 0.537 against 0.444 for the edge detector alone and 0.496 for the network alone.
+// 0.595 against 0.444 for the edge detector alone and 0.580 for the network alone.
 TEST(DetectCratersInRaster, CombinedOnTheHrscImageBeatsEitherDetectorAlone) {
   SKIP_WITHOUT_SHARED_DATA();
   const auto dir = testing::SharedDataDir() / "craters";
@@ -116,7 +116,7 @@ TEST(DetectCratersInRaster, CombinedOnTheHrscImageBeatsEitherDetectorAlone) {
   const CraterScore score = ScoreCraters(
       truth, CirclesOf(DetectCratersInRaster(dataset, RimSource::kImage, options)), {8.0, 1e9});
   RecordProperty("f1_ge_8px", std::to_string(score.all.f1));
-  EXPECT_GE(score.all.f1, 0.52);
+  EXPECT_GE(score.all.f1, 0.57);
 }
 
 }  // namespace

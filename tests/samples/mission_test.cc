@@ -175,6 +175,64 @@ TEST(Scene, RocksBeyondMaxRocksAreAnErrorNotAThinnedField) {
   EXPECT_GT(scene.rocks().size(), 2000u);
 }
 
+// Whether a scene with `options` is refused with an error naming `field`.
+bool RefusedNaming(const SceneOptions& options, const std::string& field) {
+  try {
+    const Scene scene(options);
+  } catch (const Error& e) {
+    return std::string(e.what()).find(field) != std::string::npos;
+  }
+  return false;
+}
+
+// Fresh craters have d/D >= 0.15. Degraded ones may be as shallow as (1 - max) of that, keep their
+// rims below their depths, and the strongly degraded have filled (flat) floors.
+TEST(Scene, DegradedCratersAreShallowerWithLowerRimsAndFilledFloors) {
+  SceneOptions options;
+  options.crater_count = 60;
+  options.crater_min_diameter_m = 10.0;
+  options.crater_max_diameter_m = 40.0;
+  const Scene fresh(options);
+  const auto depth_ratio = [](const Crater& c) { return c.depth / (2.0 * c.semi_major); };
+  for (const Crater& c : fresh.craters()) EXPECT_GE(depth_ratio(c), 0.15 - 1e-12);
+  options.crater_max_degradation = 0.85;
+  const Scene old(options);
+  int shallow = 0, filled = 0;
+  for (const Crater& c : old.craters()) {
+    EXPECT_GT(c.depth, c.rim_height);
+    EXPECT_GE(depth_ratio(c), 0.15 * (1.0 - 0.85) - 1e-12);
+    if (depth_ratio(c) < 0.1) ++shallow;
+    if (c.flat_floor && c.floor_fraction > 0.5) ++filled;
+  }
+  EXPECT_GE(shallow, 10);
+  EXPECT_GE(filled, 5);
+  options.crater_max_degradation = 0.95;
+  EXPECT_TRUE(RefusedNaming(options, "SceneOptions.crater_max_degradation"));
+}
+
+TEST(Scene, CraterSpacingUnderOneLetsCratersOverlap) {
+  SceneOptions options;
+  options.half_extent_m = 100.0;
+  options.crater_count = 40;
+  options.crater_min_diameter_m = 20.0;
+  options.crater_max_diameter_m = 40.0;
+  const auto overlapping_pairs = [](const Scene& scene) {
+    int n = 0;
+    const std::vector<Crater>& c = scene.craters();
+    for (size_t i = 0; i < c.size(); ++i) {
+      for (size_t j = i + 1; j < c.size(); ++j) {
+        if ((c[i].center - c[j].center).norm() < c[i].semi_major + c[j].semi_major) ++n;
+      }
+    }
+    return n;
+  };
+  EXPECT_EQ(overlapping_pairs(Scene(options)), 0);
+  options.crater_min_spacing = 0.6;
+  EXPECT_GT(overlapping_pairs(Scene(options)), 0);
+  options.crater_min_spacing = 0.4;
+  EXPECT_TRUE(RefusedNaming(options, "SceneOptions.crater_min_spacing"));
+}
+
 TEST(Mission, CraterRimsInTheOrbitalDtmLieOnTheTrueEllipses) {
   testing::TempDir dir;
   const MissionOptions options = SmallMission();

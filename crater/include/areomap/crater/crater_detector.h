@@ -61,7 +61,9 @@ enum class RimSource {
 struct CraterDetectorOptions {
   static constexpr double kSmallestDiameterPx = 4.0;  // the least min_diameter_px accepted
   // Limits of the rim diameter a + b reported [px]; the search reaches 10 % beyond them, so that
-  // a crater measured near a limit on a coarse level is not lost before its final fit.
+  // a crater measured near a limit on a coarse level is not lost before its final fit. The
+  // learned detector keeps a circle without a rim fit that meets them within 2 sigma of its
+  // diameter (learned_detector.h).
   double min_diameter_px = 8.0;           // >= kSmallestDiameterPx
   double max_diameter_px = 0.0;           // 0: no limit besides the raster size
   std::optional<double> sun_azimuth_deg;  // image only; enables the shading checks

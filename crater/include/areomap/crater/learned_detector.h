@@ -4,9 +4,10 @@
 //
 // The network sees a locally contrast-normalised image (any gain, offset and bit depth) and
 // predicts, on a grid of half the input's resolution, a crater-centre heat map, the centre's
-// offset and the rim diameter. Level l of the pyramid (2^l x 2^l box averages) reports craters of
-// 12-24 px of that level (level 0: under 24 px), so every crater is found where it spans 12-24 px
-// and the work is 4/3 of one full-resolution pass. Levels run in tiles with a margin wider than
+// offset and the rim diameter. Level l of the pyramid (2^l x 2^l box averages) finds craters of
+// 12-24 px of that level (level 0: under 24 px) and also reports those of 9.6-12 px, so that a
+// crater near a band edge is not lost between two levels (duplicates suppressed); the work is 4/3
+// of one full-resolution pass. Levels run in tiles with a margin wider than
 // the network's reach, so a tiled raster gives the same craters as a whole one. The model, its
 // training data and its scores: docs/crater-model.md; retraining: scripts/crater_model/train.py.
 //
@@ -63,9 +64,10 @@ cv::Mat NormalizeForCraterNetwork(const cv::Mat& image);
 // tiles). A raster over 64 MB as Float32 also takes about a third of its Float32 size on the
 // temporary folder's disk for its pyramid levels, in files unlinked at once (without room there it
 // reads the levels from the raster, slower). Diameter limits from `options` (min_diameter_px,
-// max_diameter_px); the rim fits use
-// `options`' edge settings. Sorted by decreasing confidence (the heat-map peak). Progress per
-// tile; cancelling throws areomap::Error.
+// max_diameter_px): fitted rims within them, circles without a rim fit within them or within
+// 2 sigma of their diameter (never under 4 px), as the network's diameters regress towards the
+// middle of its range (docs/crater-model.md). The rim fits use `options`' edge settings. Sorted by
+// decreasing confidence (the heat-map peak). Progress per tile; cancelling throws areomap::Error.
 std::vector<CraterDetection> DetectCratersLearned(const RasterDataset& dataset,
                                                   const CraterDetectorOptions& options,
                                                   const LearnedDetectorOptions& learned = {},

@@ -60,6 +60,13 @@ struct SceneOptions {
   int crater_count = 12;                 // Craters besides the explicit ones.
   double crater_min_diameter_m = 8.0;    // Table 2.2 range.
   double crater_max_diameter_m = 120.0;
+  // Degradation of the random craters, in [0, 0.9]: each draws g in [0, max] (none drawn at 0),
+  // its depth shrinks by (1 - g), its rim by (1 - g)^2 (rims erode first) and a floor fills in
+  // (flat, g of the rim radius, from g > 0.3). 0: fresh craters only.
+  double crater_max_degradation = 0.0;
+  // Random craters' centres lie at least this times the sum of their radii apart; under 1 they
+  // overlap (their reliefs add). In [0.5, 3].
+  double crater_min_spacing = 1.3;
   std::vector<Crater> explicit_craters;  // E.g. a Victoria-sized crater for a preset.
   // Rocks: Golombek & Rapp (1997) F(D) = k exp(-q D), q = 1.79 + 0.152 / k, placed within
   // `rock_corridor_m` of the polyline `rock_path` (the traverse). More than `max_rocks` at that
