@@ -261,22 +261,25 @@ std::optional<CraterDetection> FitRim(const LevelReader& read, const Pyramid& py
   return d;
 }
 
-// The diameters [full-resolution px] of a circle without a rim fit that meet the limits within
-// kCircleLimitTolerance, never under CraterDetectorOptions::kSmallestDiameterPx.
-DiameterBand CircleDiameterLimits(const CraterDetectorOptions& options) {
+// The diameters [full-resolution px] that meet options' limits within `tolerance` (a fraction of
+// the diameter): [min / (1 + tolerance), max / (1 - tolerance)], never under
+// CraterDetectorOptions::kSmallestDiameterPx; tolerance 0 gives the limits themselves.
+DiameterBand DiameterLimits(const CraterDetectorOptions& options, double tolerance) {
   return {std::max(CraterDetectorOptions::kSmallestDiameterPx,
-                   options.min_diameter_px / (1.0 + kCircleLimitTolerance)),
-          options.max_diameter_px > 0.0 ? options.max_diameter_px / (1.0 - kCircleLimitTolerance)
+                   options.min_diameter_px / (1.0 + tolerance)),
+          options.max_diameter_px > 0.0 ? options.max_diameter_px / (1.0 - tolerance)
                                         : std::numeric_limits<double>::infinity()};
 }
 
-// Fitted rims within the diameter limits, circles within CircleDiameterLimits; in their order.
+// Fitted rims within the diameter limits, circles within kCircleLimitTolerance of them; in their
+// order.
 std::vector<CraterDetection> KeepWithinLimitsOrUncertainty(std::vector<CraterDetection> detections,
                                                            const CraterDetectorOptions& options) {
-  const DiameterBand circle = CircleDiameterLimits(options);
+  const DiameterBand rims = DiameterLimits(options, 0.0);
+  const DiameterBand circles = DiameterLimits(options, kCircleLimitTolerance);
   std::erase_if(detections, [&](const CraterDetection& d) {
-    if (d.rim_fitted) return KeepWithinDiameterLimits({d}, options).empty();
-    return d.Diameter() < circle.lo || d.Diameter() > circle.hi;
+    const DiameterBand& band = d.rim_fitted ? rims : circles;
+    return d.Diameter() < band.lo || d.Diameter() > band.hi;
   });
   return detections;
 }
@@ -291,7 +294,7 @@ std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, i
   if (width <= 0 || height <= 0) return {};
   const Pyramid pyramid = PyramidOf(width, height);
   // Levels whose band cannot hold a crater of the asked diameters are not searched.
-  const DiameterBand limits = CircleDiameterLimits(options);
+  const DiameterBand limits = DiameterLimits(options, kCircleLimitTolerance);
   const double lo = limits.lo, hi = limits.hi;
   const auto searched = [&](int level) {
     const DiameterBand band = BandOf(pyramid, level);

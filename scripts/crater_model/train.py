@@ -244,24 +244,31 @@ def evaluate(model, items, min_diameter, thresholds):
 
 
 class WeightAverage:
-    """Exponential moving average of the weights and BatchNorm statistics; decay 0 keeps the raw
-    weights."""
+    """Exponential moving average of the weights and BatchNorm statistics; with decay 0 there is
+    none and the raw weights stand for it."""
 
     def __init__(self, model, decay):
         self.decay = decay
-        self.state = {k: v.detach().clone() for k, v in model.state_dict().items()}
+        self.state = ({k: v.detach().clone() for k, v in model.state_dict().items()}
+                      if decay > 0.0 else None)
 
     def update(self, model):
+        if self.state is None:
+            return
         with torch.no_grad():
             for k, v in model.state_dict().items():
-                if v.dtype.is_floating_point and self.decay > 0.0:
+                if v.dtype.is_floating_point:
                     self.state[k].mul_(self.decay).add_(v.detach(), alpha=1.0 - self.decay)
                 else:
                     self.state[k].copy_(v)
 
+    def weights(self, model):
+        """The averaged weights, or `model`'s own without averaging."""
+        return model.state_dict() if self.state is None else self.state
+
     def model(self, like):
         """A copy of `like` holding the averaged weights (`like` itself without averaging)."""
-        if self.decay <= 0.0:
+        if self.state is None:
             return like
         averaged = type(like)(like.channels)
         averaged.load_state_dict(self.state)
@@ -343,7 +350,7 @@ def main():
             print(f"val it {it}: best threshold {t_best} P {p:.3f} R {r:.3f} F1 {f1:.3f}",
                   flush=True)
             if f1 > best[0]:
-                best = (f1, t_best, {k: v.clone() for k, v in ema.state.items()})
+                best = (f1, t_best, {k: v.clone() for k, v in ema.weights(model).items()})
     model = crater_net.CraterNet(model.channels)
     model.load_state_dict(best[2])
     model.eval()
