@@ -10,6 +10,7 @@
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 
+#include "areomap/crater/same_crater.h"
 #include "areomap/crater/shading_hypotheses.h"
 #include "areomap/crater/upsample.h"
 #include "areomap/map/error.h"
@@ -586,11 +587,9 @@ std::vector<CraterDetection> SuppressDuplicateCraters(std::vector<CraterDetectio
   std::vector<CraterDetection> kept;
   for (const CraterDetection& d : detections) {
     const bool duplicate = std::any_of(kept.begin(), kept.end(), [&](const CraterDetection& k) {
-      const double rd = d.ellipse.MeanRadius(), rk = k.ellipse.MeanRadius();
-      const double distance = (d.ellipse.center - k.ellipse.center).norm();
-      const double lo = std::min(rd, rk), hi = std::max(rd, rk);
       // The same rim, or a concentric inner edge (floor, shadow) of a more confident crater.
-      return (distance < 0.5 * lo && hi < 1.3 * lo) || (distance < 0.5 * hi && hi < 1.6 * lo);
+      return SameCraterOrConcentric({d.ellipse.center, 2.0 * d.ellipse.MeanRadius()},
+                                    {k.ellipse.center, 2.0 * k.ellipse.MeanRadius()});
     });
     if (!duplicate) kept.push_back(d);
   }

@@ -271,9 +271,9 @@ std::vector<CraterDetection> DetectCratersInImage(const cv::Mat& image, RimSourc
     return DetectCratersLearned(image, o, o.learned, progress);
   std::vector<CraterDetection> rims =
       DetectCraters(image, source, EdgeDetectorHalf(o), SubProgress(progress, 0.0, 0.3));
-  return MergeEdgeAndLearnedCraters(
-      std::move(rims),
-      DetectCratersLearned(image, NetworkHalf(o), o.learned, SubProgress(progress, 0.3, 1.0)));
+  internal::LearnedFinds found = internal::DetectCratersLearnedInImage(
+      image, NetworkHalf(o), o.learned, /*with_support=*/true, SubProgress(progress, 0.3, 1.0));
+  return MergeEdgeAndLearnedCraters(std::move(rims), found.craters, found.support);
 }
 
 std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset, RimSource source,
@@ -288,9 +288,9 @@ std::vector<CraterDetection> DetectCratersInRaster(const RasterDataset& dataset,
     const internal::RasterLevels levels(dataset, /*decode_once=*/true);
     std::vector<CraterDetection> rims =
         DetectEdgesInRaster(levels, source, EdgeDetectorHalf(o), SubProgress(progress, 0.0, 0.3));
-    return MergeEdgeAndLearnedCraters(
-        std::move(rims), internal::DetectCratersLearnedOn(levels, NetworkHalf(o), o.learned,
-                                                          SubProgress(progress, 0.3, 1.0)));
+    internal::LearnedFinds found = internal::DetectCratersLearnedOn(
+        levels, NetworkHalf(o), o.learned, /*with_support=*/true, SubProgress(progress, 0.3, 1.0));
+    return MergeEdgeAndLearnedCraters(std::move(rims), found.craters, found.support);
   }
   // The edge detector reads each tile once: no level files.
   return DetectEdgesInRaster(internal::RasterLevels(dataset, /*decode_once=*/false), source, o,

@@ -41,6 +41,9 @@ constexpr double kBandHighPx = 24.0;
 // a larger crater whole, and takes its floor and walls for craters.
 constexpr double kBandOverlap = 1.25;
 constexpr int kMinLevelSizePx = 48;  // no level smaller than this
+// The network is not asked for craters wider than this [px of a level] (train.py
+// --max-net-diameter): a rim wider at the coarsest level lies beyond its reach.
+constexpr double kNetworkMaxDiameterPx = 48.0;
 // Margin of a level tile [px of the level]: the normalisation's half box (15) plus the
 // network's half receptive field (~37), rounded up to a multiple of 8 so that tiles keep the
 // stride-8 grid of the whole level and give the same outputs.
@@ -146,10 +149,11 @@ double NodataShare(const cv::Mat& nodata, double x, double y, double radius) {
   return inside > 0 ? static_cast<double>(missing) / inside : 1.0;
 }
 
-// The network's peaks on one pyramid level, tile by tile, in full-resolution pixels.
+// The network's peaks >= `min_score` on one pyramid level, tile by tile, in full-resolution
+// pixels.
 std::vector<Peak> DetectOnLevel(CraterNetwork& network, const LevelReader& read, int level,
                                 const Pyramid& pyramid, const LearnedDetectorOptions& learned,
-                                const std::function<void()>& tile_done) {
+                                double min_score, const std::function<void()>& tile_done) {
   const cv::Size size = pyramid.LevelSize(level);
   const DiameterBand band = BandOf(pyramid, level);
   const int tile = learned.tile_size;
@@ -181,7 +185,7 @@ std::vector<Peak> DetectOnLevel(CraterNetwork& network, const LevelReader& read,
       const CraterNetwork::Output out = network.Forward(input);
       const cv::Rect core_in_tile(core_rect.x - c0, core_rect.y - r0, core_rect.width,
                                   core_rect.height);
-      for (Peak p : Decode(out, learned.min_score, core_in_tile)) {
+      for (Peak p : Decode(out, min_score, core_in_tile)) {
         if (NodataShare(nodata, p.x, p.y, 0.5 * p.diameter) > 0.25) continue;
         const double f = std::ldexp(1.0, level);
         p.x = (p.x + c0) * f;
@@ -284,15 +288,22 @@ std::vector<CraterDetection> KeepWithinLimitsOrUncertainty(std::vector<CraterDet
   return detections;
 }
 
-std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, int height,
-                                           const CraterDetectorOptions& options,
-                                           const LearnedDetectorOptions& learned,
-                                           const ProgressCallback& progress) {
+// The learned detector's craters and, with `with_support`, the combined detector's support.
+internal::LearnedFinds DetectLearned(const LevelReader& read, int width, int height,
+                                     const CraterDetectorOptions& options,
+                                     const LearnedDetectorOptions& learned, bool with_support,
+                                     const ProgressCallback& progress) {
   options.Check();
   learned.Check();
   CraterNetwork network(learned.model_path);
-  if (width <= 0 || height <= 0) return {};
+  internal::LearnedFinds finds;
+  if (width <= 0 || height <= 0) return finds;
   const Pyramid pyramid = PyramidOf(width, height);
+  const double support_score =
+      with_support ? std::min(learned.edge_support_score, learned.min_score) : 0.0;
+  if (support_score > 0.0) {
+    finds.support.reach_px = kNetworkMaxDiameterPx * std::ldexp(1.0, pyramid.levels - 1);
+  }
   // Levels whose band cannot hold a crater of the asked diameters are not searched.
   const DiameterBand limits = DiameterLimits(options, kCircleLimitTolerance);
   const double lo = limits.lo, hi = limits.hi;
@@ -309,11 +320,16 @@ std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, i
   const auto tile_done = [&] {
     ReportProgress(progress, detect_share * (++done) / std::max(1, tiles), "craters: network");
   };
+  const double decode_score = support_score > 0.0 ? support_score : learned.min_score;
   std::vector<CraterDetection> circles;
   for (int l = 0; l < pyramid.levels; ++l) {
     if (!searched(l)) continue;
-    for (const Peak& p : DetectOnLevel(network, read, l, pyramid, learned, tile_done)) {
-      if (p.diameter >= lo && p.diameter <= hi)
+    for (const Peak& p :
+         DetectOnLevel(network, read, l, pyramid, learned, decode_score, tile_done)) {
+      if (support_score > 0.0) {
+        finds.support.circles.push_back({Eigen::Vector2d(p.x, p.y), p.diameter});
+      }
+      if (p.score >= learned.min_score && p.diameter >= lo && p.diameter <= hi)
         circles.push_back(CircleDetection(p, width, height));
     }
   }
@@ -326,7 +342,8 @@ std::vector<CraterDetection> DetectLearned(const LevelReader& read, int width, i
     circles = SuppressDuplicateCraters(std::move(refined));
   }
   ReportProgress(progress, 1.0, "craters: done");
-  return KeepWithinLimitsOrUncertainty(std::move(circles), options);
+  finds.craters = KeepWithinLimitsOrUncertainty(std::move(circles), options);
+  return finds;
 }
 
 }  // namespace
@@ -353,6 +370,8 @@ CraterMethod CraterMethodFromString(const std::string& name) {
 void LearnedDetectorOptions::Check() const {
   RequireOption(std::isfinite(min_score) && min_score > 0.0 && min_score < 1.0,
                 "LearnedDetectorOptions.min_score", "in (0, 1)");
+  RequireOption(edge_support_score >= 0.0 && edge_support_score < 1.0,
+                "LearnedDetectorOptions.edge_support_score", "in [0, 1)");
   RequireOption(tile_size >= 64, "LearnedDetectorOptions.tile_size", ">= 64 px");
 }
 
@@ -449,32 +468,20 @@ cv::Mat NormalizeForCraterNetwork(const cv::Mat& image) {
 
 namespace internal {
 
-std::vector<CraterDetection> DetectCratersLearnedOn(const RasterLevels& levels,
-                                                    const CraterDetectorOptions& options,
-                                                    const LearnedDetectorOptions& learned,
-                                                    const ProgressCallback& progress) {
+LearnedFinds DetectCratersLearnedOn(const RasterLevels& levels,
+                                    const CraterDetectorOptions& options,
+                                    const LearnedDetectorOptions& learned, bool with_support,
+                                    const ProgressCallback& progress) {
   const LevelReader read = [&levels](int level, const cv::Rect& rect) {
     return levels.Read(level, rect);
   };
-  return DetectLearned(read, levels.width(), levels.height(), options, learned, progress);
+  return DetectLearned(read, levels.width(), levels.height(), options, learned, with_support,
+                       progress);
 }
 
-}  // namespace internal
-
-// On a raster larger than GDAL's block cache holds, the raster is decoded once into level files
-// (raster_levels.h), not once per level and again for the network and the rim fits.
-std::vector<CraterDetection> DetectCratersLearned(const RasterDataset& dataset,
-                                                  const CraterDetectorOptions& options,
-                                                  const LearnedDetectorOptions& learned,
-                                                  const ProgressCallback& progress) {
-  return internal::DetectCratersLearnedOn(internal::RasterLevels(dataset, /*decode_once=*/true),
-                                          options, learned, progress);
-}
-
-std::vector<CraterDetection> DetectCratersLearned(const cv::Mat& image,
-                                                  const CraterDetectorOptions& options,
-                                                  const LearnedDetectorOptions& learned,
-                                                  const ProgressCallback& progress) {
+LearnedFinds DetectCratersLearnedInImage(const cv::Mat& image, const CraterDetectorOptions& options,
+                                         const LearnedDetectorOptions& learned, bool with_support,
+                                         const ProgressCallback& progress) {
   if (image.channels() != 1) throw Error("crater detection: expected a single-band raster");
   // The pyramid of 2 x 2 box averages (NaN where any pixel of a block is).
   std::vector<cv::Mat> levels(1);
@@ -490,7 +497,29 @@ std::vector<CraterDetection> DetectCratersLearned(const cv::Mat& image,
   const LevelReader read = [&levels](int level, const cv::Rect& rect) {
     return levels[static_cast<size_t>(level)](rect).clone();
   };
-  return DetectLearned(read, image.cols, image.rows, options, learned, progress);
+  return DetectLearned(read, image.cols, image.rows, options, learned, with_support, progress);
+}
+
+}  // namespace internal
+
+// On a raster larger than GDAL's block cache holds, the raster is decoded once into level files
+// (raster_levels.h), not once per level and again for the network and the rim fits.
+std::vector<CraterDetection> DetectCratersLearned(const RasterDataset& dataset,
+                                                  const CraterDetectorOptions& options,
+                                                  const LearnedDetectorOptions& learned,
+                                                  const ProgressCallback& progress) {
+  return internal::DetectCratersLearnedOn(internal::RasterLevels(dataset, /*decode_once=*/true),
+                                          options, learned, /*with_support=*/false, progress)
+      .craters;
+}
+
+std::vector<CraterDetection> DetectCratersLearned(const cv::Mat& image,
+                                                  const CraterDetectorOptions& options,
+                                                  const LearnedDetectorOptions& learned,
+                                                  const ProgressCallback& progress) {
+  return internal::DetectCratersLearnedInImage(image, options, learned, /*with_support=*/false,
+                                               progress)
+      .craters;
 }
 
 }  // namespace areomap

@@ -15,6 +15,7 @@
 #include <opencv2/core.hpp>
 
 #include "areomap/crater/crater_detector.h"
+#include "areomap/crater/learned_detector.h"
 #include "areomap/crater/learned_options.h"
 #include "areomap/map/progress.h"
 #include "areomap/map/raster.h"
@@ -47,10 +48,20 @@ class RasterLevels {
   std::optional<PyramidLevelFiles> files_;  // built from readers_: declared after them
 };
 
-// The learned detector on `levels` (learned_detector.cc; DetectCratersLearned on a raster).
-std::vector<CraterDetection> DetectCratersLearnedOn(const RasterLevels& levels,
-                                                    const CraterDetectorOptions& options,
-                                                    const LearnedDetectorOptions& learned,
-                                                    const ProgressCallback& progress);
+// What the learned detector finds (learned_detector.cc): its craters and, where asked for, the
+// combined detector's support (NetworkSupport, learned_detector.h; empty otherwise).
+struct LearnedFinds {
+  std::vector<CraterDetection> craters;
+  NetworkSupport support;
+};
+
+// The learned detector on `levels` (DetectCratersLearned on a raster), or on an in-memory image.
+LearnedFinds DetectCratersLearnedOn(const RasterLevels& levels,
+                                    const CraterDetectorOptions& options,
+                                    const LearnedDetectorOptions& learned, bool with_support,
+                                    const ProgressCallback& progress);
+LearnedFinds DetectCratersLearnedInImage(const cv::Mat& image, const CraterDetectorOptions& options,
+                                         const LearnedDetectorOptions& learned, bool with_support,
+                                         const ProgressCallback& progress);
 
 }  // namespace areomap::internal

@@ -23,6 +23,13 @@ bool SameCraterEitherWay(const CraterCircle& a, const CraterCircle& b) {
   return SameCrater(a, b) || SameCrater(b, a);
 }
 
+bool SameCraterOrConcentric(const CraterCircle& a, const CraterCircle& b) {
+  const double lo = 0.5 * std::min(a.diameter, b.diameter);
+  const double hi = 0.5 * std::max(a.diameter, b.diameter);
+  const double distance = (a.center - b.center).norm();
+  return (distance < 0.5 * lo && hi < 1.3 * lo) || (distance < 0.5 * hi && hi < 1.6 * lo);
+}
+
 double SameCraterSearchRadius(double diameter) { return kCentreTolerance * diameter / kMinRatio; }
 
 }  // namespace areomap

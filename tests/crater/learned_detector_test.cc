@@ -90,6 +90,12 @@ TEST(LearnedDetectorOptions, CheckNamesTheField) {
   EXPECT_NE(ErrorOf([&] { o.Check(); }).find("LearnedDetectorOptions.min_score"),
             std::string::npos);
   o = {};
+  o.edge_support_score = -0.1;
+  EXPECT_NE(ErrorOf([&] { o.Check(); }).find("LearnedDetectorOptions.edge_support_score"),
+            std::string::npos);
+  o.edge_support_score = 0.0;  // keeps every edge rim
+  EXPECT_NO_THROW(o.Check());
+  o = {};
   o.tile_size = 16;
   EXPECT_NE(ErrorOf([&] { o.Check(); }).find("LearnedDetectorOptions.tile_size"),
             std::string::npos);

@@ -23,6 +23,7 @@
 #include <opencv2/core.hpp>
 
 #include "areomap/crater/crater_detector.h"
+#include "areomap/crater/crater_score.h"
 #include "areomap/crater/learned_options.h"
 #include "areomap/map/progress.h"
 #include "areomap/map/raster.h"
@@ -73,16 +74,27 @@ std::vector<CraterDetection> DetectCratersLearned(const RasterDataset& dataset,
                                                   const LearnedDetectorOptions& learned = {},
                                                   const ProgressCallback& progress = nullptr);
 
-// The combined detector's result (CraterMethod::kCombined): every rim of the edge detector, plus
-// each of the network's craters that is not one of them (centres closer than a quarter of the
-// larger diameter and diameters within 30 %: the scoring rule's tolerance, crater_score.h) nor
-// inside one (under 0.7 of its diameter, centred within 3/4 of its radius: a floor, shadow or
-// slump the network took for a crater). An edge rim the network also found takes its
-// model_score. The edge detector's rims come first
-// (their ellipses and sigmas are fitted on the rim edges), then the network's own finds, each in
-// its input order. Rationale and scores: docs/crater-model.md.
-std::vector<CraterDetection> MergeEdgeAndLearnedCraters(
-    std::vector<CraterDetection> edges, const std::vector<CraterDetection>& learned);
+// Where the network sees craters: what the combined detector asks of an edge rim.
+struct NetworkSupport {
+  // Heat-map peaks >= LearnedDetectorOptions::edge_support_score [full-resolution px].
+  std::vector<CraterCircle> circles;
+  // Rims wider than this [px] lie beyond the coarsest pyramid level's reach and need no support;
+  // 0 (edge_support_score 0) asks none of any rim.
+  double reach_px = 0.0;
+};
+
+// The combined detector's result (CraterMethod::kCombined): every rim of the edge detector that
+// `support` confirms (a circle of it SameCraterOrConcentric with the rim, or the rim wider than
+// support.reach_px), plus each of the network's craters that is not one of them (centres closer
+// than a quarter of the larger diameter and diameters within 30 %: the scoring rule's tolerance,
+// crater_score.h) nor inside one (under 0.7 of its diameter, centred within 3/4 of its radius: a
+// floor, shadow or slump the network took for a crater). An edge rim the network also found
+// takes its model_score. The edge detector's rims come first (their ellipses and sigmas are
+// fitted on the rim edges), then the network's own finds, each in its input order. Rationale and
+// scores: docs/crater-model.md.
+std::vector<CraterDetection> MergeEdgeAndLearnedCraters(std::vector<CraterDetection> edges,
+                                                        const std::vector<CraterDetection>& learned,
+                                                        const NetworkSupport& support);
 
 // The same on an in-memory image (single band, any depth, NaN = nodata).
 std::vector<CraterDetection> DetectCratersLearned(const cv::Mat& image,

@@ -7,8 +7,9 @@
 namespace areomap {
 
 enum class CraterMethod {
-  // Images: both detectors, every edge-detector rim plus each network crater it did not find
-  // (MergeEdgeAndLearnedCraters, learned_detector.h); DTMs use the edges.
+  // Images: both detectors, every edge-detector rim the network also sees plus each network
+  // crater the edges did not find (MergeEdgeAndLearnedCraters, learned_detector.h); DTMs use the
+  // edges.
   kCombined,
   kLearned,  // images: the trained network, rims refined by ellipse fits (learned_detector.h)
   kEdges,    // rim edges -> arcs -> ellipses (crater_detector.h); DTMs always use this
@@ -26,6 +27,12 @@ struct LearnedDetectorOptions {
   // Refit each detection's rim as an ellipse where it has edges (RefineCrater); otherwise, and
   // when false, the crater keeps the network's circle (CraterDetection::rim_fitted false).
   bool refine_rims = true;
+  // Combined method: an edge-detector rim is kept only where the network sees the same crater
+  // (SameCraterOrConcentric, same_crater.h) with a heat-map peak of at least this score, or where
+  // the rim is wider than the network's coarsest pyramid level holds. Edge rims on rough
+  // crater-free terrain have no such peak (docs/crater-model.md). 0 keeps every rim; a value over
+  // min_score acts as min_score.
+  double edge_support_score = 0.1;
   int tile_size = 1024;  // core edge of a pyramid level's tile [px of that level], >= 64
 
   void Check() const;  // throws areomap::Error naming the bad field

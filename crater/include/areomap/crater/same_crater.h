@@ -22,6 +22,12 @@ bool SameCrater(const CraterCircle& reference, const CraterCircle& other);
 // neither is the reference.
 bool SameCraterEitherWay(const CraterCircle& a, const CraterCircle& b);
 
+// Two detections of one crater as SuppressDuplicateCraters (crater_detector.h) judges them: the
+// same rim (centres within half the smaller radius, radii within 30 %), or a concentric inner
+// edge (floor, shadow) of it (centres within half the larger radius, radii within a factor 1.6).
+// Symmetric.
+bool SameCraterOrConcentric(const CraterCircle& a, const CraterCircle& b);
+
 // The largest centre distance at which a circle of `diameter` can be SameCraterEitherWay with
 // another (whose diameter is at most diameter / 0.7): a spatial index's search radius.
 double SameCraterSearchRadius(double diameter);
