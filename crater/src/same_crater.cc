@@ -30,6 +30,9 @@ bool SameCraterOrConcentric(const CraterCircle& a, const CraterCircle& b) {
   return (distance < 0.5 * lo && hi < 1.3 * lo) || (distance < 0.5 * hi && hi < 1.6 * lo);
 }
 
+// The other circle at most 1.6x as wide, its centre within half its radius: 0.8 x this radius.
+double SameCraterOrConcentricSearchRadius(double diameter) { return 0.4 * diameter; }
+
 double SameCraterSearchRadius(double diameter) { return kCentreTolerance * diameter / kMinRatio; }
 
 }  // namespace areomap

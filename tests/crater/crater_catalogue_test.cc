@@ -114,6 +114,26 @@ TEST(SameCrater, EitherWayIsSymmetricAndLiesWithinTheSearchRadius) {
   EXPECT_GT(same, 1000);
 }
 
+TEST(SameCrater, OrConcentricIsSymmetricAndLiesWithinItsSearchRadius) {
+  EXPECT_TRUE(SameCraterOrConcentric({{0, 0}, 20.0}, {{1, 1}, 14.0}));   // 1.43x, concentric
+  EXPECT_FALSE(SameCraterOrConcentric({{0, 0}, 20.0}, {{0, 0}, 33.0}));  // 1.65x
+  EXPECT_FALSE(SameCraterOrConcentric({{0, 0}, 30.0}, {{8, 0}, 30.0}));  // 8 > 15 / 2
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int same = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const CraterCircle a{{0, 0}, 10.0 * (0.2 + u(rng))};
+    const CraterCircle b{{6.0 * u(rng), 6.0 * u(rng)}, a.diameter * (0.5 + 1.3 * u(rng))};
+    ASSERT_EQ(SameCraterOrConcentric(a, b), SameCraterOrConcentric(b, a));
+    if (!SameCraterOrConcentric(a, b)) continue;
+    ++same;
+    const double distance = (a.center - b.center).norm();
+    EXPECT_LT(distance, SameCraterOrConcentricSearchRadius(a.diameter));
+    EXPECT_LT(distance, SameCraterOrConcentricSearchRadius(b.diameter));
+  }
+  EXPECT_GT(same, 1000);
+}
+
 TEST(CatalogueImageFolderName, NumbersTheImageAndKeepsASafeStem) {
   EXPECT_EQ(CatalogueImageFolderName(7, "/data/ctx/MC11E-G.png"), "007_MC11E-G");
   EXPECT_EQ(CatalogueImageFolderName(12, "dir/a tile (2).cub"), "012_a_tile__2_");

@@ -27,6 +27,9 @@ bool SameCraterEitherWay(const CraterCircle& a, const CraterCircle& b);
 // edge (floor, shadow) of it (centres within half the larger radius, radii within a factor 1.6).
 // Symmetric.
 bool SameCraterOrConcentric(const CraterCircle& a, const CraterCircle& b);
+// The largest centre distance at which a circle of `diameter` can be SameCraterOrConcentric with
+// another of any diameter: a search radius.
+double SameCraterOrConcentricSearchRadius(double diameter);
 
 // The largest centre distance at which a circle of `diameter` can be SameCraterEitherWay with
 // another (whose diameter is at most diameter / 0.7): a spatial index's search radius.
