@@ -90,6 +90,33 @@ std::vector<MergedCrater> ReadMerged(const fs::path& gpkg, std::string* crs_name
   return out;
 }
 
+// Random pairs of circles, a of 2-12 px at the origin and b offset by up to `max_offset` per axis
+// with b / a diameters in [min_ratio, max_ratio): `same` must be symmetric, and every pair it
+// joins must lie closer than `radius` of either diameter. Returns how many pairs it joined.
+struct PairDraw {
+  double max_offset, min_ratio, max_ratio;
+  unsigned seed;
+};
+int PairsJoinedSymmetricallyWithinRadius(bool (*same)(const CraterCircle&, const CraterCircle&),
+                                         double (*radius)(double), const PairDraw& draw) {
+  std::mt19937 rng(draw.seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int joined = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const CraterCircle a{{0, 0}, 10.0 * (0.2 + u(rng))};
+    const CraterCircle b{
+        {draw.max_offset * u(rng), draw.max_offset * u(rng)},
+        a.diameter * (draw.min_ratio + (draw.max_ratio - draw.min_ratio) * u(rng))};
+    EXPECT_EQ(same(a, b), same(b, a));
+    if (!same(a, b)) continue;
+    ++joined;
+    const double distance = (a.center - b.center).norm();
+    EXPECT_LT(distance, radius(a.diameter));
+    EXPECT_LT(distance, radius(b.diameter));
+  }
+  return joined;
+}
+
 TEST(SameCrater, EitherWayIsSymmetricAndLiesWithinTheSearchRadius) {
   // 14 / 10 = 1.4 is beyond 1.3, but 10 / 14 = 0.71 is within [0.7, 1.3].
   EXPECT_FALSE(SameCrater({{0, 0}, 10.0}, {{3.4, 0}, 14.0}));
@@ -98,40 +125,18 @@ TEST(SameCrater, EitherWayIsSymmetricAndLiesWithinTheSearchRadius) {
   EXPECT_FALSE(SameCraterEitherWay({{0, 0}, 10.0}, {{3.6, 0}, 14.0}));  // 3.6 > 14 / 4
   EXPECT_FALSE(SameCraterEitherWay({{0, 0}, 10.0}, {{0, 0}, 15.0}));    // 10 / 15 < 0.7
   EXPECT_FALSE(SameCraterEitherWay({{0, 0}, 0.0}, {{0, 0}, 0.0}));
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  int same = 0;
-  for (int i = 0; i < 20000; ++i) {
-    const CraterCircle a{{0, 0}, 10.0 * (0.2 + u(rng))};
-    const CraterCircle b{{5.0 * u(rng), 5.0 * u(rng)}, a.diameter * (0.6 + 0.9 * u(rng))};
-    ASSERT_EQ(SameCraterEitherWay(a, b), SameCraterEitherWay(b, a));
-    if (!SameCraterEitherWay(a, b)) continue;
-    ++same;
-    const double distance = (a.center - b.center).norm();
-    EXPECT_LT(distance, SameCraterSearchRadius(a.diameter));
-    EXPECT_LT(distance, SameCraterSearchRadius(b.diameter));
-  }
-  EXPECT_GT(same, 1000);
+  EXPECT_GT(PairsJoinedSymmetricallyWithinRadius(SameCraterEitherWay, SameCraterSearchRadius,
+                                                 {5.0, 0.6, 1.5, 11}),
+            1000);
 }
 
 TEST(SameCrater, OrConcentricIsSymmetricAndLiesWithinItsSearchRadius) {
   EXPECT_TRUE(SameCraterOrConcentric({{0, 0}, 20.0}, {{1, 1}, 14.0}));   // 1.43x, concentric
   EXPECT_FALSE(SameCraterOrConcentric({{0, 0}, 20.0}, {{0, 0}, 33.0}));  // 1.65x
   EXPECT_FALSE(SameCraterOrConcentric({{0, 0}, 30.0}, {{8, 0}, 30.0}));  // 8 > 15 / 2
-  std::mt19937 rng(12);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  int same = 0;
-  for (int i = 0; i < 20000; ++i) {
-    const CraterCircle a{{0, 0}, 10.0 * (0.2 + u(rng))};
-    const CraterCircle b{{6.0 * u(rng), 6.0 * u(rng)}, a.diameter * (0.5 + 1.3 * u(rng))};
-    ASSERT_EQ(SameCraterOrConcentric(a, b), SameCraterOrConcentric(b, a));
-    if (!SameCraterOrConcentric(a, b)) continue;
-    ++same;
-    const double distance = (a.center - b.center).norm();
-    EXPECT_LT(distance, SameCraterOrConcentricSearchRadius(a.diameter));
-    EXPECT_LT(distance, SameCraterOrConcentricSearchRadius(b.diameter));
-  }
-  EXPECT_GT(same, 1000);
+  EXPECT_GT(PairsJoinedSymmetricallyWithinRadius(
+                SameCraterOrConcentric, SameCraterOrConcentricSearchRadius, {6.0, 0.5, 1.8, 12}),
+            1000);
 }
 
 TEST(CatalogueImageFolderName, NumbersTheImageAndKeepsASafeStem) {
