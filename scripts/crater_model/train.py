@@ -205,6 +205,30 @@ def focal_loss(pred, heat, weight):
     return (pos_loss.sum() + neg_loss.sum()) / num_pos
 
 
+def distillation_loss(pred, teacher_heat, num_pos):
+    """Bernoulli KL divergence of the student's heat map from the teachers' mean heat map, summed
+    over all cells and normalised like the focal loss: zero where they agree, also on craters
+    the labels leave out (a single annotator's) or mark as ignored."""
+    p = pred.clamp(1e-4, 1 - 1e-4)
+    q = teacher_heat.clamp(1e-4, 1 - 1e-4)
+    kl = q * torch.log(q / p) + (1 - q) * torch.log((1 - q) / (1 - p))
+    return kl.sum() / num_pos
+
+
+class Teachers:
+    """Trained models whose mean heat map the trained model also learns (knowledge distillation
+    from an ensemble of earlier runs, at one network's cost at run time)."""
+
+    def __init__(self, weight_paths):
+        self.models = [crater_net.load(p) for p in weight_paths]
+        for m in self.models:
+            m.eval()
+
+    def heat(self, x):
+        with torch.no_grad():
+            return torch.stack([m(x)[:, 0:1] for m in self.models]).mean(0)
+
+
 def batch(sampler, size, args):
     images, heats, weights, regs, masks = [], [], [], [], []
     for _ in range(args.batch):
@@ -302,6 +326,10 @@ def main():
                          "built-in model was trained)")
     ap.add_argument("--channels", default="12,24,32",
                     help="channels at 1/2, 1/4 and 1/8 of the input resolution")
+    ap.add_argument("--teachers", help="comma-separated trained weights (.pt) whose mean heat map "
+                                       "the model also learns (distillation)")
+    ap.add_argument("--distill-weight", type=float, default=1.0,
+                    help="weight of the distillation loss against the labels' focal loss")
     args = ap.parse_args()
 
     torch.manual_seed(args.seed)
@@ -326,10 +354,15 @@ def main():
     start = time.time()
     history = []
     ema = WeightAverage(model, args.ema)
+    teachers = Teachers(args.teachers.split(",")) if args.teachers else None
     for it in range(1, args.iterations + 1):
         x, heat, weight, reg, mask = batch(sampler, args.crop, args)
         out = model(x)
         hm_loss = focal_loss(out[:, 0:1], heat, weight)
+        if teachers is not None:
+            num_pos = (heat >= 1.0).float().sum().clamp(min=1.0)
+            hm_loss = hm_loss + args.distill_weight * distillation_loss(
+                out[:, 0:1], teachers.heat(x), num_pos)
         num = mask.sum().clamp(min=1.0)
         reg_loss = ((out[:, 1:4] - reg).abs() * mask).sum() / num
         loss = hm_loss + reg_loss
