@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "areomap/map/error.h"
+#include "areomap/map/image_io.h"
 #include "areomap/map/numbers.h"
 #include "areomap/map/report_progress.h"
 #include "detect_in_core.h"
@@ -167,7 +168,7 @@ std::vector<Peak> DetectOnLevel(CraterNetwork& network, const LevelReader& read,
       const int c1 = std::min(size.width, core_rect.br().x + kTileMarginPx);
       const int r1 = std::min(size.height, core_rect.br().y + kTileMarginPx);
       const cv::Mat raw = read(level, cv::Rect(c0, r0, c1 - c0, r1 - r0));
-      cv::Mat nodata = raw != raw;  // NaN
+      cv::Mat nodata = NanMask(raw);
       if (cv::countNonZero(nodata) == 0) nodata.release();
       if (!nodata.empty() && cv::countNonZero(nodata) == raw.rows * raw.cols) {
         tile_done();
@@ -438,7 +439,7 @@ CraterNetwork::Output CraterNetwork::Forward(const cv::Mat& normalized) {
 cv::Mat NormalizeForCraterNetwork(const cv::Mat& image) {
   cv::Mat x;
   image.convertTo(x, CV_32F);
-  const cv::Mat nodata = x != x;
+  const cv::Mat nodata = NanMask(x);
   const bool has_nodata = cv::countNonZero(nodata) > 0;
   if (has_nodata) {
     // Nodata takes the mean of the valid pixels, so that it adds no edge.

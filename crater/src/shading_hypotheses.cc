@@ -13,6 +13,7 @@
 
 #include "areomap/crater/crater_detector.h"
 #include "areomap/map/error.h"
+#include "areomap/map/image_io.h"
 #include "areomap/map/numbers.h"
 #include "bilinear_sample.h"
 
@@ -259,7 +260,7 @@ struct ImageCopies {
 // Nodata of `copy` filled with the mean of the rest, `count` the nodata pixels in each window of
 // 2 half_max + 1 px (left empty without nodata); then the copy's mean subtracted.
 void PrepareCopy(cv::Mat& copy, cv::Mat& count, int half_max) {
-  cv::Mat mask = copy != copy;  // NaN
+  cv::Mat mask = NanMask(copy);
   if (cv::countNonZero(mask) > 0) {
     const double fill = cv::mean(copy, ~mask)[0];
     copy.setTo(std::isfinite(fill) ? fill : 0.0, mask);

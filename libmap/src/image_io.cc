@@ -96,4 +96,11 @@ std::optional<ValueRange> FiniteQuantileRange(const cv::Mat& image, double low, 
   return ValueRange{*low_it, high_value};
 }
 
+cv::Mat NanMask(const cv::Mat& image) {
+  // CMP_EQ is right for NaN in OpenCV's scalar and vector code alike (NaN == NaN is false).
+  cv::Mat equal;
+  cv::compare(image, image, equal, cv::CMP_EQ);
+  return ~equal;
+}
+
 }  // namespace areomap

@@ -130,9 +130,9 @@ cv::Mat Thumbnail(const cv::Mat& values, int max_side) {
   if (const std::optional<ValueRange> range = FiniteQuantileRange(values, 0.01, 0.99)) {
     const double lo = range->low, hi = std::max(range->high, lo + 1e-6);
     cv::Mat clean = values.clone();
-    clean.setTo(lo, clean != clean);
+    clean.setTo(lo, NanMask(clean));
     clean.convertTo(picture, CV_8U, 254.0 / (hi - lo), 1.0 - 254.0 * lo / (hi - lo));
-    picture.setTo(0, values != values);
+    picture.setTo(0, NanMask(values));
   }
   const double scale =
       std::min(1.0, static_cast<double>(max_side) / std::max(values.cols, values.rows));

@@ -10,6 +10,7 @@
 
 #include "areomap/map/error.h"
 #include "areomap/map/geodesy.h"
+#include "areomap/map/image_io.h"
 #include "areomap/registration/orbital_grid.h"
 
 namespace areomap {
@@ -298,7 +299,7 @@ cv::Mat CorrelationSurfaceImage(const OrbitalMatch& match, int zoom) {
   }
   cv::Mat color;
   cv::applyColorMap(gray, color, cv::COLORMAP_VIRIDIS);
-  color.setTo(cv::Scalar(0, 0, 0), s != s);
+  color.setTo(cv::Scalar(0, 0, 0), NanMask(s));
   cv::resize(color, color, cv::Size(), zoom, zoom, cv::INTER_NEAREST);
   const double unit = static_cast<double>(1 << match.levels);
   const Eigen::Vector2d peak = (match.shift_px - match.surface_shift0) / unit;

@@ -30,4 +30,10 @@ struct ValueRange {
 std::optional<ValueRange> FiniteQuantileRange(const cv::Mat& image, double low, double high,
                                               int step = 1);
 
+// CV_8U mask of `image`'s NaN pixels (areomap's nodata in float rasters): 255 where NaN, else 0;
+// all 0 for an integer image. Multi-channel images give a mask per channel. Use it instead of
+// `image != image`: OpenCV 4.6's vectorised CMP_NE calls NaN equal to itself on all but the last
+// few pixels of a row, so that mask misses nearly every NaN.
+cv::Mat NanMask(const cv::Mat& image);
+
 }  // namespace areomap
