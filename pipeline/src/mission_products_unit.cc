@@ -129,10 +129,11 @@ cv::Mat Thumbnail(const cv::Mat& values, int max_side) {
   cv::Mat picture(values.size(), CV_8U, cv::Scalar(0));
   if (const std::optional<ValueRange> range = FiniteQuantileRange(values, 0.01, 0.99)) {
     const double lo = range->low, hi = std::max(range->high, lo + 1e-6);
+    const cv::Mat nodata = NanMask(values);
     cv::Mat clean = values.clone();
-    clean.setTo(lo, NanMask(clean));
+    clean.setTo(lo, nodata);
     clean.convertTo(picture, CV_8U, 254.0 / (hi - lo), 1.0 - 254.0 * lo / (hi - lo));
-    picture.setTo(0, NanMask(values));
+    picture.setTo(0, nodata);
   }
   const double scale =
       std::min(1.0, static_cast<double>(max_side) / std::max(values.cols, values.rows));

@@ -220,9 +220,7 @@ class Teachers:
     from an ensemble of earlier runs, at one network's cost at run time)."""
 
     def __init__(self, weight_paths):
-        self.models = [crater_net.load(p) for p in weight_paths]
-        for m in self.models:
-            m.eval()
+        self.models = [crater_net.load(p) for p in weight_paths]  # in eval mode
 
     def heat(self, x):
         with torch.no_grad():
