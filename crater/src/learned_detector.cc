@@ -150,6 +150,37 @@ double NodataShare(const cv::Mat& nodata, double x, double y, double radius) {
   return inside > 0 ? static_cast<double>(missing) / inside : 1.0;
 }
 
+// NormalizeForCraterNetwork with `image`'s NaN mask already made (NanMask; empty: no NaN).
+cv::Mat NormalizeWithNodata(const cv::Mat& image, const cv::Mat& nodata) {
+  cv::Mat x;
+  image.convertTo(x, CV_32F);
+  const bool has_nodata = !nodata.empty() && cv::countNonZero(nodata) > 0;
+  if (has_nodata) {
+    // Nodata takes the mean of the valid pixels, so that it adds no edge.
+    const cv::Scalar mean = cv::mean(x, ~nodata);
+    x.setTo(mean[0], nodata);
+  }
+  const cv::Size box(kNormalizeBoxPx, kNormalizeBoxPx);
+  cv::Mat mean, square_mean;
+  cv::boxFilter(x, mean, CV_32F, box, cv::Point(-1, -1), true, cv::BORDER_REFLECT_101);
+  cv::boxFilter(x.mul(x), square_mean, CV_32F, box, cv::Point(-1, -1), true,
+                cv::BORDER_REFLECT_101);
+  cv::Mat out(x.size(), CV_32F);
+  for (int r = 0; r < x.rows; ++r) {
+    const float* v = x.ptr<float>(r);
+    const float* m = mean.ptr<float>(r);
+    const float* s = square_mean.ptr<float>(r);
+    float* o = out.ptr<float>(r);
+    for (int c = 0; c < x.cols; ++c) {
+      const float sd =
+          std::sqrt(std::max(s[c] - m[c] * m[c], 0.0f)) + 1e-3f * std::abs(m[c]) + 1e-12f;
+      o[c] = std::clamp((v[c] - m[c]) / sd, -kNormalizeClip, kNormalizeClip);
+    }
+  }
+  if (has_nodata) out.setTo(0.0f, nodata);
+  return out;
+}
+
 // The network's peaks >= `min_score` on one pyramid level, tile by tile, in full-resolution
 // pixels.
 std::vector<Peak> DetectOnLevel(CraterNetwork& network, const LevelReader& read, int level,
@@ -174,7 +205,7 @@ std::vector<Peak> DetectOnLevel(CraterNetwork& network, const LevelReader& read,
         tile_done();
         continue;
       }
-      cv::Mat input = NormalizeForCraterNetwork(raw);
+      cv::Mat input = NormalizeWithNodata(raw, nodata);
       const int pad_r = (kPadMultiple - input.rows % kPadMultiple) % kPadMultiple;
       const int pad_c = (kPadMultiple - input.cols % kPadMultiple) % kPadMultiple;
       if (pad_r || pad_c) {
@@ -437,34 +468,7 @@ CraterNetwork::Output CraterNetwork::Forward(const cv::Mat& normalized) {
 }
 
 cv::Mat NormalizeForCraterNetwork(const cv::Mat& image) {
-  cv::Mat x;
-  image.convertTo(x, CV_32F);
-  const cv::Mat nodata = NanMask(x);
-  const bool has_nodata = cv::countNonZero(nodata) > 0;
-  if (has_nodata) {
-    // Nodata takes the mean of the valid pixels, so that it adds no edge.
-    const cv::Scalar mean = cv::mean(x, ~nodata);
-    x.setTo(mean[0], nodata);
-  }
-  const cv::Size box(kNormalizeBoxPx, kNormalizeBoxPx);
-  cv::Mat mean, square_mean;
-  cv::boxFilter(x, mean, CV_32F, box, cv::Point(-1, -1), true, cv::BORDER_REFLECT_101);
-  cv::boxFilter(x.mul(x), square_mean, CV_32F, box, cv::Point(-1, -1), true,
-                cv::BORDER_REFLECT_101);
-  cv::Mat out(x.size(), CV_32F);
-  for (int r = 0; r < x.rows; ++r) {
-    const float* v = x.ptr<float>(r);
-    const float* m = mean.ptr<float>(r);
-    const float* s = square_mean.ptr<float>(r);
-    float* o = out.ptr<float>(r);
-    for (int c = 0; c < x.cols; ++c) {
-      const float sd =
-          std::sqrt(std::max(s[c] - m[c] * m[c], 0.0f)) + 1e-3f * std::abs(m[c]) + 1e-12f;
-      o[c] = std::clamp((v[c] - m[c]) / sd, -kNormalizeClip, kNormalizeClip);
-    }
-  }
-  if (has_nodata) out.setTo(0.0f, nodata);
-  return out;
+  return NormalizeWithNodata(image, NanMask(image));
 }
 
 namespace internal {

@@ -9,8 +9,13 @@ runs it through OpenCV dnn on an image pyramid; docs/crater-model.md says why th
 Data: the CTX MC-11 East catalogue (../shared/data/craters-train/ctx-mc11e, CC-BY-4.0), nine
 images for training and three held out for validation (HELD_OUT below), and, with --generated,
 scenes from the mission generator (build/release/eval/areomap_crater_training_scenes), drawn for a
---generated-fraction of the crops. Nothing else: the HRSC images in ../shared/data are for
-measurement only.
+--generated-fraction of the crops. The built-in model is trained on nothing else: the HRSC
+images in ../shared/data are for measurement only.
+
+A model for your own sensor: --extra DIR adds your labelled images (NAME.png with
+NAME_craters.csv: x_px,y_px,diameter_px[,annotators]) for an --extra-fraction of the crops, and
+--validate DIR chooses the checkpoint and threshold on other labelled images of yours; then run
+`areomap craters --model OUT.onnx --min-score THRESHOLD` with the threshold this script prints.
 
 Usage (Debian's python3-torch and python3-opencv; `bash scripts/install-deps.sh --training`):
     build/release/eval/areomap_crater_training_scenes --out build/crater-scenes --count 64
@@ -39,14 +44,28 @@ ALL_IMAGES = "ABCDEFGHIJKL"
 HELD_OUT = "CFL"  # validation images, never trained on
 
 
+AGREED = 6  # the annotator count given to labels that carry none: every crater is certain
+
+
 def load_labelled_image(stem):
-    """stem.png and stem_craters.csv (x_px, y_px, diameter_px, annotators) as (name, float32
-    image, N x 4 craters)."""
+    """stem.png and stem_craters.csv (x_px, y_px, diameter_px[, annotators]; pixel centres at
+    +0.5) as (name, float32 image, N x 4 craters). Without an annotators column every crater
+    counts as agreed on."""
     image = cv2.imread(stem + ".png", cv2.IMREAD_UNCHANGED)
-    if image is None:
-        raise SystemExit(f"error: cannot read {stem}.png")
-    rows = np.genfromtxt(stem + "_craters.csv", delimiter=",", names=True, ndmin=1)
-    craters = np.stack([rows["x_px"], rows["y_px"], rows["diameter_px"], rows["annotators"]], 1)
+    if image is None or image.ndim != 2:
+        raise SystemExit(f"error: {stem}.png is not a readable one-channel image")
+    csv = stem + "_craters.csv"
+    if not os.path.exists(csv):
+        raise SystemExit(f"error: {csv} is missing (x_px,y_px,diameter_px[,annotators])")
+    rows = np.genfromtxt(csv, delimiter=",", names=True, ndmin=1)
+    for column in ("x_px", "y_px", "diameter_px"):
+        if rows.dtype.names is None or column not in rows.dtype.names:
+            raise SystemExit(f"error: {csv} has no column {column}")
+    annotators = (rows["annotators"] if "annotators" in rows.dtype.names
+                  else np.full(len(rows), AGREED, np.float64))
+    craters = np.stack([rows["x_px"], rows["y_px"], rows["diameter_px"], annotators], 1)
+    if not np.isfinite(craters).all():
+        raise SystemExit(f"error: {csv} holds a value that is not a finite number")
     return os.path.basename(stem), image.astype(np.float32), craters
 
 
@@ -54,36 +73,56 @@ def load_catalogue(data_dir, letters):
     return [load_labelled_image(os.path.join(data_dir, f"MC11E-{letter}")) for letter in letters]
 
 
+def load_folder(folder, pattern="*.png"):
+    """Every image of `folder` matching `pattern` with its NAME_craters.csv."""
+    paths = sorted(glob.glob(os.path.join(folder, pattern)))
+    if not paths:
+        raise SystemExit(f"error: {folder} holds no {pattern}")
+    return [load_labelled_image(p[:-4]) for p in paths]
+
+
 def load_generated(folder):
     """Generated scenes: scene-NNN.png (16-bit DN) with scene-NNN_craters.csv, every crater
     labelled (annotators = 6)."""
-    paths = sorted(glob.glob(os.path.join(folder, "scene-*.png")))
-    if not paths:
-        raise SystemExit(f"error: {folder} holds no scene-*.png")
-    return [load_labelled_image(p[:-4]) for p in paths]
+    return load_folder(folder, "scene-*.png")
+
+
+def crater_count_weights(items):
+    """Images with more craters are drawn more often, but every image is drawn."""
+    counts = np.array([max(50, len(c)) for _, _, c in items], np.float64)
+    return counts / counts.sum()
 
 
 class Sampler:
     """Random training crops with their crater labels, augmented as real products differ:
-    scale (GSD), rotation by quarter turns and flips (sun direction), blur (MTF), noise, gain."""
+    scale (GSD), rotation by quarter turns and flips (sun direction), blur (MTF), noise, gain.
+    Crops come from the catalogue `items`, from `generated` scenes for a `generated_fraction` of
+    them and from a user's `extra` labelled images for an `extra_fraction` (both shares of all
+    crops)."""
 
     def __init__(self, items, crop, rng, min_prefilter=0.5, sharpen=0.0, generated=(),
-                 generated_fraction=0.0):
+                 generated_fraction=0.0, extra=(), extra_fraction=0.0):
         self.min_prefilter = min_prefilter
         self.sharpen = sharpen
         self.items = items
         self.generated = list(generated)
         self.generated_fraction = generated_fraction if self.generated else 0.0
+        self.extra = list(extra)
+        self.extra_fraction = extra_fraction if self.extra else 0.0
+        if self.generated_fraction + self.extra_fraction >= 1.0:
+            raise SystemExit("error: --generated-fraction plus --extra-fraction must stay under 1")
         self.crop = crop
         self.rng = rng
-        # Images with more craters are drawn more often, but every image is drawn.
-        counts = np.array([max(50, len(c)) for _, _, c in items], np.float64)
-        self.weights = counts / counts.sum()
+        self.weights = crater_count_weights(items)
+        self.extra_weights = crater_count_weights(self.extra) if self.extra else None
 
     def sample(self):
         rng = self.rng
         if self.generated_fraction > 0.0 and rng.random() < self.generated_fraction:
             _, image, craters = self.generated[rng.integers(len(self.generated))]
+        elif (self.extra_fraction > 0.0
+              and rng.random() < self.extra_fraction / (1.0 - self.generated_fraction)):
+            _, image, craters = self.extra[rng.choice(len(self.extra), p=self.extra_weights)]
         else:
             _, image, craters = self.items[rng.choice(len(self.items), p=self.weights)]
         # Output/input scale: mostly near the native GSD, sometimes much coarser, so that
@@ -318,6 +357,14 @@ def main():
     ap.add_argument("--generated", help="folder of generated scenes (areomap_crater_training_scenes)")
     ap.add_argument("--generated-fraction", type=float, default=0.3,
                     help="share of the crops drawn from --generated")
+    ap.add_argument("--extra", action="append", default=[],
+                    help="a folder of your own labelled images (NAME.png with NAME_craters.csv: "
+                         "x_px,y_px,diameter_px[,annotators]) to train on as well; repeatable")
+    ap.add_argument("--extra-fraction", type=float, default=0.3,
+                    help="share of the crops drawn from the --extra folders")
+    ap.add_argument("--validate",
+                    help="a folder of labelled images (as --extra) on which the checkpoint and the "
+                         "threshold are chosen instead of the held-out CTX images")
     ap.add_argument("--ema", type=float, default=0.0,
                     help="decay of an exponential moving average of the weights that is evaluated "
                          "and exported instead of the raw weights, e.g. 0.999 (0: none, as the "
@@ -335,10 +382,11 @@ def main():
     rng = np.random.default_rng(args.seed)
     train_letters = [c for c in ALL_IMAGES if c not in HELD_OUT]
     train = load_catalogue(args.data, train_letters)
-    val = load_catalogue(args.data, HELD_OUT)
+    val = load_folder(args.validate) if args.validate else load_catalogue(args.data, HELD_OUT)
     generated = load_generated(args.generated) if args.generated else []
+    extra = [item for folder in args.extra for item in load_folder(folder)]
     sampler = Sampler(train, args.crop, rng, args.min_prefilter, args.sharpen, generated,
-                      args.generated_fraction)
+                      args.generated_fraction, extra, args.extra_fraction)
     model = crater_net.CraterNet(tuple(int(c) for c in args.channels.split(",")))
     if args.init:
         model = crater_net.load(args.init)
@@ -388,7 +436,7 @@ def main():
     crater_net.export_onnx(model, args.out)
     meta = {"threshold": best[1], "validation_f1": best[0], "history": history,
             "seconds": time.time() - start, "seed": args.seed, "args": vars(args),
-            "held_out": list(HELD_OUT)}
+            "held_out": list(HELD_OUT), "validated_on": args.validate or "ctx-mc11e held out"}
     with open(os.path.splitext(args.out)[0] + ".train.json", "w") as f:
         json.dump(meta, f, indent=1)
     torch.save(best[2], os.path.splitext(args.out)[0] + ".pt")
