@@ -42,12 +42,15 @@ class ConvBnRelu(nn.Sequential):
 
 class CraterNet(nn.Module):
     """Encoder to 1/8 resolution (receptive field ~75 px), two lateral-sum decoder steps back
-    to 1/2; heads: sigmoid centre heat map, centre offset (cells), log diameter."""
+    to 1/2; heads: sigmoid centre heat map, centre offset (cells), log diameter. With `stem`
+    channels > 0, one 3 x 3 convolution at full resolution comes first."""
 
-    def __init__(self, c=(12, 24, 32)):
+    def __init__(self, c=(12, 24, 32), stem=0):
         super().__init__()
         self.channels = tuple(c)
-        self.c1 = ConvBnRelu(1, c[0], stride=2)
+        self.stem = stem
+        self.c0 = ConvBnRelu(1, stem) if stem else nn.Identity()
+        self.c1 = ConvBnRelu(stem or 1, c[0], stride=2)
         self.c2 = ConvBnRelu(c[0], c[0])
         self.c3 = ConvBnRelu(c[0], c[1], stride=2)
         self.c4 = ConvBnRelu(c[1], c[1])
@@ -64,7 +67,7 @@ class CraterNet(nn.Module):
             self.head.bias[0] = -2.19  # prior 0.1 on the heat map
 
     def forward(self, x):
-        a = self.c2(self.c1(x))
+        a = self.c2(self.c1(self.c0(x)))
         b = self.c4(self.c3(a))
         c = self.c7(self.c6(self.c5(b)))
         u = self.d4(F.interpolate(self.lat8(c), scale_factor=2.0, mode="nearest") + b)
@@ -78,7 +81,8 @@ def load(weights_path):
     the weights' shapes."""
     state = torch.load(weights_path)
     channels = tuple(int(state[f"{name}.0.weight"].shape[0]) for name in ("c1", "c3", "c5"))
-    model = CraterNet(channels)
+    stem = int(state["c0.0.weight"].shape[0]) if "c0.0.weight" in state else 0
+    model = CraterNet(channels, stem)
     model.load_state_dict(state)
     model.eval()
     return model

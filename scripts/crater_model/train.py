@@ -331,7 +331,7 @@ class WeightAverage:
         """A copy of `like` holding the averaged weights (`like` itself without averaging)."""
         if self.state is None:
             return like
-        averaged = type(like)(like.channels)
+        averaged = type(like)(like.channels, like.stem)
         averaged.load_state_dict(self.state)
         return averaged
 
@@ -371,6 +371,9 @@ def main():
                          "built-in model was trained)")
     ap.add_argument("--channels", default="12,24,32",
                     help="channels at 1/2, 1/4 and 1/8 of the input resolution")
+    ap.add_argument("--stem", type=int, default=0,
+                    help="channels of a 3 x 3 convolution at full resolution before the first "
+                         "stride-2 one (0: none, as the built-in model)")
     ap.add_argument("--teachers", help="comma-separated trained weights (.pt) whose mean heat map "
                                        "the model also learns (distillation)")
     ap.add_argument("--distill-weight", type=float, default=1.0,
@@ -387,7 +390,7 @@ def main():
     extra = [item for folder in args.extra for item in load_folder(folder)]
     sampler = Sampler(train, args.crop, rng, args.min_prefilter, args.sharpen, generated,
                       args.generated_fraction, extra, args.extra_fraction)
-    model = crater_net.CraterNet(tuple(int(c) for c in args.channels.split(",")))
+    model = crater_net.CraterNet(tuple(int(c) for c in args.channels.split(",")), args.stem)
     if args.init:
         model = crater_net.load(args.init)
         model.train()
@@ -430,7 +433,7 @@ def main():
                   flush=True)
             if f1 > best[0]:
                 best = (f1, t_best, {k: v.clone() for k, v in ema.weights(model).items()})
-    model = crater_net.CraterNet(model.channels)
+    model = crater_net.CraterNet(model.channels, model.stem)
     model.load_state_dict(best[2])
     model.eval()
     crater_net.export_onnx(model, args.out)
