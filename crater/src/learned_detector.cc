@@ -150,11 +150,12 @@ double NodataShare(const cv::Mat& nodata, double x, double y, double radius) {
   return inside > 0 ? static_cast<double>(missing) / inside : 1.0;
 }
 
-// NormalizeForCraterNetwork with `image`'s NaN mask already made (NanMask; empty: no NaN).
+// NormalizeForCraterNetwork with `image`'s NaN mask already made: NanMask(image), or empty where
+// `image` holds no NaN.
 cv::Mat NormalizeWithNodata(const cv::Mat& image, const cv::Mat& nodata) {
   cv::Mat x;
   image.convertTo(x, CV_32F);
-  const bool has_nodata = !nodata.empty() && cv::countNonZero(nodata) > 0;
+  const bool has_nodata = !nodata.empty();
   if (has_nodata) {
     // Nodata takes the mean of the valid pixels, so that it adds no edge.
     const cv::Scalar mean = cv::mean(x, ~nodata);
@@ -200,11 +201,12 @@ std::vector<Peak> DetectOnLevel(CraterNetwork& network, const LevelReader& read,
       const int r1 = std::min(size.height, core_rect.br().y + kTileMarginPx);
       const cv::Mat raw = read(level, cv::Rect(c0, r0, c1 - c0, r1 - r0));
       cv::Mat nodata = NanMask(raw);
-      if (cv::countNonZero(nodata) == 0) nodata.release();
-      if (!nodata.empty() && cv::countNonZero(nodata) == raw.rows * raw.cols) {
+      const int nodata_count = cv::countNonZero(nodata);
+      if (nodata_count == raw.rows * raw.cols) {
         tile_done();
         continue;
       }
+      if (nodata_count == 0) nodata.release();
       cv::Mat input = NormalizeWithNodata(raw, nodata);
       const int pad_r = (kPadMultiple - input.rows % kPadMultiple) % kPadMultiple;
       const int pad_c = (kPadMultiple - input.cols % kPadMultiple) % kPadMultiple;
@@ -468,7 +470,9 @@ CraterNetwork::Output CraterNetwork::Forward(const cv::Mat& normalized) {
 }
 
 cv::Mat NormalizeForCraterNetwork(const cv::Mat& image) {
-  return NormalizeWithNodata(image, NanMask(image));
+  cv::Mat nodata = NanMask(image);
+  if (cv::countNonZero(nodata) == 0) nodata.release();
+  return NormalizeWithNodata(image, nodata);
 }
 
 namespace internal {

@@ -235,23 +235,32 @@ def targets(labels, size, min_annotators, max_net_diameter):
     return heat, weight, reg, reg_mask
 
 
+def crater_centres(heat):
+    """The cells of the target heat map that are labelled crater centres (1.0, else 0.0)."""
+    return (heat >= 1.0).float()
+
+
+def focal_normaliser(heat):
+    """What the heat-map losses are divided by: the batch's labelled crater centres, at least 1."""
+    return crater_centres(heat).sum().clamp(min=1.0)
+
+
 def focal_loss(pred, heat, weight):
     p = pred.clamp(1e-4, 1 - 1e-4)
-    pos = (heat >= 1.0).float()
+    pos = crater_centres(heat)
     pos_loss = -((1 - p) ** 2) * torch.log(p) * pos
     neg_loss = -((1 - heat) ** 4) * (p ** 2) * torch.log(1 - p) * (1 - pos) * weight
-    num_pos = pos.sum().clamp(min=1.0)
-    return (pos_loss.sum() + neg_loss.sum()) / num_pos
+    return (pos_loss.sum() + neg_loss.sum()) / focal_normaliser(heat)
 
 
-def distillation_loss(pred, teacher_heat, num_pos):
+def distillation_loss(pred, teacher_heat, heat):
     """Bernoulli KL divergence of the student's heat map from the teachers' mean heat map, summed
     over all cells and normalised like the focal loss: zero where they agree, also on craters
     the labels leave out (a single annotator's) or mark as ignored."""
     p = pred.clamp(1e-4, 1 - 1e-4)
     q = teacher_heat.clamp(1e-4, 1 - 1e-4)
     kl = q * torch.log(q / p) + (1 - q) * torch.log((1 - q) / (1 - p))
-    return kl.sum() / num_pos
+    return kl.sum() / focal_normaliser(heat)
 
 
 class Teachers:
@@ -409,9 +418,8 @@ def main():
         out = model(x)
         hm_loss = focal_loss(out[:, 0:1], heat, weight)
         if teachers is not None:
-            num_pos = (heat >= 1.0).float().sum().clamp(min=1.0)
             hm_loss = hm_loss + args.distill_weight * distillation_loss(
-                out[:, 0:1], teachers.heat(x), num_pos)
+                out[:, 0:1], teachers.heat(x), heat)
         num = mask.sum().clamp(min=1.0)
         reg_loss = ((out[:, 1:4] - reg).abs() * mask).sum() / num
         loss = hm_loss + reg_loss
