@@ -6,7 +6,8 @@
 # Must run as root (or with sudo available). Safe to run repeatedly.
 #   bash scripts/install-deps.sh              build, test and run
 #   bash scripts/install-deps.sh --training   also what retraining the crater model needs
-#                                             (scripts/crater_model/train.py: PyTorch on the CPU)
+#                                             (scripts/crater_model/: PyTorch on the CPU; SciPy for
+#                                             annotator_agreement.py's clustering)
 #   bash scripts/install-deps.sh --fuzz       also what the libFuzzer targets need (clang and its
 #                                             libFuzzer / sanitizer runtimes; scripts/fuzz.sh)
 #   bash scripts/install-deps.sh --cluster    also Slurm and munge, to run plans on a Slurm
@@ -34,7 +35,7 @@ packages=(
 )
 for option in "$@"; do
   case "$option" in
-    --training) packages+=(python3-torch python3-opencv) ;;
+    --training) packages+=(python3-torch python3-opencv python3-scipy) ;;
     # libFuzzer's runtime is only a Recommends of clang, which --no-install-recommends skips.
     --fuzz) packages+=(clang libclang-rt-14-dev) ;;
     --cluster) packages+=(slurm-wlm munge) ;;
