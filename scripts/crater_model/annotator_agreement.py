@@ -42,9 +42,13 @@ SAME_ANNOTATOR = 1e9     # distance that keeps one annotator's boxes apart
 def read_boxes(xml_path):
     """Circles (x, y, D) [px] of a PASCAL VOC file: centre of the box, D = mean side."""
     rows = []
-    for box in ET.parse(xml_path).getroot().iter("bndbox"):
-        x0, y0, x1, y1 = (float(box.find(k).text) for k in ("xmin", "ymin", "xmax", "ymax"))
-        rows.append(((x0 + x1) / 2, (y0 + y1) / 2, ((x1 - x0) + (y1 - y0)) / 2))
+    try:
+        for box in ET.parse(xml_path).getroot().iter("bndbox"):
+            x0, y0, x1, y1 = (float(box.find(k).text) for k in ("xmin", "ymin", "xmax", "ymax"))
+            rows.append(((x0 + x1) / 2, (y0 + y1) / 2, ((x1 - x0) + (y1 - y0)) / 2))
+    except (ET.ParseError, AttributeError, TypeError, ValueError) as e:
+        raise SystemExit(f"error: {xml_path}: not a PASCAL VOC file with numeric "
+                         f"<bndbox> xmin/ymin/xmax/ymax ({e})")
     if not rows:
         raise SystemExit(f"error: {xml_path}: no <bndbox> elements")
     return np.array(rows)
