@@ -79,15 +79,10 @@ def merge(annotators):
     np.fill_diagonal(dist, 0.0)
     condensed = dist[np.triu_indices(len(circles), 1)]
     ids = fcluster(linkage(condensed, method="average"), CLUSTER_CUT, criterion="distance")
-    merged = np.array([circles[ids == k].mean(0) for k in np.unique(ids)])
-    count = np.array([(ids == k).sum() for k in np.unique(ids)])
-    return merged, count
-
-
-def prf(counts):
-    matched_truth, matched_det, detections, truth = counts
-    p, r = matched_det / max(detections, 1), matched_truth / max(truth, 1)
-    return p, r, 2 * p * r / max(p + r, 1e-9)
+    _, cluster, count = np.unique(ids, return_inverse=True, return_counts=True)
+    merged = np.zeros((len(count), 3))
+    np.add.at(merged, cluster, circles)
+    return merged / count[:, None], count
 
 
 def score(truth, circles):
@@ -96,7 +91,7 @@ def score(truth, circles):
 
 
 def fmt(counts):
-    return "P {:.3f} R {:.3f} F1 {:.3f}".format(*prf(counts))
+    return "P {:.3f} R {:.3f} F1 {:.3f}".format(*crater_net.precision_recall_f1(*counts))
 
 
 def main():
@@ -130,7 +125,8 @@ def main():
             person, net = score(truth, own), score(truth, det)
             people += person
             network += net
-            per_person.append((prf(person)[2], prf(net)[2]))
+            per_person.append((crater_net.precision_recall_f1(*person)[2],
+                               crater_net.precision_recall_f1(*net)[2]))
             name = os.path.basename(files[k])[:-4]
             print(f"  annotator {name}: {int(person[3])} labels of the other five; "
                   f"annotator {fmt(person)} | network {fmt(net)}")

@@ -192,6 +192,13 @@ def score(truth, det, min_diameter):
     return (mt, md), int((det[:, 2] >= min_diameter).sum()), int((truth[:, 2] >= min_diameter).sum())
 
 
+def precision_recall_f1(matched_truth, matched_detections, detections, truth):
+    """P, R and F1 from the counts that `score` returns (0 where a count is 0)."""
+    p = matched_detections / max(detections, 1)
+    r = matched_truth / max(truth, 1)
+    return p, r, 2 * p * r / max(p + r, 1e-9)
+
+
 def export_onnx(model, path):
     model.eval()
     x = torch.zeros(1, 1, 64, 64)

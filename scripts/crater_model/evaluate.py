@@ -49,8 +49,7 @@ def main():
         truth = labels(path[:-4] + "_craters.csv", min_annotators)
         det = crater_net.detect(model, image, threshold)
         (mt, md), nd, nt = crater_net.score(truth, det[:, :3], 8.0)
-        p, r = md / max(nd, 1), mt / max(nt, 1)
-        f1 = 2 * p * r / max(p + r, 1e-9)
+        p, r, f1 = crater_net.precision_recall_f1(mt, md, nd, nt)
         print(f"{name:14s} {os.path.basename(path):18s} truth {nt:5d} det {nd:5d} "
               f"P {p:.3f} R {r:.3f} F1 {f1:.3f}", flush=True)
         acc = pooled.setdefault(name, [0, 0, 0, 0])
@@ -64,8 +63,8 @@ def main():
                 errors.append(((det[k, 0] - truth[t, 0]) / d, (det[k, 1] - truth[t, 1]) / d,
                                (det[k, 2] - d) / d))
     for name, (mt, md, nd, nt) in pooled.items():
-        p, r = md / max(nd, 1), mt / max(nt, 1)
-        print(f"pooled {name:14s} P {p:.3f} R {r:.3f} F1 {2 * p * r / max(p + r, 1e-9):.3f}")
+        p, r, f1 = crater_net.precision_recall_f1(mt, md, nd, nt)
+        print(f"pooled {name:14s} P {p:.3f} R {r:.3f} F1 {f1:.3f}")
     e = np.array(errors)
     sigma = 1.4826 * np.median(np.abs(e - np.median(e, 0)), 0)
     print(f"circle errors on the held-out CTX images ({len(e)} matches), robust sigma / D: "

@@ -307,9 +307,7 @@ def evaluate(model, items, min_diameter, thresholds):
     model.train()
     out = {}
     for t, (mt, md, nd, nt) in results.items():
-        p = md / max(nd, 1)
-        r = mt / max(nt, 1)
-        out[t] = (p, r, 2 * p * r / max(p + r, 1e-9))
+        out[t] = crater_net.precision_recall_f1(mt, md, nd, nt)
     return out
 
 
